@@ -1,0 +1,49 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// What every `hdrstereo` command needs: the channel, global options, and
+// one way to report an RPC error.
+#ifndef HDRSTEREO_CLIENTS_CLI_CLIENT_H_
+#define HDRSTEREO_CLIENTS_CLI_CLIENT_H_
+
+#include <grpcpp/grpcpp.h>
+
+#include <chrono>
+#include <memory>
+#include <string>
+
+namespace hdrstereo::cli {
+
+// Exit codes, also listed in `hdrstereo --help`.
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitError = 1;        // the server refused or failed
+inline constexpr int kExitUsage = 2;        // bad command line or argument
+inline constexpr int kExitUnreachable = 3;  // no daemon at --server
+inline constexpr int kExitNotFound = 4;     // the named thing does not exist
+
+struct GlobalOptions {
+  std::string server = "localhost:50051";
+  bool json = false;
+  double timeout_s = 10;
+};
+
+class Client {
+ public:
+  explicit Client(const GlobalOptions& options);
+
+  const GlobalOptions& options() const { return options_; }
+  std::shared_ptr<grpc::Channel> channel() const { return channel_; }
+  // A context whose deadline is --timeout from now.
+  std::unique_ptr<grpc::ClientContext> NewContext() const;
+
+  // Prints "hdrstereo: <what failed>" to stderr and returns the exit code
+  // for `status`.
+  int Fail(const grpc::Status& status) const;
+
+ private:
+  GlobalOptions options_;
+  std::shared_ptr<grpc::Channel> channel_;
+};
+
+}  // namespace hdrstereo::cli
+
+#endif  // HDRSTEREO_CLIENTS_CLI_CLIENT_H_

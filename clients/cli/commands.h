@@ -1,0 +1,22 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// Each group of subcommands registers itself on the root app. Callbacks run
+// after parsing, connect with the parsed global options and store their exit
+// code in *exit_code.
+#ifndef HDRSTEREO_CLIENTS_CLI_COMMANDS_H_
+#define HDRSTEREO_CLIENTS_CLI_COMMANDS_H_
+
+#include <CLI/CLI.hpp>
+
+#include "clients/cli/client.h"
+
+namespace hdrstereo::cli {
+
+void AddServerCommands(CLI::App& app, const GlobalOptions& options,
+                       int* exit_code);
+void AddSessionCommands(CLI::App& app, const GlobalOptions& options,
+                        int* exit_code);
+
+}  // namespace hdrstereo::cli
+
+#endif  // HDRSTEREO_CLIENTS_CLI_COMMANDS_H_

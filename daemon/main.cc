@@ -1,0 +1,84 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// hdrstereod: parses the configuration, sets up logging, serves until
+// SIGINT or SIGTERM, then shuts down cleanly.
+#include <signal.h>
+
+#include <cstdio>
+#include <iostream>
+#include <memory>
+
+#include <spdlog/sinks/rotating_file_sink.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include "daemon/config.h"
+#include "daemon/server.h"
+#include "hdrstereo_version.h"
+
+namespace {
+
+constexpr size_t kLogFileBytes = 10 * 1024 * 1024;
+constexpr size_t kLogFiles = 5;
+
+bool SetUpLogging(const hdrstereo::daemon::Config& config) {
+  try {
+    std::filesystem::create_directories(config.log_file.parent_path());
+    auto console = std::make_shared<spdlog::sinks::stderr_color_sink_mt>();
+    auto file = std::make_shared<spdlog::sinks::rotating_file_sink_mt>(
+        config.log_file.string(), kLogFileBytes, kLogFiles);
+    auto logger = std::make_shared<spdlog::logger>(
+        "hdrstereod", spdlog::sinks_init_list{console, file});
+    logger->set_level(spdlog::level::from_str(config.log_level));
+    logger->flush_on(spdlog::level::info);
+    spdlog::set_default_logger(logger);
+    return true;
+  } catch (const std::exception& e) {
+    std::cerr << "hdrstereod: cannot open log file " << config.log_file
+              << ": " << e.what() << "\n";
+    return false;
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  absl::StatusOr<hdrstereo::daemon::ParsedArgs> parsed =
+      hdrstereo::daemon::ParseArgs(argc, argv);
+  if (!parsed.ok()) {
+    std::cerr << "hdrstereod: " << parsed.status().message() << "\n";
+    return 2;
+  }
+  if (auto* text = std::get_if<hdrstereo::daemon::ExitWithText>(&*parsed)) {
+    std::cout << text->text << "\n";
+    return 0;
+  }
+  const auto& config = std::get<hdrstereo::daemon::Config>(*parsed);
+
+  // Signals are taken synchronously by sigwait below; block them before any
+  // thread starts so that gRPC's threads inherit the mask.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  if (!SetUpLogging(config)) return 1;
+  spdlog::info("hdrstereod {} starting (hardware: {})", HDRSTEREO_VERSION,
+               config.hardware);
+
+  absl::StatusOr<std::unique_ptr<hdrstereo::daemon::Server>> server =
+      hdrstereo::daemon::Server::Start(config);
+  if (!server.ok()) {
+    spdlog::error("cannot start: {}", std::string(server.status().message()));
+    return 1;
+  }
+
+  int signal_number = 0;
+  sigwait(&signals, &signal_number);
+  spdlog::info("received {}", strsignal(signal_number));
+  (*server)->Shutdown();
+  server->reset();
+  spdlog::info("stopped");
+  return 0;
+}

@@ -1,0 +1,34 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#ifndef HDRSTEREO_DAEMON_RPC_SERVER_SERVICE_H_
+#define HDRSTEREO_DAEMON_RPC_SERVER_SERVICE_H_
+
+#include <string>
+
+#include "absl/time/time.h"
+#include "daemon/store/store.h"
+#include "hdrstereo/v1/server.grpc.pb.h"
+
+namespace hdrstereo::rpc {
+
+// Server.GetInfo: versions, data root, hardware mode, uptime.
+class ServerService final : public v1::Server::Service {
+ public:
+  ServerService(store::Store& store, std::string hardware_mode,
+                absl::Time start_time)
+      : store_(store),
+        hardware_mode_(std::move(hardware_mode)),
+        start_time_(start_time) {}
+
+  grpc::Status GetInfo(grpc::ServerContext* context,
+                       const v1::GetServerInfoRequest* request,
+                       v1::ServerInfo* response) override;
+
+ private:
+  store::Store& store_;
+  std::string hardware_mode_;
+  absl::Time start_time_;
+};
+
+}  // namespace hdrstereo::rpc
+
+#endif  // HDRSTEREO_DAEMON_RPC_SERVER_SERVICE_H_

@@ -1,0 +1,40 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#ifndef HDRSTEREO_DAEMON_RPC_SESSIONS_SERVICE_H_
+#define HDRSTEREO_DAEMON_RPC_SESSIONS_SERVICE_H_
+
+#include "daemon/store/session_repository.h"
+#include "hdrstereo/v1/sessions.grpc.pb.h"
+
+namespace hdrstereo::rpc {
+
+// Sessions.Create/Get/List/Delete. ListFrames, ListArtifacts and
+// DownloadArtifact answer UNIMPLEMENTED until the capture and processing jobs
+// that fill those tables exist.
+class SessionsService final : public v1::Sessions::Service {
+ public:
+  explicit SessionsService(store::Store& store)
+      : store_(store), sessions_(store) {}
+
+  grpc::Status Create(grpc::ServerContext* context,
+                      const v1::CreateSessionRequest* request,
+                      v1::Session* response) override;
+  grpc::Status Get(grpc::ServerContext* context,
+                   const v1::GetSessionRequest* request,
+                   v1::Session* response) override;
+  grpc::Status List(grpc::ServerContext* context,
+                    const v1::ListSessionsRequest* request,
+                    v1::ListSessionsResponse* response) override;
+  grpc::Status Delete(grpc::ServerContext* context,
+                      const v1::DeleteSessionRequest* request,
+                      v1::DeleteSessionResponse* response) override;
+
+ private:
+  void ToProto(const store::SessionRecord& record, v1::Session* out) const;
+
+  store::Store& store_;
+  store::SessionRepository sessions_;
+};
+
+}  // namespace hdrstereo::rpc
+
+#endif  // HDRSTEREO_DAEMON_RPC_SESSIONS_SERVICE_H_

@@ -1,0 +1,76 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "daemon/server.h"
+
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/grpcpp.h>
+#include <grpcpp/health_check_service_interface.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+
+#include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
+#include "processing/io/atomic_file.h"
+
+namespace hdrstereo::daemon {
+
+Server::Server(std::unique_ptr<store::Store> store, const Config& config)
+    : store_(std::move(store)),
+      server_service_(*store_, config.hardware, absl::Now()),
+      sessions_service_(*store_) {}
+
+absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
+  absl::StatusOr<std::unique_ptr<store::Store>> store =
+      store::Store::Open(config.data_root);
+  if (!store.ok()) return store.status();
+  spdlog::info("data root {} (schema version {})",
+               (*store)->files().root().string(), (*store)->schema_version());
+
+  std::unique_ptr<Server> server(new Server(*std::move(store), config));
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  int port = 0;
+  builder.AddListeningPort(config.listen, grpc::InsecureServerCredentials(),
+                           &port);
+  builder.RegisterService(&server->server_service_);
+  builder.RegisterService(&server->sessions_service_);
+  builder.RegisterService(&server->hardware_service_);
+  builder.RegisterService(&server->jobs_service_);
+  builder.RegisterService(&server->schedules_service_);
+  server->grpc_server_ = builder.BuildAndStart();
+  if (server->grpc_server_ == nullptr || port == 0) {
+    return absl::UnavailableError(absl::StrCat(
+        "cannot listen on ", config.listen,
+        " (address in use, or not a local address?)"));
+  }
+  if (config.listen.starts_with("unix:")) {
+    server->address_ = config.listen;
+  } else {
+    server->address_ = absl::StrCat(
+        config.listen.substr(0, config.listen.rfind(':')), ":", port);
+  }
+  spdlog::info("serving gRPC on {}", server->address_);
+  if (!config.ready_file.empty()) {
+    if (absl::Status s = io::WriteFileAtomically(config.ready_file,
+                                                 server->address_ + "\n");
+        !s.ok()) {
+      server->Shutdown();
+      return s;
+    }
+  }
+  return server;
+}
+
+void Server::Shutdown() {
+  if (grpc_server_ == nullptr) return;
+  spdlog::info("shutting down: finishing in-flight calls");
+  grpc_server_->Shutdown(std::chrono::system_clock::now() +
+                         std::chrono::seconds(10));
+  grpc_server_->Wait();
+  grpc_server_.reset();
+}
+
+Server::~Server() { Shutdown(); }
+
+}  // namespace hdrstereo::daemon

@@ -1,0 +1,53 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// Wires the store and the gRPC services into one serving daemon.
+#ifndef HDRSTEREO_DAEMON_SERVER_H_
+#define HDRSTEREO_DAEMON_SERVER_H_
+
+#include <grpcpp/server.h>
+
+#include <memory>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "daemon/config.h"
+#include "daemon/rpc/server_service.h"
+#include "daemon/rpc/sessions_service.h"
+#include "daemon/store/store.h"
+#include "hdrstereo/v1/hardware.grpc.pb.h"
+#include "hdrstereo/v1/jobs.grpc.pb.h"
+#include "hdrstereo/v1/schedules.grpc.pb.h"
+
+namespace hdrstereo::daemon {
+
+class Server {
+ public:
+  // Opens the store and starts serving; fails (and serves nothing) when the
+  // data root, database or listen address is unusable.
+  static absl::StatusOr<std::unique_ptr<Server>> Start(const Config& config);
+  ~Server();
+
+  // The address actually bound (port resolved when 0 was asked for).
+  const std::string& address() const { return address_; }
+  // Stops accepting calls, lets in-flight calls finish (up to a deadline),
+  // then closes the database.
+  void Shutdown();
+
+ private:
+  explicit Server(std::unique_ptr<store::Store> store, const Config& config);
+
+  std::unique_ptr<store::Store> store_;
+  rpc::ServerService server_service_;
+  rpc::SessionsService sessions_service_;
+  // Defined in the wire contract; their handlers arrive with later issues and
+  // answer UNIMPLEMENTED until then.
+  v1::Hardware::Service hardware_service_;
+  v1::Jobs::Service jobs_service_;
+  v1::Schedules::Service schedules_service_;
+  std::unique_ptr<grpc::Server> grpc_server_;
+  std::string address_;
+};
+
+}  // namespace hdrstereo::daemon
+
+#endif  // HDRSTEREO_DAEMON_SERVER_H_

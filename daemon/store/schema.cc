@@ -1,0 +1,205 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "daemon/store/schema.h"
+
+#include <array>
+#include "absl/strings/string_view.h"
+
+#include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
+#include "absl/time/time.h"
+
+namespace hdrstereo::store {
+namespace {
+
+// Append only: a released migration is never edited. Times are Unix
+// milliseconds (UTC); lengths in millimetres; exposures in seconds.
+constexpr std::array<absl::string_view, 1> kMigrations = {
+    // 1: the tables of DESIGN.md.
+    R"sql(
+CREATE TABLE rigs (
+  id INTEGER PRIMARY KEY,
+  name TEXT NOT NULL UNIQUE,
+  config_json TEXT NOT NULL DEFAULT '{}',
+  create_time_ms INTEGER NOT NULL
+);
+CREATE TABLE sessions (
+  id INTEGER PRIMARY KEY,
+  name TEXT NOT NULL UNIQUE,
+  note TEXT NOT NULL DEFAULT '',
+  rig_id INTEGER REFERENCES rigs(id),
+  create_time_ms INTEGER NOT NULL
+);
+CREATE TABLE jobs (
+  id INTEGER PRIMARY KEY,
+  kind TEXT NOT NULL CHECK (kind IN ('capture', 'processing')),
+  session_id INTEGER NOT NULL REFERENCES sessions(id) ON DELETE CASCADE,
+  state TEXT NOT NULL CHECK (state IN ('queued', 'running', 'paused',
+      'succeeded', 'failed', 'cancelled', 'interrupted')),
+  request BLOB NOT NULL,
+  progress_done INTEGER NOT NULL DEFAULT 0,
+  progress_total INTEGER NOT NULL DEFAULT 0,
+  step TEXT NOT NULL DEFAULT '',
+  error TEXT NOT NULL DEFAULT '',
+  create_time_ms INTEGER NOT NULL,
+  start_time_ms INTEGER,
+  end_time_ms INTEGER
+);
+CREATE INDEX jobs_by_session ON jobs(session_id);
+CREATE INDEX jobs_by_state ON jobs(state);
+CREATE TABLE job_events (
+  id INTEGER PRIMARY KEY,
+  job_id INTEGER NOT NULL REFERENCES jobs(id) ON DELETE CASCADE,
+  sequence INTEGER NOT NULL,
+  time_ms INTEGER NOT NULL,
+  state TEXT NOT NULL,
+  progress_done INTEGER NOT NULL,
+  progress_total INTEGER NOT NULL,
+  step TEXT NOT NULL DEFAULT '',
+  level TEXT NOT NULL DEFAULT 'info',
+  message TEXT NOT NULL DEFAULT '',
+  UNIQUE (job_id, sequence)
+);
+CREATE TABLE captures (
+  id INTEGER PRIMARY KEY,
+  session_id INTEGER NOT NULL REFERENCES sessions(id) ON DELETE CASCADE,
+  job_id INTEGER REFERENCES jobs(id) ON DELETE SET NULL,
+  kind TEXT NOT NULL CHECK (kind IN ('bracketed_stereo', 'structured_light',
+      'calibration')),
+  plan BLOB NOT NULL,
+  create_time_ms INTEGER NOT NULL
+);
+CREATE TABLE frames (
+  id INTEGER PRIMARY KEY,
+  capture_id INTEGER NOT NULL REFERENCES captures(id) ON DELETE CASCADE,
+  sequence INTEGER NOT NULL,
+  view_index INTEGER NOT NULL,
+  stage_position_mm REAL NOT NULL,
+  exposure_s REAL NOT NULL,
+  pattern TEXT NOT NULL DEFAULT '',
+  inverse INTEGER NOT NULL DEFAULT 0,
+  format TEXT NOT NULL,
+  width_px INTEGER NOT NULL,
+  height_px INTEGER NOT NULL,
+  path TEXT NOT NULL,
+  sha256 TEXT NOT NULL,
+  camera_time_ms INTEGER,
+  UNIQUE (capture_id, sequence),
+  UNIQUE (path)
+);
+CREATE TABLE artifacts (
+  id INTEGER PRIMARY KEY,
+  session_id INTEGER NOT NULL REFERENCES sessions(id) ON DELETE CASCADE,
+  job_id INTEGER REFERENCES jobs(id) ON DELETE SET NULL,
+  kind TEXT NOT NULL,
+  path TEXT NOT NULL,
+  params_json TEXT NOT NULL DEFAULT '{}',
+  params_hash TEXT NOT NULL DEFAULT '',
+  sha256 TEXT NOT NULL,
+  size_bytes INTEGER NOT NULL,
+  create_time_ms INTEGER NOT NULL,
+  UNIQUE (session_id, path)
+);
+CREATE TABLE metrics (
+  id INTEGER PRIMARY KEY,
+  session_id INTEGER NOT NULL REFERENCES sessions(id) ON DELETE CASCADE,
+  job_id INTEGER REFERENCES jobs(id) ON DELETE SET NULL,
+  method TEXT NOT NULL,
+  ground_truth TEXT NOT NULL,
+  rmse REAL,
+  mae REAL,
+  bad_0_5 REAL,
+  bad_1 REAL,
+  bad_2 REAL,
+  bad_4 REAL,
+  coverage REAL,
+  create_time_ms INTEGER NOT NULL
+);
+CREATE TABLE schedules (
+  id INTEGER PRIMARY KEY,
+  name TEXT NOT NULL UNIQUE,
+  cron TEXT NOT NULL,
+  time_zone TEXT NOT NULL DEFAULT 'UTC',
+  enabled INTEGER NOT NULL DEFAULT 1,
+  plan BLOB NOT NULL,
+  missed_run_policy TEXT NOT NULL DEFAULT 'run_once_on_start',
+  create_time_ms INTEGER NOT NULL
+);
+)sql",
+};
+
+}  // namespace
+
+int LatestSchemaVersion() { return static_cast<int>(kMigrations.size()); }
+
+absl::StatusOr<int> ReadSchemaVersion(Database& db) {
+  absl::StatusOr<Statement> has_table = db.Prepare(
+      "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND "
+      "name = 'schema_version'");
+  if (!has_table.ok()) return has_table.status();
+  absl::StatusOr<bool> row = has_table->Step();
+  if (!row.ok()) return row.status();
+  if (has_table->ColumnInt(0) == 0) {
+    // No version table: acceptable only for a database with no tables at all.
+    absl::StatusOr<Statement> any = db.Prepare(
+        "SELECT count(*) FROM sqlite_master WHERE type = 'table'");
+    if (!any.ok()) return any.status();
+    if (absl::StatusOr<bool> r = any->Step(); !r.ok()) return r.status();
+    if (any->ColumnInt(0) != 0) {
+      return absl::FailedPreconditionError(
+          absl::StrCat(db.path().string(),
+                       " has tables but no schema_version table: it is not an "
+                       "hdrstereo database"));
+    }
+    return 0;
+  }
+  absl::StatusOr<Statement> max =
+      db.Prepare("SELECT coalesce(max(version), 0) FROM schema_version");
+  if (!max.ok()) return max.status();
+  if (absl::StatusOr<bool> r = max->Step(); !r.ok()) return r.status();
+  return static_cast<int>(max->ColumnInt(0));
+}
+
+absl::StatusOr<int> Migrate(Database& db) {
+  int version;
+  {
+    std::unique_lock<std::mutex> lock = db.Lock();
+    absl::StatusOr<int> current = ReadSchemaVersion(db);
+    if (!current.ok()) return current.status();
+    version = *current;
+  }
+  if (version > LatestSchemaVersion()) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        db.path().string(), " has schema version ", version,
+        ", newer than this hdrstereod supports (", LatestSchemaVersion(),
+        "); refusing to open it: use a newer hdrstereod"));
+  }
+  while (version < LatestSchemaVersion()) {
+    absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
+    if (!tx.ok()) return tx.status();
+    if (absl::Status s = db.Exec(
+            "CREATE TABLE IF NOT EXISTS schema_version ("
+            "version INTEGER PRIMARY KEY, apply_time_ms INTEGER NOT NULL)");
+        !s.ok()) {
+      return s;
+    }
+    if (absl::Status s = db.Exec(kMigrations[version]); !s.ok()) {
+      return absl::Status(s.code(), absl::StrCat("migration to version ",
+                                                 version + 1, ": ",
+                                                 s.message()));
+    }
+    absl::StatusOr<Statement> record = db.Prepare(
+        "INSERT INTO schema_version (version, apply_time_ms) VALUES (?1, ?2)");
+    if (!record.ok()) return record.status();
+    if (absl::Status s = record->Bind(1, int64_t{version + 1})
+                             .Bind(2, absl::ToUnixMillis(absl::Now()))
+                             .Run();
+        !s.ok()) {
+      return s;
+    }
+    if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+    ++version;
+  }
+  return version;
+}
+
+}  // namespace hdrstereo::store

@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Installs every Debian package hdrstereo needs to build, test and run.
+# Idempotent: packages already present are skipped; apt-get update runs once,
+# only when something is missing. Works as root or through sudo.
+set -euo pipefail
+
+packages=(
+  # build tools
+  build-essential cmake ninja-build ccache pkg-config git clang-format
+  # wire contract
+  libgrpc++-dev libgrpc-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
+  libabsl-dev
+  # hardware
+  libgphoto2-dev libserialport-dev libx11-dev
+  # processing
+  libopencv-dev libopencv-contrib-dev libraw-dev libtiff-dev libopenexr-dev
+  libmaxflow-dev
+  # daemon and tools
+  libsqlite3-dev sqlite3 libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev
+  # tests and benchmarks
+  libgtest-dev libgmock-dev libbenchmark-dev xvfb x11-apps
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q '^install ok installed$'; then
+    missing+=("$p")
+  fi
+done
+
+if ((${#missing[@]} == 0)); then
+  echo "setup-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+sudo_cmd=()
+if [[ $(id -u) -ne 0 ]]; then
+  command -v sudo >/dev/null || { echo "setup-deps: need root or sudo" >&2; exit 1; }
+  sudo_cmd=(sudo)
+fi
+
+echo "setup-deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+"${sudo_cmd[@]}" apt-get update -q
+"${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
