@@ -1,0 +1,464 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "processing/mesopic/retarget.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/strings/ascii.h"
+#include "absl/strings/str_cat.h"
+#include "opencv2/core/utility.hpp"
+#include "processing/mesopic/fast_math.h"
+#include "processing/mesopic/shin_model.h"
+#include "processing/mesopic/tone_curve.h"
+
+namespace hdrstereo::mesopic {
+
+absl::StatusOr<Method> MethodFromName(absl::string_view name) {
+  const std::string n = absl::AsciiStrToLower(name);
+  if (n == "none") return Method::kNone;
+  if (n == "shin") return Method::kShin;
+  if (n == "wanat-saturation" || n == "wanat_saturation") {
+    return Method::kWanatSaturation;
+  }
+  if (n == "rods") return Method::kRods;
+  return absl::InvalidArgumentError(
+      absl::StrCat("unknown mesopic method '", name,
+                   "'; expected none, shin, wanat-saturation or rods"));
+}
+
+std::string MethodName(Method method) {
+  switch (method) {
+    case Method::kNone:
+      return "none";
+    case Method::kShin:
+      return "shin";
+    case Method::kWanatSaturation:
+      return "wanat-saturation";
+    case Method::kRods:
+      return "rods";
+  }
+  return "unknown";
+}
+
+namespace {
+
+using internal::FastExp2;
+using internal::FastLog2;
+using internal::FastPow;
+
+constexpr float kLumR = 0.2126f, kLumG = 0.7152f, kLumB = 0.0722f;
+constexpr double kLog10Of2 = 0.30102999566398120;
+constexpr double kLog2Of10 = 3.32192809488736235;
+constexpr int kEncodeLutSize = 16384;
+// Newton iterations for the inverse model's scotopic luminance; enough for
+// float precision from the upper bound used (checked in the unit tests).
+constexpr int kNewtonIterations = 5;
+
+// Rod gains of the rod-contribution model at full rod vision (kappa_1 for L
+// and M, kappa_2 for S, Eq. 6.11), scaled by the rod weight of the level.
+// Assumed values, see docs/mesopic.md.
+constexpr double kRodKappa1 = 0.25;
+constexpr double kRodKappa2 = 0.40;
+
+double SrgbToLinear(double v) {
+  return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
+}
+double LinearToSrgb(double v) {
+  return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
+}
+
+// Everything that is constant over one frame.
+struct FrameConstants {
+  bool is_8bit = false;
+  std::array<float, 256> decode{};
+  std::vector<std::uint8_t> encode;
+
+  bool tone = false;
+  float source_cd = 1.0f, display_cd = 1.0f;
+  float log10_source_cd = 0.0f;
+  float tone_lo = 0.0f, tone_inv_step = 1.0f, tone_step = 1.0f;
+  float tone_black = -10.0f;
+  std::array<float, ToneCurve::kBins + 1> tone_y{};
+
+  Method method = Method::kNone;
+  // Shin: out = n c + n_t t + n_s s + n_v v (see PrepareShin).
+  std::array<float, 9> n{};
+  std::array<float, 3> n_t{}, n_s{}, n_v{}, w{}, d_c{};
+  float d_t = 0.0f, k1 = 1.0f, k2 = 0.0f;
+  // Wanat saturation.
+  float kappa = 0.1f;
+  // Rods: out = rods * c.
+  std::array<float, 9> rods{};
+};
+
+// Precomputes the Shin forward (at lux_src) + inverse (at lux_dst) as a
+// linear part plus terms in t = Y'^gamma (forward), s = Y'' and v = s^gamma
+// (inverse scotopic luminance).
+void PrepareShin(double lux_src, double lux_dst, FrameConstants& k) {
+  const FittingParams f = FittingAt(lux_src);
+  const FittingParams g = FittingAt(lux_dst);
+  const Mat3 lms = Multiply(kXyzToLms, kRgbToXyz);
+  const Vec3 white = Apply(lms, {1.0, 1.0, 1.0});
+  const double lmw = white[0] + white[1];
+  const Vec3 w = ScotopicWeights();
+  constexpr Mat3 kOpp = {{{1.0, 1.0, 0.0}, {1.0, -2.0, 0.0}, {1.0, 1.0, -1.0}}};
+  const Mat3 pqr_of_rgb = Multiply(kOpp, lms);
+  // Forward: opp = F c + e0 * beta K'_w * t.
+  Mat3 fwd;
+  for (int j = 0; j < 3; ++j) {
+    fwd[0][j] = f.alpha * kKw / lmw * pqr_of_rgb[0][j];
+    fwd[1][j] = f.l * pqr_of_rgb[1][j] + f.a * w[j];
+    fwd[2][j] = f.m * pqr_of_rgb[2][j] + f.b * w[j];
+  }
+  const double fwd_t = f.beta * kKwPrime;
+  // Inverse: PQR = Dg opp - [p1 v, q1 s, r1 s]; rgb = G PQR.
+  const Vec3 dg = {lmw / (g.alpha * kKw), 1.0 / g.l, 1.0 / g.m};
+  const double p1 = dg[0] * g.beta * kKwPrime;
+  const double q1 = g.a / g.l, r1 = g.b / g.m;
+  const Mat3 gm = Inverse(pqr_of_rgb);
+  Vec3 c{};  // Y' = c . PQR
+  for (int j = 0; j < 3; ++j) {
+    for (int i = 0; i < 3; ++i) c[j] += w[i] * gm[i][j];
+  }
+  Mat3 dgf;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) dgf[i][j] = dg[i] * fwd[i][j];
+  }
+  const Mat3 n = Multiply(gm, dgf);
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) k.n[i * 3 + j] = static_cast<float>(n[i][j]);
+    k.n_t[i] = static_cast<float>(gm[i][0] * dg[0] * fwd_t);
+    k.n_v[i] = static_cast<float>(-gm[i][0] * p1);
+    k.n_s[i] = static_cast<float>(-(gm[i][1] * q1 + gm[i][2] * r1));
+    k.w[i] = static_cast<float>(w[i]);
+  }
+  for (int j = 0; j < 3; ++j) {
+    double d = 0.0;
+    for (int i = 0; i < 3; ++i) d += c[i] * dgf[i][j];
+    k.d_c[j] = static_cast<float>(d);
+  }
+  k.d_t = static_cast<float>(c[0] * dg[0] * fwd_t);
+  k.k1 = static_cast<float>(1.0 + c[1] * q1 + c[2] * r1);
+  k.k2 = static_cast<float>(c[0] * p1);
+}
+
+// Rod-contribution retargeting matrix (Eq. 6.12 without the luminance
+// ratio, which the tone step already applied).
+void PrepareRods(double lux_src, double lux_dst, FrameConstants& k) {
+  const Mat3 lms = Multiply(kXyzToLms, kRgbToXyz);
+  const Vec3 w = ScotopicWeights();
+  auto mc_me = [&](double lux) {
+    const double rw = RodWeight(lux);
+    const Vec3 kappa = {kRodKappa1 * rw, kRodKappa1 * rw, kRodKappa2 * rw};
+    Mat3 m = lms;
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) m[i][j] += kappa[i] * w[j];
+    }
+    return m;
+  };
+  const Mat3 r = Multiply(Inverse(mc_me(lux_dst)), mc_me(lux_src));
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) k.rods[i * 3 + j] = static_cast<float>(r[i][j]);
+  }
+}
+
+// --- per-row kernels on planar float arrays -------------------------------
+
+void ToneRow(const FrameConstants& k, int n, float* r, float* g, float* b,
+             float* ys_cd, float* yt_cd) {
+  const float l10_2 = static_cast<float>(kLog10Of2);
+  const float l2_10 = static_cast<float>(kLog2Of10);
+  const float* y = k.tone_y.data();
+  for (int i = 0; i < n; ++i) {
+    const float lum = kLumR * r[i] + kLumG * g[i] + kLumB * b[i];
+    float scale = 1.0f;
+    float yt = lum * k.display_cd;
+    if (k.tone) {
+      const float x = FastLog2(lum) * l10_2 + k.log10_source_cd;
+      float u = (x - k.tone_lo) * k.tone_inv_step;
+      u = std::min(u, static_cast<float>(ToneCurve::kBins));
+      float ylog;
+      if (u < 0.0f) {
+        ylog = std::max(y[0] + u * k.tone_step, k.tone_black);
+      } else {
+        const int j = std::min(static_cast<int>(u), ToneCurve::kBins - 1);
+        const float f = u - static_cast<float>(j);
+        ylog = y[j] + (y[j + 1] - y[j]) * f;
+      }
+      yt = FastExp2(ylog * l2_10);
+      scale = lum > 0.0f ? yt / (lum * k.display_cd) : 0.0f;
+      yt = lum > 0.0f ? yt : 0.0f;
+    }
+    r[i] *= scale;
+    g[i] *= scale;
+    b[i] *= scale;
+    ys_cd[i] = lum * k.source_cd;
+    yt_cd[i] = yt;
+  }
+}
+
+void ShinRow(const FrameConstants& k, int n, float* r, float* g, float* b) {
+  constexpr float kG = static_cast<float>(kGamma);
+  constexpr float kInvGm1 = static_cast<float>(1.0 / kGamma - 1.0);
+  constexpr float kInvG = static_cast<float>(1.0 / kGamma);
+  const float k1 = k.k1, k2 = k.k2;
+  for (int i = 0; i < n; ++i) {
+    const float cr = r[i], cg = g[i], cb = b[i];
+    const float y = std::max(k.w[0] * cr + k.w[1] * cg + k.w[2] * cb, 0.0f);
+    const float t = FastPow(y, kG);
+    const float d = std::max(
+        k.d_c[0] * cr + k.d_c[1] * cg + k.d_c[2] * cb + k.d_t * t, 0.0f);
+    float s, v;
+    if (k2 > 0.0f) {
+      v = std::min(d / k2, FastPow(d / k1, kG));
+      float vp = 0.0f;
+      for (int it = 0; it < kNewtonIterations; ++it) {
+        vp = FastPow(v, kInvGm1);
+        const float fv = k1 * vp * v + k2 * v - d;
+        v = std::max(v - fv / (k1 * kInvG * vp + k2), 0.0f);
+      }
+      s = v * FastPow(v, kInvGm1);
+    } else {
+      s = d / k1;
+      v = FastPow(s, kG);
+    }
+    const float o0 = k.n[0] * cr + k.n[1] * cg + k.n[2] * cb + k.n_t[0] * t +
+                     k.n_s[0] * s + k.n_v[0] * v;
+    const float o1 = k.n[3] * cr + k.n[4] * cg + k.n[5] * cb + k.n_t[1] * t +
+                     k.n_s[1] * s + k.n_v[1] * v;
+    const float o2 = k.n[6] * cr + k.n[7] * cg + k.n[8] * cb + k.n_t[2] * t +
+                     k.n_s[2] * s + k.n_v[2] * v;
+    r[i] = o0;
+    g[i] = o1;
+    b[i] = o2;
+  }
+}
+
+void WanatSaturationRow(const FrameConstants& k, int n, float* r, float* g,
+                        float* b, const float* ys_cd, const float* yt_cd) {
+  for (int i = 0; i < n; ++i) {
+    const float ys = ys_cd[i], yt = yt_cd[i];
+    const float s_src = ys / (ys + k.kappa);
+    const float s_dst = yt / (yt + k.kappa);
+    const float p = s_dst > 0.0f ? s_src / s_dst : 1.0f;
+    const float lum = kLumR * r[i] + kLumG * g[i] + kLumB * b[i];
+    const float inv = lum > 0.0f ? 1.0f / lum : 0.0f;
+    r[i] = lum * FastPow(r[i] * inv, p);
+    g[i] = lum * FastPow(g[i] * inv, p);
+    b[i] = lum * FastPow(b[i] * inv, p);
+  }
+}
+
+void RodsRow(const FrameConstants& k, int n, float* r, float* g, float* b) {
+  const auto& m = k.rods;
+  for (int i = 0; i < n; ++i) {
+    const float cr = r[i], cg = g[i], cb = b[i];
+    r[i] = m[0] * cr + m[1] * cg + m[2] * cb;
+    g[i] = m[3] * cr + m[4] * cg + m[5] * cb;
+    b[i] = m[6] * cr + m[7] * cg + m[8] * cb;
+  }
+}
+
+inline float Clip01(float v) { return v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; }
+
+// Pulls out-of-gamut colours towards the grey of the same (clipped)
+// luminance just enough to fit in [0,1]^3.
+void GamutRow(int n, float* r, float* g, float* b) {
+  for (int i = 0; i < n; ++i) {
+    const float cr = r[i], cg = g[i], cb = b[i];
+    const float yc = Clip01(kLumR * cr + kLumG * cg + kLumB * cb);
+    float t = 1.0f;
+    for (float c : {cr, cg, cb}) {
+      const float hi = c > 1.0f ? (1.0f - yc) / std::max(c - yc, 1e-30f) : 1.0f;
+      const float lo = c < 0.0f ? yc / std::max(yc - c, 1e-30f) : 1.0f;
+      t = std::min(t, std::min(hi, lo));
+    }
+    r[i] = Clip01(yc + t * (cr - yc));
+    g[i] = Clip01(yc + t * (cg - yc));
+    b[i] = Clip01(yc + t * (cb - yc));
+  }
+}
+
+absl::Status ValidateOptions(const RetargetOptions& o) {
+  auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  if (!positive(o.display_cd)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("display luminance must be a positive number of cd/m^2, "
+                     "got ",
+                     o.display_cd));
+  }
+  if (!positive(o.source_cd)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("source luminance must be a positive number of cd/m^2, "
+                     "got ",
+                     o.source_cd));
+  }
+  if (!std::isfinite(o.display_contrast) || o.display_contrast <= 1.0) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "display contrast (peak/black) must be > 1, got ", o.display_contrast));
+  }
+  if (!positive(o.saturation_kappa)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "saturation kappa must be positive, got ", o.saturation_kappa));
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<cv::Mat> Retarget(const cv::Mat& image,
+                                 const RetargetOptions& options) {
+  if (image.empty()) {
+    return absl::InvalidArgumentError("mesopic retarget: input image is empty");
+  }
+  if (image.channels() != 3) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("mesopic retarget: need a 3-channel BGR image, got ",
+                     image.channels(), " channel(s)"));
+  }
+  if (image.depth() != CV_8U && image.depth() != CV_32F) {
+    return absl::InvalidArgumentError(
+        "mesopic retarget: need CV_8UC3 (sRGB) or CV_32FC3 (linear) input");
+  }
+  if (absl::Status s = ValidateOptions(options); !s.ok()) return s;
+  try {
+    if (image.depth() == CV_32F && !cv::checkRange(image, true)) {
+      return absl::InvalidArgumentError(
+          "mesopic retarget: input contains NaN or infinite values");
+    }
+    FrameConstants k;
+    k.is_8bit = image.depth() == CV_8U;
+    for (int v = 0; v < 256; ++v) {
+      k.decode[v] = static_cast<float>(SrgbToLinear(v / 255.0));
+    }
+    if (k.is_8bit) {
+      k.encode.resize(kEncodeLutSize);
+      for (int i = 0; i < kEncodeLutSize; ++i) {
+        const double v = LinearToSrgb(i / double(kEncodeLutSize - 1));
+        k.encode[i] = static_cast<std::uint8_t>(
+            std::clamp(std::lround(v * 255.0), 0L, 255L));
+      }
+    }
+    k.source_cd = static_cast<float>(options.source_cd);
+    k.display_cd = static_cast<float>(options.display_cd);
+    k.log10_source_cd = static_cast<float>(std::log10(options.source_cd));
+    k.method = options.method;
+    k.kappa = static_cast<float>(options.saturation_kappa);
+    k.tone = options.tone_curve;
+
+    const int rows = image.rows, cols = image.cols;
+    auto load_pixel = [&](int y, int x, float& r, float& g, float& b) {
+      if (k.is_8bit) {
+        const auto& p = image.at<cv::Vec3b>(y, x);
+        b = k.decode[p[0]];
+        g = k.decode[p[1]];
+        r = k.decode[p[2]];
+      } else {
+        const auto& p = image.at<cv::Vec3f>(y, x);
+        b = std::max(p[0], 0.0f);
+        g = std::max(p[1], 0.0f);
+        r = std::max(p[2], 0.0f);
+      }
+    };
+
+    if (k.tone) {
+      // Histogram sample: every 4th pixel of every 4th row.
+      std::vector<float> samples;
+      samples.reserve(static_cast<size_t>((rows / 4 + 1) * (cols / 4 + 1)));
+      float max_rel = 1.0f;
+      for (int y = 0; y < rows; y += 4) {
+        for (int x = 0; x < cols; x += 4) {
+          float r, g, b;
+          load_pixel(y, x, r, g, b);
+          const float lum = kLumR * r + kLumG * g + kLumB * b;
+          max_rel = std::max(max_rel, lum);
+          samples.push_back(lum * k.source_cd);
+        }
+      }
+      const double peak = options.source_cd * max_rel;
+      const ToneCurve curve =
+          ToneCurve::Build(samples, peak, options.display_cd,
+                           options.display_cd / options.display_contrast);
+      k.tone_lo = static_cast<float>(curve.lo_log10());
+      k.tone_step = static_cast<float>(curve.step_log10());
+      k.tone_inv_step = static_cast<float>(1.0 / curve.step_log10());
+      k.tone_black = static_cast<float>(curve.black_log10());
+      for (int j = 0; j <= ToneCurve::kBins; ++j) {
+        k.tone_y[j] = static_cast<float>(curve.y_log10()[j]);
+      }
+    }
+    const double lux_src = LuxFromWhiteLuminance(options.source_cd);
+    const double lux_dst = LuxFromWhiteLuminance(options.display_cd);
+    if (k.method == Method::kShin) PrepareShin(lux_src, lux_dst, k);
+    if (k.method == Method::kRods) PrepareRods(lux_src, lux_dst, k);
+
+    cv::Mat out(rows, cols, image.type());
+    cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {
+      std::vector<float> buf(static_cast<size_t>(cols) * 5);
+      float* r = buf.data();
+      float* g = r + cols;
+      float* b = g + cols;
+      float* ys = b + cols;
+      float* yt = ys + cols;
+      for (int y = range.start; y < range.end; ++y) {
+        if (k.is_8bit) {
+          const std::uint8_t* p = image.ptr<std::uint8_t>(y);
+          for (int x = 0; x < cols; ++x) {
+            b[x] = k.decode[p[3 * x]];
+            g[x] = k.decode[p[3 * x + 1]];
+            r[x] = k.decode[p[3 * x + 2]];
+          }
+        } else {
+          const float* p = image.ptr<float>(y);
+          for (int x = 0; x < cols; ++x) {
+            b[x] = std::max(p[3 * x], 0.0f);
+            g[x] = std::max(p[3 * x + 1], 0.0f);
+            r[x] = std::max(p[3 * x + 2], 0.0f);
+          }
+        }
+        ToneRow(k, cols, r, g, b, ys, yt);
+        switch (k.method) {
+          case Method::kShin:
+            ShinRow(k, cols, r, g, b);
+            break;
+          case Method::kWanatSaturation:
+            WanatSaturationRow(k, cols, r, g, b, ys, yt);
+            break;
+          case Method::kRods:
+            RodsRow(k, cols, r, g, b);
+            break;
+          case Method::kNone:
+            break;
+        }
+        GamutRow(cols, r, g, b);
+        if (k.is_8bit) {
+          std::uint8_t* q = out.ptr<std::uint8_t>(y);
+          const float scale = kEncodeLutSize - 1;
+          for (int x = 0; x < cols; ++x) {
+            q[3 * x] = k.encode[static_cast<int>(b[x] * scale + 0.5f)];
+            q[3 * x + 1] = k.encode[static_cast<int>(g[x] * scale + 0.5f)];
+            q[3 * x + 2] = k.encode[static_cast<int>(r[x] * scale + 0.5f)];
+          }
+        } else {
+          float* q = out.ptr<float>(y);
+          for (int x = 0; x < cols; ++x) {
+            q[3 * x] = b[x];
+            q[3 * x + 1] = g[x];
+            q[3 * x + 2] = r[x];
+          }
+        }
+      }
+    });
+    return out;
+  } catch (const cv::Exception& e) {
+    return absl::InternalError(
+        absl::StrCat("mesopic retarget: OpenCV error: ", e.what()));
+  }
+}
+
+}  // namespace hdrstereo::mesopic

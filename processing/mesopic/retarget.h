@@ -1,0 +1,64 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// Mesopic retargeting (thesis chapter 6): render an image for a dim display
+// in a dark room so that it keeps its perceived colour and contrast.
+//
+//   RetargetOptions opt;            // display 2 cd/m^2, source 200 cd/m^2
+//   opt.method = Method::kShin;     // thesis method 5 with tone_curve=true
+//   absl::StatusOr<cv::Mat> out = Retarget(image, opt);
+//
+// Pipeline per frame: (1) decode to linear RGB relative to the source white;
+// (2) optional global tone curve (tone_curve.h) from source luminance to the
+// display's luminance range, applied to luminance with chromaticity kept;
+// (3) colour retargeting with `method`; (4) gamut clipping; (5) encode.
+//
+// Images are OpenCV 3-channel BGR. CV_8UC3 is taken as sRGB-encoded and
+// returned sRGB-encoded; CV_32FC3 is taken as linear with 1.0 = source white
+// (values above 1 are allowed; negatives are treated as 0) and returned
+// linear relative to the display white, in [0, 1].
+//
+// Gamut: out-of-range results are pulled towards the grey of the same
+// luminance (hue and luminance kept, chroma reduced) just enough to fit;
+// luminance above white is clipped to white. Never NaN, never outside [0,1].
+#ifndef HDRSTEREO_PROCESSING_MESOPIC_RETARGET_H_
+#define HDRSTEREO_PROCESSING_MESOPIC_RETARGET_H_
+
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "opencv2/core.hpp"
+
+namespace hdrstereo::mesopic {
+
+enum class Method {
+  kNone,             // tone curve only (or plain dimming)
+  kShin,             // Shin forward at the source level, inverse at the
+                     // display level (thesis 6.3, method 5 with tone curve)
+  kWanatSaturation,  // Wanat & Mantiuk saturation correction (Eq. 6.9)
+  kRods,             // rod-contribution model (Eqs. 6.10-6.12)
+};
+
+// "none", "shin", "wanat-saturation" (or "wanat_saturation"), "rods".
+absl::StatusOr<Method> MethodFromName(absl::string_view name);
+std::string MethodName(Method method);
+
+struct RetargetOptions {
+  double display_cd = 2.0;   // target display white luminance, cd/m^2
+  double source_cd = 200.0;  // luminance the source white was meant for
+  Method method = Method::kShin;
+  bool tone_curve = true;            // global tone retargeting before colour
+  double display_contrast = 1000.0;  // display peak / black (> 1)
+  double saturation_kappa = 0.1;     // kappa of Eq. 6.9, cd/m^2 (> 0)
+};
+
+// Retargets `image` (CV_8UC3 sRGB or CV_32FC3 linear, BGR) for the display
+// described by `options`. Returns an image of the same size and type, or
+// INVALID_ARGUMENT for empty/unsupported images, NaN/Inf pixels or bad
+// options, INTERNAL if OpenCV throws.
+absl::StatusOr<cv::Mat> Retarget(const cv::Mat& image,
+                                 const RetargetOptions& options);
+
+}  // namespace hdrstereo::mesopic
+
+#endif  // HDRSTEREO_PROCESSING_MESOPIC_RETARGET_H_
