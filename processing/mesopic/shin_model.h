@@ -42,8 +42,8 @@ inline constexpr Mat3 kOppToXyz = {
 // The thesis does not say how Y' is computed. We evaluate Larson et al.'s
 // (1997) scotopic approximation Y' = Y (1.33 (1 + (Y + Z) / X) - 1.68) at
 // each Table 6.2 primary and use the results (normalised to sum to one) as a
-// linear rod sensitivity of the display primaries: R 0.032882, G 0.765452,
-// B 0.201667. This keeps Y' linear in RGB (and never negative for
+// linear rod sensitivity of the display primaries: R 0.032881, G 0.765451,
+// B 0.201668. This keeps Y' linear in RGB (and never negative for
 // non-negative RGB), which the inverse model relies on.
 Vec3 ScotopicWeights();
 double ScotopicLuminance(const Vec3& rgb);
