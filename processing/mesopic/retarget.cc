@@ -99,7 +99,8 @@ struct FrameConstants {
 // Precomputes the Shin forward (at lux_src) + inverse (at lux_dst) as a
 // linear part plus terms in t = Y'^gamma (forward), s = Y'' and v = s^gamma
 // (inverse scotopic luminance).
-void PrepareShin(double lux_src, double lux_dst, FrameConstants& k) {
+void PrepareShin(double lux_src, double lux_dst, bool anchor_white,
+                 FrameConstants& k) {
   const FittingParams f = FittingAt(lux_src);
   const FittingParams g = FittingAt(lux_dst);
   const Mat3 lms = Multiply(kXyzToLms, kRgbToXyz);
@@ -130,11 +131,21 @@ void PrepareShin(double lux_src, double lux_dst, FrameConstants& k) {
     for (int j = 0; j < 3; ++j) dgf[i][j] = dg[i] * fwd[i][j];
   }
   const Mat3 n = Multiply(gm, dgf);
+  Vec3 gain = {1.0, 1.0, 1.0};
+  if (anchor_white) {
+    const Vec3 white_out =
+        ShinInverse(ShinForward({1.0, 1.0, 1.0}, lux_src), lux_dst);
+    for (int i = 0; i < 3; ++i) {
+      if (white_out[i] > 1e-6) gain[i] = 1.0 / white_out[i];
+    }
+  }
   for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) k.n[i * 3 + j] = static_cast<float>(n[i][j]);
-    k.n_t[i] = static_cast<float>(gm[i][0] * dg[0] * fwd_t);
-    k.n_v[i] = static_cast<float>(-gm[i][0] * p1);
-    k.n_s[i] = static_cast<float>(-(gm[i][1] * q1 + gm[i][2] * r1));
+    for (int j = 0; j < 3; ++j) {
+      k.n[i * 3 + j] = static_cast<float>(gain[i] * n[i][j]);
+    }
+    k.n_t[i] = static_cast<float>(gain[i] * gm[i][0] * dg[0] * fwd_t);
+    k.n_v[i] = static_cast<float>(gain[i] * -gm[i][0] * p1);
+    k.n_s[i] = static_cast<float>(gain[i] * -(gm[i][1] * q1 + gm[i][2] * r1));
     k.w[i] = static_cast<float>(w[i]);
   }
   for (int j = 0; j < 3; ++j) {
@@ -394,7 +405,8 @@ absl::StatusOr<cv::Mat> Retarget(const cv::Mat& image,
     }
     const double lux_src = LuxFromWhiteLuminance(options.source_cd);
     const double lux_dst = LuxFromWhiteLuminance(options.display_cd);
-    if (k.method == Method::kShin) PrepareShin(lux_src, lux_dst, k);
+    if (k.method == Method::kShin)
+      PrepareShin(lux_src, lux_dst, options.anchor_white, k);
     if (k.method == Method::kRods) PrepareRods(lux_src, lux_dst, k);
 
     cv::Mat out(rows, cols, image.type());

@@ -89,8 +89,8 @@ TEST(ShinModelTest, FittingFunctionsInterpolateAndStayPhysical) {
 std::vector<Vec3> RandomColours(int n, double max) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(0.0, max);
-  std::vector<Vec3> out = {{0, 0, 0},   {1, 1, 1}, {1, 0, 0}, {0, 1, 0},
-                           {0, 0, 1},   {1, 1, 0}, {0, 1, 1}, {1, 0, 1},
+  std::vector<Vec3> out = {{0, 0, 0},    {1, 1, 1},      {1, 0, 0}, {0, 1, 0},
+                           {0, 0, 1},    {1, 1, 0},      {0, 1, 1}, {1, 0, 1},
                            {1e-9, 0, 0}, {0.2, 0.2, 0.2}};
   for (int i = 0; i < n; ++i) out.push_back({u(rng), u(rng), u(rng)});
   return out;
@@ -161,8 +161,8 @@ TEST(ShinModelTest, MesopicForwardPredictsDesaturationAndPurkinjeShift) {
               ShinForward(blue, photopic).achromatic, 2e-3);
   double prev_ratio = 1.0;
   for (double lux : {10.0, 3.0, 1.0, 0.3, 0.1}) {
-    const double ratio = ShinForward(blue, lux).achromatic /
-                         ShinForward(red, lux).achromatic;
+    const double ratio =
+        ShinForward(blue, lux).achromatic / ShinForward(red, lux).achromatic;
     EXPECT_GT(ratio, prev_ratio) << "lux " << lux;
     prev_ratio = ratio;
   }
