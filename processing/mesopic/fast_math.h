@@ -22,9 +22,12 @@ inline float FastLog2(float x) {
   std::int32_t e = ((bits >> 23) & 0xFF) - 127;
   float m = std::bit_cast<float>((bits & 0x007FFFFF) | 0x3F800000);  // [1,2)
   // Centre the mantissa on 1 so that t = (m-1)/(m+1) is in [-0.172, 0.172].
+  // Selects between values computed unconditionally so that GCC if-converts
+  // (and vectorises) without -fno-trapping-math.
   const bool high = m > 1.41421356f;
-  m = high ? m * 0.5f : m;
-  e = high ? e + 1 : e;
+  const float half = m * 0.5f;
+  m = high ? half : m;
+  e += high ? 1 : 0;
   const float t = (m - 1.0f) / (m + 1.0f);
   const float t2 = t * t;
   // 2/ln2 * atanh(t) = log2(m), series to t^9.

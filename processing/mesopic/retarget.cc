@@ -55,9 +55,12 @@ constexpr float kLumR = 0.2126f, kLumG = 0.7152f, kLumB = 0.0722f;
 constexpr double kLog10Of2 = 0.30102999566398120;
 constexpr double kLog2Of10 = 3.32192809488736235;
 constexpr int kEncodeLutSize = 16384;
-// Newton iterations for the inverse model's scotopic luminance; enough for
-// float precision from the upper bound used (checked in the unit tests).
-constexpr int kNewtonIterations = 5;
+// The inverse model's scotopic luminance s solves k1 s + k2 s^gamma = d, a
+// frame-constant monotone function of d. It is tabulated as log2 s over
+// log2 d (kSolveNodes nodes on [kSolveLo, kSolveHi], asymptotic slopes
+// outside), interpolated linearly and polished with one Newton step.
+constexpr int kSolveNodes = 1025;
+constexpr double kSolveLo = -60.0, kSolveHi = 40.0;
 
 // Rod gains of the rod-contribution model at full rod vision (kappa_1 for L
 // and M, kappa_2 for S, Eq. 6.11), scaled by the rod weight of the level.
@@ -90,6 +93,8 @@ struct FrameConstants {
   std::array<float, 9> n{};
   std::array<float, 3> n_t{}, n_s{}, n_v{}, w{}, d_c{};
   float d_t = 0.0f, k1 = 1.0f, k2 = 0.0f;
+  std::vector<float> solve_log2_s;  // kSolveNodes entries
+  float solve_lo_ls = 0.0f, solve_hi_ls = 0.0f;
   // Wanat saturation.
   float kappa = 0.1f;
   // Rods: out = rods * c.
@@ -154,8 +159,31 @@ void PrepareShin(double lux_src, double lux_dst, bool anchor_white,
     k.d_c[j] = static_cast<float>(d);
   }
   k.d_t = static_cast<float>(c[0] * dg[0] * fwd_t);
-  k.k1 = static_cast<float>(1.0 + c[1] * q1 + c[2] * r1);
-  k.k2 = static_cast<float>(c[0] * p1);
+  const double k1 = 1.0 + c[1] * q1 + c[2] * r1;
+  const double k2 = c[0] * p1;
+  k.k1 = static_cast<float>(k1);
+  k.k2 = static_cast<float>(k2);
+  k.solve_log2_s.resize(kSolveNodes);
+  for (int j = 0; j < kSolveNodes; ++j) {
+    const double d =
+        std::exp2(kSolveLo + (kSolveHi - kSolveLo) * j / (kSolveNodes - 1));
+    double sol = d / k1;
+    if (k2 > 0.0) {
+      // Newton in v = s^gamma (convex, increasing) from an upper bound.
+      double v = std::min(d / k2, std::pow(d / k1, kGamma));
+      for (int it = 0; it < 100; ++it) {
+        const double vp = std::pow(v, 1.0 / kGamma - 1.0);
+        const double step =
+            (k1 * vp * v + k2 * v - d) / (k1 / kGamma * vp + k2);
+        v -= step;
+        if (std::abs(step) <= 1e-14 * v) break;
+      }
+      sol = std::pow(v, 1.0 / kGamma);
+    }
+    k.solve_log2_s[j] = static_cast<float>(std::log2(sol));
+  }
+  k.solve_lo_ls = k.solve_log2_s.front();
+  k.solve_hi_ls = k.solve_log2_s.back();
 }
 
 // Rod-contribution retargeting matrix (Eq. 6.12 without the luminance
@@ -179,94 +207,150 @@ void PrepareRods(double lux_src, double lux_dst, FrameConstants& k) {
 }
 
 // --- per-row kernels on planar float arrays -------------------------------
+// Written for GCC's vectoriser: constants copied to locals, __restrict
+// pointers, and no conditional work in the loops (values are computed
+// unconditionally and selected), which -ftrapping-math would otherwise keep
+// as branches.
 
-void ToneRow(const FrameConstants& k, int n, float* r, float* g, float* b,
-             float* ys_cd, float* yt_cd) {
+constexpr float kTiny = 1e-30f;
+
+void ToneRow(const FrameConstants& k, int n, float* __restrict r,
+             float* __restrict g, float* __restrict b, float* __restrict ys_cd,
+             float* __restrict yt_cd) {
+  const float src_cd = k.source_cd, dst_cd = k.display_cd;
+  if (!k.tone) {
+    for (int i = 0; i < n; ++i) {
+      const float lum = kLumR * r[i] + kLumG * g[i] + kLumB * b[i];
+      ys_cd[i] = lum * src_cd;
+      yt_cd[i] = lum * dst_cd;
+    }
+    return;
+  }
   const float l10_2 = static_cast<float>(kLog10Of2);
   const float l2_10 = static_cast<float>(kLog2Of10);
-  const float* y = k.tone_y.data();
+  const float lo = k.tone_lo, inv_step = k.tone_inv_step, step = k.tone_step;
+  const float black = k.tone_black, l10_src = k.log10_source_cd;
+  const float top = static_cast<float>(ToneCurve::kBins);
+  // Pass 1 (vectorised): bin coordinate u of log10 source luminance.
   for (int i = 0; i < n; ++i) {
     const float lum = kLumR * r[i] + kLumG * g[i] + kLumB * b[i];
-    float scale = 1.0f;
-    float yt = lum * k.display_cd;
-    if (k.tone) {
-      const float x = FastLog2(lum) * l10_2 + k.log10_source_cd;
-      float u = (x - k.tone_lo) * k.tone_inv_step;
-      u = std::min(u, static_cast<float>(ToneCurve::kBins));
-      float ylog;
-      if (u < 0.0f) {
-        ylog = std::max(y[0] + u * k.tone_step, k.tone_black);
-      } else {
-        const int j = std::min(static_cast<int>(u), ToneCurve::kBins - 1);
-        const float f = u - static_cast<float>(j);
-        ylog = y[j] + (y[j + 1] - y[j]) * f;
-      }
-      yt = FastExp2(ylog * l2_10);
-      scale = lum > 0.0f ? yt / (lum * k.display_cd) : 0.0f;
-      yt = lum > 0.0f ? yt : 0.0f;
-    }
+    ys_cd[i] = lum * src_cd;
+    const float x = FastLog2(lum) * l10_2 + l10_src;
+    yt_cd[i] = std::min((x - lo) * inv_step, top);
+  }
+  // Pass 2 (table lookups): log10 target luminance.
+  const float* y = k.tone_y.data();
+  for (int i = 0; i < n; ++i) {
+    const float u = yt_cd[i];
+    const float uc = std::max(u, 0.0f);
+    const int j = std::min(static_cast<int>(uc), ToneCurve::kBins - 1);
+    const float f = uc - static_cast<float>(j);
+    const float inside = y[j] + (y[j + 1] - y[j]) * f;
+    const float below = std::max(y[0] + u * step, black);
+    yt_cd[i] = u < 0.0f ? below : inside;
+  }
+  // Pass 3 (vectorised): scale colours to the target luminance.
+  const float inv_dst = 1.0f / dst_cd;
+  for (int i = 0; i < n; ++i) {
+    const float lum_cd = ys_cd[i];
+    const float yt = FastExp2(yt_cd[i] * l2_10);
+    const float ratio = yt * inv_dst * src_cd / std::max(lum_cd, kTiny);
+    const bool lit = lum_cd > 0.0f;
+    const float scale = lit ? ratio : 0.0f;
+    yt_cd[i] = lit ? yt : 0.0f;
     r[i] *= scale;
     g[i] *= scale;
     b[i] *= scale;
-    ys_cd[i] = lum * k.source_cd;
-    yt_cd[i] = yt;
   }
 }
 
-void ShinRow(const FrameConstants& k, int n, float* r, float* g, float* b) {
+// `x` is scratch space of n floats.
+void ShinRow(const FrameConstants& k, int n, float* __restrict r,
+             float* __restrict g, float* __restrict b, float* __restrict x,
+             float* __restrict tt) {
   constexpr float kG = static_cast<float>(kGamma);
-  constexpr float kInvGm1 = static_cast<float>(1.0 / kGamma - 1.0);
   constexpr float kInvG = static_cast<float>(1.0 / kGamma);
-  const float k1 = k.k1, k2 = k.k2;
+  const float k1 = k.k1, k2 = k.k2, k2g = k.k2 * kG;
+  const float w0 = k.w[0], w1 = k.w[1], w2 = k.w[2];
+  const float dc0 = k.d_c[0], dc1 = k.d_c[1], dc2 = k.d_c[2], dt = k.d_t;
+  const std::array<float, 9> m = k.n;
+  const std::array<float, 3> nt = k.n_t, ns = k.n_s, nv = k.n_v;
+  const float lo = static_cast<float>(kSolveLo);
+  const float inv_dx =
+      static_cast<float>((kSolveNodes - 1) / (kSolveHi - kSolveLo));
+  const float dx =
+      static_cast<float>((kSolveHi - kSolveLo) / (kSolveNodes - 1));
+  const float umax = static_cast<float>(kSolveNodes - 1);
+  // Pass 1 (vectorised): forward model, t = Y'^gamma, and the bin
+  // coordinate of log2 d.
+  for (int i = 0; i < n; ++i) {
+    const float y = std::max(w0 * r[i] + w1 * g[i] + w2 * b[i], 0.0f);
+    const float t = FastPow(y, kG);
+    tt[i] = t;
+    const float d = dc0 * r[i] + dc1 * g[i] + dc2 * b[i] + dt * t;
+    x[i] = (FastLog2(d) - lo) * inv_dx;  // d <= 0 gives a far-left value
+  }
+  // Pass 2 (table lookups): log2 s.
+  const float* tab = k.solve_log2_s.data();
+  const float lo_ls = k.solve_lo_ls, hi_ls = k.solve_hi_ls;
+  for (int i = 0; i < n; ++i) {
+    const float u = x[i];
+    const float uc = std::min(std::max(u, 0.0f), umax);
+    const int j = std::min(static_cast<int>(uc), kSolveNodes - 2);
+    const float f = uc - static_cast<float>(j);
+    const float inside = tab[j] + (tab[j + 1] - tab[j]) * f;
+    // Asymptotes: s ~ (d/k2)^(1/gamma) for small d, s ~ d/k1 for large d.
+    const float below = lo_ls + u * dx * (k2 > 0.0f ? kInvG : 1.0f);
+    const float above = hi_ls + (u - umax) * dx;
+    x[i] = u < 0.0f ? below : (u > umax ? above : inside);
+  }
+  // Pass 3 (vectorised): one Newton step on k1 s + k2 s^gamma = d, then
+  // the linear output map.
   for (int i = 0; i < n; ++i) {
     const float cr = r[i], cg = g[i], cb = b[i];
-    const float y = std::max(k.w[0] * cr + k.w[1] * cg + k.w[2] * cb, 0.0f);
-    const float t = FastPow(y, kG);
-    const float d = std::max(
-        k.d_c[0] * cr + k.d_c[1] * cg + k.d_c[2] * cb + k.d_t * t, 0.0f);
-    float s, v;
-    if (k2 > 0.0f) {
-      v = std::min(d / k2, FastPow(d / k1, kG));
-      float vp = 0.0f;
-      for (int it = 0; it < kNewtonIterations; ++it) {
-        vp = FastPow(v, kInvGm1);
-        const float fv = k1 * vp * v + k2 * v - d;
-        v = std::max(v - fv / (k1 * kInvG * vp + k2), 0.0f);
-      }
-      s = v * FastPow(v, kInvGm1);
-    } else {
-      s = d / k1;
-      v = FastPow(s, kG);
-    }
-    const float o0 = k.n[0] * cr + k.n[1] * cg + k.n[2] * cb + k.n_t[0] * t +
-                     k.n_s[0] * s + k.n_v[0] * v;
-    const float o1 = k.n[3] * cr + k.n[4] * cg + k.n[5] * cb + k.n_t[1] * t +
-                     k.n_s[1] * s + k.n_v[1] * v;
-    const float o2 = k.n[6] * cr + k.n[7] * cg + k.n[8] * cb + k.n_t[2] * t +
-                     k.n_s[2] * s + k.n_v[2] * v;
-    r[i] = o0;
-    g[i] = o1;
-    b[i] = o2;
+    const float t = tt[i];
+    const float d = std::max(dc0 * cr + dc1 * cg + dc2 * cb + dt * t, 0.0f);
+    const float ls = x[i];
+    float s = FastExp2(ls);
+    float v = FastExp2(kG * ls);
+    const float fs = k1 * s + k2 * v - d;
+    const float dfs = k1 + k2g * v / std::max(s, kTiny);
+    const float s_new = std::max(s - fs / dfs, 0.0f);
+    v = std::max(v + kG * v / std::max(s, kTiny) * (s_new - s), 0.0f);
+    s = s_new;
+    const bool dark = d <= 0.0f;
+    s = dark ? 0.0f : s;
+    v = dark ? 0.0f : v;
+    r[i] =
+        m[0] * cr + m[1] * cg + m[2] * cb + nt[0] * t + ns[0] * s + nv[0] * v;
+    g[i] =
+        m[3] * cr + m[4] * cg + m[5] * cb + nt[1] * t + ns[1] * s + nv[1] * v;
+    b[i] =
+        m[6] * cr + m[7] * cg + m[8] * cb + nt[2] * t + ns[2] * s + nv[2] * v;
   }
 }
 
-void WanatSaturationRow(const FrameConstants& k, int n, float* r, float* g,
-                        float* b, const float* ys_cd, const float* yt_cd) {
+void WanatSaturationRow(const FrameConstants& k, int n, float* __restrict r,
+                        float* __restrict g, float* __restrict b,
+                        const float* __restrict ys_cd,
+                        const float* __restrict yt_cd) {
+  const float kappa = k.kappa;
   for (int i = 0; i < n; ++i) {
     const float ys = ys_cd[i], yt = yt_cd[i];
-    const float s_src = ys / (ys + k.kappa);
-    const float s_dst = yt / (yt + k.kappa);
-    const float p = s_dst > 0.0f ? s_src / s_dst : 1.0f;
+    const float s_src = ys / (ys + kappa);
+    const float s_dst = yt / (yt + kappa);
+    const float p = s_dst > 0.0f ? s_src / std::max(s_dst, kTiny) : 1.0f;
     const float lum = kLumR * r[i] + kLumG * g[i] + kLumB * b[i];
-    const float inv = lum > 0.0f ? 1.0f / lum : 0.0f;
+    const float inv = lum > 0.0f ? 1.0f / std::max(lum, kTiny) : 0.0f;
     r[i] = lum * FastPow(r[i] * inv, p);
     g[i] = lum * FastPow(g[i] * inv, p);
     b[i] = lum * FastPow(b[i] * inv, p);
   }
 }
 
-void RodsRow(const FrameConstants& k, int n, float* r, float* g, float* b) {
-  const auto& m = k.rods;
+void RodsRow(const FrameConstants& k, int n, float* __restrict r,
+             float* __restrict g, float* __restrict b) {
+  const std::array<float, 9> m = k.rods;
   for (int i = 0; i < n; ++i) {
     const float cr = r[i], cg = g[i], cb = b[i];
     r[i] = m[0] * cr + m[1] * cg + m[2] * cb;
@@ -277,18 +361,22 @@ void RodsRow(const FrameConstants& k, int n, float* r, float* g, float* b) {
 
 inline float Clip01(float v) { return v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; }
 
+// Largest t in [0,1] keeping yc + t (c - yc) inside [0,1].
+inline float FitFactor(float c, float yc) {
+  const float hi = (1.0f - yc) / std::max(c - yc, kTiny);
+  const float lo = yc / std::max(yc - c, kTiny);
+  return c > 1.0f ? hi : (c < 0.0f ? lo : 1.0f);
+}
+
 // Pulls out-of-gamut colours towards the grey of the same (clipped)
 // luminance just enough to fit in [0,1]^3.
-void GamutRow(int n, float* r, float* g, float* b) {
+void GamutRow(int n, float* __restrict r, float* __restrict g,
+              float* __restrict b) {
   for (int i = 0; i < n; ++i) {
     const float cr = r[i], cg = g[i], cb = b[i];
     const float yc = Clip01(kLumR * cr + kLumG * cg + kLumB * cb);
-    float t = 1.0f;
-    for (float c : {cr, cg, cb}) {
-      const float hi = c > 1.0f ? (1.0f - yc) / std::max(c - yc, 1e-30f) : 1.0f;
-      const float lo = c < 0.0f ? yc / std::max(yc - c, 1e-30f) : 1.0f;
-      t = std::min(t, std::min(hi, lo));
-    }
+    const float t = std::min(std::min(FitFactor(cr, yc), FitFactor(cg, yc)),
+                             FitFactor(cb, yc));
     r[i] = Clip01(yc + t * (cr - yc));
     g[i] = Clip01(yc + t * (cg - yc));
     b[i] = Clip01(yc + t * (cb - yc));
@@ -411,12 +499,14 @@ absl::StatusOr<cv::Mat> Retarget(const cv::Mat& image,
 
     cv::Mat out(rows, cols, image.type());
     cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {
-      std::vector<float> buf(static_cast<size_t>(cols) * 5);
+      std::vector<float> buf(static_cast<size_t>(cols) * 7);
       float* r = buf.data();
       float* g = r + cols;
       float* b = g + cols;
       float* ys = b + cols;
       float* yt = ys + cols;
+      float* scratch1 = yt + cols;
+      float* scratch2 = scratch1 + cols;
       for (int y = range.start; y < range.end; ++y) {
         if (k.is_8bit) {
           const std::uint8_t* p = image.ptr<std::uint8_t>(y);
@@ -436,7 +526,7 @@ absl::StatusOr<cv::Mat> Retarget(const cv::Mat& image,
         ToneRow(k, cols, r, g, b, ys, yt);
         switch (k.method) {
           case Method::kShin:
-            ShinRow(k, cols, r, g, b);
+            ShinRow(k, cols, r, g, b, scratch1, scratch2);
             break;
           case Method::kWanatSaturation:
             WanatSaturationRow(k, cols, r, g, b, ys, yt);
