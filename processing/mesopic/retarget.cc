@@ -214,9 +214,20 @@ void PrepareRods(double lux_src, double lux_dst, FrameConstants& k) {
 
 constexpr float kTiny = 1e-30f;
 
-void ToneRow(const FrameConstants& k, int n, float* __restrict r,
-             float* __restrict g, float* __restrict b, float* __restrict ys_cd,
-             float* __restrict yt_cd) {
+// On x86-64 the row kernels are also compiled for AVX2+FMA and picked at
+// load time (GCC function multi-versioning); other targets use the baseline.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define HDRSTEREO_MESOPIC_KERNEL \
+  __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define HDRSTEREO_MESOPIC_KERNEL
+#endif
+
+HDRSTEREO_MESOPIC_KERNEL void ToneRow(const FrameConstants& k, int n,
+                                      float* __restrict r, float* __restrict g,
+                                      float* __restrict b,
+                                      float* __restrict ys_cd,
+                                      float* __restrict yt_cd) {
   const float src_cd = k.source_cd, dst_cd = k.display_cd;
   if (!k.tone) {
     for (int i = 0; i < n; ++i) {
@@ -265,9 +276,10 @@ void ToneRow(const FrameConstants& k, int n, float* __restrict r,
 }
 
 // `x` is scratch space of n floats.
-void ShinRow(const FrameConstants& k, int n, float* __restrict r,
-             float* __restrict g, float* __restrict b, float* __restrict x,
-             float* __restrict tt) {
+HDRSTEREO_MESOPIC_KERNEL void ShinRow(const FrameConstants& k, int n,
+                                      float* __restrict r, float* __restrict g,
+                                      float* __restrict b, float* __restrict x,
+                                      float* __restrict tt) {
   constexpr float kG = static_cast<float>(kGamma);
   constexpr float kInvG = static_cast<float>(1.0 / kGamma);
   const float k1 = k.k1, k2 = k.k2, k2g = k.k2 * kG;
@@ -330,10 +342,10 @@ void ShinRow(const FrameConstants& k, int n, float* __restrict r,
   }
 }
 
-void WanatSaturationRow(const FrameConstants& k, int n, float* __restrict r,
-                        float* __restrict g, float* __restrict b,
-                        const float* __restrict ys_cd,
-                        const float* __restrict yt_cd) {
+HDRSTEREO_MESOPIC_KERNEL void WanatSaturationRow(
+    const FrameConstants& k, int n, float* __restrict r, float* __restrict g,
+    float* __restrict b, const float* __restrict ys_cd,
+    const float* __restrict yt_cd) {
   const float kappa = k.kappa;
   for (int i = 0; i < n; ++i) {
     const float ys = ys_cd[i], yt = yt_cd[i];
@@ -348,8 +360,9 @@ void WanatSaturationRow(const FrameConstants& k, int n, float* __restrict r,
   }
 }
 
-void RodsRow(const FrameConstants& k, int n, float* __restrict r,
-             float* __restrict g, float* __restrict b) {
+HDRSTEREO_MESOPIC_KERNEL void RodsRow(const FrameConstants& k, int n,
+                                      float* __restrict r, float* __restrict g,
+                                      float* __restrict b) {
   const std::array<float, 9> m = k.rods;
   for (int i = 0; i < n; ++i) {
     const float cr = r[i], cg = g[i], cb = b[i];
@@ -370,8 +383,9 @@ inline float FitFactor(float c, float yc) {
 
 // Pulls out-of-gamut colours towards the grey of the same (clipped)
 // luminance just enough to fit in [0,1]^3.
-void GamutRow(int n, float* __restrict r, float* __restrict g,
-              float* __restrict b) {
+HDRSTEREO_MESOPIC_KERNEL void GamutRow(int n, float* __restrict r,
+                                       float* __restrict g,
+                                       float* __restrict b) {
   for (int i = 0; i < n; ++i) {
     const float cr = r[i], cg = g[i], cb = b[i];
     const float yc = Clip01(kLumR * cr + kLumG * cg + kLumB * cb);
