@@ -188,7 +188,8 @@ void PrepareShin(double lux_src, double lux_dst, bool anchor_white,
 
 // Rod-contribution retargeting matrix (Eq. 6.12 without the luminance
 // ratio, which the tone step already applied).
-void PrepareRods(double lux_src, double lux_dst, FrameConstants& k) {
+void PrepareRods(double lux_src, double lux_dst, bool anchor_white,
+                 FrameConstants& k) {
   const Mat3 lms = Multiply(kXyzToLms, kRgbToXyz);
   const Vec3 w = ScotopicWeights();
   auto mc_me = [&](double lux) {
@@ -201,8 +202,13 @@ void PrepareRods(double lux_src, double lux_dst, FrameConstants& k) {
     return m;
   };
   const Mat3 r = Multiply(Inverse(mc_me(lux_dst)), mc_me(lux_src));
+  const Vec3 white_out = Apply(r, {1.0, 1.0, 1.0});
   for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) k.rods[i * 3 + j] = static_cast<float>(r[i][j]);
+    const double gain =
+        anchor_white && white_out[i] > 1e-6 ? 1.0 / white_out[i] : 1.0;
+    for (int j = 0; j < 3; ++j) {
+      k.rods[i * 3 + j] = static_cast<float>(gain * r[i][j]);
+    }
   }
 }
 
@@ -509,7 +515,8 @@ absl::StatusOr<cv::Mat> Retarget(const cv::Mat& image,
     const double lux_dst = LuxFromWhiteLuminance(options.display_cd);
     if (k.method == Method::kShin)
       PrepareShin(lux_src, lux_dst, options.anchor_white, k);
-    if (k.method == Method::kRods) PrepareRods(lux_src, lux_dst, k);
+    if (k.method == Method::kRods)
+      PrepareRods(lux_src, lux_dst, options.anchor_white, k);
 
     cv::Mat out(rows, cols, image.type());
     cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {

@@ -50,12 +50,13 @@ struct RetargetOptions {
   bool tone_curve = true;            // global tone retargeting before colour
   double display_contrast = 1000.0;  // display peak / black (> 1)
   double saturation_kappa = 0.1;     // kappa of Eq. 6.9, cd/m^2 (> 0)
-  // Shin method only: scale the output channels so that the source white
-  // stays the display white. Eq. 6.2's opponent channels are not zero for
-  // white (L-2M and L+M-S of D65 are -0.04 and -0.09), so the level-dependent
-  // gains l(E), m(E) tint neutrals (about 6% less red for mid-grey at
-  // 2 cd/m^2); anchoring reduces that to about 1%. False gives Eqs. 6.2-6.5
-  // unmodified.
+  // Shin and rods methods: scale the output channels so that the source
+  // white stays the display white. Eq. 6.2's opponent channels are not zero
+  // for white (L-2M and L+M-S of D65 are -0.04 and -0.09), so the
+  // level-dependent gains l(E), m(E) tint neutrals (about 6% less red for
+  // mid-grey at 2 cd/m^2); anchoring reduces that to about 1%. Eq. 6.12
+  // likewise tints white (magenta with our kappa values); anchored it is
+  // exact for greys. False gives the equations unmodified.
   bool anchor_white = true;
 };
 

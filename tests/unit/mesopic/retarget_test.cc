@@ -231,6 +231,13 @@ TEST(RetargetTest, WhiteAnchoringKeepsNeutralsNeutral) {
   EXPECT_GT(r[0] - r[2], 0.02f);  // B - R
   EXPECT_LT(std::abs(a[0] - a[2]) / a[1], 0.015f);
   EXPECT_LT(std::abs(a[1] - a[2]) / a[1], 0.015f);
+  // The rod model is linear: anchored, greys stay exactly grey.
+  auto rods = Retarget(grey, Opts(200.0, 2.0, Method::kRods, false));
+  ASSERT_TRUE(rods.ok());
+  const cv::Vec3f g = rods->at<cv::Vec3f>(1, 1);
+  EXPECT_NEAR(g[0], 0.5f, 1e-5);
+  EXPECT_NEAR(g[1], 0.5f, 1e-5);
+  EXPECT_NEAR(g[2], 0.5f, 1e-5);
 }
 
 }  // namespace
