@@ -432,6 +432,16 @@ absl::Status ValidateOptions(const RetargetOptions& o) {
 
 absl::StatusOr<cv::Mat> Retarget(const cv::Mat& image,
                                  const RetargetOptions& options) {
+  cv::Mat out;
+  if (absl::Status s = RetargetInto(image, options, &out); !s.ok()) return s;
+  return out;
+}
+
+absl::Status RetargetInto(const cv::Mat& image, const RetargetOptions& options,
+                          cv::Mat* out_ptr) {
+  if (out_ptr == nullptr) {
+    return absl::InvalidArgumentError("mesopic retarget: null output");
+  }
   if (image.empty()) {
     return absl::InvalidArgumentError("mesopic retarget: input image is empty");
   }
@@ -518,7 +528,12 @@ absl::StatusOr<cv::Mat> Retarget(const cv::Mat& image,
     if (k.method == Method::kRods)
       PrepareRods(lux_src, lux_dst, options.anchor_white, k);
 
-    cv::Mat out(rows, cols, image.type());
+    if (out_ptr->data != nullptr && out_ptr->datastart == image.datastart) {
+      return absl::InvalidArgumentError(
+          "mesopic retarget: output must not share data with the input");
+    }
+    out_ptr->create(rows, cols, image.type());
+    cv::Mat& out = *out_ptr;
     cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {
       std::vector<float> buf(static_cast<size_t>(cols) * 7);
       float* r = buf.data();
@@ -577,7 +592,7 @@ absl::StatusOr<cv::Mat> Retarget(const cv::Mat& image,
         }
       }
     });
-    return out;
+    return absl::OkStatus();
   } catch (const cv::Exception& e) {
     return absl::InternalError(
         absl::StrCat("mesopic retarget: OpenCV error: ", e.what()));

@@ -67,6 +67,12 @@ struct RetargetOptions {
 absl::StatusOr<cv::Mat> Retarget(const cv::Mat& image,
                                  const RetargetOptions& options);
 
+// Same, writing into `*out` (reallocated only if its size or type differ),
+// for video where the output buffer is reused frame after frame. `out` must
+// not share data with `image`.
+absl::Status RetargetInto(const cv::Mat& image, const RetargetOptions& options,
+                          cv::Mat* out);
+
 }  // namespace hdrstereo::mesopic
 
 #endif  // HDRSTEREO_PROCESSING_MESOPIC_RETARGET_H_

@@ -47,6 +47,21 @@ void BM_Retarget(benchmark::State& state, Method method, bool tone, int type) {
   }
 }
 
+// Reusing the output buffer, as a video pipeline would.
+void BM_RetargetInto(benchmark::State& state, Method method, int type) {
+  cv::setNumThreads(2);
+  const cv::Mat frame = TestFrame(type);
+  hdrstereo::mesopic::RetargetOptions opt;
+  opt.method = method;
+  cv::Mat out;
+  for (auto _ : state) {
+    if (!hdrstereo::mesopic::RetargetInto(frame, opt, &out).ok()) {
+      state.SkipWithError("retarget failed");
+    }
+    benchmark::DoNotOptimize(out.data);
+  }
+}
+
 void BM_PeerCvtColorLab(benchmark::State& state, int type) {
   cv::setNumThreads(2);
   const cv::Mat frame = TestFrame(type);
@@ -85,6 +100,12 @@ BENCHMARK_CAPTURE(BM_Retarget, rods_tone_f32, Method::kRods, true, CV_32FC3)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK_CAPTURE(BM_Retarget, none_tone_f32, Method::kNone, true, CV_32FC3)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_RetargetInto, shin_tone_f32, Method::kShin, CV_32FC3)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_RetargetInto, shin_tone_u8, Method::kShin, CV_8UC3)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK_CAPTURE(BM_PeerCvtColorLab, f32, CV_32FC3)

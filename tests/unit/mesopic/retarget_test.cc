@@ -198,6 +198,23 @@ TEST(RetargetTest, FuzzNeverProducesNaNOrOutOfRange) {
   }
 }
 
+TEST(RetargetTest, RetargetIntoReusesTheBufferAndMatchesRetarget) {
+  const cv::Mat in = RandomFloat(30, 40, 0.0f, 1.0f, 9);
+  const RetargetOptions o = Opts(200.0, 2.0, Method::kShin, true);
+  cv::Mat out(30, 40, CV_32FC3);
+  const uchar* buffer = out.data;
+  ASSERT_TRUE(RetargetInto(in, o, &out).ok());
+  EXPECT_EQ(out.data, buffer);
+  auto ref = Retarget(in, o);
+  ASSERT_TRUE(ref.ok());
+  EXPECT_EQ(cv::norm(out, *ref, cv::NORM_INF), 0.0);
+  EXPECT_EQ(RetargetInto(in, o, nullptr).code(),
+            absl::StatusCode::kInvalidArgument);
+  cv::Mat alias = in;
+  EXPECT_EQ(RetargetInto(in, o, &alias).code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
 TEST(RetargetTest, EightBitPassThroughAndToneCurveMonotone) {
   cv::Mat ramp(1, 256, CV_8UC3);
   for (int x = 0; x < 256; ++x) ramp.at<cv::Vec3b>(0, x) = cv::Vec3b::all(x);
