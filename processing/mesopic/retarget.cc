@@ -55,6 +55,10 @@ constexpr float kLumR = 0.2126f, kLumG = 0.7152f, kLumB = 0.0722f;
 constexpr double kLog10Of2 = 0.30102999566398120;
 constexpr double kLog2Of10 = 3.32192809488736235;
 constexpr int kEncodeLutSize = 16384;
+// Float input is clamped to [0, kMaxInput] x source white; luminances are
+// limited to kMaxLuminance cd/m^2 so that products stay finite in float.
+constexpr float kMaxInput = 1e9f;
+constexpr double kMaxLuminance = 1e9;
 // The inverse model's scotopic luminance s solves k1 s + k2 s^gamma = d, a
 // frame-constant monotone function of d. It is tabulated as log2 s over
 // log2 d (kSolveNodes nodes on [kSolveLo, kSolveHi], asymptotic slopes
@@ -75,11 +79,37 @@ double LinearToSrgb(double v) {
   return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
 }
 
+// sRGB decode (8-bit -> linear) and encode (linear in [0,1] sampled at
+// kEncodeLutSize points -> 8-bit) tables, built once.
+const std::array<float, 256>& DecodeLut() {
+  static const std::array<float, 256> lut = [] {
+    std::array<float, 256> t;
+    for (int v = 0; v < 256; ++v) {
+      t[v] = static_cast<float>(SrgbToLinear(v / 255.0));
+    }
+    return t;
+  }();
+  return lut;
+}
+
+const std::vector<std::uint8_t>& EncodeLut() {
+  static const std::vector<std::uint8_t> lut = [] {
+    std::vector<std::uint8_t> t(kEncodeLutSize);
+    for (int i = 0; i < kEncodeLutSize; ++i) {
+      const double v = LinearToSrgb(i / double(kEncodeLutSize - 1));
+      t[i] = static_cast<std::uint8_t>(
+          std::clamp(std::lround(v * 255.0), 0L, 255L));
+    }
+    return t;
+  }();
+  return lut;
+}
+
 // Everything that is constant over one frame.
 struct FrameConstants {
   bool is_8bit = false;
-  std::array<float, 256> decode{};
-  std::vector<std::uint8_t> encode;
+  const std::array<float, 256>& decode = DecodeLut();
+  const std::vector<std::uint8_t>& encode = EncodeLut();
 
   bool tone = false;
   float source_cd = 1.0f, display_cd = 1.0f;
@@ -405,6 +435,12 @@ HDRSTEREO_MESOPIC_KERNEL void GamutRow(int n, float* __restrict r,
 
 absl::Status ValidateOptions(const RetargetOptions& o) {
   auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  if (!(o.display_cd <= kMaxLuminance) || !(o.source_cd <= kMaxLuminance)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("luminances above ", kMaxLuminance,
+                     " cd/m^2 are not supported (display ", o.display_cd,
+                     ", source ", o.source_cd, ")"));
+  }
   if (!positive(o.display_cd)) {
     return absl::InvalidArgumentError(
         absl::StrCat("display luminance must be a positive number of cd/m^2, "
@@ -462,17 +498,6 @@ absl::Status RetargetInto(const cv::Mat& image, const RetargetOptions& options,
     }
     FrameConstants k;
     k.is_8bit = image.depth() == CV_8U;
-    for (int v = 0; v < 256; ++v) {
-      k.decode[v] = static_cast<float>(SrgbToLinear(v / 255.0));
-    }
-    if (k.is_8bit) {
-      k.encode.resize(kEncodeLutSize);
-      for (int i = 0; i < kEncodeLutSize; ++i) {
-        const double v = LinearToSrgb(i / double(kEncodeLutSize - 1));
-        k.encode[i] = static_cast<std::uint8_t>(
-            std::clamp(std::lround(v * 255.0), 0L, 255L));
-      }
-    }
     k.source_cd = static_cast<float>(options.source_cd);
     k.display_cd = static_cast<float>(options.display_cd);
     k.log10_source_cd = static_cast<float>(std::log10(options.source_cd));
@@ -489,9 +514,9 @@ absl::Status RetargetInto(const cv::Mat& image, const RetargetOptions& options,
         r = k.decode[p[2]];
       } else {
         const auto& p = image.at<cv::Vec3f>(y, x);
-        b = std::max(p[0], 0.0f);
-        g = std::max(p[1], 0.0f);
-        r = std::max(p[2], 0.0f);
+        b = std::clamp(p[0], 0.0f, kMaxInput);
+        g = std::clamp(p[1], 0.0f, kMaxInput);
+        r = std::clamp(p[2], 0.0f, kMaxInput);
       }
     };
 
@@ -499,17 +524,20 @@ absl::Status RetargetInto(const cv::Mat& image, const RetargetOptions& options,
       // Histogram sample: every 4th pixel of every 4th row.
       std::vector<float> samples;
       samples.reserve(static_cast<size_t>((rows / 4 + 1) * (cols / 4 + 1)));
-      float max_rel = 1.0f;
       for (int y = 0; y < rows; y += 4) {
         for (int x = 0; x < cols; x += 4) {
           float r, g, b;
           load_pixel(y, x, r, g, b);
-          const float lum = kLumR * r + kLumG * g + kLumB * b;
-          max_rel = std::max(max_rel, lum);
-          samples.push_back(lum * k.source_cd);
+          samples.push_back((kLumR * r + kLumG * g + kLumB * b) * k.source_cd);
         }
       }
-      const double peak = options.source_cd * max_rel;
+      // Peak: the source white, or the 99.9th percentile of HDR input above
+      // it (brighter highlights clip to the display white).
+      std::vector<float> sorted = samples;
+      const auto nth = sorted.begin() + (sorted.size() * 999) / 1000;
+      std::nth_element(sorted.begin(), nth, sorted.end());
+      const double peak =
+          std::max(options.source_cd, static_cast<double>(*nth));
       const ToneCurve curve =
           ToneCurve::Build(samples, peak, options.display_cd,
                            options.display_cd / options.display_contrast);
@@ -554,9 +582,9 @@ absl::Status RetargetInto(const cv::Mat& image, const RetargetOptions& options,
         } else {
           const float* p = image.ptr<float>(y);
           for (int x = 0; x < cols; ++x) {
-            b[x] = std::max(p[3 * x], 0.0f);
-            g[x] = std::max(p[3 * x + 1], 0.0f);
-            r[x] = std::max(p[3 * x + 2], 0.0f);
+            b[x] = std::clamp(p[3 * x], 0.0f, kMaxInput);
+            g[x] = std::clamp(p[3 * x + 1], 0.0f, kMaxInput);
+            r[x] = std::clamp(p[3 * x + 2], 0.0f, kMaxInput);
           }
         }
         ToneRow(k, cols, r, g, b, ys, yt);

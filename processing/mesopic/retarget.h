@@ -14,7 +14,9 @@
 //
 // Images are OpenCV 3-channel BGR. CV_8UC3 is taken as sRGB-encoded and
 // returned sRGB-encoded; CV_32FC3 is taken as linear with 1.0 = source white
-// (values above 1 are allowed; negatives are treated as 0) and returned
+// (values above 1 are allowed up to 1e9; negatives are treated as 0; the
+// tone curve maps max(source white, 99.9th percentile) to the display
+// white) and returned
 // linear relative to the display white, in [0, 1].
 //
 // Gamut: out-of-range results are pulled towards the grey of the same

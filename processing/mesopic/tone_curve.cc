@@ -23,7 +23,7 @@ ToneCurve ToneCurve::Build(std::span<const float> source_cd,
   double lo = hi - 6.0;
   double darkest = source_peak_cd;
   for (float v : source_cd) {
-    if (v > 0.0f && v < darkest) darkest = v;
+    if (v > 0.0f && v < darkest) darkest = v;  // NaN compares false
   }
   lo = std::max(lo, std::log10(darkest));
   if (hi - lo < 1e-3) lo = hi - 1e-3;
@@ -33,7 +33,7 @@ ToneCurve ToneCurve::Build(std::span<const float> source_cd,
 
   std::vector<double> hist(kBins, 0.0);
   for (float v : source_cd) {
-    if (!(v > 0.0f)) continue;
+    if (!(v > 0.0f) || !std::isfinite(v)) continue;
     const int bin = static_cast<int>((std::log10(v) - lo) / t.step_);
     hist[std::clamp(bin, 0, kBins - 1)] += 1.0;
   }

@@ -34,9 +34,10 @@ class ToneCurve {
  public:
   static constexpr int kBins = 64;
 
-  // `source_cd` samples of source luminance (non-positive ones are ignored);
-  // `source_peak_cd` the source luminance mapped to `display_cd`;
-  // `display_black_cd` the darkest luminance the display shows.
+  // `source_cd` samples of source luminance (non-positive and non-finite
+  // ones are ignored); `source_peak_cd` the source luminance mapped to
+  // `display_cd`; `display_black_cd` the darkest luminance the display
+  // shows. The three luminances must be positive and finite.
   static ToneCurve Build(std::span<const float> source_cd,
                          double source_peak_cd, double display_cd,
                          double display_black_cd);

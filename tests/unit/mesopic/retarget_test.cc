@@ -80,6 +80,9 @@ TEST(RetargetTest, RejectsBadImagesAndOptions) {
   RetargetOptions o;
   o.display_contrast = 1.0;
   expect_invalid(Retarget(img, o));
+  o = RetargetOptions();
+  o.source_cd = 1e12;
+  expect_invalid(Retarget(img, o));
 }
 
 // Forward then inverse at the same luminance through the fast float kernel
@@ -165,8 +168,10 @@ TEST(RetargetTest, FuzzNeverProducesNaNOrOutOfRange) {
       for (int c = 0; c < 3; ++c) p[c] = specials[rng.uniform(0, 10)];
     }
   }
-  in.at<cv::Vec3f>(0, 1) = cv::Vec3f(0, 0, 1e30f);  // saturated red
-  in.at<cv::Vec3f>(0, 3) = cv::Vec3f(1, 0, 0);      // saturated blue
+  in.at<cv::Vec3f>(0, 1) = cv::Vec3f(0, 0, 1e30f);   // saturated red
+  in.at<cv::Vec3f>(0, 3) = cv::Vec3f(1, 0, 0);       // saturated blue
+  in.at<cv::Vec3f>(0, 5) = cv::Vec3f::all(3.4e38f);  // FLT_MAX-ish white
+  in.at<cv::Vec3f>(4, 4) = cv::Vec3f::all(3.4e38f);  // in the tone sample
   const cv::Mat black(8, 8, CV_32FC3, cv::Scalar::all(0));
   const cv::Mat tiny(8, 8, CV_32FC3, cv::Scalar::all(1e-20));
   cv::Mat in8(48, 48, CV_8UC3);
@@ -175,18 +180,20 @@ TEST(RetargetTest, FuzzNeverProducesNaNOrOutOfRange) {
   for (Method m : {Method::kNone, Method::kShin, Method::kWanatSaturation,
                    Method::kRods}) {
     for (bool tone : {false, true}) {
-      for (double dst : {1e-4, 0.05, 2.0, 300.0, 1e5}) {
+      for (double dst : {1e-4, 0.05, 2.0, 300.0, 1e5, 1e9}) {
         for (const cv::Mat& img : {in, black, tiny}) {
-          auto out = Retarget(img, Opts(200.0, dst, m, tone));
-          ASSERT_TRUE(out.ok()) << out.status();
-          ASSERT_EQ(out->type(), CV_32FC3);
-          ASSERT_EQ(out->size(), img.size());
-          for (int y = 0; y < out->rows; ++y) {
-            const float* p = out->ptr<float>(y);
-            for (int i = 0; i < out->cols * 3; ++i) {
-              ASSERT_TRUE(p[i] >= 0.0f && p[i] <= 1.0f)
-                  << MethodName(m) << " tone " << tone << " dst " << dst
-                  << " value " << p[i];
+          for (double src : {200.0, 1e-3, 1e9}) {
+            auto out = Retarget(img, Opts(src, dst, m, tone));
+            ASSERT_TRUE(out.ok()) << out.status();
+            ASSERT_EQ(out->type(), CV_32FC3);
+            ASSERT_EQ(out->size(), img.size());
+            for (int y = 0; y < out->rows; ++y) {
+              const float* p = out->ptr<float>(y);
+              for (int i = 0; i < out->cols * 3; ++i) {
+                ASSERT_TRUE(p[i] >= 0.0f && p[i] <= 1.0f)
+                    << MethodName(m) << " tone " << tone << " dst " << dst
+                    << " src " << src << " value " << p[i];
+              }
             }
           }
         }
