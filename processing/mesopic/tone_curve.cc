@@ -17,6 +17,13 @@ double G(double cd) { return std::log10(1.0 + ContrastThreshold(cd)); }
 ToneCurve ToneCurve::Build(std::span<const float> source_cd,
                            double source_peak_cd, double display_cd,
                            double display_black_cd) {
+  // Defensive defaults: callers should pass positive finite luminances.
+  auto usable = [](double v) { return std::isfinite(v) && v > 0.0; };
+  if (!usable(source_peak_cd)) source_peak_cd = 1.0;
+  if (!usable(display_cd)) display_cd = 1.0;
+  if (!usable(display_black_cd) || display_black_cd >= display_cd) {
+    display_black_cd = display_cd * 1e-3;
+  }
   ToneCurve t;
   const double hi = std::log10(source_peak_cd);
   // Source range: down to the darkest sample, at most 6 decades.

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <vector>
 
 namespace hdrstereo::mesopic {
@@ -74,6 +75,16 @@ TEST(ToneCurveTest, DegenerateInputsGiveAFiniteCurve) {
       const double t = c.Map(cd);
       EXPECT_TRUE(std::isfinite(t));
       EXPECT_LE(t, 2.0 + 1e-9);
+    }
+  }
+  const double inf = std::numeric_limits<double>::infinity();
+  const std::vector<float> weird = {std::numeric_limits<float>::quiet_NaN(),
+                                    std::numeric_limits<float>::infinity(),
+                                    1.0f};
+  for (double peak : {inf, -1.0, 0.0, 100.0}) {
+    const ToneCurve c = ToneCurve::Build(weird, peak, 2.0, inf);
+    for (double cd : {1e-9, 0.5, 5.0, 1e9}) {
+      EXPECT_TRUE(std::isfinite(c.Map(cd)));
     }
   }
 }
