@@ -285,26 +285,30 @@ HDRSTEREO_MESOPIC_KERNEL void ToneRow(const FrameConstants& k, int n,
     const float x = FastLog2(lum) * l10_2 + l10_src;
     yt_cd[i] = std::min((x - lo) * inv_step, top);
   }
-  // Pass 2 (table lookups): log10 target luminance.
+  // Pass 2 (table lookups; AVX2 gathers in that clone): log10 target
+  // luminance. 0/1 masks instead of selects keep it vectorisable.
   const float* y = k.tone_y.data();
+  const float y0 = y[0];
   for (int i = 0; i < n; ++i) {
     const float u = yt_cd[i];
     const float uc = std::max(u, 0.0f);
     const int j = std::min(static_cast<int>(uc), ToneCurve::kBins - 1);
     const float f = uc - static_cast<float>(j);
     const float inside = y[j] + (y[j + 1] - y[j]) * f;
-    const float below = std::max(y[0] + u * step, black);
-    yt_cd[i] = u < 0.0f ? below : inside;
+    const float below = std::max(y0 + u * step, black);
+    const float neg = u < 0.0f ? 1.0f : 0.0f;
+    yt_cd[i] = inside + neg * (below - inside);
   }
   // Pass 3 (vectorised): scale colours to the target luminance.
   const float inv_dst = 1.0f / dst_cd;
   for (int i = 0; i < n; ++i) {
     const float lum_cd = ys_cd[i];
     const float yt = FastExp2(yt_cd[i] * l2_10);
-    const float ratio = yt * inv_dst * src_cd / std::max(lum_cd, kTiny);
-    const bool lit = lum_cd > 0.0f;
-    const float scale = lit ? ratio : 0.0f;
-    yt_cd[i] = lit ? yt : 0.0f;
+    // Multiplying by a 0/1 mask (not selecting) keeps the AVX2 clone
+    // vectorised.
+    const float lit = lum_cd > 0.0f ? 1.0f : 0.0f;
+    const float scale = lit * yt * inv_dst * src_cd / std::max(lum_cd, kTiny);
+    yt_cd[i] = lit * yt;
     r[i] *= scale;
     g[i] *= scale;
     b[i] *= scale;
@@ -338,19 +342,22 @@ HDRSTEREO_MESOPIC_KERNEL void ShinRow(const FrameConstants& k, int n,
     const float d = dc0 * r[i] + dc1 * g[i] + dc2 * b[i] + dt * t;
     x[i] = (FastLog2(d) - lo) * inv_dx;  // d <= 0 gives a far-left value
   }
-  // Pass 2 (table lookups): log2 s.
+  // Pass 2 (table lookups; AVX2 gathers in that clone): log2 s.
   const float* tab = k.solve_log2_s.data();
   const float lo_ls = k.solve_lo_ls, hi_ls = k.solve_hi_ls;
+  // Asymptotes: s ~ (d/k2)^(1/gamma) for small d, s ~ d/k1 for large d.
+  const float slope_lo = dx * (k2 > 0.0f ? kInvG : 1.0f);
   for (int i = 0; i < n; ++i) {
     const float u = x[i];
     const float uc = std::min(std::max(u, 0.0f), umax);
     const int j = std::min(static_cast<int>(uc), kSolveNodes - 2);
     const float f = uc - static_cast<float>(j);
     const float inside = tab[j] + (tab[j + 1] - tab[j]) * f;
-    // Asymptotes: s ~ (d/k2)^(1/gamma) for small d, s ~ d/k1 for large d.
-    const float below = lo_ls + u * dx * (k2 > 0.0f ? kInvG : 1.0f);
+    const float below = lo_ls + u * slope_lo;
     const float above = hi_ls + (u - umax) * dx;
-    x[i] = u < 0.0f ? below : (u > umax ? above : inside);
+    const float neg = u < 0.0f ? 1.0f : 0.0f;
+    const float over = u > umax ? 1.0f : 0.0f;
+    x[i] = inside + neg * (below - inside) + over * (above - inside);
   }
   // Pass 3 (vectorised): one Newton step on k1 s + k2 s^gamma = d, then
   // the linear output map.
