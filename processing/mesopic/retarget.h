@@ -16,8 +16,11 @@
 // returned sRGB-encoded; CV_32FC3 is taken as linear with 1.0 = source white
 // (values above 1 are allowed up to 1e9; negatives are treated as 0; the
 // tone curve maps max(source white, 99.9th percentile) to the display
-// white) and returned
-// linear relative to the display white, in [0, 1].
+// white) and returned linear relative to the display white, in [0, 1].
+//
+// Colour retargeting works on the tone-mapped colours: the Shin model is
+// evaluated at the source level E = pi * source_cd and inverted at the
+// display level E' = pi * display_cd (see docs/mesopic.md).
 //
 // Gamut: out-of-range results are pulled towards the grey of the same
 // luminance (hue and luminance kept, chroma reduced) just enough to fit;
@@ -27,6 +30,7 @@
 
 #include <string>
 
+#include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "opencv2/core.hpp"
