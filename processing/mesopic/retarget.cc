@@ -3,8 +3,10 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -417,13 +419,6 @@ HDRSTEREO_MESOPIC_KERNEL void RodsRow(const FrameConstants& k, int n,
 
 inline float Clip01(float v) { return v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; }
 
-// Largest t in [0,1] keeping yc + t (c - yc) inside [0,1].
-inline float FitFactor(float c, float yc) {
-  const float hi = (1.0f - yc) / std::max(c - yc, kTiny);
-  const float lo = yc / std::max(yc - c, kTiny);
-  return c > 1.0f ? hi : (c < 0.0f ? lo : 1.0f);
-}
-
 // Pulls out-of-gamut colours towards the grey of the same (clipped)
 // luminance just enough to fit in [0,1]^3.
 HDRSTEREO_MESOPIC_KERNEL void GamutRow(int n, float* __restrict r,
@@ -432,12 +427,32 @@ HDRSTEREO_MESOPIC_KERNEL void GamutRow(int n, float* __restrict r,
   for (int i = 0; i < n; ++i) {
     const float cr = r[i], cg = g[i], cb = b[i];
     const float yc = Clip01(kLumR * cr + kLumG * cg + kLumB * cb);
-    const float t = std::min(std::min(FitFactor(cr, yc), FitFactor(cg, yc)),
-                             FitFactor(cb, yc));
+    // Largest t in [0,1] keeping yc + t (c - yc) in [0,1] for every channel:
+    // only the largest and the smallest channel can bind.
+    const float mx = std::max(std::max(cr, cg), cb);
+    const float mn = std::min(std::min(cr, cg), cb);
+    const float t_hi =
+        mx > 1.0f ? (1.0f - yc) / std::max(mx - yc, kTiny) : 1.0f;
+    const float t_lo = mn < 0.0f ? yc / std::max(yc - mn, kTiny) : 1.0f;
+    const float t = std::min(t_hi, t_lo);
     r[i] = Clip01(yc + t * (cr - yc));
     g[i] = Clip01(yc + t * (cg - yc));
     b[i] = Clip01(yc + t * (cb - yc));
   }
+}
+
+// [0, kMaxInput]; NaN gives 0.
+inline float ClampInput(float v) {
+  return v > 0.0f ? std::min(v, kMaxInput) : 0.0f;
+}
+
+// True if none of the n values is NaN or infinite (vectorisable OR).
+HDRSTEREO_MESOPIC_KERNEL bool AllFinite(const float* __restrict p, int n) {
+  int bad = 0;
+  for (int i = 0; i < n; ++i) {
+    bad |= !(std::abs(p[i]) <= std::numeric_limits<float>::max());
+  }
+  return bad == 0;
 }
 
 absl::Status ValidateOptions(const RetargetOptions& o) {
@@ -499,10 +514,6 @@ absl::Status RetargetInto(const cv::Mat& image, const RetargetOptions& options,
   }
   if (absl::Status s = ValidateOptions(options); !s.ok()) return s;
   try {
-    if (image.depth() == CV_32F && !cv::checkRange(image, true)) {
-      return absl::InvalidArgumentError(
-          "mesopic retarget: input contains NaN or infinite values");
-    }
     FrameConstants k;
     k.is_8bit = image.depth() == CV_8U;
     k.source_cd = static_cast<float>(options.source_cd);
@@ -521,9 +532,9 @@ absl::Status RetargetInto(const cv::Mat& image, const RetargetOptions& options,
         r = k.decode[p[2]];
       } else {
         const auto& p = image.at<cv::Vec3f>(y, x);
-        b = std::clamp(p[0], 0.0f, kMaxInput);
-        g = std::clamp(p[1], 0.0f, kMaxInput);
-        r = std::clamp(p[2], 0.0f, kMaxInput);
+        b = ClampInput(p[0]);
+        g = ClampInput(p[1]);
+        r = ClampInput(p[2]);
       }
     };
 
@@ -569,6 +580,9 @@ absl::Status RetargetInto(const cv::Mat& image, const RetargetOptions& options,
     }
     out_ptr->create(rows, cols, image.type());
     cv::Mat& out = *out_ptr;
+    // NaN/Inf input is detected while reading rows (cheaper than a separate
+    // cv::checkRange pass); the (meaningless) output is then discarded.
+    std::atomic<bool> non_finite{false};
     cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {
       std::vector<float> buf(static_cast<size_t>(cols) * 7);
       float* r = buf.data();
@@ -588,10 +602,13 @@ absl::Status RetargetInto(const cv::Mat& image, const RetargetOptions& options,
           }
         } else {
           const float* p = image.ptr<float>(y);
+          if (!AllFinite(p, 3 * cols)) {
+            non_finite.store(true, std::memory_order_relaxed);
+          }
           for (int x = 0; x < cols; ++x) {
-            b[x] = std::clamp(p[3 * x], 0.0f, kMaxInput);
-            g[x] = std::clamp(p[3 * x + 1], 0.0f, kMaxInput);
-            r[x] = std::clamp(p[3 * x + 2], 0.0f, kMaxInput);
+            b[x] = ClampInput(p[3 * x]);
+            g[x] = ClampInput(p[3 * x + 1]);
+            r[x] = ClampInput(p[3 * x + 2]);
           }
         }
         ToneRow(k, cols, r, g, b, ys, yt);
@@ -627,6 +644,10 @@ absl::Status RetargetInto(const cv::Mat& image, const RetargetOptions& options,
         }
       }
     });
+    if (non_finite.load()) {
+      return absl::InvalidArgumentError(
+          "mesopic retarget: input contains NaN or infinite values");
+    }
     return absl::OkStatus();
   } catch (const cv::Exception& e) {
     return absl::InternalError(

@@ -75,7 +75,8 @@ absl::StatusOr<cv::Mat> Retarget(const cv::Mat& image,
 
 // Same, writing into `*out` (reallocated only if its size or type differ),
 // for video where the output buffer is reused frame after frame. `out` must
-// not share data with `image`.
+// not share data with `image`. On error the contents of `*out` are
+// unspecified.
 absl::Status RetargetInto(const cv::Mat& image, const RetargetOptions& options,
                           cv::Mat* out);
 
