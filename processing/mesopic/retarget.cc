@@ -345,7 +345,7 @@ HDRSTEREO_MESOPIC_KERNEL void ShinRow(const FrameConstants& k, int n,
     x[i] = (FastLog2(d) - lo) * inv_dx;  // d <= 0 gives a far-left value
   }
   // Pass 2 (table lookups; AVX2 gathers in that clone): log2 s.
-  const float* tab = k.solve_log2_s.data();
+  const float* __restrict tab = k.solve_log2_s.data();
   const float lo_ls = k.solve_lo_ls, hi_ls = k.solve_hi_ls;
   // Asymptotes: s ~ (d/k2)^(1/gamma) for small d, s ~ d/k1 for large d.
   const float slope_lo = dx * (k2 > 0.0f ? kInvG : 1.0f);
