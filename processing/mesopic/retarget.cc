@@ -455,6 +455,29 @@ HDRSTEREO_MESOPIC_KERNEL bool AllFinite(const float* __restrict p, int n) {
   return bad == 0;
 }
 
+// Interleaved BGR float <-> planar R, G, B.
+HDRSTEREO_MESOPIC_KERNEL void LoadFloatRow(const float* __restrict p, int n,
+                                           float* __restrict r,
+                                           float* __restrict g,
+                                           float* __restrict b) {
+  for (int x = 0; x < n; ++x) {
+    b[x] = ClampInput(p[3 * x]);
+    g[x] = ClampInput(p[3 * x + 1]);
+    r[x] = ClampInput(p[3 * x + 2]);
+  }
+}
+
+HDRSTEREO_MESOPIC_KERNEL void StoreFloatRow(const float* __restrict r,
+                                            const float* __restrict g,
+                                            const float* __restrict b, int n,
+                                            float* __restrict q) {
+  for (int x = 0; x < n; ++x) {
+    q[3 * x] = b[x];
+    q[3 * x + 1] = g[x];
+    q[3 * x + 2] = r[x];
+  }
+}
+
 absl::Status ValidateOptions(const RetargetOptions& o) {
   auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
   if (!(o.display_cd <= kMaxLuminance) || !(o.source_cd <= kMaxLuminance)) {
@@ -605,11 +628,7 @@ absl::Status RetargetInto(const cv::Mat& image, const RetargetOptions& options,
           if (!AllFinite(p, 3 * cols)) {
             non_finite.store(true, std::memory_order_relaxed);
           }
-          for (int x = 0; x < cols; ++x) {
-            b[x] = ClampInput(p[3 * x]);
-            g[x] = ClampInput(p[3 * x + 1]);
-            r[x] = ClampInput(p[3 * x + 2]);
-          }
+          LoadFloatRow(p, cols, r, g, b);
         }
         ToneRow(k, cols, r, g, b, ys, yt);
         switch (k.method) {
@@ -635,12 +654,7 @@ absl::Status RetargetInto(const cv::Mat& image, const RetargetOptions& options,
             q[3 * x + 2] = k.encode[static_cast<int>(r[x] * scale + 0.5f)];
           }
         } else {
-          float* q = out.ptr<float>(y);
-          for (int x = 0; x < cols; ++x) {
-            q[3 * x] = b[x];
-            q[3 * x + 1] = g[x];
-            q[3 * x + 2] = r[x];
-          }
+          StoreFloatRow(r, g, b, cols, out.ptr<float>(y));
         }
       }
     });
