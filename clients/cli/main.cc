@@ -18,8 +18,8 @@ Client::Client(const GlobalOptions& options)
 
 std::unique_ptr<grpc::ClientContext> Client::NewContext() const {
   auto context = std::make_unique<grpc::ClientContext>();
-  context->set_deadline(absl::ToChronoTime(
-      absl::Now() + absl::Seconds(options_.timeout_s)));
+  context->set_deadline(
+      absl::ToChronoTime(absl::Now() + absl::Seconds(options_.timeout_s)));
   return context;
 }
 

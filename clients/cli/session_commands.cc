@@ -32,9 +32,9 @@ int RunCreate(const Client& client, const std::string& name,
   request.set_name(name);
   request.set_note(note);
   v1::Session session;
-  grpc::Status status = v1::Sessions::NewStub(client.channel())
-                            ->Create(client.NewContext().get(), request,
-                                     &session);
+  grpc::Status status =
+      v1::Sessions::NewStub(client.channel())
+          ->Create(client.NewContext().get(), request, &session);
   if (!status.ok()) return client.Fail(status);
   if (client.options().json) {
     PrintJson(std::cout, session);
@@ -51,8 +51,7 @@ int RunList(const Client& client) {
   v1::ListSessionsRequest request;
   do {
     v1::ListSessionsResponse page;
-    grpc::Status status =
-        stub->List(client.NewContext().get(), request, &page);
+    grpc::Status status = stub->List(client.NewContext().get(), request, &page);
     if (!status.ok()) return client.Fail(status);
     all.mutable_sessions()->MergeFrom(page.sessions());
     request.mutable_page()->set_page_token(page.next_page_token());
@@ -109,8 +108,7 @@ int RunDelete(const Client& client, const std::string& name, bool yes) {
     PrintJson(std::cout, response);
   } else {
     std::cout << "deleted session " << name << " (" << response.frames_deleted()
-              << " frames, " << response.artifacts_deleted()
-              << " artifacts)\n";
+              << " frames, " << response.artifacts_deleted() << " artifacts)\n";
   }
   return kExitOk;
 }
@@ -119,7 +117,8 @@ int RunDelete(const Client& client, const std::string& name, bool yes) {
 
 void AddSessionCommands(CLI::App& app, const GlobalOptions& options,
                         int* exit_code) {
-  CLI::App* session = app.add_subcommand("session", "Create and manage sessions");
+  CLI::App* session =
+      app.add_subcommand("session", "Create and manage sessions");
   session->require_subcommand(1);
 
   // Parsed values, owned by the callbacks (and so by the app).
@@ -131,9 +130,10 @@ void AddSessionCommands(CLI::App& app, const GlobalOptions& options,
   auto args = std::make_shared<Args>();
 
   CLI::App* create = session->add_subcommand("create", "Create a session");
-  create->add_option("NAME", args->name,
-                     "1-64 letters, digits, '-' or '_', starting with a "
-                     "letter or digit")
+  create
+      ->add_option("NAME", args->name,
+                   "1-64 letters, digits, '-' or '_', starting with a "
+                   "letter or digit")
       ->required();
   create->add_option("--note", args->note, "Free-text description");
   create->callback([&options, exit_code, args] {
@@ -141,9 +141,8 @@ void AddSessionCommands(CLI::App& app, const GlobalOptions& options,
   });
 
   session->add_subcommand("list", "List sessions")
-      ->callback([&options, exit_code] {
-        *exit_code = RunList(Client(options));
-      });
+      ->callback(
+          [&options, exit_code] { *exit_code = RunList(Client(options)); });
 
   CLI::App* show = session->add_subcommand("show", "Show one session");
   show->add_option("NAME", args->name)->required();

@@ -64,8 +64,8 @@ grpc::Status SessionsService::Delete(grpc::ServerContext*,
   absl::StatusOr<store::DeletedSession> deleted =
       sessions_.Delete(request->name());
   if (!deleted.ok()) return ToGrpcStatus(deleted.status());
-  spdlog::info("session {}: deleted ({} frames, {} artifacts)",
-               request->name(), deleted->frames, deleted->artifacts);
+  spdlog::info("session {}: deleted ({} frames, {} artifacts)", request->name(),
+               deleted->frames, deleted->artifacts);
   response->set_frames_deleted(deleted->frames);
   response->set_artifacts_deleted(deleted->artifacts);
   return grpc::Status::OK;
