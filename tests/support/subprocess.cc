@@ -164,4 +164,14 @@ bool WaitForFile(const std::filesystem::path& path, absl::Duration timeout) {
   return false;
 }
 
+bool WaitForSocket(const std::filesystem::path& path, absl::Duration timeout) {
+  const absl::Time deadline = absl::Now() + timeout;
+  std::error_code ec;
+  while (absl::Now() < deadline) {
+    if (std::filesystem::exists(path, ec)) return true;
+    absl::SleepFor(absl::Milliseconds(20));
+  }
+  return false;
+}
+
 }  // namespace hdrstereo::testing
