@@ -72,6 +72,7 @@ int main(int argc, char** argv) {
   int exit_code = kExitOk;
   AddServerCommands(app, options, &exit_code);
   AddSessionCommands(app, options, &exit_code);
+  AddHardwareCommands(app, options, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -35,14 +35,9 @@ int RunCreate(const Client& client, const std::string& name,
   grpc::Status status =
       v1::Sessions::NewStub(client.channel())
           ->Create(client.NewContext().get(), request, &session);
-  if (!status.ok()) return client.Fail(status);
-  if (client.options().json) {
-    PrintJson(std::cout, session);
-  } else {
-    std::cout << "created session " << session.name() << " at "
-              << session.path() << "\n";
-  }
-  return kExitOk;
+  return Finish(client, status, session, [](const v1::Session& s) {
+    std::cout << "created session " << s.name() << " at " << s.path() << "\n";
+  });
 }
 
 int RunList(const Client& client) {
@@ -82,13 +77,7 @@ int RunShow(const Client& client, const std::string& name) {
   v1::Session session;
   grpc::Status status = v1::Sessions::NewStub(client.channel())
                             ->Get(client.NewContext().get(), request, &session);
-  if (!status.ok()) return client.Fail(status);
-  if (client.options().json) {
-    PrintJson(std::cout, session);
-  } else {
-    PrintSession(session);
-  }
-  return kExitOk;
+  return Finish(client, status, session, PrintSession);
 }
 
 int RunDelete(const Client& client, const std::string& name, bool yes) {
@@ -103,14 +92,11 @@ int RunDelete(const Client& client, const std::string& name, bool yes) {
   grpc::Status status =
       v1::Sessions::NewStub(client.channel())
           ->Delete(client.NewContext().get(), request, &response);
-  if (!status.ok()) return client.Fail(status);
-  if (client.options().json) {
-    PrintJson(std::cout, response);
-  } else {
-    std::cout << "deleted session " << name << " (" << response.frames_deleted()
-              << " frames, " << response.artifacts_deleted() << " artifacts)\n";
-  }
-  return kExitOk;
+  return Finish(
+      client, status, response, [&name](const v1::DeleteSessionResponse& r) {
+        std::cout << "deleted session " << name << " (" << r.frames_deleted()
+                  << " frames, " << r.artifacts_deleted() << " artifacts)\n";
+      });
 }
 
 }  // namespace
