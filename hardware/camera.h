@@ -60,6 +60,8 @@ struct Frame {
   ImageFormat format = ImageFormat::kJpeg;
   std::string extension;  // file name extension without the dot, e.g. "cr2"
   double exposure_s = 0;  // the exposure actually used
+  int width_px = 0;       // 0 when the driver does not know without decoding
+  int height_px = 0;
   absl::Time camera_time = absl::InfinitePast();  // unknown if InfinitePast
 };
 

@@ -66,6 +66,32 @@ absl::StatusOr<CaptureRecord> FrameRepository::CaptureForJob(
                          .kind = find->ColumnText(2),
                          .plan = find->ColumnText(3)};
   }
+  // A resubmitted plan continues the capture of an earlier job of the same
+  // session that failed or was cancelled, keeping the frames it recorded.
+  absl::StatusOr<Statement> adopt = db.Prepare(R"sql(
+UPDATE captures SET job_id = ?1 WHERE id = (
+  SELECT c.id FROM captures c JOIN jobs j ON j.id = c.job_id
+  WHERE c.session_id = (SELECT session_id FROM jobs WHERE id = ?1)
+    AND c.kind = ?2 AND c.plan = ?3 AND j.state IN ('failed', 'cancelled')
+  ORDER BY c.id DESC LIMIT 1)
+RETURNING id, session_id)sql");
+  if (!adopt.ok()) return adopt.status();
+  adopt->Bind(1, job_id).Bind(2, kind).Bind(3, plan);
+  row = adopt->Step();
+  if (!row.ok()) return row.status();
+  if (*row) {
+    CaptureRecord capture{.id = adopt->ColumnInt(0),
+                          .session_id = adopt->ColumnInt(1),
+                          .job_id = job_id,
+                          .kind = std::string(kind),
+                          .plan = std::string(plan)};
+    // Run the statement to its end so that the transaction can commit.
+    if (absl::StatusOr<bool> end = adopt->Step(); !end.ok()) {
+      return end.status();
+    }
+    if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+    return capture;
+  }
   absl::StatusOr<Statement> insert = db.Prepare(R"sql(
 INSERT INTO captures (session_id, job_id, kind, plan, create_time_ms)
 SELECT session_id, id, ?2, ?3, ?4 FROM jobs WHERE id = ?1
@@ -81,6 +107,9 @@ RETURNING id, session_id)sql");
                         .job_id = job_id,
                         .kind = std::string(kind),
                         .plan = std::string(plan)};
+  if (absl::StatusOr<bool> end = insert->Step(); !end.ok()) {
+    return end.status();
+  }
   if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
   return capture;
 }

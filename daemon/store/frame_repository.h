@@ -45,7 +45,9 @@ class FrameRepository {
  public:
   explicit FrameRepository(Store& store) : store_(store) {}
 
-  // The capture a job records into: found again when the job resumes.
+  // The capture a job records into: found again when the job resumes; a
+  // job resubmitted with the same plan after a failure or cancellation
+  // continues the earlier job's capture (only missing frames are taken).
   absl::StatusOr<CaptureRecord> CaptureForJob(int64_t job_id,
                                               absl::string_view kind,
                                               absl::string_view plan);
