@@ -16,6 +16,8 @@ void AddServerCommands(CLI::App& app, const GlobalOptions& options,
                        int* exit_code);
 void AddHardwareCommands(CLI::App& app, const GlobalOptions& options,
                          int* exit_code);
+void AddJobCommands(CLI::App& app, const GlobalOptions& options,
+                    int* exit_code);
 void AddSessionCommands(CLI::App& app, const GlobalOptions& options,
                         int* exit_code);
 

@@ -73,6 +73,7 @@ int main(int argc, char** argv) {
   AddServerCommands(app, options, &exit_code);
   AddSessionCommands(app, options, &exit_code);
   AddHardwareCommands(app, options, &exit_code);
+  AddJobCommands(app, options, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
