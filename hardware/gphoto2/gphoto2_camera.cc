@@ -174,6 +174,7 @@ class Gphoto2Camera::Worker {
                               std::function<int(Gphoto2Api&)> fn) {
     auto outcome = std::make_shared<Outcome>();
     auto finished = std::make_shared<bool>(false);
+    auto abandoned = std::make_shared<bool>(false);
     std::unique_lock<std::mutex> lock(state_->mutex);
     if (state_->stuck) {
       return absl::UnavailableError(absl::StrCat(
@@ -186,8 +187,15 @@ class Gphoto2Camera::Worker {
     // The previous call may still be winding up on the worker.
     state_->cv.wait(lock, [&] { return !state_->running && !state_->task; });
     State* state = state_.get();
-    state_->task = [state, outcome, finished, fn = std::move(fn)]() {
-      state->api->BeginCall();
+    state_->task = [state, outcome, finished, abandoned, fn = std::move(fn)]() {
+      {
+        // Under the lock that the caller's timeout takes: either the caller
+        // gave up before the call began (skip it), or BeginCall() comes
+        // before the caller's Cancel() (which then reaches the call).
+        std::lock_guard<std::mutex> start_lock(state->mutex);
+        if (*abandoned) return;
+        state->api->BeginCall();
+      }
       int code = fn(*state->api);
       std::string text = code < GP_OK ? state->api->ErrorText(code) : "";
       std::lock_guard<std::mutex> done_lock(state->mutex);
@@ -199,6 +207,7 @@ class Gphoto2Camera::Worker {
     state_->cv.notify_all();
     if (!state_->cv.wait_for(lock, absl::ToChronoNanoseconds(timeout),
                              [&] { return *finished; })) {
+      *abandoned = true;
       state_->stuck = true;
       state_->stuck_call = std::string(what);
       state_->stuck_since = absl::Now();
