@@ -126,7 +126,9 @@ absl::Status Gphoto2Error(absl::string_view what, int code,
     default:
       break;
   }
-  if (code <= GP_ERROR && code > -100) {  // the port layer: I/O
+  // The port layer's I/O errors (GP_ERROR_IO and -20 .. -99).
+  if (code == GP_ERROR_IO ||
+      (code <= GP_ERROR_IO_SUPPORTED_SERIAL && code > -100)) {
     return absl::UnavailableError(absl::StrCat(
         what, ": I/O error talking to the camera (disconnected?) (", reason,
         ")"));
@@ -528,12 +530,11 @@ absl::StatusOr<hardware::Frame> Gphoto2Camera::Capture() {
              return api.Capture(&path->first, &path->second);
            });
   if (!status.ok()) {
-    if (absl::IsUnknown(status) || absl::IsUnavailable(status)) {
-      return absl::Status(
-          status.code(),
-          absl::StrCat(status.message(),
-                       "; if the camera could not focus, switch the lens to "
-                       "MF; check the card or the capture target"));
+    if (absl::IsUnknown(status)) {  // e.g. -1 "Unspecified error"
+      return absl::UnknownError(absl::StrCat(
+          status.message(),
+          "; if the camera could not focus, switch the lens to MF; check "
+          "the card, the capture target and the mode dial"));
     }
     return status;
   }

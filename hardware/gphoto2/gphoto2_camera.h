@@ -27,7 +27,9 @@
 //
 // Retries: a call answered GP_ERROR_CAMERA_BUSY (-110, "I/O in progress") is
 // retried up to `busy_retries` times, sleeping busy_backoff, 2x, 4x ... (at
-// most busy_backoff_max) in between; then UNAVAILABLE.
+// most busy_backoff_max) in between; then UNAVAILABLE. Other errors are not
+// retried. So one call takes at most (busy_retries + 1) times its deadline
+// plus the sleeps.
 //
 // Timeouts: every libgphoto2 call runs on this camera's own worker thread;
 // the caller waits at most the call's deadline, then gets DEADLINE_EXCEEDED.

@@ -579,6 +579,16 @@ TEST_F(Gphoto2CameraTest, BusyForeverGivesUpAfterTheConfiguredRetries) {
   EXPECT_EQ(state_->calls["capture"], 4);
 }
 
+TEST_F(Gphoto2CameraTest, AnUnspecifiedCaptureErrorHintsAtFocus) {
+  state_->scripted["capture"] = {GP_ERROR};
+  std::unique_ptr<Gphoto2Camera> camera = OpenOrDie();
+  ASSERT_NE(camera, nullptr);
+  absl::StatusOr<hardware::Frame> frame = camera->Capture();
+  EXPECT_EQ(frame.status().code(), absl::StatusCode::kUnknown);
+  EXPECT_THAT(std::string(frame.status().message()), HasSubstr("MF"));
+  EXPECT_EQ(state_->calls["capture"], 1);
+}
+
 TEST_F(Gphoto2CameraTest, OtherErrorsAreNotRetried) {
   std::unique_ptr<Gphoto2Camera> camera = OpenOrDie();
   ASSERT_NE(camera, nullptr);
@@ -683,6 +693,8 @@ TEST(Gphoto2ErrorTest, MapsResultCodesToStatusCodes) {
            {GP_ERROR_UNKNOWN_PORT, absl::StatusCode::kNotFound},
            {GP_ERROR_FILE_NOT_FOUND, absl::StatusCode::kNotFound},
            {GP_ERROR_NO_SPACE, absl::StatusCode::kResourceExhausted},
+           {GP_ERROR_IO_READ, absl::StatusCode::kUnavailable},
+           {GP_ERROR, absl::StatusCode::kUnknown},
            {GP_ERROR_CAMERA_ERROR, absl::StatusCode::kUnknown},
        }) {
     absl::Status status = Gphoto2Error("do it", c.code, "detail");
