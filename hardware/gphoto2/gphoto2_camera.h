@@ -36,11 +36,12 @@
 // The stuck call is asked to cancel (the GPContext cancel callback starts
 // answering "cancel", which libgphoto2 checks between transfer chunks) but
 // cannot be killed: it keeps the worker thread until libgphoto2 returns
-// (for USB, at the latest when its transfer timeout fires). Until then every
-// call fails fast with UNAVAILABLE naming the stuck call; afterwards the
-// camera is usable again. Destroying the camera while a call is stuck does
-// not wait: the worker thread is detached and closes the camera (gp_camera_
-// exit) if and when the call returns.
+// (over USB usually when a transfer timeout fires; libgphoto2 gives no hard
+// bound). A call whose deadline passed before it began is skipped. Until the
+// stuck call returns, every call fails fast with UNAVAILABLE naming it;
+// afterwards the camera is usable again. Destroying the camera while a call
+// is stuck does not wait: the worker thread is detached and closes the
+// camera (gp_camera_exit) if and when the call returns.
 //
 // Thread-safe: calls from several threads are serialized.
 #ifndef HDRSTEREO_HARDWARE_GPHOTO2_GPHOTO2_CAMERA_H_
@@ -118,7 +119,9 @@ class Gphoto2Camera final : public hardware::Camera {
   // exposure_s is 0 for bulb, iso 0 for auto, aperture_f 0 when unknown.
   absl::StatusOr<hardware::ExposureSettings> Settings() override;
   // Frame.format is the format of Frame.bytes (kRaw for the RAW file of a
-  // RAW+JPEG capture); Frame.exposure_s the shutter speed in effect.
+  // RAW+JPEG capture); Frame.exposure_s the shutter speed last read or set
+  // through this object (a change on the camera body shows after the next
+  // Settings() or Configure()); camera_time the file's time on the camera.
   absl::StatusOr<hardware::Frame> Capture() override;
 
   // The whole current configuration, flattened (e.g. for a status page).

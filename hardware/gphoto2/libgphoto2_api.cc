@@ -14,7 +14,7 @@
 namespace hdrstereo::gphoto2 {
 namespace {
 
-// Loading the camera and port driver lists goes through libltdl, which is not
+// Loading the camera and port drivers goes through libltdl, which is not
 // thread-safe; one load at a time in this process.
 std::mutex& LoadMutex() {
   static std::mutex* mutex = new std::mutex;
@@ -104,7 +104,11 @@ class Libgphoto2Api final : public Gphoto2Api {
       gp_port_info_list_get_info(ports_, index, &info);
       gp_camera_set_port_info(camera, info);
     }
-    result = gp_camera_init(camera, context_);
+    {
+      // gp_camera_init loads the camera driver (libltdl) too.
+      std::lock_guard<std::mutex> lock(LoadMutex());
+      result = gp_camera_init(camera, context_);
+    }
     if (result < GP_OK) {
       gp_camera_unref(camera);
       return result;
