@@ -174,6 +174,8 @@ class Gphoto2Camera::Worker {
 
   absl::StatusOr<Outcome> Run(absl::string_view what, absl::Duration timeout,
                               std::function<int(Gphoto2Api&)> fn) {
+    // InfiniteDuration would overflow the condition variable's clock.
+    timeout = std::min(timeout, absl::Hours(24 * 365));
     auto outcome = std::make_shared<Outcome>();
     auto finished = std::make_shared<bool>(false);
     auto abandoned = std::make_shared<bool>(false);

@@ -284,6 +284,15 @@ std::optional<hardware::ImageFormat> FormatFromFileName(
   return std::nullopt;
 }
 
+absl::StatusOr<CaptureTarget> ParseCaptureTarget(absl::string_view text) {
+  std::string lower = Lower(text);
+  if (lower.empty()) return CaptureTarget::kLeaveAsIs;
+  if (lower == "ram") return CaptureTarget::kInternalRam;
+  if (lower == "card") return CaptureTarget::kMemoryCard;
+  return absl::InvalidArgumentError(absl::StrCat(
+      "capture target must be \"ram\", \"card\" or empty, not \"", text, "\""));
+}
+
 absl::StatusOr<std::string> MatchCaptureTarget(
     const std::vector<std::string>& choices, CaptureTarget target) {
   absl::string_view wanted =

@@ -82,6 +82,8 @@ enum class CaptureTarget {
   kInternalRam,  // the file lives in camera RAM until downloaded; no card
   kMemoryCard,
 };
+// From a config file or flag: "ram", "card", or "" (leave as is); any case.
+absl::StatusOr<CaptureTarget> ParseCaptureTarget(absl::string_view text);
 // The `capturetarget` choice for `target` ("Internal RAM", "Memory card");
 // INVALID_ARGUMENT listing the choices when none matches.
 absl::StatusOr<std::string> MatchCaptureTarget(

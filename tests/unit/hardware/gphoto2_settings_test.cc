@@ -222,6 +222,14 @@ TEST(CaptureTargetTest, MatchesRamAndCard) {
       absl::StatusCode::kInvalidArgument);
 }
 
+TEST(CaptureTargetTest, ParsesConfigText) {
+  EXPECT_EQ(*ParseCaptureTarget("RAM"), CaptureTarget::kInternalRam);
+  EXPECT_EQ(*ParseCaptureTarget("card"), CaptureTarget::kMemoryCard);
+  EXPECT_EQ(*ParseCaptureTarget(""), CaptureTarget::kLeaveAsIs);
+  EXPECT_EQ(ParseCaptureTarget("sdcard").status().code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
 TEST(BatteryTest, ParsesPercentAndWords) {
   EXPECT_EQ(ParseBatteryPercent("100%"), 100);
   EXPECT_EQ(ParseBatteryPercent("75 %"), 75);
