@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "processing/io/hdr_formats.h"
 
+#include <Imath/half.h>
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
@@ -161,13 +162,24 @@ absl::Status WriteExr(const std::filesystem::path& path, const cv::Mat& image,
     header.compression() = Imf::ZIP_COMPRESSION;
     const char* const kNames[3] = {"R", "G", "B"};
     Imf::FrameBuffer fb;
-    const size_t xs = sizeof(float) * channels;
-    const size_t ys = xs * rgb.cols;
+    // The frame buffer must hold the file's pixel type.
+    std::vector<half> halves;
     char* base = reinterpret_cast<char*>(rgb.data);
+    size_t elem = sizeof(float);
+    if (pixel == Imf::HALF) {
+      const size_t count = rgb.total() * channels;
+      halves.resize(count);
+      const float* src = rgb.ptr<float>();
+      for (size_t i = 0; i < count; ++i) halves[i] = half(src[i]);
+      base = reinterpret_cast<char*>(halves.data());
+      elem = sizeof(half);
+    }
+    const size_t xs = elem * channels;
+    const size_t ys = xs * rgb.cols;
     for (int c = 0; c < channels; ++c) {
       const char* name = channels == 1 ? "Y" : kNames[c];
       header.channels().insert(name, Imf::Channel(pixel));
-      fb.insert(name, Imf::Slice(Imf::FLOAT, base + sizeof(float) * c, xs, ys));
+      fb.insert(name, Imf::Slice(pixel, base + elem * c, xs, ys));
     }
     Imf::StdOSStream stream;
     {
