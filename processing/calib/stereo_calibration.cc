@@ -108,6 +108,10 @@ absl::StatusOr<StereoCalibration> CalibrateStereo(
     out.camera_matrix = cv::Mat::eye(3, 3, CV_64F);
     out.dist_coeffs = cv::Mat::zeros(1, 5, CV_64F);
     int flags = options.fix_k3 ? cv::CALIB_FIX_K3 : 0;
+    if (options.zero_distortion) {
+      flags |= cv::CALIB_FIX_K1 | cv::CALIB_FIX_K2 | cv::CALIB_FIX_K3 |
+               cv::CALIB_ZERO_TANGENT_DIST;
+    }
     out.rms_intrinsics = cv::calibrateCamera(object_all, image_all, image_size,
                                              out.camera_matrix, out.dist_coeffs,
                                              rvecs, tvecs, flags);

@@ -49,6 +49,9 @@ struct CalibrationOptions {
   // gets identity maps), 0 crops to valid pixels, 1 keeps all pixels.
   double alpha = -1;
   bool fix_k3 = true;  // estimate k1, k2, p1, p2 only
+  // Assume a distortion-free lens (all coefficients fixed at 0); use when
+  // the boards cannot cover the image corners.
+  bool zero_distortion = false;
 };
 
 // Calibrates from corner lists: left[i] and right[i] are the same board pose
