@@ -14,9 +14,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <vector>
-
 #include <opencv2/photo.hpp>
+#include <vector>
 
 #include "processing/hdr/merge.h"
 #include "processing/hdr/response.h"
@@ -30,9 +29,9 @@ constexpr int kHeight = 960;
 
 struct Data {
   ExposureStack stack;
-  CameraResponse response;   // ours
-  cv::Mat opencv_response;   // the same, as MergeDebevec wants it
-  MergeOptions options;      // MergeDebevec's conventions
+  CameraResponse response;  // ours
+  cv::Mat opencv_response;  // the same, as MergeDebevec wants it
+  MergeOptions options;     // MergeDebevec's conventions
 };
 
 // cv::MergeDebevec's weights in OpenCV 4.6 (photo/src/hdr_common.cpp).
@@ -72,7 +71,8 @@ cv::Mat MergeOurs(const Data& d) {
 }
 
 cv::Mat MergeOpenCv(const Data& d) {
-  std::vector<float> times(d.stack.exposure_s.begin(), d.stack.exposure_s.end());
+  std::vector<float> times(d.stack.exposure_s.begin(),
+                           d.stack.exposure_s.end());
   cv::Mat out;
   cv::createMergeDebevec()->process(d.stack.images, out, times,
                                     d.opencv_response);
@@ -97,9 +97,9 @@ double MedianSeconds(F f, int runs) {
   for (int i = 0; i < runs; ++i) {
     const auto start = std::chrono::steady_clock::now();
     f();
-    t.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() -
-                                              start)
-                    .count());
+    t.push_back(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+            .count());
   }
   std::sort(t.begin(), t.end());
   return t[t.size() / 2];
@@ -121,9 +121,10 @@ int main(int argc, char** argv) {
     max_rel = std::max(max_rel, rel);
     sum_rel += rel;
   }
-  std::printf("relative difference ours vs cv::MergeDebevec: max %.3g, mean "
-              "%.3g (limit 1e-3)\n",
-              max_rel, sum_rel / n);
+  std::printf(
+      "relative difference ours vs cv::MergeDebevec: max %.3g, mean "
+      "%.3g (limit 1e-3)\n",
+      max_rel, sum_rel / n);
 
   benchmark::Initialize(&argc, argv);
   benchmark::RunSpecifiedBenchmarks();
@@ -132,9 +133,10 @@ int main(int argc, char** argv) {
   const double t_ours = MedianSeconds([&] { MergeOurs(d); }, 9);
   const double t_cv = MedianSeconds([&] { MergeOpenCv(d); }, 9);
   const double ratio = t_ours / t_cv;
-  std::printf("median of 9: ours %.1f ms, cv::MergeDebevec %.1f ms, ratio "
-              "%.3f (limit 0.5), %d OpenCV threads\n",
-              1e3 * t_ours, 1e3 * t_cv, ratio, cv::getNumThreads());
+  std::printf(
+      "median of 9: ours %.1f ms, cv::MergeDebevec %.1f ms, ratio "
+      "%.3f (limit 0.5), %d OpenCV threads\n",
+      1e3 * t_ours, 1e3 * t_cv, ratio, cv::getNumThreads());
   const bool ok = max_rel <= 1e-3 && ratio <= 0.5;
   std::printf("%s\n", ok ? "PASS" : "FAIL");
   return ok ? 0 : 1;
