@@ -27,7 +27,7 @@ bool IsImageFile(const std::filesystem::path& p) {
   std::transform(ext.begin(), ext.end(), ext.begin(),
                  [](unsigned char c) { return std::tolower(c); });
   static const char* const kExt[] = {".png",  ".jpg", ".jpeg", ".tif",
-                                     ".tiff", ".pfm", ".exr"};
+                                     ".tiff", ".pfm", ".exr",  ".hdr"};
   return io::IsRawExtension(p) ||
          std::find(std::begin(kExt), std::end(kExt), ext) != std::end(kExt);
 }

@@ -15,6 +15,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "processing/io/exif.h"
+#include "processing/io/hdr_formats.h"
 
 namespace hdrstereo::io {
 namespace {
@@ -59,6 +60,17 @@ absl::StatusOr<std::string> ReadFileBytes(const std::filesystem::path& path) {
 absl::StatusOr<DecodedImage> DecodeImageFile(
     const std::filesystem::path& path) {
   if (IsRawExtension(path)) return DecodeRawFile(path);
+  const std::string ext = LowerExtension(path);
+  if (ext == ".pfm" || ext == ".exr" || ext == ".hdr") {
+    absl::StatusOr<cv::Mat> f = ext == ".pfm"   ? ReadPfm(path)
+                                : ext == ".exr" ? ReadExr(path)
+                                                : ReadRgbe(path);
+    if (!f.ok()) return f.status();
+    DecodedImage out;
+    out.pixels = *std::move(f);
+    out.metadata.linear = true;
+    return out;
+  }
   absl::StatusOr<std::string> bytes = ReadFileBytes(path);
   if (!bytes.ok()) return bytes.status();
   if (bytes->empty()) {

@@ -38,7 +38,8 @@ struct DecodedImage {
 // True for file extensions LibRaw decodes (cr2, cr3, nef, arw, dng, ...).
 bool IsRawExtension(const std::filesystem::path& path);
 
-// Decodes any supported file. Errors (missing, unreadable, corrupt,
+// Decodes any supported file (float formats .pfm, .exr and .hdr through
+// hdr_formats.h, as linear CV_32F). Errors (missing, unreadable, corrupt,
 // unsupported) are returned as a status that names the file.
 absl::StatusOr<DecodedImage> DecodeImageFile(const std::filesystem::path& path);
 

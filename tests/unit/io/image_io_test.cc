@@ -139,6 +139,19 @@ TEST(ExrTest, RoundTripsFloatExactlyAndHalfWithinHalfPrecision) {
   EXPECT_EQ(CountTempFiles(dir.path()), 0);
 }
 
+TEST(DecodeTest, DecodesFloatFormatsAsLinear) {
+  TempDir dir;
+  cv::Mat img = RandomHdr(3, 4, 3, 11);
+  ASSERT_TRUE(WritePfm(dir / "a.pfm", img).ok());
+  ASSERT_TRUE(WriteExr(dir / "a.exr", img, ExrPixelType::kFloat).ok());
+  for (const char* name : {"a.pfm", "a.exr"}) {
+    absl::StatusOr<DecodedImage> d = DecodeImageFile(dir / name);
+    ASSERT_TRUE(d.ok()) << d.status();
+    EXPECT_TRUE(d->metadata.linear);
+    EXPECT_EQ(cv::norm(d->pixels, img, cv::NORM_INF), 0.0) << name;
+  }
+}
+
 TEST(ExrTest, CorruptFileIsAnErrorNamingIt) {
   TempDir dir;
   std::ofstream(dir / "bad.exr", std::ios::binary) << "v/1\x01 not really";
