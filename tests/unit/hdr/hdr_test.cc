@@ -17,6 +17,7 @@
 #include "processing/io/hdr_formats.h"
 #include "tests/support/temp_dir.h"
 #include "tests/unit/hdr/synthetic_scene.h"
+#include "tests/unit/io/exif_testdata.h"
 
 namespace hdrstereo::hdr {
 namespace {
@@ -338,6 +339,23 @@ TEST(StackTest, LoadsAFolderWithExposuresTxtLongestFirst) {
   EXPECT_DOUBLE_EQ(loaded->exposure_s.front(), 1.0 / 15);
   EXPECT_DOUBLE_EQ(loaded->exposure_s.back(), 1.0 / 2000);
   EXPECT_EQ(cv::norm(loaded->images[3], s.stack.images[3], cv::NORM_INF), 0);
+}
+
+TEST(StackTest, LoadsExifTaggedImagesWithoutExposuresTxt) {
+  TempDir dir;
+  const cv::Mat img(8, 8, CV_8UC3, cv::Scalar::all(100));
+  for (uint32_t den : {30, 125, 500}) {
+    std::ofstream(dir / ("img" + std::to_string(den) + ".jpg"),
+                  std::ios::binary)
+        << ::hdrstereo::testing::JpegWithExif(img, den);
+  }
+  absl::StatusOr<ExposureStack> s = LoadStack(dir.path());
+  ASSERT_TRUE(s.ok()) << s.status();
+  ASSERT_EQ(s->exposure_s.size(), 3u);
+  EXPECT_DOUBLE_EQ(s->exposure_s[0], 1.0 / 30);
+  EXPECT_DOUBLE_EQ(s->exposure_s[1], 1.0 / 125);
+  EXPECT_DOUBLE_EQ(s->exposure_s[2], 1.0 / 500);
+  EXPECT_EQ(s->camera, "Nikon");
 }
 
 TEST(StackTest, FolderErrorsNameTheFile) {

@@ -14,6 +14,7 @@
 #include "processing/io/hdr_formats.h"
 #include "processing/io/image.h"
 #include "tests/support/temp_dir.h"
+#include "tests/unit/io/exif_testdata.h"
 
 namespace hdrstereo::io {
 namespace {
@@ -228,50 +229,11 @@ TEST(DecodeTest, BadFilesAreErrorsNamingTheFile) {
   }
 }
 
-// A hand-built little-endian EXIF block: Make "Nikon", ExposureTime 1/250,
-// FNumber 5.6, ISO 200.
-std::string ExifBlock() {
-  std::string t;
-  auto u16 = [&](uint32_t v) {
-    t.push_back(static_cast<char>(v));
-    t.push_back(static_cast<char>(v >> 8));
-  };
-  auto u32 = [&](uint32_t v) {
-    u16(v & 0xFFFF);
-    u16(v >> 16);
-  };
-  t += "II";
-  u16(42);
-  u32(8);
-  u16(2);  // IFD0 at 8
-  u16(0x010F), u16(2), u32(6), u32(38);
-  u16(0x8769), u16(4), u32(1), u32(44);
-  u32(0);
-  t += std::string("Nikon\0", 6);  // at 38
-  u16(3);                          // Exif IFD at 44
-  u16(0x829A), u16(5), u32(1), u32(86);
-  u16(0x829D), u16(5), u32(1), u32(94);
-  u16(0x8827), u16(3), u32(1), u32(200);
-  u32(0);
-  u32(1), u32(250);  // at 86
-  u32(56), u32(10);  // at 94
-  return t;
-}
-
 TEST(ExifTest, ReadsExposureIsoApertureFromJpeg) {
   TempDir dir;
   cv::Mat img(8, 8, CV_8UC3, cv::Scalar(10, 20, 30));
-  std::vector<uchar> jpg;
-  ASSERT_TRUE(cv::imencode(".jpg", img, jpg));
-  const std::string exif = ExifBlock();
-  std::string app1 = "\xFF\xE1";
-  const size_t len = 2 + 6 + exif.size();
-  app1.push_back(static_cast<char>(len >> 8));
-  app1.push_back(static_cast<char>(len & 0xFF));
-  app1 += std::string("Exif\0\0", 6) + exif;
-  std::string file(reinterpret_cast<const char*>(jpg.data()), jpg.size());
-  file.insert(2, app1);
-  std::ofstream(dir / "e.jpg", std::ios::binary) << file;
+  std::ofstream(dir / "e.jpg", std::ios::binary)
+      << ::hdrstereo::testing::JpegWithExif(img, 250);
   absl::StatusOr<DecodedImage> d = DecodeImageFile(dir / "e.jpg");
   ASSERT_TRUE(d.ok()) << d.status();
   ASSERT_TRUE(d->metadata.exposure_s.has_value());
@@ -283,7 +245,7 @@ TEST(ExifTest, ReadsExposureIsoApertureFromJpeg) {
 }
 
 TEST(ExifTest, TruncatedBlocksNeverCrash) {
-  const std::string exif = ExifBlock();
+  const std::string exif = ::hdrstereo::testing::ExifBlock();
   for (size_t n = 0; n < exif.size(); ++n) {
     ExifInfo info = ParseExifTiff(absl::string_view(exif).substr(0, n));
     if (info.exposure_s) {
