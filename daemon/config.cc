@@ -24,8 +24,8 @@ absl::Status ValidateListenAddress(const std::string& address) {
   int port = 0;
   if (!absl::SimpleAtoi(address.substr(colon + 1), &port) || port < 0 ||
       port > 65535) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "--listen \"", address, "\" has no valid port (0-65535)"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("--listen \"", address, "\" has no valid port (0-65535)"));
   }
   if (host == "localhost" || host == "[::1]" ||
       absl::StartsWith(host, "127.")) {

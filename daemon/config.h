@@ -16,7 +16,7 @@ namespace hdrstereo::daemon {
 struct Config {
   std::string listen = "127.0.0.1:50051";
   std::filesystem::path data_root = "data";
-  std::string hardware = "sim";  // "sim" or "real"
+  std::string hardware = "sim";    // "sim" or "real"
   std::filesystem::path log_file;  // empty = <data_root>/logs/hdrstereod.log
   std::string log_level = "info";
   // Written (atomically) with the bound address once the server is serving;

@@ -3,14 +3,13 @@
 // hdrstereod: parses the configuration, sets up logging, serves until
 // SIGINT or SIGTERM, then shuts down cleanly.
 #include <signal.h>
+#include <spdlog/sinks/rotating_file_sink.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
 
 #include <cstdio>
 #include <iostream>
 #include <memory>
-
-#include <spdlog/sinks/rotating_file_sink.h>
-#include <spdlog/sinks/stdout_color_sinks.h>
-#include <spdlog/spdlog.h>
 
 #include "daemon/config.h"
 #include "daemon/server.h"
@@ -34,8 +33,8 @@ bool SetUpLogging(const hdrstereo::daemon::Config& config) {
     spdlog::set_default_logger(logger);
     return true;
   } catch (const std::exception& e) {
-    std::cerr << "hdrstereod: cannot open log file " << config.log_file
-              << ": " << e.what() << "\n";
+    std::cerr << "hdrstereod: cannot open log file " << config.log_file << ": "
+              << e.what() << "\n";
     return false;
   }
 }

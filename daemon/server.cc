@@ -40,9 +40,9 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
   builder.RegisterService(&server->schedules_service_);
   server->grpc_server_ = builder.BuildAndStart();
   if (server->grpc_server_ == nullptr || port == 0) {
-    return absl::UnavailableError(absl::StrCat(
-        "cannot listen on ", config.listen,
-        " (address in use, or not a local address?)"));
+    return absl::UnavailableError(
+        absl::StrCat("cannot listen on ", config.listen,
+                     " (address in use, or not a local address?)"));
   }
   if (config.listen.starts_with("unix:")) {
     server->address_ = config.listen;
@@ -52,8 +52,8 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
   }
   spdlog::info("serving gRPC on {}", server->address_);
   if (!config.ready_file.empty()) {
-    if (absl::Status s = io::WriteFileAtomically(config.ready_file,
-                                                 server->address_ + "\n");
+    if (absl::Status s =
+            io::WriteFileAtomically(config.ready_file, server->address_ + "\n");
         !s.ok()) {
       server->Shutdown();
       return s;

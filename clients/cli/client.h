@@ -8,8 +8,11 @@
 #include <grpcpp/grpcpp.h>
 
 #include <chrono>
+#include <iostream>
 #include <memory>
 #include <string>
+
+#include "clients/cli/output.h"
 
 namespace hdrstereo::cli {
 
@@ -43,6 +46,20 @@ class Client {
   GlobalOptions options_;
   std::shared_ptr<grpc::Channel> channel_;
 };
+
+// Finishes a command: reports a failed call, or prints `response` as JSON
+// (--json) or with `print`.
+template <typename Response, typename Print>
+int Finish(const Client& client, const grpc::Status& rpc,
+           const Response& response, Print print) {
+  if (!rpc.ok()) return client.Fail(rpc);
+  if (client.options().json) {
+    PrintJson(std::cout, response);
+  } else {
+    print(response);
+  }
+  return kExitOk;
+}
 
 }  // namespace hdrstereo::cli
 

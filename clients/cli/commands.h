@@ -14,6 +14,10 @@ namespace hdrstereo::cli {
 
 void AddServerCommands(CLI::App& app, const GlobalOptions& options,
                        int* exit_code);
+void AddHardwareCommands(CLI::App& app, const GlobalOptions& options,
+                         int* exit_code);
+void AddJobCommands(CLI::App& app, const GlobalOptions& options,
+                    int* exit_code);
 void AddSessionCommands(CLI::App& app, const GlobalOptions& options,
                         int* exit_code);
 

@@ -18,8 +18,8 @@ Client::Client(const GlobalOptions& options)
 
 std::unique_ptr<grpc::ClientContext> Client::NewContext() const {
   auto context = std::make_unique<grpc::ClientContext>();
-  context->set_deadline(absl::ToChronoTime(
-      absl::Now() + absl::Seconds(options_.timeout_s)));
+  context->set_deadline(
+      absl::ToChronoTime(absl::Now() + absl::Seconds(options_.timeout_s)));
   return context;
 }
 
@@ -72,6 +72,8 @@ int main(int argc, char** argv) {
   int exit_code = kExitOk;
   AddServerCommands(app, options, &exit_code);
   AddSessionCommands(app, options, &exit_code);
+  AddHardwareCommands(app, options, &exit_code);
+  AddJobCommands(app, options, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -21,7 +21,8 @@ void Table::Print(std::ostream& out) const {
     std::string line;
     for (size_t i = 0; i < row.size(); ++i) {
       line += row[i];
-      if (i + 1 < row.size()) line += std::string(widths[i] - row[i].size() + 2, ' ');
+      if (i + 1 < row.size())
+        line += std::string(widths[i] - row[i].size() + 2, ' ');
     }
     out << line << "\n";
   }
@@ -51,8 +52,8 @@ void PrintJson(std::ostream& out, const google::protobuf::Message& message) {
 }
 
 std::string FormatTime(const google::protobuf::Timestamp& time) {
-  absl::Time t = absl::FromUnixSeconds(time.seconds()) +
-                 absl::Nanoseconds(time.nanos());
+  absl::Time t =
+      absl::FromUnixSeconds(time.seconds()) + absl::Nanoseconds(time.nanos());
   return absl::FormatTime("%Y-%m-%d %H:%M:%S", t, absl::LocalTimeZone());
 }
 

@@ -17,8 +17,7 @@ namespace hdrstereo::cli {
 // Columns padded to their widest cell; the header is printed as given.
 class Table {
  public:
-  explicit Table(std::vector<std::string> header)
-      : rows_{std::move(header)} {}
+  explicit Table(std::vector<std::string> header) : rows_{std::move(header)} {}
   void AddRow(std::vector<std::string> row) { rows_.push_back(std::move(row)); }
   void Print(std::ostream& out) const;
 
@@ -27,8 +26,9 @@ class Table {
 };
 
 // "key   value" lines with keys padded to the longest.
-void PrintFields(std::ostream& out,
-                 const std::vector<std::pair<std::string, std::string>>& fields);
+void PrintFields(
+    std::ostream& out,
+    const std::vector<std::pair<std::string, std::string>>& fields);
 
 // The message as JSON with the .proto field names, every field present.
 void PrintJson(std::ostream& out, const google::protobuf::Message& message);

@@ -13,15 +13,15 @@
 namespace hdrstereo::cli {
 namespace {
 
-std::string ServingStatusName(grpc::health::v1::HealthCheckResponse::ServingStatus s) {
+std::string ServingStatusName(
+    grpc::health::v1::HealthCheckResponse::ServingStatus s) {
   return grpc::health::v1::HealthCheckResponse::ServingStatus_Name(s);
 }
 
 int RunStatus(const Client& client) {
   grpc::health::v1::HealthCheckResponse health;
-  grpc::Status status =
-      grpc::health::v1::Health::NewStub(client.channel())
-          ->Check(client.NewContext().get(), {}, &health);
+  grpc::Status status = grpc::health::v1::Health::NewStub(client.channel())
+                            ->Check(client.NewContext().get(), {}, &health);
   if (!status.ok()) return client.Fail(status);
 
   v1::ServerInfo info;
@@ -57,9 +57,8 @@ int RunStatus(const Client& client) {
 void AddServerCommands(CLI::App& app, const GlobalOptions& options,
                        int* exit_code) {
   app.add_subcommand("status", "Show whether hdrstereod serves, and versions")
-      ->callback([&options, exit_code] {
-        *exit_code = RunStatus(Client(options));
-      });
+      ->callback(
+          [&options, exit_code] { *exit_code = RunStatus(Client(options)); });
 }
 
 }  // namespace hdrstereo::cli

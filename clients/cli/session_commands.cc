@@ -32,17 +32,12 @@ int RunCreate(const Client& client, const std::string& name,
   request.set_name(name);
   request.set_note(note);
   v1::Session session;
-  grpc::Status status = v1::Sessions::NewStub(client.channel())
-                            ->Create(client.NewContext().get(), request,
-                                     &session);
-  if (!status.ok()) return client.Fail(status);
-  if (client.options().json) {
-    PrintJson(std::cout, session);
-  } else {
-    std::cout << "created session " << session.name() << " at "
-              << session.path() << "\n";
-  }
-  return kExitOk;
+  grpc::Status status =
+      v1::Sessions::NewStub(client.channel())
+          ->Create(client.NewContext().get(), request, &session);
+  return Finish(client, status, session, [](const v1::Session& s) {
+    std::cout << "created session " << s.name() << " at " << s.path() << "\n";
+  });
 }
 
 int RunList(const Client& client) {
@@ -51,8 +46,7 @@ int RunList(const Client& client) {
   v1::ListSessionsRequest request;
   do {
     v1::ListSessionsResponse page;
-    grpc::Status status =
-        stub->List(client.NewContext().get(), request, &page);
+    grpc::Status status = stub->List(client.NewContext().get(), request, &page);
     if (!status.ok()) return client.Fail(status);
     all.mutable_sessions()->MergeFrom(page.sessions());
     request.mutable_page()->set_page_token(page.next_page_token());
@@ -83,13 +77,7 @@ int RunShow(const Client& client, const std::string& name) {
   v1::Session session;
   grpc::Status status = v1::Sessions::NewStub(client.channel())
                             ->Get(client.NewContext().get(), request, &session);
-  if (!status.ok()) return client.Fail(status);
-  if (client.options().json) {
-    PrintJson(std::cout, session);
-  } else {
-    PrintSession(session);
-  }
-  return kExitOk;
+  return Finish(client, status, session, PrintSession);
 }
 
 int RunDelete(const Client& client, const std::string& name, bool yes) {
@@ -104,22 +92,19 @@ int RunDelete(const Client& client, const std::string& name, bool yes) {
   grpc::Status status =
       v1::Sessions::NewStub(client.channel())
           ->Delete(client.NewContext().get(), request, &response);
-  if (!status.ok()) return client.Fail(status);
-  if (client.options().json) {
-    PrintJson(std::cout, response);
-  } else {
-    std::cout << "deleted session " << name << " (" << response.frames_deleted()
-              << " frames, " << response.artifacts_deleted()
-              << " artifacts)\n";
-  }
-  return kExitOk;
+  return Finish(
+      client, status, response, [&name](const v1::DeleteSessionResponse& r) {
+        std::cout << "deleted session " << name << " (" << r.frames_deleted()
+                  << " frames, " << r.artifacts_deleted() << " artifacts)\n";
+      });
 }
 
 }  // namespace
 
 void AddSessionCommands(CLI::App& app, const GlobalOptions& options,
                         int* exit_code) {
-  CLI::App* session = app.add_subcommand("session", "Create and manage sessions");
+  CLI::App* session =
+      app.add_subcommand("session", "Create and manage sessions");
   session->require_subcommand(1);
 
   // Parsed values, owned by the callbacks (and so by the app).
@@ -131,9 +116,10 @@ void AddSessionCommands(CLI::App& app, const GlobalOptions& options,
   auto args = std::make_shared<Args>();
 
   CLI::App* create = session->add_subcommand("create", "Create a session");
-  create->add_option("NAME", args->name,
-                     "1-64 letters, digits, '-' or '_', starting with a "
-                     "letter or digit")
+  create
+      ->add_option("NAME", args->name,
+                   "1-64 letters, digits, '-' or '_', starting with a "
+                   "letter or digit")
       ->required();
   create->add_option("--note", args->note, "Free-text description");
   create->callback([&options, exit_code, args] {
@@ -141,9 +127,8 @@ void AddSessionCommands(CLI::App& app, const GlobalOptions& options,
   });
 
   session->add_subcommand("list", "List sessions")
-      ->callback([&options, exit_code] {
-        *exit_code = RunList(Client(options));
-      });
+      ->callback(
+          [&options, exit_code] { *exit_code = RunList(Client(options)); });
 
   CLI::App* show = session->add_subcommand("show", "Show one session");
   show->add_option("NAME", args->name)->required();

@@ -1,10 +1,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "daemon/rpc/pagination.h"
 
-#include "absl/strings/string_view.h"
 #include "absl/strings/escaping.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/string_view.h"
 
 namespace hdrstereo::rpc {
 namespace {
@@ -14,10 +14,9 @@ constexpr absl::string_view kTokenPrefix = "after:";
 absl::StatusOr<Page> ParsePage(const v1::PageRequest& request) {
   Page page;
   if (request.page_size() < 0 || request.page_size() > kMaxPageSize) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("page.page_size is ", request.page_size(),
-                     "; use 0 (default ", kDefaultPageSize, ") to ",
-                     kMaxPageSize));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "page.page_size is ", request.page_size(), "; use 0 (default ",
+        kDefaultPageSize, ") to ", kMaxPageSize));
   }
   if (request.page_size() > 0) page.size = request.page_size();
   if (!request.page_token().empty()) {

@@ -4,8 +4,14 @@
 #include <google/protobuf/util/time_util.h>
 #include <spdlog/spdlog.h>
 
+#include <map>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
 #include "daemon/rpc/pagination.h"
 #include "daemon/rpc/status.h"
+#include "daemon/store/frame_repository.h"
+#include "daemon/store/names.h"
 
 namespace hdrstereo::rpc {
 
@@ -64,10 +70,71 @@ grpc::Status SessionsService::Delete(grpc::ServerContext*,
   absl::StatusOr<store::DeletedSession> deleted =
       sessions_.Delete(request->name());
   if (!deleted.ok()) return ToGrpcStatus(deleted.status());
-  spdlog::info("session {}: deleted ({} frames, {} artifacts)",
-               request->name(), deleted->frames, deleted->artifacts);
+  spdlog::info("session {}: deleted ({} frames, {} artifacts)", request->name(),
+               deleted->frames, deleted->artifacts);
   response->set_frames_deleted(deleted->frames);
   response->set_artifacts_deleted(deleted->artifacts);
+  return grpc::Status::OK;
+}
+
+grpc::Status SessionsService::ListFrames(grpc::ServerContext*,
+                                         const v1::ListFramesRequest* request,
+                                         v1::ListFramesResponse* response) {
+  if (absl::Status s = store::ValidateName(request->session(), "session");
+      !s.ok()) {
+    return ToGrpcStatus(s);
+  }
+  if (request->capture_id() < 0) {
+    return InvalidArgument("capture_id must be 0 (all) or a capture id");
+  }
+  absl::StatusOr<Page> page = ParsePage(request->page());
+  if (!page.ok()) return ToGrpcStatus(page.status());
+  int64_t after = 0;
+  if (!page->after.empty() && !absl::SimpleAtoi(page->after, &after)) {
+    return InvalidArgument("page.page_token was not issued by this server");
+  }
+  absl::StatusOr<std::vector<store::FrameRecord>> frames =
+      store::FrameRepository(store_).FramesOfSession(
+          request->session(), request->capture_id(), after, page->size + 1);
+  if (!frames.ok()) return ToGrpcStatus(frames.status());
+  if (static_cast<int>(frames->size()) > page->size) {
+    frames->pop_back();
+    response->set_next_page_token(
+        EncodePageToken(absl::StrCat(frames->back().id)));
+  }
+  for (const store::FrameRecord& f : *frames) {
+    v1::Frame* out = response->add_frames();
+    out->set_id(f.id);
+    out->set_capture_id(f.capture_id);
+    out->set_capture_kind(f.capture_kind == "bracketed_stereo"
+                              ? v1::CAPTURE_KIND_BRACKETED_STEREO
+                          : f.capture_kind == "structured_light"
+                              ? v1::CAPTURE_KIND_STRUCTURED_LIGHT
+                              : v1::CAPTURE_KIND_CALIBRATION);
+    out->set_sequence(f.sequence);
+    out->set_view_index(f.view_index);
+    out->set_stage_position_mm(f.stage_position_mm);
+    out->set_exposure_s(f.exposure_s);
+    out->set_pattern(f.pattern);
+    out->set_inverse(f.inverse);
+    static const std::map<std::string, v1::ImageFormat> kFormats = {
+        {"jpeg", v1::IMAGE_FORMAT_JPEG},
+        {"raw", v1::IMAGE_FORMAT_RAW},
+        {"raw+jpeg", v1::IMAGE_FORMAT_RAW_AND_JPEG},
+        {"tiff16", v1::IMAGE_FORMAT_TIFF_16},
+        {"png8", v1::IMAGE_FORMAT_PNG_8}};
+    auto format = kFormats.find(f.format);
+    out->set_format(format != kFormats.end() ? format->second
+                                             : v1::IMAGE_FORMAT_UNSPECIFIED);
+    out->set_width_px(f.width_px);
+    out->set_height_px(f.height_px);
+    out->set_path(f.path);
+    out->set_sha256(f.sha256);
+    if (f.camera_time_ms) {
+      *out->mutable_camera_time() =
+          TimeUtil::MillisecondsToTimestamp(*f.camera_time_ms);
+    }
+  }
   return grpc::Status::OK;
 }
 

@@ -7,9 +7,8 @@
 
 namespace hdrstereo::rpc {
 
-// Sessions.Create/Get/List/Delete. ListFrames, ListArtifacts and
-// DownloadArtifact answer UNIMPLEMENTED until the capture and processing jobs
-// that fill those tables exist.
+// Sessions.Create/Get/List/Delete/ListFrames. ListArtifacts and
+// DownloadArtifact answer UNIMPLEMENTED until processing jobs exist.
 class SessionsService final : public v1::Sessions::Service {
  public:
   explicit SessionsService(store::Store& store)
@@ -27,6 +26,9 @@ class SessionsService final : public v1::Sessions::Service {
   grpc::Status Delete(grpc::ServerContext* context,
                       const v1::DeleteSessionRequest* request,
                       v1::DeleteSessionResponse* response) override;
+  grpc::Status ListFrames(grpc::ServerContext* context,
+                          const v1::ListFramesRequest* request,
+                          v1::ListFramesResponse* response) override;
 
  private:
   void ToProto(const store::SessionRecord& record, v1::Session* out) const;

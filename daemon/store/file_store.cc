@@ -5,8 +5,8 @@
 
 #include <system_error>
 
-#include "absl/strings/string_view.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/string_view.h"
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
 #include "processing/io/atomic_file.h"
@@ -52,10 +52,9 @@ absl::StatusOr<FileStore> FileStore::Open(const fs::path& root) {
   for (const char* sub : {"sessions", "trash", "orphaned"}) {
     fs::create_directories(absolute / sub, ec);
     if (ec) {
-      return absl::FailedPreconditionError(
-          absl::StrCat("data root ", absolute.string(),
-                       " is not writable: cannot create ", sub, "/: ",
-                       ec.message()));
+      return absl::FailedPreconditionError(absl::StrCat(
+          "data root ", absolute.string(), " is not writable: cannot create ",
+          sub, "/: ", ec.message()));
     }
   }
   // Permission bits say little for root or on read-only mounts: try a write.
@@ -97,8 +96,8 @@ absl::Status FileStore::RemoveSessionDir(absl::string_view session) {
   fs::path dir = SessionDir(session);
   std::error_code ec;
   if (!fs::exists(dir, ec)) return absl::OkStatus();
-  fs::path doomed = root_ / "trash" /
-                    absl::StrCat(session, "-", TimeTag(), "-", ::getpid());
+  fs::path doomed =
+      root_ / "trash" / absl::StrCat(session, "-", TimeTag(), "-", ::getpid());
   fs::rename(dir, doomed, ec);
   if (ec) return FsError(ec, "cannot move to trash", dir);
   fs::remove_all(doomed, ec);

@@ -12,10 +12,10 @@
 #include <filesystem>
 #include <set>
 #include <string>
-#include "absl/strings/string_view.h"
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
 
 namespace hdrstereo::store {
 

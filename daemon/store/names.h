@@ -4,9 +4,8 @@
 #ifndef HDRSTEREO_DAEMON_STORE_NAMES_H_
 #define HDRSTEREO_DAEMON_STORE_NAMES_H_
 
-#include "absl/strings/string_view.h"
-
 #include "absl/status/status.h"
+#include "absl/strings/string_view.h"
 
 namespace hdrstereo::store {
 

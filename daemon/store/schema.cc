@@ -2,9 +2,9 @@
 #include "daemon/store/schema.h"
 
 #include <array>
-#include "absl/strings/string_view.h"
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/string_view.h"
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
 
@@ -140,8 +140,8 @@ absl::StatusOr<int> ReadSchemaVersion(Database& db) {
   if (!row.ok()) return row.status();
   if (has_table->ColumnInt(0) == 0) {
     // No version table: acceptable only for a database with no tables at all.
-    absl::StatusOr<Statement> any = db.Prepare(
-        "SELECT count(*) FROM sqlite_master WHERE type = 'table'");
+    absl::StatusOr<Statement> any =
+        db.Prepare("SELECT count(*) FROM sqlite_master WHERE type = 'table'");
     if (!any.ok()) return any.status();
     if (absl::StatusOr<bool> r = any->Step(); !r.ok()) return r.status();
     if (any->ColumnInt(0) != 0) {
@@ -183,9 +183,9 @@ absl::StatusOr<int> Migrate(Database& db) {
       return s;
     }
     if (absl::Status s = db.Exec(kMigrations[version]); !s.ok()) {
-      return absl::Status(s.code(), absl::StrCat("migration to version ",
-                                                 version + 1, ": ",
-                                                 s.message()));
+      return absl::Status(
+          s.code(), absl::StrCat("migration to version ", version + 1, ": ",
+                                 s.message()));
     }
     absl::StatusOr<Statement> record = db.Prepare(
         "INSERT INTO schema_version (version, apply_time_ms) VALUES (?1, ?2)");

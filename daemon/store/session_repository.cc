@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "daemon/store/session_repository.h"
 
-#include "absl/strings/string_view.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/string_view.h"
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
 #include "daemon/store/names.h"
@@ -49,13 +49,13 @@ absl::StatusOr<SessionRecord> GetLocked(Database& db, absl::string_view name) {
 
 }  // namespace
 
-absl::StatusOr<SessionRecord> SessionRepository::Create(absl::string_view name,
-                                                        absl::string_view note) {
+absl::StatusOr<SessionRecord> SessionRepository::Create(
+    absl::string_view name, absl::string_view note) {
   if (absl::Status s = ValidateName(name, "session name"); !s.ok()) return s;
   if (note.size() > kMaxNoteBytes) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "note has ", note.size(), " bytes; at most ", kMaxNoteBytes,
-        " are allowed"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("note has ", note.size(), " bytes; at most ",
+                     kMaxNoteBytes, " are allowed"));
   }
   Database& db = store_.db();
   absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
@@ -95,8 +95,8 @@ absl::StatusOr<SessionRecord> SessionRepository::Get(absl::string_view name) {
 absl::StatusOr<SessionPage> SessionRepository::List(absl::string_view after,
                                                     int limit) {
   std::unique_lock<std::mutex> lock = store_.db().Lock();
-  absl::StatusOr<Statement> stmt = store_.db().Prepare(
-      absl::StrCat(kSelectSession, "WHERE s.name > ?1 ORDER BY s.name LIMIT ?2"));
+  absl::StatusOr<Statement> stmt = store_.db().Prepare(absl::StrCat(
+      kSelectSession, "WHERE s.name > ?1 ORDER BY s.name LIMIT ?2"));
   if (!stmt.ok()) return stmt.status();
   // One extra row tells whether another page follows.
   stmt->Bind(1, after).Bind(2, int64_t{limit} + 1);
@@ -147,7 +147,8 @@ absl::StatusOr<DeletedSession> SessionRepository::Delete(
   // a row, which the next start moves to orphaned/.
   if (absl::Status s = store_.files().RemoveSessionDir(name); !s.ok()) {
     return absl::InternalError(absl::StrCat(
-        "session \"", name, "\" was deleted from the database but its folder "
+        "session \"", name,
+        "\" was deleted from the database but its folder "
         "was not removed (it moves to orphaned/ at the next start): ",
         s.message()));
   }

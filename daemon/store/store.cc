@@ -30,10 +30,9 @@ absl::Status CheckReadable(Database& db) {
   std::unique_lock<std::mutex> lock = db.Lock();
   absl::StatusOr<Statement> stmt = db.Prepare("PRAGMA quick_check");
   if (!stmt.ok()) {
-    return absl::FailedPreconditionError(
-        absl::StrCat("database ", db.path().string(),
-                     " is corrupt or not a SQLite file: ",
-                     stmt.status().message()));
+    return absl::FailedPreconditionError(absl::StrCat(
+        "database ", db.path().string(),
+        " is corrupt or not a SQLite file: ", stmt.status().message()));
   }
   absl::StatusOr<bool> row = stmt->Step();
   if (!row.ok() || !*row || stmt->ColumnText(0) != "ok") {
@@ -62,9 +61,9 @@ absl::StatusOr<std::unique_ptr<Store>> Store::Open(
     // WAL lets readers (the sqlite3 shell, backups) run beside the daemon;
     // synchronous=FULL makes each committed frame row survive a power cut.
     std::unique_lock<std::mutex> lock = (*db)->Lock();
-    if (absl::Status s = (*db)->Exec(
-            "PRAGMA journal_mode = WAL; PRAGMA synchronous = FULL; "
-            "PRAGMA foreign_keys = ON;");
+    if (absl::Status s =
+            (*db)->Exec("PRAGMA journal_mode = WAL; PRAGMA synchronous = FULL; "
+                        "PRAGMA foreign_keys = ON;");
         !s.ok()) {
       return s;
     }

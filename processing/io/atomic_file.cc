@@ -9,11 +9,11 @@
 #include <random>
 #include <system_error>
 
-#include "absl/strings/string_view.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/string_view.h"
 
 namespace hdrstereo::io {
 namespace {

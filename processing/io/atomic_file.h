@@ -9,10 +9,10 @@
 
 #include <filesystem>
 #include <string>
-#include "absl/strings/string_view.h"
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
 
 namespace hdrstereo::io {
 

@@ -33,11 +33,11 @@ class DaemonCliTest : public ::testing::Test {
 
   void StartDaemon() {
     fs::remove(ready_file());
-    absl::StatusOr<Process> process = Process::Start(
-        {HDRSTEREOD, "--listen", "127.0.0.1:0", "--data-root",
-         data_root().string(), "--hardware", "sim", "--ready-file",
-         ready_file().string()},
-        dir_ / "daemon.log");
+    absl::StatusOr<Process> process =
+        Process::Start({HDRSTEREOD, "--listen", "127.0.0.1:0", "--data-root",
+                        data_root().string(), "--hardware", "sim",
+                        "--ready-file", ready_file().string()},
+                       dir_ / "daemon.log");
     ASSERT_TRUE(process.ok()) << process.status();
     daemon_.emplace(*std::move(process));
     ASSERT_TRUE(WaitForFile(ready_file(), absl::Seconds(30)))
@@ -230,8 +230,9 @@ TEST_F(DaemonCliTest, UnusableDataRootsAreRefusedWithoutChangingThem) {
         store::Database::Open(data_root() / "hdrstereo.db");
     ASSERT_TRUE(db.ok());
     std::unique_lock<std::mutex> lock = (*db)->Lock();
-    ASSERT_TRUE((*db)->Exec("INSERT INTO schema_version VALUES (42, 0); "
-                            "PRAGMA wal_checkpoint(TRUNCATE);")
+    ASSERT_TRUE((*db)
+                    ->Exec("INSERT INTO schema_version VALUES (42, 0); "
+                           "PRAGMA wal_checkpoint(TRUNCATE);")
                     .ok());
   }
   const std::string before = ReadFileOrDie(data_root() / "hdrstereo.db");
@@ -243,9 +244,9 @@ TEST_F(DaemonCliTest, UnusableDataRootsAreRefusedWithoutChangingThem) {
 }
 
 TEST_F(DaemonCliTest, NonLoopbackListenAddressIsRefused) {
-  absl::StatusOr<CommandResult> result = RunCommand(
-      {HDRSTEREOD, "--listen", "0.0.0.0:50051", "--data-root",
-       data_root().string()});
+  absl::StatusOr<CommandResult> result =
+      RunCommand({HDRSTEREOD, "--listen", "0.0.0.0:50051", "--data-root",
+                  data_root().string()});
   ASSERT_TRUE(result.ok());
   EXPECT_EQ(result->exit_code, 2);
   EXPECT_THAT(result->err, HasSubstr("not a loopback address"));

@@ -62,7 +62,8 @@ absl::StatusOr<CommandResult> RunCommand(const std::vector<std::string>& argv,
                                    O_RDONLY, 0);
   pid_t pid = 0;
   std::vector<char*> args = ArgvPointers(argv);
-  int rc = ::posix_spawn(&pid, args[0], &actions, nullptr, args.data(), environ);
+  int rc =
+      ::posix_spawn(&pid, args[0], &actions, nullptr, args.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
   ::close(out_pipe[1]);
   ::close(err_pipe[1]);
@@ -79,8 +80,8 @@ absl::StatusOr<CommandResult> RunCommand(const std::vector<std::string>& argv,
   int open_fds = 2;
   bool timed_out = false;
   while (open_fds > 0) {
-    int wait_ms = static_cast<int>(
-        std::max<int64_t>(0, absl::ToInt64Milliseconds(deadline - absl::Now())));
+    int wait_ms = static_cast<int>(std::max<int64_t>(
+        0, absl::ToInt64Milliseconds(deadline - absl::Now())));
     if (wait_ms == 0) {
       timed_out = true;
       break;
@@ -124,9 +125,11 @@ absl::StatusOr<Process> Process::Start(const std::vector<std::string>& argv,
                                    O_RDONLY, 0);
   pid_t pid = 0;
   std::vector<char*> args = ArgvPointers(argv);
-  int rc = ::posix_spawn(&pid, args[0], &actions, nullptr, args.data(), environ);
+  int rc =
+      ::posix_spawn(&pid, args[0], &actions, nullptr, args.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
-  if (rc != 0) return absl::ErrnoToStatus(rc, absl::StrCat("cannot run ", argv[0]));
+  if (rc != 0)
+    return absl::ErrnoToStatus(rc, absl::StrCat("cannot run ", argv[0]));
   return Process(pid);
 }
 
@@ -156,6 +159,16 @@ bool WaitForFile(const std::filesystem::path& path, absl::Duration timeout) {
   std::error_code ec;
   while (absl::Now() < deadline) {
     if (std::filesystem::file_size(path, ec) > 0 && !ec) return true;
+    absl::SleepFor(absl::Milliseconds(20));
+  }
+  return false;
+}
+
+bool WaitForSocket(const std::filesystem::path& path, absl::Duration timeout) {
+  const absl::Time deadline = absl::Now() + timeout;
+  std::error_code ec;
+  while (absl::Now() < deadline) {
+    if (std::filesystem::exists(path, ec)) return true;
     absl::SleepFor(absl::Milliseconds(20));
   }
   return false;

@@ -51,6 +51,8 @@ class Process {
 
 // Polls until `path` exists and is non-empty, or `timeout` passes.
 bool WaitForFile(const std::filesystem::path& path, absl::Duration timeout);
+// Polls until `path` exists (a socket, say), or `timeout` passes.
+bool WaitForSocket(const std::filesystem::path& path, absl::Duration timeout);
 
 }  // namespace hdrstereo::testing
 

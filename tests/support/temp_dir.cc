@@ -11,9 +11,8 @@ namespace hdrstereo::testing {
 
 TempDir::TempDir() {
   const char* base = std::getenv("TMPDIR");
-  std::string pattern =
-      std::string(base != nullptr && *base ? base : "/tmp") +
-      "/hdrstereo-test-XXXXXX";
+  std::string pattern = std::string(base != nullptr && *base ? base : "/tmp") +
+                        "/hdrstereo-test-XXXXXX";
   if (::mkdtemp(pattern.data()) == nullptr) {
     ADD_FAILURE() << "mkdtemp " << pattern << " failed";
   }

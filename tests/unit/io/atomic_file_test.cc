@@ -18,7 +18,8 @@ using ::hdrstereo::testing::TempDir;
 int CountTempFiles(const std::filesystem::path& dir) {
   int n = 0;
   for (const auto& entry : std::filesystem::directory_iterator(dir)) {
-    if (entry.path().filename().string().find(".tmp-") != std::string::npos) ++n;
+    if (entry.path().filename().string().find(".tmp-") != std::string::npos)
+      ++n;
   }
   return n;
 }

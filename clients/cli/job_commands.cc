@@ -1,0 +1,327 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// `hdrstereo capture stereo|sl|calibration` and
+// `hdrstereo jobs list|show|watch|pause|resume|cancel`.
+#include <signal.h>
+#include <unistd.h>
+
+#include <iostream>
+#include <memory>
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/time/clock.h"
+#include "clients/cli/commands.h"
+#include "clients/cli/exposure.h"
+#include "clients/cli/output.h"
+#include "hdrstereo/v1/jobs.grpc.pb.h"
+
+namespace hdrstereo::cli {
+namespace {
+
+std::string StateName(v1::JobState state) {
+  return absl::AsciiStrToLower(
+      v1::JobState_Name(state).substr(std::string("JOB_STATE_").size()));
+}
+
+bool IsFinal(v1::JobState state) {
+  return state == v1::JOB_STATE_SUCCEEDED || state == v1::JOB_STATE_FAILED ||
+         state == v1::JOB_STATE_CANCELLED;
+}
+
+std::string FormatDuration(double seconds) {
+  if (!(seconds >= 0) || seconds > 360000) return "--:--";
+  const int s = static_cast<int>(seconds + 0.5);
+  return absl::StrFormat("%d:%02d:%02d", s / 3600, (s / 60) % 60, s % 60);
+}
+
+void PrintJob(const v1::Job& job) {
+  PrintFields(
+      std::cout,
+      {{"job", absl::StrCat(job.id())},
+       {"session", job.session()},
+       {"kind", job.kind() == v1::JOB_KIND_CAPTURE ? "capture" : "processing"},
+       {"state", StateName(job.state())},
+       {"progress",
+        absl::StrCat(job.progress().done(), "/", job.progress().total(), "  ",
+                     job.progress().step())},
+       {"created", FormatTime(job.create_time())},
+       {"error", job.error().empty() ? "-" : job.error()}});
+}
+
+// Ctrl-C while watching leaves the job running on the daemon.
+void StopWatching(int) {
+  static const char kMessage[] =
+      "\nstopped watching; the job goes on (hdrstereo jobs watch ID)\n";
+  ssize_t ignored = write(STDERR_FILENO, kMessage, sizeof kMessage - 1);
+  (void)ignored;
+  _exit(130);
+}
+
+int Watch(const Client& client, int64_t job_id) {
+  signal(SIGINT, StopWatching);
+  const bool tty = isatty(STDOUT_FILENO);
+  grpc::ClientContext context;  // no deadline: captures take long
+  v1::WatchJobRequest request;
+  request.set_job_id(job_id);
+  auto reader = v1::Jobs::NewStub(client.channel())->Watch(&context, request);
+  v1::JobEvent event;
+  v1::JobState last_state = v1::JOB_STATE_UNSPECIFIED;
+  absl::Time rate_start = absl::InfinitePast();
+  int64_t rate_done = 0;
+  bool bar_open = false;
+  while (reader->Read(&event)) {
+    const absl::Time t = absl::FromUnixSeconds(event.time().seconds()) +
+                         absl::Nanoseconds(event.time().nanos());
+    const int64_t done = event.progress().done();
+    const int64_t total = event.progress().total();
+    if (client.options().json) {
+      PrintJson(std::cout, event);
+    } else if (tty && event.message().empty() && total > 0) {
+      if (rate_start == absl::InfinitePast() ||
+          event.state() != v1::JOB_STATE_RUNNING) {
+        rate_start = t;
+        rate_done = done;
+      }
+      const double elapsed = absl::ToDoubleSeconds(t - rate_start);
+      const double rate = elapsed > 0 ? (done - rate_done) / elapsed : 0;
+      constexpr int kWidth = 30;
+      const int filled = static_cast<int>(kWidth * done / total);
+      std::cout << absl::StrFormat(
+                       "\r[%s%s] %d/%d %3.0f%% %5.2f fr/s ETA %s  %-40.40s",
+                       std::string(filled, '#'),
+                       std::string(kWidth - filled, '-'), done, total,
+                       100.0 * done / total, rate,
+                       rate > 0 ? FormatDuration((total - done) / rate)
+                                : "--:--",
+                       event.progress().step())
+                << std::flush;
+      bar_open = true;
+    } else if (!event.message().empty() || event.state() != last_state ||
+               !tty) {
+      if (bar_open) std::cout << "\n";
+      bar_open = false;
+      std::cout << absl::StrFormat(
+          "%s job %d %s %d/%d %s%s%s\n", FormatTime(event.time()), job_id,
+          StateName(event.state()), done, total, event.progress().step(),
+          event.message().empty() ? "" : "  ", event.message());
+    }
+    last_state = event.state();
+  }
+  if (bar_open) std::cout << "\n";
+  grpc::Status status = reader->Finish();
+  if (!status.ok()) return client.Fail(status);
+  if (!IsFinal(last_state)) return kExitError;
+  return last_state == v1::JOB_STATE_SUCCEEDED ? kExitOk : kExitError;
+}
+
+int Submit(const Client& client, const v1::SubmitCaptureRequest& request,
+           bool watch) {
+  v1::Job job;
+  grpc::Status status =
+      v1::Jobs::NewStub(client.channel())
+          ->SubmitCapture(client.NewContext().get(), request, &job);
+  if (!status.ok()) return client.Fail(status);
+  if (client.options().json) {
+    PrintJson(std::cout, job);
+  } else {
+    std::cout << "job " << job.id() << " queued: " << job.progress().total()
+              << " frames in session " << job.session() << "\n";
+  }
+  return watch ? Watch(client, job.id()) : kExitOk;
+}
+
+}  // namespace
+
+void AddJobCommands(CLI::App& app, const GlobalOptions& options,
+                    int* exit_code) {
+  struct Args {
+    std::string session;
+    std::string exposures;
+    double baseline_mm = 0;
+    int views = 0;
+    int iso = 0;
+    int poses = 0;
+    bool no_ambient = false;
+    bool watch = false;
+    int64_t job_id = 0;
+    std::string filter_session;
+  };
+  auto args = std::make_shared<Args>();
+  auto exposures = [args](google::protobuf::RepeatedField<double>* out) {
+    if (args->exposures.empty()) return absl::OkStatus();
+    absl::StatusOr<std::vector<double>> list =
+        ParseExposureList(args->exposures);
+    if (!list.ok()) return list.status();
+    for (double e : *list) out->Add(e);
+    return absl::OkStatus();
+  };
+
+  CLI::App* capture = app.add_subcommand("capture", "Start a capture job");
+  capture->require_subcommand(1);
+  auto common = [&](CLI::App* sub) {
+    sub->add_option("SESSION", args->session, "Session to capture into")
+        ->required();
+    sub->add_flag("--watch", args->watch, "Follow the job's progress");
+  };
+
+  CLI::App* stereo = capture->add_subcommand(
+      "stereo", "Bracketed stereo: every exposure at each view");
+  common(stereo);
+  stereo->add_option("--exposures", args->exposures,
+                     "Comma-separated, e.g. 1/15,1/30 [default: thesis 8]");
+  stereo->add_option("--baseline-mm", args->baseline_mm,
+                     "Distance between views [default: 150]");
+  stereo->add_option("--views", args->views, "Number of views [default: 2]");
+  stereo->add_option("--iso", args->iso, "ISO [default: camera's]");
+  stereo->add_flag("--no-ambient", args->no_ambient,
+                   "Skip the ambient frame taken first");
+  stereo->callback([&options, exit_code, args, exposures] {
+    Client client(options);
+    v1::SubmitCaptureRequest request;
+    request.set_session(args->session);
+    v1::BracketedStereoPlan* plan =
+        request.mutable_plan()->mutable_bracketed_stereo();
+    if (absl::Status s = exposures(plan->mutable_exposures_s()); !s.ok()) {
+      std::cerr << "hdrstereo: " << s.message() << "\n";
+      *exit_code = kExitUsage;
+      return;
+    }
+    plan->set_baseline_mm(args->baseline_mm);
+    plan->set_views(args->views);
+    plan->set_iso(args->iso);
+    plan->set_skip_ambient(args->no_ambient);
+    *exit_code = Submit(client, request, args->watch);
+  });
+
+  CLI::App* sl = capture->add_subcommand(
+      "sl", "Structured light: Gray codes at each exposure and view");
+  common(sl);
+  sl->add_option("--exposures", args->exposures,
+                 "Comma-separated [default: 1/30,1/125]");
+  sl->add_option("--baseline-mm", args->baseline_mm, "[default: 150]");
+  sl->add_option("--views", args->views, "[default: 2]");
+  sl->callback([&options, exit_code, args, exposures] {
+    Client client(options);
+    v1::SubmitCaptureRequest request;
+    request.set_session(args->session);
+    v1::StructuredLightPlan* plan =
+        request.mutable_plan()->mutable_structured_light();
+    if (absl::Status s = exposures(plan->mutable_exposures_s()); !s.ok()) {
+      std::cerr << "hdrstereo: " << s.message() << "\n";
+      *exit_code = kExitUsage;
+      return;
+    }
+    plan->set_baseline_mm(args->baseline_mm);
+    plan->set_views(args->views);
+    *exit_code = Submit(client, request, args->watch);
+  });
+
+  CLI::App* calibration =
+      capture->add_subcommand("calibration", "Checkerboard poses, both views");
+  common(calibration);
+  calibration->add_option("--poses", args->poses, "Number of poses")
+      ->required();
+  calibration->callback([&options, exit_code, args] {
+    Client client(options);
+    v1::SubmitCaptureRequest request;
+    request.set_session(args->session);
+    request.mutable_plan()->mutable_calibration()->set_poses(args->poses);
+    *exit_code = Submit(client, request, args->watch);
+  });
+
+  CLI::App* jobs = app.add_subcommand("jobs", "List, follow and steer jobs");
+  jobs->require_subcommand(1);
+  CLI::App* list = jobs->add_subcommand("list", "List jobs");
+  list->add_option("--session", args->filter_session, "Only this session");
+  list->callback([&options, exit_code, args] {
+    Client client(options);
+    auto stub = v1::Jobs::NewStub(client.channel());
+    v1::ListJobsRequest request;
+    request.set_session(args->filter_session);
+    v1::ListJobsResponse all;
+    do {
+      v1::ListJobsResponse page;
+      grpc::Status status =
+          stub->List(client.NewContext().get(), request, &page);
+      if (!status.ok()) {
+        *exit_code = client.Fail(status);
+        return;
+      }
+      all.mutable_jobs()->MergeFrom(page.jobs());
+      request.mutable_page()->set_page_token(page.next_page_token());
+    } while (!request.page().page_token().empty());
+    *exit_code = Finish(
+        client, grpc::Status::OK, all, [](const v1::ListJobsResponse& r) {
+          if (r.jobs().empty()) {
+            std::cout << "no jobs\n";
+            return;
+          }
+          Table table({"ID", "SESSION", "KIND", "STATE", "PROGRESS", "CREATED",
+                       "ERROR"});
+          for (const v1::Job& j : r.jobs()) {
+            table.AddRow(
+                {absl::StrCat(j.id()), j.session(),
+                 j.kind() == v1::JOB_KIND_CAPTURE ? "capture" : "processing",
+                 StateName(j.state()),
+                 absl::StrCat(j.progress().done(), "/", j.progress().total()),
+                 FormatTime(j.create_time()), j.error()});
+          }
+          table.Print(std::cout);
+        });
+  });
+
+  auto job_command = [&](const std::string& name, const std::string& help,
+                         auto call) {
+    CLI::App* sub = jobs->add_subcommand(name, help);
+    sub->add_option("ID", args->job_id, "Job id")->required();
+    sub->callback([&options, exit_code, args, call] {
+      Client client(options);
+      *exit_code = call(client, args->job_id);
+    });
+  };
+  job_command("show", "Show one job", [](const Client& client, int64_t id) {
+    v1::GetJobRequest request;
+    request.set_job_id(id);
+    v1::Job job;
+    grpc::Status status = v1::Jobs::NewStub(client.channel())
+                              ->Get(client.NewContext().get(), request, &job);
+    return Finish(client, status, job, PrintJob);
+  });
+  job_command(
+      "watch", "Follow a job until it ends (Ctrl-C stops watching)",
+      [](const Client& client, int64_t id) { return Watch(client, id); });
+  job_command("pause", "Pause after the current frame",
+              [](const Client& client, int64_t id) {
+                v1::PauseJobRequest request;
+                request.set_job_id(id);
+                v1::Job job;
+                grpc::Status status =
+                    v1::Jobs::NewStub(client.channel())
+                        ->Pause(client.NewContext().get(), request, &job);
+                return Finish(client, status, job, PrintJob);
+              });
+  job_command("resume", "Resume a paused job",
+              [](const Client& client, int64_t id) {
+                v1::ResumeJobRequest request;
+                request.set_job_id(id);
+                v1::Job job;
+                grpc::Status status =
+                    v1::Jobs::NewStub(client.channel())
+                        ->Resume(client.NewContext().get(), request, &job);
+                return Finish(client, status, job, PrintJob);
+              });
+  job_command("cancel", "Cancel a job (hardware is left safe)",
+              [](const Client& client, int64_t id) {
+                v1::CancelJobRequest request;
+                request.set_job_id(id);
+                v1::Job job;
+                grpc::Status status =
+                    v1::Jobs::NewStub(client.channel())
+                        ->Cancel(client.NewContext().get(), request, &job);
+                return Finish(client, status, job, PrintJob);
+              });
+}
+
+}  // namespace hdrstereo::cli

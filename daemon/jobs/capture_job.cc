@@ -1,0 +1,326 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "daemon/jobs/capture_job.h"
+
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <set>
+
+#include "absl/cleanup/cleanup.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "daemon/store/frame_repository.h"
+#include "processing/io/sha256.h"
+
+namespace hdrstereo::jobs {
+namespace {
+
+namespace fs = std::filesystem;
+namespace sl = structured_light;
+
+// Frames already recorded for this capture whose files are intact, by
+// sequence. Rows whose file is missing or differs are deleted (the frame is
+// taken again) and reported.
+absl::StatusOr<std::map<int, store::FrameRecord>> VerifiedFrames(
+    store::FrameRepository& frames, int64_t capture_id,
+    const fs::path& session_dir, JobContext& context) {
+  absl::StatusOr<std::vector<store::FrameRecord>> recorded =
+      frames.FramesOfCapture(capture_id);
+  if (!recorded.ok()) return recorded.status();
+  std::map<int, store::FrameRecord> good;
+  for (store::FrameRecord& frame : *recorded) {
+    absl::StatusOr<std::string> sha =
+        io::Sha256HexOfFile(session_dir / frame.path);
+    if (sha.ok() && *sha == frame.sha256) {
+      good.emplace(frame.sequence, std::move(frame));
+      continue;
+    }
+    context.Warn(absl::StrCat(
+        "frame ", frame.path,
+        sha.ok() ? " does not match its recorded sha256" : " is missing",
+        "; taking it again"));
+    if (absl::Status s = frames.Delete(frame.id); !s.ok()) return s;
+  }
+  return good;
+}
+
+// Files under the capture's folder that no frame row references were left
+// by a crash between writing a file and recording it: remove them.
+absl::Status RemoveUnrecordedFiles(
+    const fs::path& session_dir, int64_t capture_id,
+    const std::map<int, store::FrameRecord>& good) {
+  std::set<fs::path> keep;
+  for (const auto& [sequence, frame] : good) keep.insert(frame.path);
+  const fs::path root = session_dir / "captures" / std::to_string(capture_id);
+  std::error_code ec;
+  if (!fs::exists(root, ec)) return absl::OkStatus();
+  std::vector<fs::path> doomed;
+  for (auto it = fs::recursive_directory_iterator(root, ec);
+       !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+    if (it->is_regular_file() &&
+        !keep.contains(fs::relative(it->path(), session_dir))) {
+      doomed.push_back(it->path());
+    }
+  }
+  for (const fs::path& path : doomed) fs::remove(path, ec);
+  if (ec) {
+    return absl::InternalError(
+        absl::StrCat("cannot clean ", root.string(), ": ", ec.message()));
+  }
+  return absl::OkStatus();
+}
+
+struct BaseSettings {
+  int iso = 0;
+  double aperture_f = 0;
+  std::optional<hardware::ImageFormat> format;
+  double settle_s = 0;
+};
+
+BaseSettings SettingsOf(const v1::CapturePlan& plan) {
+  BaseSettings base;
+  switch (plan.plan_case()) {
+    case v1::CapturePlan::kBracketedStereo: {
+      const auto& p = plan.bracketed_stereo();
+      base = {p.iso(), p.aperture_f(), std::nullopt, p.settle_s()};
+      switch (p.format()) {
+        case v1::IMAGE_FORMAT_JPEG:
+          base.format = hardware::ImageFormat::kJpeg;
+          break;
+        case v1::IMAGE_FORMAT_RAW:
+        case v1::IMAGE_FORMAT_RAW_AND_JPEG:
+          base.format = hardware::ImageFormat::kRaw;
+          break;
+        case v1::IMAGE_FORMAT_TIFF_16:
+          base.format = hardware::ImageFormat::kTiff16;
+          break;
+        case v1::IMAGE_FORMAT_PNG_8:
+          base.format = hardware::ImageFormat::kPng8;
+          break;
+        default:
+          break;
+      }
+      break;
+    }
+    case v1::CapturePlan::kStructuredLight: {
+      const auto& p = plan.structured_light();
+      base = {p.iso(), p.aperture_f(), std::nullopt, p.settle_s()};
+      break;
+    }
+    default:
+      break;
+  }
+  return base;
+}
+
+std::string Describe(const FrameSpec& spec, int views) {
+  std::string what = spec.kind;
+  if (spec.pattern.has_value()) {
+    what = absl::StrCat("pattern ", spec.pattern->Id(),
+                        spec.pattern->inverse ? " inverse" : "");
+  }
+  return absl::StrFormat("%s view, %s, %s", ViewName(spec.view_index, views),
+                         what, ExposureTag(spec.exposure_s));
+}
+
+int ViewsOf(const v1::CapturePlan& plan) {
+  switch (plan.plan_case()) {
+    case v1::CapturePlan::kBracketedStereo:
+      return plan.bracketed_stereo().views();
+    case v1::CapturePlan::kStructuredLight:
+      return plan.structured_light().views();
+    default:
+      return 2;
+  }
+}
+
+}  // namespace
+
+absl::StatusOr<RigLimits> LimitsOf(const hardware::Rig& rig) {
+  if (rig.stage() == nullptr) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("no stage: ", rig.stage_error().message()));
+  }
+  RigLimits limits;
+  limits.travel_mm = rig.stage()->travel_mm();
+  limits.home_position_mm = rig.config().home_position_mm;
+  if (rig.projector() != nullptr) {
+    limits.projector_size = rig.projector()->resolution();
+  }
+  return limits;
+}
+
+absl::Status CheckDevicesFor(const v1::CapturePlan& plan,
+                             const hardware::Rig& rig) {
+  if (rig.camera() == nullptr) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("no camera: ", rig.camera_error().message()));
+  }
+  if (rig.stage() == nullptr) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("no stage: ", rig.stage_error().message()));
+  }
+  if (plan.has_structured_light() && rig.projector() == nullptr) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("structured light needs the projector: ",
+                     rig.projector_error().message()));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context) {
+  const store::JobRecord& job = context.job();
+  v1::CapturePlan plan;
+  if (!plan.ParseFromString(job.request)) {
+    return absl::DataLossError("the job's capture plan cannot be read");
+  }
+  if (absl::Status s = CheckDevicesFor(plan, rig); !s.ok()) return s;
+  absl::StatusOr<RigLimits> limits = LimitsOf(rig);
+  if (!limits.ok()) return limits.status();
+
+  // The hardware is ours until the job ends.
+  std::unique_lock<std::mutex> lane(rig.lane());
+  hardware::Camera& camera = *rig.camera();
+  hardware::Stage& stage = *rig.stage();
+  hardware::Projector* projector = rig.projector();
+
+  store::FrameRepository frames(context.store());
+  absl::StatusOr<store::CaptureRecord> capture =
+      frames.CaptureForJob(job.id, PlanKindName(plan), job.request);
+  if (!capture.ok()) return capture.status();
+  const fs::path session_dir = context.store().files().SessionDir(job.session);
+  const std::vector<FrameSpec> specs = ExpandPlan(plan, *limits, capture->id);
+  absl::StatusOr<std::map<int, store::FrameRecord>> done =
+      VerifiedFrames(frames, capture->id, session_dir, context);
+  if (!done.ok()) return done.status();
+  if (absl::Status s = RemoveUnrecordedFiles(session_dir, capture->id, *done);
+      !s.ok()) {
+    return s;
+  }
+  const int64_t total = static_cast<int64_t>(specs.size());
+  int64_t count = static_cast<int64_t>(done->size());
+  if (absl::Status s = context.Progress(
+          count, total,
+          count > 0
+              ? absl::StrCat("resuming: ", count, " frames already recorded")
+              : "preparing the rig");
+      !s.ok()) {
+    return s;
+  }
+
+  // Whatever happens, leave the hardware safe.
+  bool moved = false;
+  absl::Cleanup safe = [&] {
+    if (projector != nullptr) projector->Blank().IgnoreError();
+    if (moved) stage.Stop().IgnoreError();
+  };
+
+  absl::StatusOr<hardware::StageState> state = stage.State();
+  if (!state.ok()) return state.status();
+  if (!state->homed) {
+    if (absl::Status s = stage.Home(); !s.ok()) return s;
+  }
+  const BaseSettings base = SettingsOf(plan);
+  double position = std::nan("");
+  double exposure = std::nan("");
+  std::string showing;  // pattern id on the projector, "" = blank
+  if (projector != nullptr) {
+    if (absl::Status s = projector->Blank(); !s.ok()) return s;
+  }
+  const int views = ViewsOf(plan);
+
+  for (const FrameSpec& spec : specs) {
+    if (done->contains(spec.sequence)) continue;
+    if (absl::Status s = context.Checkpoint(); !s.ok()) return s;
+    if (!(std::abs(position - spec.stage_position_mm) < 1e-6)) {
+      moved = true;
+      if (absl::Status s = stage.MoveTo(spec.stage_position_mm); !s.ok()) {
+        return s;
+      }
+      position = spec.stage_position_mm;
+      if (base.settle_s > 0) absl::SleepFor(absl::Seconds(base.settle_s));
+    }
+    if (projector != nullptr) {
+      const std::string wanted =
+          spec.pattern.has_value()
+              ? absl::StrCat(spec.pattern->Id(),
+                             spec.pattern->inverse ? "i" : "")
+              : "";
+      if (wanted != showing) {
+        if (spec.pattern.has_value()) {
+          absl::StatusOr<cv::Mat> image =
+              sl::Render(*spec.pattern, projector->resolution());
+          if (!image.ok()) return image.status();
+          if (absl::Status s = projector->Show(*image); !s.ok()) return s;
+        } else if (absl::Status s = projector->Blank(); !s.ok()) {
+          return s;
+        }
+        showing = wanted;
+      }
+    }
+    if (exposure != spec.exposure_s) {
+      absl::StatusOr<hardware::ExposureSettings> applied =
+          camera.Configure({.exposure_s = spec.exposure_s,
+                            .iso = base.iso,
+                            .aperture_f = base.aperture_f,
+                            .format = base.format});
+      if (!applied.ok()) return applied.status();
+      exposure = spec.exposure_s;
+    }
+    absl::StatusOr<hardware::Frame> frame = camera.Capture();
+    if (!frame.ok()) return frame.status();
+
+    store::FrameRecord record;
+    record.capture_id = capture->id;
+    record.sequence = spec.sequence;
+    record.view_index = spec.view_index;
+    record.stage_position_mm = spec.stage_position_mm;
+    record.exposure_s =
+        frame->exposure_s > 0 ? frame->exposure_s : spec.exposure_s;
+    record.pattern = spec.pattern.has_value() ? spec.pattern->Id() : "";
+    record.inverse = spec.pattern.has_value() && spec.pattern->inverse;
+    record.format = hardware::ImageFormatName(frame->format);
+    record.width_px = frame->width_px;
+    record.height_px = frame->height_px;
+    if (record.width_px == 0 && frame->format != hardware::ImageFormat::kRaw) {
+      cv::Mat decoded =
+          cv::imdecode(cv::Mat(1, static_cast<int>(frame->bytes.size()),
+                               CV_8UC1, frame->bytes.data()),
+                       cv::IMREAD_UNCHANGED);
+      record.width_px = decoded.cols;
+      record.height_px = decoded.rows;
+    }
+    record.path = absl::StrCat(spec.relative_stem, ".", frame->extension);
+    record.sha256 = io::Sha256Hex(frame->bytes);
+    if (frame->camera_time != absl::InfinitePast()) {
+      record.camera_time_ms = absl::ToUnixMillis(frame->camera_time);
+    }
+    if (absl::Status s = context.store().files().WriteSessionFile(
+            job.session, record.path, frame->bytes);
+        !s.ok()) {
+      return s;
+    }
+    ++count;
+    if (absl::Status s =
+            context.Progress(count, total, Describe(spec, views),
+                             [&] { return frames.InsertLocked(record); });
+        !s.ok()) {
+      return s;
+    }
+  }
+
+  if (projector != nullptr) {
+    if (absl::Status s = projector->Blank(); !s.ok()) return s;
+  }
+  if (plan.has_bracketed_stereo() || plan.has_structured_light()) {
+    if (absl::Status s = stage.MoveTo(limits->home_position_mm); !s.ok()) {
+      return s;
+    }
+  }
+  std::move(safe).Cancel();
+  return absl::OkStatus();
+}
+
+}  // namespace hdrstereo::jobs

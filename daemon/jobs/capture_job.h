@@ -1,0 +1,32 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// Runs a capture job on the rig: the frames of its plan, each written
+// atomically and recorded in the same transaction that advances progress.
+// A resumed job verifies what is recorded (sha256) and takes only what is
+// missing.
+#ifndef HDRSTEREO_DAEMON_JOBS_CAPTURE_JOB_H_
+#define HDRSTEREO_DAEMON_JOBS_CAPTURE_JOB_H_
+
+#include "absl/status/status.h"
+#include "daemon/jobs/capture_plan.h"
+#include "daemon/jobs/job_engine.h"
+#include "hardware/rig.h"
+
+namespace hdrstereo::jobs {
+
+// The rig's limits as capture plans see them; FAILED_PRECONDITION when the
+// stage is missing.
+absl::StatusOr<RigLimits> LimitsOf(const hardware::Rig& rig);
+
+// FAILED_PRECONDITION naming the missing device when `plan` cannot run on
+// `rig` as it is now.
+absl::Status CheckDevicesFor(const v1::CapturePlan& plan,
+                             const hardware::Rig& rig);
+
+// The job runner for capture jobs (JobKind::kCapture); the job's request is
+// a serialized, normalised v1::CapturePlan.
+absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context);
+
+}  // namespace hdrstereo::jobs
+
+#endif  // HDRSTEREO_DAEMON_JOBS_CAPTURE_JOB_H_

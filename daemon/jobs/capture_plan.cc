@@ -1,0 +1,270 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "daemon/jobs/capture_plan.h"
+
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_replace.h"
+
+namespace hdrstereo::jobs {
+namespace {
+
+namespace sl = structured_light;
+
+absl::Status CheckExposures(
+    const google::protobuf::RepeatedField<double>& exposures,
+    absl::string_view field) {
+  if (exposures.size() > kMaxExposures) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, " has ", exposures.size(), " exposures; at most ",
+                     kMaxExposures));
+  }
+  for (int i = 0; i < exposures.size(); ++i) {
+    const double e = exposures[i];
+    if (!std::isfinite(e) || e <= 0 || e > 3600) {
+      return absl::InvalidArgumentError(absl::StrFormat(
+          "%s[%d] is %g s; exposures must be in (0, 3600] s", field, i, e));
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::Status CheckGeometry(double baseline_mm, int views, double settle_s,
+                           const RigLimits& rig, absl::string_view prefix) {
+  if (views < 1 || views > kMaxViews) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(prefix, ".views is ", views, "; use 1 to ", kMaxViews));
+  }
+  if (!std::isfinite(baseline_mm) || baseline_mm < 0 ||
+      (views > 1 && baseline_mm == 0)) {
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "%s.baseline_mm is %g; it must be > 0", prefix, baseline_mm));
+  }
+  const double last = rig.home_position_mm + (views - 1) * baseline_mm;
+  if (last > rig.travel_mm + 1e-9) {
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "%s: %d views %g mm apart from %g mm end at %g mm, beyond the stage "
+        "travel of %g mm",
+        prefix, views, baseline_mm, rig.home_position_mm, last, rig.travel_mm));
+  }
+  if (!std::isfinite(settle_s) || settle_s < 0 || settle_s > 60) {
+    return absl::InvalidArgumentError(
+        absl::StrFormat("%s.settle_s is %g; use 0 to 60 s", prefix, settle_s));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status CheckCamera(int iso, double aperture_f, absl::string_view prefix) {
+  if (iso < 0 || iso > 409600) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(prefix, ".iso is ", iso, "; use 0 (camera's) to 409600"));
+  }
+  if (!std::isfinite(aperture_f) || aperture_f < 0 || aperture_f > 64) {
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "%s.aperture_f is %g; use 0 (camera's) to 64", prefix, aperture_f));
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+const std::vector<double>& DefaultStereoExposures() {
+  static const std::vector<double> kExposures = {
+      1.0 / 15,  1.0 / 30,  1.0 / 60,   1.0 / 125,
+      1.0 / 250, 1.0 / 500, 1.0 / 1000, 1.0 / 2000};
+  return kExposures;
+}
+
+const std::vector<double>& DefaultStructuredLightExposures() {
+  static const std::vector<double> kExposures = {1.0 / 30, 1.0 / 125};
+  return kExposures;
+}
+
+std::string ViewName(int view_index, int views) {
+  if (views == 2) return view_index == 0 ? "left" : "right";
+  return absl::StrCat("view", view_index);
+}
+
+std::string ExposureTag(double seconds) {
+  if (seconds < 0.4) {
+    const double denominator = 1.0 / seconds;
+    if (std::abs(denominator - std::round(denominator)) < 1e-6 * denominator) {
+      return absl::StrFormat("1-%.0fs", denominator);
+    }
+  }
+  return absl::StrReplaceAll(absl::StrFormat("%gs", seconds), {{"+", ""}});
+}
+
+std::string PlanKindName(const v1::CapturePlan& plan) {
+  switch (plan.plan_case()) {
+    case v1::CapturePlan::kBracketedStereo:
+      return "bracketed_stereo";
+    case v1::CapturePlan::kStructuredLight:
+      return "structured_light";
+    case v1::CapturePlan::kCalibration:
+      return "calibration";
+    case v1::CapturePlan::PLAN_NOT_SET:
+      break;
+  }
+  return "none";
+}
+
+absl::StatusOr<v1::CapturePlan> NormalizePlan(const v1::CapturePlan& plan,
+                                              const RigLimits& rig) {
+  v1::CapturePlan out = plan;
+  switch (plan.plan_case()) {
+    case v1::CapturePlan::kBracketedStereo: {
+      v1::BracketedStereoPlan* p = out.mutable_bracketed_stereo();
+      if (absl::Status s =
+              CheckExposures(p->exposures_s(), "bracketed_stereo.exposures_s");
+          !s.ok()) {
+        return s;
+      }
+      if (p->exposures_s().empty()) {
+        for (double e : DefaultStereoExposures()) p->add_exposures_s(e);
+      }
+      if (p->views() == 0) p->set_views(2);
+      if (p->baseline_mm() == 0 && p->views() > 1) p->set_baseline_mm(150);
+      if (absl::Status s =
+              CheckGeometry(p->baseline_mm(), p->views(), p->settle_s(), rig,
+                            "bracketed_stereo");
+          !s.ok()) {
+        return s;
+      }
+      if (absl::Status s =
+              CheckCamera(p->iso(), p->aperture_f(), "bracketed_stereo");
+          !s.ok()) {
+        return s;
+      }
+      if (!v1::ImageFormat_IsValid(p->format())) {
+        return absl::InvalidArgumentError(
+            "bracketed_stereo.format is not a known format");
+      }
+      return out;
+    }
+    case v1::CapturePlan::kStructuredLight: {
+      v1::StructuredLightPlan* p = out.mutable_structured_light();
+      if (absl::Status s =
+              CheckExposures(p->exposures_s(), "structured_light.exposures_s");
+          !s.ok()) {
+        return s;
+      }
+      if (p->exposures_s().empty()) {
+        for (double e : DefaultStructuredLightExposures()) {
+          p->add_exposures_s(e);
+        }
+      }
+      if (p->views() == 0) p->set_views(2);
+      if (p->baseline_mm() == 0 && p->views() > 1) p->set_baseline_mm(150);
+      if (absl::Status s =
+              CheckGeometry(p->baseline_mm(), p->views(), p->settle_s(), rig,
+                            "structured_light");
+          !s.ok()) {
+        return s;
+      }
+      if (absl::Status s =
+              CheckCamera(p->iso(), p->aperture_f(), "structured_light");
+          !s.ok()) {
+        return s;
+      }
+      return out;
+    }
+    case v1::CapturePlan::kCalibration: {
+      v1::CalibrationPlan* p = out.mutable_calibration();
+      if (p->poses() < 1 || p->poses() > kMaxCalibrationPoses) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("calibration.poses is ", p->poses(), "; use 1 to ",
+                         kMaxCalibrationPoses));
+      }
+      if (p->exposure_s() == 0) p->set_exposure_s(1.0 / 60);
+      if (!std::isfinite(p->exposure_s()) || p->exposure_s() < 0) {
+        return absl::InvalidArgumentError("calibration.exposure_s must be > 0");
+      }
+      if (p->baseline_mm() == 0) p->set_baseline_mm(150);
+      if (absl::Status s =
+              CheckGeometry(p->baseline_mm(), 2, 0, rig, "calibration");
+          !s.ok()) {
+        return s;
+      }
+      return out;
+    }
+    case v1::CapturePlan::PLAN_NOT_SET:
+      break;
+  }
+  return absl::InvalidArgumentError(
+      "plan must be one of bracketed_stereo, structured_light, calibration");
+}
+
+std::vector<FrameSpec> ExpandPlan(const v1::CapturePlan& plan,
+                                  const RigLimits& rig, int64_t capture_id) {
+  std::vector<FrameSpec> frames;
+  const std::string root = absl::StrCat("captures/", capture_id, "/");
+  auto add = [&](int view, int views, double stage_mm, double exposure,
+                 const std::string& kind, const std::string& name,
+                 std::optional<sl::Pattern> pattern) {
+    FrameSpec f;
+    f.sequence = static_cast<int>(frames.size());
+    f.view_index = view;
+    f.stage_position_mm = stage_mm;
+    f.exposure_s = exposure;
+    f.kind = kind;
+    f.projector_blank = !pattern.has_value();
+    f.pattern = pattern;
+    f.relative_stem =
+        absl::StrCat(root, ViewName(view, views), "/", kind, "/", name);
+    frames.push_back(std::move(f));
+  };
+  switch (plan.plan_case()) {
+    case v1::CapturePlan::kBracketedStereo: {
+      const v1::BracketedStereoPlan& p = plan.bracketed_stereo();
+      if (!p.skip_ambient()) {
+        // One frame of the scene as it is (projector dark) before anything
+        // moves, at the middle of the bracket.
+        const double mid = p.exposures_s(p.exposures_s_size() / 2);
+        add(0, p.views(), rig.home_position_mm, mid, "ambient",
+            absl::StrCat("exp_", ExposureTag(mid)), std::nullopt);
+      }
+      for (int v = 0; v < p.views(); ++v) {
+        const double x = rig.home_position_mm + v * p.baseline_mm();
+        for (double e : p.exposures_s()) {
+          add(v, p.views(), x, e, "stereo",
+              absl::StrCat("exp_", ExposureTag(e)), std::nullopt);
+        }
+      }
+      break;
+    }
+    case v1::CapturePlan::kStructuredLight: {
+      const v1::StructuredLightPlan& p = plan.structured_light();
+      const std::vector<sl::Pattern> patterns =
+          sl::AllPatterns(rig.projector_size);
+      for (int v = 0; v < p.views(); ++v) {
+        const double x = rig.home_position_mm + v * p.baseline_mm();
+        for (double e : p.exposures_s()) {
+          for (const sl::Pattern& pattern : patterns) {
+            add(v, p.views(), x, e, "structured_light",
+                absl::StrCat("sl_", pattern.Id(), pattern.inverse ? "_inv" : "",
+                             "_exp_", ExposureTag(e)),
+                pattern);
+          }
+        }
+      }
+      break;
+    }
+    case v1::CapturePlan::kCalibration: {
+      const v1::CalibrationPlan& p = plan.calibration();
+      for (int pose = 0; pose < p.poses(); ++pose) {
+        for (int v = 0; v < 2; ++v) {
+          add(v, 2, rig.home_position_mm + v * p.baseline_mm(), p.exposure_s(),
+              "calibration", absl::StrFormat("pose_%02d", pose), std::nullopt);
+        }
+      }
+      break;
+    }
+    case v1::CapturePlan::PLAN_NOT_SET:
+      break;
+  }
+  return frames;
+}
+
+}  // namespace hdrstereo::jobs

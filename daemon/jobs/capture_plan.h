@@ -1,0 +1,68 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// A capture plan (jobs.proto) validated, completed with defaults, and
+// expanded into the exact, ordered list of frames to take. The same list is
+// computed again when an interrupted capture resumes, so a frame's sequence
+// number identifies it across restarts.
+#ifndef HDRSTEREO_DAEMON_JOBS_CAPTURE_PLAN_H_
+#define HDRSTEREO_DAEMON_JOBS_CAPTURE_PLAN_H_
+
+#include <opencv2/core.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "hdrstereo/v1/jobs.pb.h"
+#include "processing/structured_light/gray_code.h"
+
+namespace hdrstereo::jobs {
+
+inline constexpr int kMaxExposures = 64;
+inline constexpr int kMaxViews = 16;
+inline constexpr int kMaxCalibrationPoses = 64;
+
+// The thesis' bracket: 1/15 ... 1/2000 s.
+const std::vector<double>& DefaultStereoExposures();
+// Structured light is captured at two exposures by default.
+const std::vector<double>& DefaultStructuredLightExposures();
+
+struct RigLimits {
+  double travel_mm = 150;
+  double home_position_mm = 0;
+  cv::Size projector_size{1024, 768};
+};
+
+// One frame of a capture.
+struct FrameSpec {
+  int sequence = 0;
+  int view_index = 0;
+  double stage_position_mm = 0;
+  double exposure_s = 0;
+  std::string kind;  // folder: "ambient", "stereo", "structured_light", ...
+  std::optional<structured_light::Pattern> pattern;  // structured light only
+  bool projector_blank = true;  // false only with a pattern
+  // Path relative to the session folder, without the extension (the camera
+  // decides it): captures/<id>/<view>/<kind>/<name>.
+  std::string relative_stem;
+};
+
+// Checks `plan` against the rig and fills in defaults. INVALID_ARGUMENT
+// naming the field for anything out of range; nothing is changed then.
+absl::StatusOr<v1::CapturePlan> NormalizePlan(const v1::CapturePlan& plan,
+                                              const RigLimits& rig);
+
+// The frames of a normalised plan, in capture order.
+std::vector<FrameSpec> ExpandPlan(const v1::CapturePlan& plan,
+                                  const RigLimits& rig, int64_t capture_id);
+
+// "left"/"right" for a pair, "view0".. otherwise.
+std::string ViewName(int view_index, int views);
+// "1-125s" for 1/125 s, "0.5s", "2s": file-name-safe exposure.
+std::string ExposureTag(double seconds);
+// "bracketed_stereo", "structured_light" or "calibration".
+std::string PlanKindName(const v1::CapturePlan& plan);
+
+}  // namespace hdrstereo::jobs
+
+#endif  // HDRSTEREO_DAEMON_JOBS_CAPTURE_PLAN_H_

@@ -1,0 +1,332 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "daemon/jobs/job_engine.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+
+#include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
+
+namespace hdrstereo::jobs {
+
+using store::JobKind;
+using store::JobRecord;
+using store::JobState;
+
+absl::Status JobContext::Checkpoint() { return engine_.CheckpointFor(job_.id); }
+
+absl::Status JobContext::Progress(int64_t done, int64_t total,
+                                  absl::string_view step,
+                                  const std::function<absl::Status()>& also) {
+  {
+    absl::StatusOr<std::unique_ptr<store::Transaction>> tx =
+        store::Transaction::Begin(store_.db());
+    if (!tx.ok()) return tx.status();
+    if (also != nullptr) {
+      if (absl::Status s = also(); !s.ok()) return s;
+    }
+    absl::StatusOr<store::JobEventRecord> event =
+        engine_.jobs_.SetProgressLocked(job_.id, done, total, step);
+    if (!event.ok()) return event.status();
+    if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+  }
+  engine_.NotifyEvent();
+  return absl::OkStatus();
+}
+
+void JobContext::Warn(absl::string_view message) {
+  spdlog::warn("job {} ({}): {}", job_.id, job_.session, std::string(message));
+  engine_.jobs_.AddEvent(job_.id, store::EventLevel::kWarning, message)
+      .IgnoreError();
+  engine_.NotifyEvent();
+}
+
+JobEngine::JobEngine(store::Store& store, JobRunner capture_runner,
+                     JobRunner processing_runner, JobEngineOptions options)
+    : store_(store),
+      jobs_(store),
+      capture_runner_(std::move(capture_runner)),
+      processing_runner_(std::move(processing_runner)),
+      options_(options) {}
+
+JobEngine::~JobEngine() { Shutdown(); }
+
+absl::Status JobEngine::Start() {
+  absl::StatusOr<std::vector<int64_t>> interrupted =
+      jobs_.InterruptUnfinished();
+  if (!interrupted.ok()) return interrupted.status();
+  for (int64_t id : *interrupted) {
+    spdlog::warn("job {} was interrupted by a stop of the daemon", id);
+  }
+  std::vector<JobState> states = {JobState::kQueued};
+  if (options_.resume_interrupted) states.push_back(JobState::kInterrupted);
+  std::vector<JobRecord> pending;
+  for (int64_t after = 0;;) {
+    absl::StatusOr<std::vector<JobRecord>> page = jobs_.List(
+        {.session = "", .states = states, .after_id = after, .limit = 500});
+    if (!page.ok()) return page.status();
+    if (page->empty()) break;
+    after = page->back().id;
+    pending.insert(pending.end(), page->begin(), page->end());
+  }
+  for (const JobRecord& job : pending) {
+    if (job.state == JobState::kInterrupted) {
+      absl::StatusOr<store::JobEventRecord> event = jobs_.SetState(
+          job.id, JobState::kQueued,
+          "queued again after a restart; resumes from what is recorded");
+      if (!event.ok()) return event.status();
+      spdlog::info("job {} ({}): queued again to resume", job.id, job.session);
+    }
+    Enqueue(job.kind, job.id);
+  }
+
+  std::lock_guard<std::mutex> lock(mutex_);
+  started_ = true;
+  capture_lane_.threads.emplace_back([this] { WorkerLoop(JobKind::kCapture); });
+  for (int i = 0; i < std::max(1, options_.processing_threads); ++i) {
+    processing_lane_.threads.emplace_back(
+        [this] { WorkerLoop(JobKind::kProcessing); });
+  }
+  return absl::OkStatus();
+}
+
+void JobEngine::Shutdown() {
+  std::vector<std::thread> threads;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stopping_ && !started_) return;
+    stopping_ = true;
+    started_ = false;
+    for (Lane* lane : {&capture_lane_, &processing_lane_}) {
+      for (std::thread& t : lane->threads) threads.push_back(std::move(t));
+      lane->threads.clear();
+    }
+  }
+  work_cv_.notify_all();
+  control_cv_.notify_all();
+  event_cv_.notify_all();
+  for (std::thread& t : threads) t.join();
+}
+
+void JobEngine::Enqueue(JobKind kind, int64_t id) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    (kind == JobKind::kCapture ? capture_lane_ : processing_lane_)
+        .queue.push_back(id);
+  }
+  work_cv_.notify_all();
+}
+
+absl::StatusOr<JobRecord> JobEngine::Submit(JobKind kind,
+                                            absl::string_view session,
+                                            absl::string_view request,
+                                            absl::string_view message) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stopping_) return absl::UnavailableError("the daemon is stopping");
+  }
+  absl::StatusOr<JobRecord> job = jobs_.Create(kind, session, request, message);
+  if (!job.ok()) return job.status();
+  spdlog::info("job {} ({}): queued: {}", job->id, job->session,
+               std::string(message));
+  Enqueue(kind, job->id);
+  NotifyEvent();
+  return job;
+}
+
+void JobEngine::WorkerLoop(JobKind kind) {
+  Lane& lane = kind == JobKind::kCapture ? capture_lane_ : processing_lane_;
+  while (true) {
+    int64_t id;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      work_cv_.wait(lock, [&] { return stopping_ || !lane.queue.empty(); });
+      if (stopping_) return;
+      id = lane.queue.front();
+      lane.queue.pop_front();
+      running_[id] = Control{};
+    }
+    RunJob(id);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      running_.erase(id);
+    }
+  }
+}
+
+void JobEngine::RunJob(int64_t id) {
+  absl::StatusOr<JobRecord> job = jobs_.Get(id);
+  if (!job.ok()) {
+    spdlog::error("job {}: cannot load: {}", id,
+                  std::string(job.status().message()));
+    return;
+  }
+  if (job->state != JobState::kQueued) return;  // cancelled meanwhile
+  if (absl::StatusOr<store::JobEventRecord> e =
+          jobs_.SetState(id, JobState::kRunning, "started");
+      !e.ok()) {
+    spdlog::error("job {}: {}", id, std::string(e.status().message()));
+    return;
+  }
+  NotifyEvent();
+  spdlog::info("job {} ({}): started", id, job->session);
+  job->state = JobState::kRunning;
+
+  JobContext context(*this, store_, *job);
+  const JobRunner& runner =
+      job->kind == JobKind::kCapture ? capture_runner_ : processing_runner_;
+  absl::Status status = runner(context);
+
+  bool stopping;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping = stopping_;
+  }
+  JobState final_state;
+  std::string message;
+  std::string error;
+  if (status.ok()) {
+    final_state = JobState::kSucceeded;
+    message = "succeeded";
+  } else if (absl::IsCancelled(status)) {
+    final_state = JobState::kCancelled;
+    message = "cancelled";
+  } else if (stopping) {
+    final_state = JobState::kInterrupted;
+    message =
+        "interrupted: the daemon is stopping; it resumes at the next start";
+  } else {
+    final_state = JobState::kFailed;
+    error = std::string(status.message());
+    message = absl::StrCat("failed: ", error);
+  }
+  absl::StatusOr<store::JobEventRecord> event =
+      jobs_.SetState(id, final_state, message, error);
+  if (!event.ok()) {
+    spdlog::error("job {}: cannot record its end: {}", id,
+                  std::string(event.status().message()));
+  }
+  NotifyEvent();
+  if (final_state == JobState::kFailed) {
+    spdlog::error("job {} ({}): {}", id, job->session, message);
+  } else {
+    spdlog::info("job {} ({}): {}", id, job->session, message);
+  }
+}
+
+absl::Status JobEngine::CheckpointFor(int64_t id) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  bool paused = false;
+  while (true) {
+    Control& control = running_[id];
+    if (stopping_) return absl::AbortedError("the daemon is stopping");
+    if (control.cancel) return absl::CancelledError("cancelled");
+    if (!control.pause) break;
+    if (!paused) {
+      paused = true;
+      jobs_.SetState(id, JobState::kPaused, "paused").IgnoreError();
+      NotifyEventLocked();
+    }
+    control_cv_.wait(lock);
+  }
+  if (paused) {
+    jobs_.SetState(id, JobState::kRunning, "resumed").IgnoreError();
+    NotifyEventLocked();
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<JobRecord> JobEngine::Pause(int64_t id) {
+  absl::StatusOr<JobRecord> job = jobs_.Get(id);
+  if (!job.ok()) return job.status();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = running_.find(id);
+    if (it == running_.end() || job->state != JobState::kRunning) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("job ", id, " is ", store::JobStateName(job->state),
+                       "; only a running job can be paused"));
+    }
+    it->second.pause = true;
+  }
+  control_cv_.notify_all();
+  return job;
+}
+
+absl::StatusOr<JobRecord> JobEngine::Resume(int64_t id) {
+  absl::StatusOr<JobRecord> job = jobs_.Get(id);
+  if (!job.ok()) return job.status();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = running_.find(id);
+    if (it == running_.end() || !it->second.pause) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("job ", id, " is ", store::JobStateName(job->state),
+                       "; only a paused job can be resumed"));
+    }
+    it->second.pause = false;
+  }
+  control_cv_.notify_all();
+  return jobs_.Get(id);
+}
+
+absl::StatusOr<JobRecord> JobEngine::Cancel(int64_t id) {
+  absl::StatusOr<JobRecord> job = jobs_.Get(id);
+  if (!job.ok()) return job.status();
+  if (store::IsFinal(job->state)) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "job ", id, " is already ", store::JobStateName(job->state)));
+  }
+  bool was_queued = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (auto it = running_.find(id); it != running_.end()) {
+      it->second.cancel = true;
+    } else {
+      for (Lane* lane : {&capture_lane_, &processing_lane_}) {
+        auto q = std::find(lane->queue.begin(), lane->queue.end(), id);
+        if (q != lane->queue.end()) {
+          lane->queue.erase(q);
+          was_queued = true;
+        }
+      }
+      if (!was_queued) {
+        return absl::FailedPreconditionError(absl::StrCat(
+            "job ", id, " is already ", store::JobStateName(job->state)));
+      }
+    }
+  }
+  control_cv_.notify_all();
+  if (was_queued) {
+    absl::StatusOr<store::JobEventRecord> event =
+        jobs_.SetState(id, JobState::kCancelled, "cancelled before it started");
+    if (!event.ok()) return event.status();
+    NotifyEvent();
+  }
+  return jobs_.Get(id);
+}
+
+void JobEngine::NotifyEvent() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  NotifyEventLocked();
+}
+
+void JobEngine::NotifyEventLocked() {
+  ++event_generation_;
+  event_cv_.notify_all();
+}
+
+int64_t JobEngine::event_generation() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return event_generation_;
+}
+
+void JobEngine::WaitForEvents(int64_t seen_generation, absl::Time deadline) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  event_cv_.wait_until(lock, absl::ToChronoTime(deadline), [&] {
+    return stopping_ || event_generation_ != seen_generation;
+  });
+}
+
+}  // namespace hdrstereo::jobs

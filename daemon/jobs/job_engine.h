@@ -1,0 +1,134 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// The job engine: a hardware lane that runs capture jobs one at a time in
+// submission order, and a pool that runs processing jobs. Jobs live in
+// SQLite (JobRepository); the engine only holds the queues and the flags
+// that pause, cancel or stop a running job at its next checkpoint.
+#ifndef HDRSTEREO_DAEMON_JOBS_JOB_ENGINE_H_
+#define HDRSTEREO_DAEMON_JOBS_JOB_ENGINE_H_
+
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "absl/time/time.h"
+#include "daemon/store/job_repository.h"
+
+namespace hdrstereo::jobs {
+
+class JobEngine;
+
+// What a running job sees of the engine.
+class JobContext {
+ public:
+  const store::JobRecord& job() const { return job_; }
+  store::Store& store() { return store_; }
+
+  // Call between frames or steps: blocks while the job is paused; returns
+  // CANCELLED when it was cancelled and ABORTED when the daemon is stopping.
+  // The job must then leave the hardware safe and return that status.
+  absl::Status Checkpoint();
+
+  // Records progress (and its event). `also` runs first inside the same
+  // transaction, e.g. to insert the frame row that this progress counts.
+  absl::Status Progress(int64_t done, int64_t total, absl::string_view step,
+                        const std::function<absl::Status()>& also = nullptr);
+  void Warn(absl::string_view message);
+
+ private:
+  friend class JobEngine;
+  JobContext(JobEngine& engine, store::Store& store, store::JobRecord job)
+      : engine_(engine), store_(store), job_(std::move(job)) {}
+  JobEngine& engine_;
+  store::Store& store_;
+  store::JobRecord job_;
+};
+
+// Runs one job to its end. Returning OK means succeeded; CANCELLED and
+// ABORTED come from Checkpoint(); anything else fails the job with its
+// message.
+using JobRunner = std::function<absl::Status(JobContext& context)>;
+
+struct JobEngineOptions {
+  int processing_threads = 2;
+  // Jobs found interrupted at start-up are queued again (they resume from
+  // what is already recorded).
+  bool resume_interrupted = true;
+};
+
+class JobEngine {
+ public:
+  JobEngine(store::Store& store, JobRunner capture_runner,
+            JobRunner processing_runner, JobEngineOptions options);
+  ~JobEngine();  // Shutdown()
+
+  // Marks jobs a previous process left running as interrupted, queues the
+  // queued (and, if configured, interrupted) ones, starts the threads.
+  absl::Status Start();
+  // Stops at the next checkpoint of every running job (which becomes
+  // interrupted, to be resumed by the next Start()) and joins the threads.
+  void Shutdown();
+
+  absl::StatusOr<store::JobRecord> Submit(store::JobKind kind,
+                                          absl::string_view session,
+                                          absl::string_view request,
+                                          absl::string_view message);
+  // Pause and resume apply to running jobs; cancel to queued, running and
+  // paused ones. FAILED_PRECONDITION for other states, with the reason.
+  absl::StatusOr<store::JobRecord> Pause(int64_t id);
+  absl::StatusOr<store::JobRecord> Resume(int64_t id);
+  absl::StatusOr<store::JobRecord> Cancel(int64_t id);
+
+  // Blocks until any job records a new event or `deadline` passes; watchers
+  // then read the new events from the store.
+  void WaitForEvents(int64_t seen_generation, absl::Time deadline);
+  int64_t event_generation();
+
+  store::JobRepository& repository() { return jobs_; }
+
+ private:
+  friend class JobContext;
+  struct Control {
+    bool pause = false;
+    bool cancel = false;
+  };
+  struct Lane {
+    std::deque<int64_t> queue;
+    std::vector<std::thread> threads;
+  };
+
+  void Enqueue(store::JobKind kind, int64_t id);
+  void WorkerLoop(store::JobKind kind);
+  void RunJob(int64_t id);
+  void NotifyEvent();
+  void NotifyEventLocked();
+  absl::Status CheckpointFor(int64_t id);
+
+  store::Store& store_;
+  store::JobRepository jobs_;
+  JobRunner capture_runner_;
+  JobRunner processing_runner_;
+  const JobEngineOptions options_;
+
+  std::mutex mutex_;
+  std::condition_variable work_cv_;     // queues changed, or stopping
+  std::condition_variable control_cv_;  // pause/resume/cancel/stop
+  std::condition_variable event_cv_;    // a job event was recorded
+  Lane capture_lane_;
+  Lane processing_lane_;
+  std::map<int64_t, Control> running_;  // controls of running jobs
+  int64_t event_generation_ = 0;
+  bool stopping_ = false;
+  bool started_ = false;
+};
+
+}  // namespace hdrstereo::jobs
+
+#endif  // HDRSTEREO_DAEMON_JOBS_JOB_ENGINE_H_

@@ -1,0 +1,352 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "daemon/rpc/hardware_service.h"
+
+#include <cmath>
+#include <opencv2/imgcodecs.hpp>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
+#include "daemon/rpc/status.h"
+#include "processing/structured_light/gray_code.h"
+
+namespace hdrstereo::rpc {
+namespace {
+
+namespace sl = structured_light;
+
+constexpr int kMaxIso = 409600;
+constexpr double kMaxApertureF = 64;
+
+grpc::Status LaneBusy() {
+  return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION,
+                      "the hardware is in use by a capture job; wait for it "
+                      "or cancel it");
+}
+
+grpc::Status Missing(absl::string_view device, const absl::Status& why) {
+  return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION,
+                      absl::StrCat("no ", device, ": ", why.message()));
+}
+
+std::optional<hardware::ImageFormat> FromProto(v1::ImageFormat format) {
+  switch (format) {
+    case v1::IMAGE_FORMAT_JPEG:
+      return hardware::ImageFormat::kJpeg;
+    case v1::IMAGE_FORMAT_RAW:
+      return hardware::ImageFormat::kRaw;
+    case v1::IMAGE_FORMAT_RAW_AND_JPEG:
+      return hardware::ImageFormat::kRawAndJpeg;
+    case v1::IMAGE_FORMAT_TIFF_16:
+      return hardware::ImageFormat::kTiff16;
+    case v1::IMAGE_FORMAT_PNG_8:
+      return hardware::ImageFormat::kPng8;
+    default:
+      return std::nullopt;
+  }
+}
+
+v1::ImageFormat ToProto(hardware::ImageFormat format) {
+  switch (format) {
+    case hardware::ImageFormat::kJpeg:
+      return v1::IMAGE_FORMAT_JPEG;
+    case hardware::ImageFormat::kRaw:
+      return v1::IMAGE_FORMAT_RAW;
+    case hardware::ImageFormat::kRawAndJpeg:
+      return v1::IMAGE_FORMAT_RAW_AND_JPEG;
+    case hardware::ImageFormat::kTiff16:
+      return v1::IMAGE_FORMAT_TIFF_16;
+    case hardware::ImageFormat::kPng8:
+      return v1::IMAGE_FORMAT_PNG_8;
+  }
+  return v1::IMAGE_FORMAT_UNSPECIFIED;
+}
+
+void ToProto(const hardware::ExposureSettings& settings,
+             v1::CameraSettings* out) {
+  out->set_exposure_s(settings.exposure_s);
+  out->set_iso(settings.iso);
+  out->set_aperture_f(settings.aperture_f);
+  if (settings.format.has_value()) out->set_format(ToProto(*settings.format));
+}
+
+// The pattern a request asks for, at projector resolution `size`.
+absl::StatusOr<std::pair<cv::Mat, std::string>> PatternFor(
+    const v1::ShowPatternRequest& request, cv::Size size) {
+  switch (request.pattern_case()) {
+    case v1::ShowPatternRequest::kPng: {
+      const std::string& png = request.png();
+      cv::Mat image;
+      try {
+        image = cv::imdecode(cv::Mat(1, static_cast<int>(png.size()), CV_8UC1,
+                                     const_cast<char*>(png.data())),
+                             cv::IMREAD_UNCHANGED);
+      } catch (const cv::Exception&) {
+        image.release();
+      }
+      if (image.empty()) {
+        return absl::InvalidArgumentError("png is not a decodable image");
+      }
+      if (image.depth() != CV_8U ||
+          (image.channels() != 1 && image.channels() != 3)) {
+        return absl::InvalidArgumentError(
+            "png must be 8-bit gray or RGB (no alpha, no 16-bit)");
+      }
+      if (image.size() != size) {
+        return absl::InvalidArgumentError(
+            absl::StrFormat("png is %dx%d; the projector shows exactly %dx%d",
+                            image.cols, image.rows, size.width, size.height));
+      }
+      return std::make_pair(image, std::string("png image"));
+    }
+    case v1::ShowPatternRequest::kGrayCode: {
+      const v1::GrayCodePattern& g = request.gray_code();
+      if (g.axis() != v1::GrayCodePattern::AXIS_COLUMNS &&
+          g.axis() != v1::GrayCodePattern::AXIS_ROWS) {
+        return absl::InvalidArgumentError(
+            "gray_code.axis must be AXIS_COLUMNS or AXIS_ROWS");
+      }
+      sl::Pattern pattern{.kind = sl::Pattern::Kind::kBitPlane,
+                          .axis = g.axis() == v1::GrayCodePattern::AXIS_COLUMNS
+                                      ? sl::Axis::kColumns
+                                      : sl::Axis::kRows,
+                          .bit = g.bit(),
+                          .inverse = g.inverse()};
+      absl::StatusOr<cv::Mat> image = sl::Render(pattern, size);
+      if (!image.ok()) return image.status();
+      return std::make_pair(*image,
+                            absl::StrCat("gray code ", pattern.Id(),
+                                         pattern.inverse ? " inverse" : ""));
+    }
+    case v1::ShowPatternRequest::kSolidLevel:
+      if (request.solid_level() < 0 || request.solid_level() > 255) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "solid_level is ", request.solid_level(), "; use 0..255"));
+      }
+      return std::make_pair(
+          cv::Mat(size, CV_8UC1, cv::Scalar(request.solid_level())),
+          absl::StrCat("solid ", request.solid_level()));
+    case v1::ShowPatternRequest::PATTERN_NOT_SET:
+      break;
+  }
+  return absl::InvalidArgumentError("set one of png, gray_code or solid_level");
+}
+
+}  // namespace
+
+void HardwareService::FillCamera(v1::CameraStatus* out) {
+  hardware::Camera* camera = rig_.camera();
+  if (camera == nullptr) {
+    out->set_state(v1::DEVICE_STATE_DISCONNECTED);
+    out->set_message(std::string(rig_.camera_error().message()));
+    out->set_battery_percent(-1);
+    return;
+  }
+  absl::StatusOr<hardware::CameraInfo> info = camera->Info();
+  if (!info.ok()) {
+    out->set_state(v1::DEVICE_STATE_FAULT);
+    out->set_message(std::string(info.status().message()));
+    out->set_battery_percent(-1);
+    return;
+  }
+  out->set_state(v1::DEVICE_STATE_CONNECTED);
+  out->set_model(info->model);
+  out->set_serial(info->serial);
+  out->set_port(info->port);
+  out->set_battery_percent(info->battery_percent);
+}
+
+void HardwareService::FillStage(v1::StageStatus* out) {
+  hardware::Stage* stage = rig_.stage();
+  if (stage == nullptr) {
+    out->set_state(v1::DEVICE_STATE_DISCONNECTED);
+    out->set_message(std::string(rig_.stage_error().message()));
+    return;
+  }
+  out->set_travel_mm(stage->travel_mm());
+  absl::StatusOr<hardware::StageState> state = stage->State();
+  if (!state.ok()) {
+    out->set_state(v1::DEVICE_STATE_FAULT);
+    out->set_message(std::string(state.status().message()));
+    return;
+  }
+  out->set_state(state->busy ? v1::DEVICE_STATE_BUSY
+                             : v1::DEVICE_STATE_CONNECTED);
+  out->set_position_mm(state->position_mm);
+  out->set_homed(state->homed);
+  for (const std::string& flag : state->warning_flags) {
+    out->add_warning_flags(flag);
+  }
+}
+
+void HardwareService::FillProjector(v1::ProjectorStatus* out) {
+  hardware::Projector* projector = rig_.projector();
+  if (projector == nullptr) {
+    out->set_state(v1::DEVICE_STATE_DISCONNECTED);
+    out->set_message(std::string(rig_.projector_error().message()));
+    return;
+  }
+  out->set_state(v1::DEVICE_STATE_CONNECTED);
+  out->set_width_px(projector->resolution().width);
+  out->set_height_px(projector->resolution().height);
+  std::lock_guard<std::mutex> lock(showing_mutex_);
+  out->set_showing(showing_);
+}
+
+grpc::Status HardwareService::GetStatus(grpc::ServerContext*,
+                                        const v1::GetHardwareStatusRequest*,
+                                        v1::HardwareStatus* response) {
+  response->set_hardware_mode(rig_.config().mode);
+  std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
+  if (!lane.owns_lock()) {
+    // A capture owns the devices; report that instead of querying them.
+    for (auto* message : {response->mutable_camera()->mutable_message(),
+                          response->mutable_stage()->mutable_message(),
+                          response->mutable_projector()->mutable_message()}) {
+      *message = "in use by a capture job";
+    }
+    response->mutable_camera()->set_state(v1::DEVICE_STATE_BUSY);
+    response->mutable_stage()->set_state(v1::DEVICE_STATE_BUSY);
+    response->mutable_projector()->set_state(v1::DEVICE_STATE_BUSY);
+    return grpc::Status::OK;
+  }
+  FillCamera(response->mutable_camera());
+  FillStage(response->mutable_stage());
+  FillProjector(response->mutable_projector());
+  return grpc::Status::OK;
+}
+
+grpc::Status HardwareService::GetCameraSettings(
+    grpc::ServerContext*, const v1::GetCameraSettingsRequest*,
+    v1::CameraSettings* response) {
+  if (rig_.camera() == nullptr) return Missing("camera", rig_.camera_error());
+  std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
+  if (!lane.owns_lock()) return LaneBusy();
+  absl::StatusOr<hardware::ExposureSettings> settings =
+      rig_.camera()->Settings();
+  if (!settings.ok()) return ToGrpcStatus(settings.status());
+  ToProto(*settings, response);
+  return grpc::Status::OK;
+}
+
+grpc::Status HardwareService::SetCameraSettings(
+    grpc::ServerContext*, const v1::SetCameraSettingsRequest* request,
+    v1::CameraSettings* response) {
+  if (!request->has_settings()) {
+    return InvalidArgument("settings is required");
+  }
+  const v1::CameraSettings& s = request->settings();
+  if (!std::isfinite(s.exposure_s()) || s.exposure_s() <= 0) {
+    return InvalidArgument(absl::StrCat("settings.exposure_s is ",
+                                        s.exposure_s(), "; it must be > 0"));
+  }
+  if (s.iso() < 0 || s.iso() > kMaxIso) {
+    return InvalidArgument(absl::StrCat("settings.iso is ", s.iso(),
+                                        "; use 0 (unchanged) to ", kMaxIso));
+  }
+  if (!std::isfinite(s.aperture_f()) || s.aperture_f() < 0 ||
+      s.aperture_f() > kMaxApertureF) {
+    return InvalidArgument(
+        absl::StrCat("settings.aperture_f is ", s.aperture_f(),
+                     "; use 0 (unchanged) to ", kMaxApertureF));
+  }
+  std::optional<hardware::ImageFormat> format = FromProto(s.format());
+  if (s.format() != v1::IMAGE_FORMAT_UNSPECIFIED && !format.has_value()) {
+    return InvalidArgument(
+        absl::StrCat("settings.format ", s.format(), " is not a known format"));
+  }
+  if (rig_.camera() == nullptr) return Missing("camera", rig_.camera_error());
+  std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
+  if (!lane.owns_lock()) return LaneBusy();
+
+  absl::StatusOr<hardware::CameraInfo> info = rig_.camera()->Info();
+  if (!info.ok()) return ToGrpcStatus(info.status());
+  if (info->max_exposure_s > 0 && (s.exposure_s() < info->min_exposure_s ||
+                                   s.exposure_s() > info->max_exposure_s)) {
+    return InvalidArgument(absl::StrFormat(
+        "settings.exposure_s %g s is outside the camera's range [%g, %g] s",
+        s.exposure_s(), info->min_exposure_s, info->max_exposure_s));
+  }
+  absl::StatusOr<hardware::ExposureSettings> applied =
+      rig_.camera()->Configure({.exposure_s = s.exposure_s(),
+                                .iso = s.iso(),
+                                .aperture_f = s.aperture_f(),
+                                .format = format});
+  if (!applied.ok()) return ToGrpcStatus(applied.status());
+  ToProto(*applied, response);
+  return grpc::Status::OK;
+}
+
+grpc::Status HardwareService::HomeStage(grpc::ServerContext*,
+                                        const v1::HomeStageRequest*,
+                                        v1::StageStatus* response) {
+  if (rig_.stage() == nullptr) return Missing("stage", rig_.stage_error());
+  std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
+  if (!lane.owns_lock()) return LaneBusy();
+  if (absl::Status s = rig_.stage()->Home(); !s.ok()) return ToGrpcStatus(s);
+  FillStage(response);
+  return grpc::Status::OK;
+}
+
+grpc::Status HardwareService::MoveStage(grpc::ServerContext*,
+                                        const v1::MoveStageRequest* request,
+                                        v1::StageStatus* response) {
+  if (rig_.stage() == nullptr) return Missing("stage", rig_.stage_error());
+  const double travel = rig_.stage()->travel_mm();
+  if (!std::isfinite(request->position_mm()) || request->position_mm() < 0 ||
+      request->position_mm() > travel) {
+    return InvalidArgument(
+        absl::StrFormat("position_mm %g is outside the stage travel [0, %g] mm",
+                        request->position_mm(), travel));
+  }
+  std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
+  if (!lane.owns_lock()) return LaneBusy();
+  if (absl::Status s = rig_.stage()->MoveTo(request->position_mm()); !s.ok()) {
+    return ToGrpcStatus(s);
+  }
+  FillStage(response);
+  return grpc::Status::OK;
+}
+
+grpc::Status HardwareService::ShowPattern(grpc::ServerContext*,
+                                          const v1::ShowPatternRequest* request,
+                                          v1::ProjectorStatus* response) {
+  if (rig_.projector() == nullptr) {
+    return Missing("projector", rig_.projector_error());
+  }
+  absl::StatusOr<std::pair<cv::Mat, std::string>> pattern =
+      PatternFor(*request, rig_.projector()->resolution());
+  if (!pattern.ok()) return ToGrpcStatus(pattern.status());
+  std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
+  if (!lane.owns_lock()) return LaneBusy();
+  if (absl::Status s = rig_.projector()->Show(pattern->first); !s.ok()) {
+    return ToGrpcStatus(s);
+  }
+  {
+    std::lock_guard<std::mutex> lock(showing_mutex_);
+    showing_ = pattern->second;
+  }
+  FillProjector(response);
+  return grpc::Status::OK;
+}
+
+grpc::Status HardwareService::BlankProjector(grpc::ServerContext*,
+                                             const v1::BlankProjectorRequest*,
+                                             v1::ProjectorStatus* response) {
+  if (rig_.projector() == nullptr) {
+    return Missing("projector", rig_.projector_error());
+  }
+  std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
+  if (!lane.owns_lock()) return LaneBusy();
+  if (absl::Status s = rig_.projector()->Blank(); !s.ok()) {
+    return ToGrpcStatus(s);
+  }
+  {
+    std::lock_guard<std::mutex> lock(showing_mutex_);
+    showing_ = "blank";
+  }
+  FillProjector(response);
+  return grpc::Status::OK;
+}
+
+}  // namespace hdrstereo::rpc

@@ -1,0 +1,54 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#ifndef HDRSTEREO_DAEMON_RPC_HARDWARE_SERVICE_H_
+#define HDRSTEREO_DAEMON_RPC_HARDWARE_SERVICE_H_
+
+#include <mutex>
+#include <string>
+
+#include "hardware/rig.h"
+#include "hdrstereo/v1/hardware.grpc.pb.h"
+
+namespace hdrstereo::rpc {
+
+// Direct control of the rig. Every request is validated before any device
+// is touched; calls that act on a device are refused while a capture holds
+// the hardware lane.
+class HardwareService final : public v1::Hardware::Service {
+ public:
+  explicit HardwareService(hardware::Rig& rig) : rig_(rig) {}
+
+  grpc::Status GetStatus(grpc::ServerContext* context,
+                         const v1::GetHardwareStatusRequest* request,
+                         v1::HardwareStatus* response) override;
+  grpc::Status GetCameraSettings(grpc::ServerContext* context,
+                                 const v1::GetCameraSettingsRequest* request,
+                                 v1::CameraSettings* response) override;
+  grpc::Status SetCameraSettings(grpc::ServerContext* context,
+                                 const v1::SetCameraSettingsRequest* request,
+                                 v1::CameraSettings* response) override;
+  grpc::Status HomeStage(grpc::ServerContext* context,
+                         const v1::HomeStageRequest* request,
+                         v1::StageStatus* response) override;
+  grpc::Status MoveStage(grpc::ServerContext* context,
+                         const v1::MoveStageRequest* request,
+                         v1::StageStatus* response) override;
+  grpc::Status ShowPattern(grpc::ServerContext* context,
+                           const v1::ShowPatternRequest* request,
+                           v1::ProjectorStatus* response) override;
+  grpc::Status BlankProjector(grpc::ServerContext* context,
+                              const v1::BlankProjectorRequest* request,
+                              v1::ProjectorStatus* response) override;
+
+ private:
+  void FillCamera(v1::CameraStatus* out);
+  void FillStage(v1::StageStatus* out);
+  void FillProjector(v1::ProjectorStatus* out);
+
+  hardware::Rig& rig_;
+  std::mutex showing_mutex_;
+  std::string showing_ = "blank";  // what this service last showed
+};
+
+}  // namespace hdrstereo::rpc
+
+#endif  // HDRSTEREO_DAEMON_RPC_HARDWARE_SERVICE_H_

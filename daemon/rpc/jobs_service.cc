@@ -1,0 +1,241 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "daemon/rpc/jobs_service.h"
+
+#include <google/protobuf/util/time_util.h>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
+#include "daemon/jobs/capture_job.h"
+#include "daemon/jobs/capture_plan.h"
+#include "daemon/rpc/pagination.h"
+#include "daemon/rpc/status.h"
+#include "daemon/store/names.h"
+
+namespace hdrstereo::rpc {
+namespace {
+
+using google::protobuf::util::TimeUtil;
+using store::JobState;
+
+v1::JobState ToProto(JobState state) {
+  switch (state) {
+    case JobState::kQueued:
+      return v1::JOB_STATE_QUEUED;
+    case JobState::kRunning:
+      return v1::JOB_STATE_RUNNING;
+    case JobState::kPaused:
+      return v1::JOB_STATE_PAUSED;
+    case JobState::kSucceeded:
+      return v1::JOB_STATE_SUCCEEDED;
+    case JobState::kFailed:
+      return v1::JOB_STATE_FAILED;
+    case JobState::kCancelled:
+      return v1::JOB_STATE_CANCELLED;
+    case JobState::kInterrupted:
+      return v1::JOB_STATE_INTERRUPTED;
+  }
+  return v1::JOB_STATE_UNSPECIFIED;
+}
+
+absl::StatusOr<JobState> FromProto(v1::JobState state) {
+  switch (state) {
+    case v1::JOB_STATE_QUEUED:
+      return JobState::kQueued;
+    case v1::JOB_STATE_RUNNING:
+      return JobState::kRunning;
+    case v1::JOB_STATE_PAUSED:
+      return JobState::kPaused;
+    case v1::JOB_STATE_SUCCEEDED:
+      return JobState::kSucceeded;
+    case v1::JOB_STATE_FAILED:
+      return JobState::kFailed;
+    case v1::JOB_STATE_CANCELLED:
+      return JobState::kCancelled;
+    case v1::JOB_STATE_INTERRUPTED:
+      return JobState::kInterrupted;
+    default:
+      return absl::InvalidArgumentError(absl::StrCat(
+          "states contains ", static_cast<int>(state), ", not a job state"));
+  }
+}
+
+void ToProto(const store::JobRecord& job, v1::Job* out) {
+  out->set_id(job.id);
+  out->set_kind(job.kind == store::JobKind::kCapture ? v1::JOB_KIND_CAPTURE
+                                                     : v1::JOB_KIND_PROCESSING);
+  out->set_session(job.session);
+  out->set_state(ToProto(job.state));
+  out->mutable_progress()->set_done(job.progress_done);
+  out->mutable_progress()->set_total(job.progress_total);
+  out->mutable_progress()->set_step(job.step);
+  if (job.kind == store::JobKind::kCapture) {
+    out->mutable_capture()->ParseFromString(job.request);
+  } else {
+    out->mutable_processing()->ParseFromString(job.request);
+  }
+  out->set_error(job.error);
+  *out->mutable_create_time() =
+      TimeUtil::MillisecondsToTimestamp(job.create_time_ms);
+  if (job.start_time_ms) {
+    *out->mutable_start_time() =
+        TimeUtil::MillisecondsToTimestamp(*job.start_time_ms);
+  }
+  if (job.end_time_ms) {
+    *out->mutable_end_time() =
+        TimeUtil::MillisecondsToTimestamp(*job.end_time_ms);
+  }
+}
+
+void ToProto(const store::JobEventRecord& event, v1::JobEvent* out) {
+  out->set_job_id(event.job_id);
+  out->set_sequence(event.sequence);
+  *out->mutable_time() = TimeUtil::MillisecondsToTimestamp(event.time_ms);
+  out->set_state(ToProto(event.state));
+  out->mutable_progress()->set_done(event.progress_done);
+  out->mutable_progress()->set_total(event.progress_total);
+  out->mutable_progress()->set_step(event.step);
+  switch (event.level) {
+    case store::EventLevel::kInfo:
+      out->set_level(v1::JobEvent::LEVEL_INFO);
+      break;
+    case store::EventLevel::kWarning:
+      out->set_level(v1::JobEvent::LEVEL_WARNING);
+      break;
+    case store::EventLevel::kError:
+      out->set_level(v1::JobEvent::LEVEL_ERROR);
+      break;
+  }
+  out->set_message(event.message);
+}
+
+grpc::Status CheckJobId(int64_t id) {
+  if (id <= 0) return InvalidArgument("job_id must be a positive job id");
+  return grpc::Status::OK;
+}
+
+grpc::Status Reply(const absl::StatusOr<store::JobRecord>& job,
+                   v1::Job* response) {
+  if (!job.ok()) return ToGrpcStatus(job.status());
+  ToProto(*job, response);
+  return grpc::Status::OK;
+}
+
+}  // namespace
+
+grpc::Status JobsService::SubmitCapture(grpc::ServerContext*,
+                                        const v1::SubmitCaptureRequest* request,
+                                        v1::Job* response) {
+  if (absl::Status s = store::ValidateName(request->session(), "session");
+      !s.ok()) {
+    return ToGrpcStatus(s);
+  }
+  if (!request->has_plan()) return InvalidArgument("plan is required");
+  // Limits come from the stage; without one, say so before judging the plan.
+  absl::StatusOr<jobs::RigLimits> limits = jobs::LimitsOf(rig_);
+  if (!limits.ok()) return ToGrpcStatus(limits.status());
+  absl::StatusOr<v1::CapturePlan> plan =
+      jobs::NormalizePlan(request->plan(), *limits);
+  if (!plan.ok()) return ToGrpcStatus(plan.status());
+  if (absl::Status s = jobs::CheckDevicesFor(*plan, rig_); !s.ok()) {
+    return ToGrpcStatus(s);
+  }
+  const size_t frames = jobs::ExpandPlan(*plan, *limits, 0).size();
+  return Reply(engine_.Submit(store::JobKind::kCapture, request->session(),
+                              plan->SerializeAsString(),
+                              absl::StrCat("queued ", jobs::PlanKindName(*plan),
+                                           " capture of ", frames, " frames")),
+               response);
+}
+
+grpc::Status JobsService::Get(grpc::ServerContext*,
+                              const v1::GetJobRequest* request,
+                              v1::Job* response) {
+  if (grpc::Status s = CheckJobId(request->job_id()); !s.ok()) return s;
+  return Reply(engine_.repository().Get(request->job_id()), response);
+}
+
+grpc::Status JobsService::List(grpc::ServerContext*,
+                               const v1::ListJobsRequest* request,
+                               v1::ListJobsResponse* response) {
+  store::JobFilter filter;
+  if (!request->session().empty()) {
+    if (absl::Status s = store::ValidateName(request->session(), "session");
+        !s.ok()) {
+      return ToGrpcStatus(s);
+    }
+    filter.session = request->session();
+  }
+  for (int state : request->states()) {
+    absl::StatusOr<JobState> parsed =
+        FromProto(static_cast<v1::JobState>(state));
+    if (!parsed.ok()) return ToGrpcStatus(parsed.status());
+    filter.states.push_back(*parsed);
+  }
+  absl::StatusOr<Page> page = ParsePage(request->page());
+  if (!page.ok()) return ToGrpcStatus(page.status());
+  if (!page->after.empty() &&
+      !absl::SimpleAtoi(page->after, &filter.after_id)) {
+    return InvalidArgument("page.page_token was not issued by this server");
+  }
+  filter.limit = page->size + 1;
+  absl::StatusOr<std::vector<store::JobRecord>> jobs =
+      engine_.repository().List(filter);
+  if (!jobs.ok()) return ToGrpcStatus(jobs.status());
+  if (static_cast<int>(jobs->size()) > page->size) {
+    jobs->pop_back();
+    response->set_next_page_token(
+        EncodePageToken(absl::StrCat(jobs->back().id)));
+  }
+  for (const store::JobRecord& job : *jobs) ToProto(job, response->add_jobs());
+  return grpc::Status::OK;
+}
+
+grpc::Status JobsService::Watch(grpc::ServerContext* context,
+                                const v1::WatchJobRequest* request,
+                                grpc::ServerWriter<v1::JobEvent>* writer) {
+  if (grpc::Status s = CheckJobId(request->job_id()); !s.ok()) return s;
+  absl::StatusOr<store::JobRecord> job =
+      engine_.repository().Get(request->job_id());
+  if (!job.ok()) return ToGrpcStatus(job.status());
+  int64_t last = 0;
+  while (!context->IsCancelled()) {
+    // Read the generation first: an event recorded after it wakes us.
+    const int64_t generation = engine_.event_generation();
+    absl::StatusOr<std::vector<store::JobEventRecord>> events =
+        engine_.repository().Events(request->job_id(), last);
+    if (!events.ok()) return ToGrpcStatus(events.status());
+    for (const store::JobEventRecord& event : *events) {
+      v1::JobEvent out;
+      ToProto(event, &out);
+      if (!writer->Write(out)) return grpc::Status::OK;  // watcher left
+      last = event.sequence;
+      if (store::IsFinal(event.state)) return grpc::Status::OK;
+    }
+    engine_.WaitForEvents(generation, absl::Now() + absl::Milliseconds(500));
+  }
+  return grpc::Status::OK;
+}
+
+grpc::Status JobsService::Pause(grpc::ServerContext*,
+                                const v1::PauseJobRequest* request,
+                                v1::Job* response) {
+  if (grpc::Status s = CheckJobId(request->job_id()); !s.ok()) return s;
+  return Reply(engine_.Pause(request->job_id()), response);
+}
+
+grpc::Status JobsService::Resume(grpc::ServerContext*,
+                                 const v1::ResumeJobRequest* request,
+                                 v1::Job* response) {
+  if (grpc::Status s = CheckJobId(request->job_id()); !s.ok()) return s;
+  return Reply(engine_.Resume(request->job_id()), response);
+}
+
+grpc::Status JobsService::Cancel(grpc::ServerContext*,
+                                 const v1::CancelJobRequest* request,
+                                 v1::Job* response) {
+  if (grpc::Status s = CheckJobId(request->job_id()); !s.ok()) return s;
+  return Reply(engine_.Cancel(request->job_id()), response);
+}
+
+}  // namespace hdrstereo::rpc

@@ -1,0 +1,47 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#ifndef HDRSTEREO_DAEMON_RPC_JOBS_SERVICE_H_
+#define HDRSTEREO_DAEMON_RPC_JOBS_SERVICE_H_
+
+#include "daemon/jobs/job_engine.h"
+#include "hardware/rig.h"
+#include "hdrstereo/v1/jobs.grpc.pb.h"
+
+namespace hdrstereo::rpc {
+
+// Jobs: submit captures, follow and steer jobs. SubmitProcessing answers
+// UNIMPLEMENTED until the processing pipeline exists.
+class JobsService final : public v1::Jobs::Service {
+ public:
+  JobsService(jobs::JobEngine& engine, hardware::Rig& rig)
+      : engine_(engine), rig_(rig) {}
+
+  grpc::Status SubmitCapture(grpc::ServerContext* context,
+                             const v1::SubmitCaptureRequest* request,
+                             v1::Job* response) override;
+  grpc::Status Get(grpc::ServerContext* context,
+                   const v1::GetJobRequest* request,
+                   v1::Job* response) override;
+  grpc::Status List(grpc::ServerContext* context,
+                    const v1::ListJobsRequest* request,
+                    v1::ListJobsResponse* response) override;
+  grpc::Status Watch(grpc::ServerContext* context,
+                     const v1::WatchJobRequest* request,
+                     grpc::ServerWriter<v1::JobEvent>* writer) override;
+  grpc::Status Pause(grpc::ServerContext* context,
+                     const v1::PauseJobRequest* request,
+                     v1::Job* response) override;
+  grpc::Status Resume(grpc::ServerContext* context,
+                      const v1::ResumeJobRequest* request,
+                      v1::Job* response) override;
+  grpc::Status Cancel(grpc::ServerContext* context,
+                      const v1::CancelJobRequest* request,
+                      v1::Job* response) override;
+
+ private:
+  jobs::JobEngine& engine_;
+  hardware::Rig& rig_;
+};
+
+}  // namespace hdrstereo::rpc
+
+#endif  // HDRSTEREO_DAEMON_RPC_JOBS_SERVICE_H_

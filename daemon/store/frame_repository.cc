@@ -1,0 +1,192 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "daemon/store/frame_repository.h"
+
+#include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
+#include "absl/time/time.h"
+
+namespace hdrstereo::store {
+namespace {
+
+constexpr absl::string_view kSelectFrame = R"sql(
+SELECT f.id, f.capture_id, c.kind, f.sequence, f.view_index,
+       f.stage_position_mm, f.exposure_s, f.pattern, f.inverse, f.format,
+       f.width_px, f.height_px, f.path, f.sha256, f.camera_time_ms
+FROM frames f JOIN captures c ON c.id = f.capture_id
+)sql";
+
+FrameRecord ReadFrame(const Statement& stmt) {
+  FrameRecord f;
+  f.id = stmt.ColumnInt(0);
+  f.capture_id = stmt.ColumnInt(1);
+  f.capture_kind = stmt.ColumnText(2);
+  f.sequence = static_cast<int>(stmt.ColumnInt(3));
+  f.view_index = static_cast<int>(stmt.ColumnInt(4));
+  f.stage_position_mm = stmt.ColumnDouble(5);
+  f.exposure_s = stmt.ColumnDouble(6);
+  f.pattern = stmt.ColumnText(7);
+  f.inverse = stmt.ColumnInt(8) != 0;
+  f.format = stmt.ColumnText(9);
+  f.width_px = static_cast<int>(stmt.ColumnInt(10));
+  f.height_px = static_cast<int>(stmt.ColumnInt(11));
+  f.path = stmt.ColumnText(12);
+  f.sha256 = stmt.ColumnText(13);
+  if (!stmt.ColumnIsNull(14)) f.camera_time_ms = stmt.ColumnInt(14);
+  return f;
+}
+
+absl::StatusOr<std::vector<FrameRecord>> ReadAll(Statement& stmt) {
+  std::vector<FrameRecord> frames;
+  while (true) {
+    absl::StatusOr<bool> row = stmt.Step();
+    if (!row.ok()) return row.status();
+    if (!*row) break;
+    frames.push_back(ReadFrame(stmt));
+  }
+  return frames;
+}
+
+}  // namespace
+
+absl::StatusOr<CaptureRecord> FrameRepository::CaptureForJob(
+    int64_t job_id, absl::string_view kind, absl::string_view plan) {
+  Database& db = store_.db();
+  absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
+  if (!tx.ok()) return tx.status();
+  absl::StatusOr<Statement> find = db.Prepare(
+      "SELECT id, session_id, kind, plan FROM captures WHERE job_id = ?1");
+  if (!find.ok()) return find.status();
+  find->Bind(1, job_id);
+  absl::StatusOr<bool> row = find->Step();
+  if (!row.ok()) return row.status();
+  if (*row) {
+    return CaptureRecord{.id = find->ColumnInt(0),
+                         .session_id = find->ColumnInt(1),
+                         .job_id = job_id,
+                         .kind = find->ColumnText(2),
+                         .plan = find->ColumnText(3)};
+  }
+  // A resubmitted plan continues the capture of an earlier job of the same
+  // session that failed or was cancelled, keeping the frames it recorded.
+  absl::StatusOr<Statement> adopt = db.Prepare(R"sql(
+UPDATE captures SET job_id = ?1 WHERE id = (
+  SELECT c.id FROM captures c JOIN jobs j ON j.id = c.job_id
+  WHERE c.session_id = (SELECT session_id FROM jobs WHERE id = ?1)
+    AND c.kind = ?2 AND c.plan = ?3 AND j.state IN ('failed', 'cancelled')
+  ORDER BY c.id DESC LIMIT 1)
+RETURNING id, session_id)sql");
+  if (!adopt.ok()) return adopt.status();
+  adopt->Bind(1, job_id).Bind(2, kind).Bind(3, plan);
+  row = adopt->Step();
+  if (!row.ok()) return row.status();
+  if (*row) {
+    CaptureRecord capture{.id = adopt->ColumnInt(0),
+                          .session_id = adopt->ColumnInt(1),
+                          .job_id = job_id,
+                          .kind = std::string(kind),
+                          .plan = std::string(plan)};
+    // Run the statement to its end so that the transaction can commit.
+    if (absl::StatusOr<bool> end = adopt->Step(); !end.ok()) {
+      return end.status();
+    }
+    if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+    return capture;
+  }
+  absl::StatusOr<Statement> insert = db.Prepare(R"sql(
+INSERT INTO captures (session_id, job_id, kind, plan, create_time_ms)
+SELECT session_id, id, ?2, ?3, ?4 FROM jobs WHERE id = ?1
+RETURNING id, session_id)sql");
+  if (!insert.ok()) return insert.status();
+  insert->Bind(1, job_id).Bind(2, kind).Bind(3, plan).Bind(
+      4, absl::ToUnixMillis(absl::Now()));
+  row = insert->Step();
+  if (!row.ok()) return row.status();
+  if (!*row) return absl::NotFoundError(absl::StrCat("no job ", job_id));
+  CaptureRecord capture{.id = insert->ColumnInt(0),
+                        .session_id = insert->ColumnInt(1),
+                        .job_id = job_id,
+                        .kind = std::string(kind),
+                        .plan = std::string(plan)};
+  if (absl::StatusOr<bool> end = insert->Step(); !end.ok()) {
+    return end.status();
+  }
+  if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+  return capture;
+}
+
+absl::StatusOr<std::vector<FrameRecord>> FrameRepository::FramesOfCapture(
+    int64_t capture_id) {
+  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::StatusOr<Statement> stmt = store_.db().Prepare(absl::StrCat(
+      kSelectFrame, "WHERE f.capture_id = ?1 ORDER BY f.sequence"));
+  if (!stmt.ok()) return stmt.status();
+  stmt->Bind(1, capture_id);
+  return ReadAll(*stmt);
+}
+
+absl::StatusOr<std::vector<FrameRecord>> FrameRepository::FramesOfSession(
+    absl::string_view session, int64_t capture_id, int64_t after_id,
+    int limit) {
+  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::StatusOr<Statement> exists =
+      store_.db().Prepare("SELECT id FROM sessions WHERE name = ?1");
+  if (!exists.ok()) return exists.status();
+  exists->Bind(1, session);
+  absl::StatusOr<bool> row = exists->Step();
+  if (!row.ok()) return row.status();
+  if (!*row) {
+    return absl::NotFoundError(
+        absl::StrCat("no session named \"", session, "\""));
+  }
+  const int64_t session_id = exists->ColumnInt(0);
+  absl::StatusOr<Statement> stmt = store_.db().Prepare(absl::StrCat(
+      kSelectFrame,
+      "WHERE c.session_id = ?1 AND (?2 = 0 OR f.capture_id = ?2) AND f.id > ?3 "
+      "ORDER BY f.id LIMIT ?4"));
+  if (!stmt.ok()) return stmt.status();
+  stmt->Bind(1, session_id)
+      .Bind(2, capture_id)
+      .Bind(3, after_id)
+      .Bind(4, int64_t{limit});
+  return ReadAll(*stmt);
+}
+
+absl::Status FrameRepository::InsertLocked(const FrameRecord& f) {
+  absl::StatusOr<Statement> insert = store_.db().Prepare(R"sql(
+INSERT INTO frames (capture_id, sequence, view_index, stage_position_mm,
+  exposure_s, pattern, inverse, format, width_px, height_px, path, sha256,
+  camera_time_ms)
+VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13))sql");
+  if (!insert.ok()) return insert.status();
+  insert->Bind(1, f.capture_id)
+      .Bind(2, int64_t{f.sequence})
+      .Bind(3, int64_t{f.view_index})
+      .Bind(4, f.stage_position_mm)
+      .Bind(5, f.exposure_s)
+      .Bind(6, f.pattern)
+      .Bind(7, int64_t{f.inverse ? 1 : 0})
+      .Bind(8, f.format)
+      .Bind(9, int64_t{f.width_px})
+      .Bind(10, int64_t{f.height_px})
+      .Bind(11, f.path)
+      .Bind(12, f.sha256);
+  if (f.camera_time_ms.has_value()) {
+    insert->Bind(13, *f.camera_time_ms);
+  } else {
+    insert->BindNull(13);
+  }
+  return insert->Run();
+}
+
+absl::Status FrameRepository::Delete(int64_t frame_id) {
+  absl::StatusOr<std::unique_ptr<Transaction>> tx =
+      Transaction::Begin(store_.db());
+  if (!tx.ok()) return tx.status();
+  absl::StatusOr<Statement> remove =
+      store_.db().Prepare("DELETE FROM frames WHERE id = ?1");
+  if (!remove.ok()) return remove.status();
+  if (absl::Status s = remove->Bind(1, frame_id).Run(); !s.ok()) return s;
+  return (*tx)->Commit();
+}
+
+}  // namespace hdrstereo::store

@@ -1,0 +1,71 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// Captures and their frames (tables `captures` and `frames`).
+#ifndef HDRSTEREO_DAEMON_STORE_FRAME_REPOSITORY_H_
+#define HDRSTEREO_DAEMON_STORE_FRAME_REPOSITORY_H_
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "daemon/store/store.h"
+
+namespace hdrstereo::store {
+
+struct CaptureRecord {
+  int64_t id = 0;
+  int64_t session_id = 0;
+  int64_t job_id = 0;
+  std::string kind;  // bracketed_stereo, structured_light, calibration
+  std::string plan;  // serialized CapturePlan
+};
+
+struct FrameRecord {
+  int64_t id = 0;
+  int64_t capture_id = 0;
+  std::string capture_kind;
+  int sequence = 0;
+  int view_index = 0;
+  double stage_position_mm = 0;
+  double exposure_s = 0;
+  std::string pattern;  // e.g. "col_b03", "white", "" for none
+  bool inverse = false;
+  std::string format;  // hardware::ImageFormatName
+  int width_px = 0;
+  int height_px = 0;
+  std::string path;  // relative to the session folder
+  std::string sha256;
+  std::optional<int64_t> camera_time_ms;
+};
+
+class FrameRepository {
+ public:
+  explicit FrameRepository(Store& store) : store_(store) {}
+
+  // The capture a job records into: found again when the job resumes; a
+  // job resubmitted with the same plan after a failure or cancellation
+  // continues the earlier job's capture (only missing frames are taken).
+  absl::StatusOr<CaptureRecord> CaptureForJob(int64_t job_id,
+                                              absl::string_view kind,
+                                              absl::string_view plan);
+  absl::StatusOr<std::vector<FrameRecord>> FramesOfCapture(int64_t capture_id);
+  // Frames of a session (optionally one capture), ordered by id, after
+  // `after_id`, at most `limit`. NOT_FOUND for an unknown session.
+  absl::StatusOr<std::vector<FrameRecord>> FramesOfSession(
+      absl::string_view session, int64_t capture_id, int64_t after_id,
+      int limit);
+
+  // Inside a transaction the caller holds.
+  absl::Status InsertLocked(const FrameRecord& frame);
+  absl::Status Delete(int64_t frame_id);
+
+ private:
+  Store& store_;
+};
+
+}  // namespace hdrstereo::store
+
+#endif  // HDRSTEREO_DAEMON_STORE_FRAME_REPOSITORY_H_

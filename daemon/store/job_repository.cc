@@ -1,0 +1,333 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "daemon/store/job_repository.h"
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "absl/time/clock.h"
+#include "absl/time/time.h"
+
+namespace hdrstereo::store {
+namespace {
+
+constexpr struct {
+  JobState state;
+  const char* name;
+} kStateNames[] = {
+    {JobState::kQueued, "queued"},
+    {JobState::kRunning, "running"},
+    {JobState::kPaused, "paused"},
+    {JobState::kSucceeded, "succeeded"},
+    {JobState::kFailed, "failed"},
+    {JobState::kCancelled, "cancelled"},
+    {JobState::kInterrupted, "interrupted"},
+};
+
+const char* LevelName(EventLevel level) {
+  switch (level) {
+    case EventLevel::kInfo:
+      return "info";
+    case EventLevel::kWarning:
+      return "warning";
+    case EventLevel::kError:
+      return "error";
+  }
+  return "info";
+}
+
+EventLevel ParseLevel(absl::string_view name) {
+  if (name == "warning") return EventLevel::kWarning;
+  if (name == "error") return EventLevel::kError;
+  return EventLevel::kInfo;
+}
+
+int64_t NowMs() { return absl::ToUnixMillis(absl::Now()); }
+
+constexpr absl::string_view kSelectJob = R"sql(
+SELECT j.id, j.kind, j.session_id, s.name, j.state, j.request,
+       j.progress_done, j.progress_total, j.step, j.error, j.create_time_ms,
+       j.start_time_ms, j.end_time_ms
+FROM jobs j JOIN sessions s ON s.id = j.session_id
+)sql";
+
+absl::StatusOr<JobRecord> ReadJob(const Statement& stmt) {
+  JobRecord job;
+  job.id = stmt.ColumnInt(0);
+  job.kind = stmt.ColumnText(1) == "capture" ? JobKind::kCapture
+                                             : JobKind::kProcessing;
+  job.session_id = stmt.ColumnInt(2);
+  job.session = stmt.ColumnText(3);
+  absl::StatusOr<JobState> state = ParseJobState(stmt.ColumnText(4));
+  if (!state.ok()) return state.status();
+  job.state = *state;
+  job.request = stmt.ColumnText(5);
+  job.progress_done = stmt.ColumnInt(6);
+  job.progress_total = stmt.ColumnInt(7);
+  job.step = stmt.ColumnText(8);
+  job.error = stmt.ColumnText(9);
+  job.create_time_ms = stmt.ColumnInt(10);
+  if (!stmt.ColumnIsNull(11)) job.start_time_ms = stmt.ColumnInt(11);
+  if (!stmt.ColumnIsNull(12)) job.end_time_ms = stmt.ColumnInt(12);
+  return job;
+}
+
+absl::StatusOr<JobRecord> GetLocked(Database& db, int64_t id) {
+  absl::StatusOr<Statement> stmt =
+      db.Prepare(absl::StrCat(kSelectJob, "WHERE j.id = ?1"));
+  if (!stmt.ok()) return stmt.status();
+  stmt->Bind(1, id);
+  absl::StatusOr<bool> row = stmt->Step();
+  if (!row.ok()) return row.status();
+  if (!*row) return absl::NotFoundError(absl::StrCat("no job ", id));
+  return ReadJob(*stmt);
+}
+
+}  // namespace
+
+const char* JobStateName(JobState state) {
+  for (const auto& entry : kStateNames) {
+    if (entry.state == state) return entry.name;
+  }
+  return "unknown";
+}
+
+absl::StatusOr<JobState> ParseJobState(absl::string_view name) {
+  for (const auto& entry : kStateNames) {
+    if (name == entry.name) return entry.state;
+  }
+  return absl::DataLossError(absl::StrCat("unknown job state \"", name, "\""));
+}
+
+bool IsFinal(JobState state) {
+  return state == JobState::kSucceeded || state == JobState::kFailed ||
+         state == JobState::kCancelled;
+}
+
+absl::StatusOr<JobEventRecord> JobRepository::AppendEventLocked(
+    int64_t id, EventLevel level, absl::string_view message) {
+  Database& db = store_.db();
+  absl::StatusOr<JobRecord> job = GetLocked(db, id);
+  if (!job.ok()) return job.status();
+  absl::StatusOr<Statement> insert = db.Prepare(R"sql(
+INSERT INTO job_events (job_id, sequence, time_ms, state, progress_done,
+                        progress_total, step, level, message)
+VALUES (?1, (SELECT coalesce(max(sequence), 0) + 1 FROM job_events
+             WHERE job_id = ?1), ?2, ?3, ?4, ?5, ?6, ?7, ?8)
+RETURNING sequence)sql");
+  if (!insert.ok()) return insert.status();
+  JobEventRecord event{.job_id = id,
+                       .time_ms = NowMs(),
+                       .state = job->state,
+                       .progress_done = job->progress_done,
+                       .progress_total = job->progress_total,
+                       .step = job->step,
+                       .level = level,
+                       .message = std::string(message)};
+  insert->Bind(1, id)
+      .Bind(2, event.time_ms)
+      .Bind(3, JobStateName(event.state))
+      .Bind(4, event.progress_done)
+      .Bind(5, event.progress_total)
+      .Bind(6, event.step)
+      .Bind(7, LevelName(level))
+      .Bind(8, message);
+  absl::StatusOr<bool> row = insert->Step();
+  if (!row.ok()) return row.status();
+  event.sequence = insert->ColumnInt(0);
+  return event;
+}
+
+absl::StatusOr<JobRecord> JobRepository::Create(JobKind kind,
+                                                absl::string_view session,
+                                                absl::string_view request,
+                                                absl::string_view message) {
+  Database& db = store_.db();
+  absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
+  if (!tx.ok()) return tx.status();
+  absl::StatusOr<Statement> insert = db.Prepare(R"sql(
+INSERT INTO jobs (kind, session_id, state, request, create_time_ms)
+SELECT ?1, id, 'queued', ?2, ?3 FROM sessions WHERE name = ?4)sql");
+  if (!insert.ok()) return insert.status();
+  if (absl::Status s =
+          insert->Bind(1, kind == JobKind::kCapture ? "capture" : "processing")
+              .Bind(2, request)
+              .Bind(3, NowMs())
+              .Bind(4, session)
+              .Run();
+      !s.ok()) {
+    return s;
+  }
+  if (db.Changes() == 0) {
+    return absl::NotFoundError(
+        absl::StrCat("no session named \"", session, "\""));
+  }
+  const int64_t id = db.LastInsertId();
+  if (absl::StatusOr<JobEventRecord> e =
+          AppendEventLocked(id, EventLevel::kInfo, message);
+      !e.ok()) {
+    return e.status();
+  }
+  absl::StatusOr<JobRecord> job = GetLocked(db, id);
+  if (!job.ok()) return job.status();
+  if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+  return job;
+}
+
+absl::StatusOr<JobRecord> JobRepository::Get(int64_t id) {
+  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  return GetLocked(store_.db(), id);
+}
+
+absl::StatusOr<std::vector<JobRecord>> JobRepository::List(
+    const JobFilter& filter) {
+  std::vector<std::string> where = {"j.id > ?1"};
+  if (!filter.session.empty()) where.push_back("s.name = ?2");
+  if (!filter.states.empty()) {
+    std::vector<std::string> names;
+    for (JobState state : filter.states) {
+      names.push_back(absl::StrCat("'", JobStateName(state), "'"));
+    }
+    where.push_back(
+        absl::StrCat("j.state IN (", absl::StrJoin(names, ", "), ")"));
+  }
+  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::StatusOr<Statement> stmt = store_.db().Prepare(
+      absl::StrCat(kSelectJob, "WHERE ", absl::StrJoin(where, " AND "),
+                   " ORDER BY j.id LIMIT ?3"));
+  if (!stmt.ok()) return stmt.status();
+  stmt->Bind(1, filter.after_id)
+      .Bind(2, filter.session)
+      .Bind(3, int64_t{filter.limit});
+  std::vector<JobRecord> jobs;
+  while (true) {
+    absl::StatusOr<bool> row = stmt->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) break;
+    absl::StatusOr<JobRecord> job = ReadJob(*stmt);
+    if (!job.ok()) return job.status();
+    jobs.push_back(*std::move(job));
+  }
+  return jobs;
+}
+
+absl::StatusOr<JobEventRecord> JobRepository::SetState(
+    int64_t id, JobState state, absl::string_view message,
+    absl::string_view error) {
+  Database& db = store_.db();
+  absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
+  if (!tx.ok()) return tx.status();
+  absl::StatusOr<Statement> update = db.Prepare(R"sql(
+UPDATE jobs SET state = ?2, error = ?3,
+  start_time_ms = CASE WHEN ?2 = 'running' AND start_time_ms IS NULL
+                       THEN ?4 ELSE start_time_ms END,
+  end_time_ms = CASE WHEN ?2 IN ('succeeded', 'failed', 'cancelled')
+                     THEN ?4 ELSE NULL END
+WHERE id = ?1)sql");
+  if (!update.ok()) return update.status();
+  if (absl::Status s = update->Bind(1, id)
+                           .Bind(2, JobStateName(state))
+                           .Bind(3, error)
+                           .Bind(4, NowMs())
+                           .Run();
+      !s.ok()) {
+    return s;
+  }
+  if (db.Changes() == 0)
+    return absl::NotFoundError(absl::StrCat("no job ", id));
+  absl::StatusOr<JobEventRecord> event = AppendEventLocked(
+      id, state == JobState::kFailed ? EventLevel::kError : EventLevel::kInfo,
+      message);
+  if (!event.ok()) return event.status();
+  if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+  return event;
+}
+
+absl::StatusOr<JobEventRecord> JobRepository::SetProgressLocked(
+    int64_t id, int64_t done, int64_t total, absl::string_view step) {
+  Database& db = store_.db();
+  absl::StatusOr<Statement> update = db.Prepare(
+      "UPDATE jobs SET progress_done = ?2, progress_total = ?3, step = ?4 "
+      "WHERE id = ?1");
+  if (!update.ok()) return update.status();
+  if (absl::Status s =
+          update->Bind(1, id).Bind(2, done).Bind(3, total).Bind(4, step).Run();
+      !s.ok()) {
+    return s;
+  }
+  return AppendEventLocked(id, EventLevel::kInfo, "");
+}
+
+absl::StatusOr<JobEventRecord> JobRepository::SetProgress(
+    int64_t id, int64_t done, int64_t total, absl::string_view step) {
+  absl::StatusOr<std::unique_ptr<Transaction>> tx =
+      Transaction::Begin(store_.db());
+  if (!tx.ok()) return tx.status();
+  absl::StatusOr<JobEventRecord> event =
+      SetProgressLocked(id, done, total, step);
+  if (!event.ok()) return event.status();
+  if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+  return event;
+}
+
+absl::StatusOr<JobEventRecord> JobRepository::AddEvent(
+    int64_t id, EventLevel level, absl::string_view message) {
+  absl::StatusOr<std::unique_ptr<Transaction>> tx =
+      Transaction::Begin(store_.db());
+  if (!tx.ok()) return tx.status();
+  absl::StatusOr<JobEventRecord> event = AppendEventLocked(id, level, message);
+  if (!event.ok()) return event.status();
+  if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+  return event;
+}
+
+absl::StatusOr<std::vector<JobEventRecord>> JobRepository::Events(
+    int64_t id, int64_t after_sequence) {
+  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::StatusOr<Statement> stmt = store_.db().Prepare(R"sql(
+SELECT sequence, time_ms, state, progress_done, progress_total, step, level,
+       message
+FROM job_events WHERE job_id = ?1 AND sequence > ?2 ORDER BY sequence)sql");
+  if (!stmt.ok()) return stmt.status();
+  stmt->Bind(1, id).Bind(2, after_sequence);
+  std::vector<JobEventRecord> events;
+  while (true) {
+    absl::StatusOr<bool> row = stmt->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) break;
+    absl::StatusOr<JobState> state = ParseJobState(stmt->ColumnText(2));
+    if (!state.ok()) return state.status();
+    events.push_back({.job_id = id,
+                      .sequence = stmt->ColumnInt(0),
+                      .time_ms = stmt->ColumnInt(1),
+                      .state = *state,
+                      .progress_done = stmt->ColumnInt(3),
+                      .progress_total = stmt->ColumnInt(4),
+                      .step = stmt->ColumnText(5),
+                      .level = ParseLevel(stmt->ColumnText(6)),
+                      .message = stmt->ColumnText(7)});
+  }
+  return events;
+}
+
+absl::StatusOr<std::vector<int64_t>> JobRepository::InterruptUnfinished() {
+  std::vector<int64_t> ids;
+  {
+    std::unique_lock<std::mutex> lock = store_.db().Lock();
+    absl::StatusOr<Statement> stmt = store_.db().Prepare(
+        "SELECT id FROM jobs WHERE state IN ('running', 'paused') ORDER BY id");
+    if (!stmt.ok()) return stmt.status();
+    while (true) {
+      absl::StatusOr<bool> row = stmt->Step();
+      if (!row.ok()) return row.status();
+      if (!*row) break;
+      ids.push_back(stmt->ColumnInt(0));
+    }
+  }
+  for (int64_t id : ids) {
+    absl::StatusOr<JobEventRecord> event = SetState(
+        id, JobState::kInterrupted, "the daemon stopped while this job ran");
+    if (!event.ok()) return event.status();
+  }
+  return ids;
+}
+
+}  // namespace hdrstereo::store

@@ -1,0 +1,119 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// Jobs and their event history (tables `jobs` and `job_events`). Every state
+// or progress change is one transaction that also appends its event, so the
+// history a late watcher replays is exactly what happened.
+#ifndef HDRSTEREO_DAEMON_STORE_JOB_REPOSITORY_H_
+#define HDRSTEREO_DAEMON_STORE_JOB_REPOSITORY_H_
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "daemon/store/store.h"
+
+namespace hdrstereo::store {
+
+enum class JobState {
+  kQueued,
+  kRunning,
+  kPaused,
+  kSucceeded,
+  kFailed,
+  kCancelled,
+  kInterrupted,
+};
+const char* JobStateName(JobState state);  // as stored: "queued", ...
+absl::StatusOr<JobState> ParseJobState(absl::string_view name);
+bool IsFinal(JobState state);  // succeeded, failed, cancelled
+
+enum class JobKind { kCapture, kProcessing };
+
+struct JobRecord {
+  int64_t id = 0;
+  JobKind kind = JobKind::kCapture;
+  int64_t session_id = 0;
+  std::string session;
+  JobState state = JobState::kQueued;
+  std::string request;  // serialized request proto
+  int64_t progress_done = 0;
+  int64_t progress_total = 0;
+  std::string step;
+  std::string error;
+  int64_t create_time_ms = 0;
+  std::optional<int64_t> start_time_ms;
+  std::optional<int64_t> end_time_ms;
+};
+
+enum class EventLevel { kInfo, kWarning, kError };
+
+struct JobEventRecord {
+  int64_t job_id = 0;
+  int64_t sequence = 0;
+  int64_t time_ms = 0;
+  JobState state = JobState::kQueued;
+  int64_t progress_done = 0;
+  int64_t progress_total = 0;
+  std::string step;
+  EventLevel level = EventLevel::kInfo;
+  std::string message;
+};
+
+struct JobFilter {
+  std::string session;           // empty = all
+  std::vector<JobState> states;  // empty = all
+  int64_t after_id = 0;          // pagination: ids greater than this
+  int limit = 100;
+};
+
+class JobRepository {
+ public:
+  explicit JobRepository(Store& store) : store_(store) {}
+
+  // Queues a job for an existing session (NOT_FOUND otherwise) and records
+  // its first event.
+  absl::StatusOr<JobRecord> Create(JobKind kind, absl::string_view session,
+                                   absl::string_view request,
+                                   absl::string_view message);
+  absl::StatusOr<JobRecord> Get(int64_t id);
+  absl::StatusOr<std::vector<JobRecord>> List(const JobFilter& filter);
+
+  // Changes the state (setting start/end times as fitting) and appends an
+  // event. `error` is stored for failed jobs.
+  absl::StatusOr<JobEventRecord> SetState(int64_t id, JobState state,
+                                          absl::string_view message,
+                                          absl::string_view error = "");
+  // Updates progress and appends an event.
+  absl::StatusOr<JobEventRecord> SetProgress(int64_t id, int64_t done,
+                                             int64_t total,
+                                             absl::string_view step);
+  // Appends a warning or info event without changing the job.
+  absl::StatusOr<JobEventRecord> AddEvent(int64_t id, EventLevel level,
+                                          absl::string_view message);
+
+  absl::StatusOr<std::vector<JobEventRecord>> Events(int64_t id,
+                                                     int64_t after_sequence);
+
+  // Start-up: every job left running or paused by a previous process
+  // becomes interrupted. Returns their ids, oldest first.
+  absl::StatusOr<std::vector<int64_t>> InterruptUnfinished();
+
+  // Inside an open transaction (the caller holds it): progress update and
+  // its event, for callers that commit other rows in the same transaction
+  // (e.g. a frame and the progress it advances).
+  absl::StatusOr<JobEventRecord> SetProgressLocked(int64_t id, int64_t done,
+                                                   int64_t total,
+                                                   absl::string_view step);
+
+ private:
+  absl::StatusOr<JobEventRecord> AppendEventLocked(int64_t id, EventLevel level,
+                                                   absl::string_view message);
+  Store& store_;
+};
+
+}  // namespace hdrstereo::store
+
+#endif  // HDRSTEREO_DAEMON_STORE_JOB_REPOSITORY_H_

@@ -1,0 +1,88 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// A still camera: configure an exposure, capture one frame, get its bytes.
+// Implementations: gphoto2/ (a real DSLR), sim/ (the simulated world).
+#ifndef HDRSTEREO_HARDWARE_CAMERA_H_
+#define HDRSTEREO_HARDWARE_CAMERA_H_
+
+#include <optional>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "absl/time/time.h"
+
+namespace hdrstereo::hardware {
+
+enum class ImageFormat {
+  kJpeg,
+  kRaw,         // camera RAW (CR2, NEF, DNG, ...)
+  kRawAndJpeg,  // both; Capture() returns the RAW file
+  kTiff16,      // 16-bit TIFF (simulated camera)
+  kPng8,        // 8-bit PNG (simulated camera)
+};
+
+// Lowercase name, as in frame rows and file names.
+inline const char* ImageFormatName(ImageFormat format) {
+  switch (format) {
+    case ImageFormat::kJpeg:
+      return "jpeg";
+    case ImageFormat::kRaw:
+      return "raw";
+    case ImageFormat::kRawAndJpeg:
+      return "raw+jpeg";
+    case ImageFormat::kTiff16:
+      return "tiff16";
+    case ImageFormat::kPng8:
+      return "png8";
+  }
+  return "unknown";
+}
+
+struct ExposureSettings {
+  double exposure_s = 0;              // > 0
+  int iso = 0;                        // 0 = leave as is
+  double aperture_f = 0;              // f-number; 0 = leave as is
+  std::optional<ImageFormat> format;  // nullopt = leave as is
+};
+
+struct CameraInfo {
+  std::string model;
+  std::string serial;
+  std::string port;
+  int battery_percent = -1;  // -1 when unknown
+  double min_exposure_s = 0;
+  double max_exposure_s = 0;
+};
+
+// One captured image as the camera delivered it (encoded file bytes).
+struct Frame {
+  std::string bytes;
+  ImageFormat format = ImageFormat::kJpeg;
+  std::string extension;  // file name extension without the dot, e.g. "cr2"
+  double exposure_s = 0;  // the exposure actually used
+  int width_px = 0;       // 0 when the driver does not know without decoding
+  int height_px = 0;
+  absl::Time camera_time = absl::InfinitePast();  // unknown if InfinitePast
+};
+
+// Every call blocks until done or its timeout; none throws. Errors:
+// UNAVAILABLE (no camera, disconnected, busy beyond the retries),
+// DEADLINE_EXCEEDED (timed out), INVALID_ARGUMENT (a setting the camera does
+// not offer), DATA_LOSS (a transfer that arrived corrupt).
+class Camera {
+ public:
+  virtual ~Camera() = default;
+
+  virtual absl::StatusOr<CameraInfo> Info() = 0;
+  // Applies `settings`; returns the settings now in effect (e.g. the nearest
+  // shutter speed the camera offers).
+  virtual absl::StatusOr<ExposureSettings> Configure(
+      const ExposureSettings& settings) = 0;
+  virtual absl::StatusOr<ExposureSettings> Settings() = 0;
+  // Captures with the current settings and downloads the file.
+  virtual absl::StatusOr<Frame> Capture() = 0;
+};
+
+}  // namespace hdrstereo::hardware
+
+#endif  // HDRSTEREO_HARDWARE_CAMERA_H_

@@ -1,0 +1,142 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "hardware/display/x11_projector.h"
+
+#include <X11/Xatom.h>
+#include <X11/Xlib.h>
+#include <X11/Xutil.h>
+// Xlib defines Status as a macro, which would break absl::Status.
+#undef Status
+
+#include <cstring>
+#include <opencv2/imgproc.hpp>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/time/clock.h"
+
+namespace hdrstereo::display {
+
+struct X11Projector::Handles {
+  Display* display = nullptr;
+  Window window = 0;
+  GC gc = nullptr;
+  Visual* visual = nullptr;
+  int depth = 0;
+
+  ~Handles() {
+    if (display == nullptr) return;
+    if (gc != nullptr) XFreeGC(display, gc);
+    if (window != 0) XDestroyWindow(display, window);
+    XCloseDisplay(display);
+  }
+};
+
+absl::StatusOr<std::unique_ptr<X11Projector>> X11Projector::Open(
+    const X11ProjectorOptions& options) {
+  auto x = std::make_unique<Handles>();
+  const char* name =
+      options.display.empty() ? nullptr : options.display.c_str();
+  x->display = XOpenDisplay(name);
+  if (x->display == nullptr) {
+    return absl::UnavailableError(absl::StrCat(
+        "cannot open X display \"",
+        name != nullptr ? name
+                        : (std::getenv("DISPLAY") ? std::getenv("DISPLAY")
+                                                  : "(DISPLAY unset)"),
+        "\" for the projector"));
+  }
+  const int screen = DefaultScreen(x->display);
+  XVisualInfo visual_info;
+  if (!XMatchVisualInfo(x->display, screen, 24, TrueColor, &visual_info)) {
+    return absl::UnavailableError(
+        "the projector's X screen has no 24-bit TrueColor visual; patterns "
+        "could not be shown pixel-exact");
+  }
+  x->visual = visual_info.visual;
+  x->depth = visual_info.depth;
+
+  cv::Size size(options.width_px > 0 ? options.width_px
+                                     : DisplayWidth(x->display, screen),
+                options.height_px > 0 ? options.height_px
+                                      : DisplayHeight(x->display, screen));
+  XSetWindowAttributes attributes;
+  // No window manager decorations or placement: the window covers exactly
+  // the projector's pixels.
+  attributes.override_redirect = True;
+  attributes.background_pixel = BlackPixel(x->display, screen);
+  attributes.colormap = XCreateColormap(
+      x->display, RootWindow(x->display, screen), x->visual, AllocNone);
+  attributes.border_pixel = 0;
+  x->window = XCreateWindow(
+      x->display, RootWindow(x->display, screen), options.x, options.y,
+      static_cast<unsigned>(size.width), static_cast<unsigned>(size.height), 0,
+      x->depth, InputOutput, x->visual,
+      CWOverrideRedirect | CWBackPixel | CWColormap | CWBorderPixel,
+      &attributes);
+  XStoreName(x->display, x->window, "hdrstereo projector");
+  // Hide the cursor with an empty pixmap cursor.
+  char empty = 0;
+  Pixmap blank = XCreateBitmapFromData(x->display, x->window, &empty, 1, 1);
+  XColor black{};
+  Cursor cursor =
+      XCreatePixmapCursor(x->display, blank, blank, &black, &black, 0, 0);
+  XDefineCursor(x->display, x->window, cursor);
+  XFreePixmap(x->display, blank);
+  x->gc = XCreateGC(x->display, x->window, 0, nullptr);
+  XMapRaised(x->display, x->window);
+  XSync(x->display, False);
+
+  auto projector = std::unique_ptr<X11Projector>(
+      new X11Projector(options, size, std::move(x)));
+  if (absl::Status s = projector->Blank(); !s.ok()) return s;
+  return projector;
+}
+
+X11Projector::X11Projector(const X11ProjectorOptions& options, cv::Size size,
+                           std::unique_ptr<Handles> handles)
+    : options_(options), size_(size), x_(std::move(handles)) {}
+
+X11Projector::~X11Projector() = default;
+
+absl::Status X11Projector::Show(const cv::Mat& pattern) {
+  if (pattern.size() != size_ ||
+      (pattern.type() != CV_8UC1 && pattern.type() != CV_8UC3)) {
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "pattern is %dx%d of type %d; the projector needs %dx%d 8-bit gray or "
+        "BGR",
+        pattern.cols, pattern.rows, pattern.type(), size_.width, size_.height));
+  }
+  // 24-bit TrueColor ZPixmaps are 32 bits per pixel, B G R X in memory on
+  // little-endian servers (checked against the visual's masks below).
+  cv::Mat bgra;
+  cv::cvtColor(
+      pattern, bgra,
+      pattern.channels() == 1 ? cv::COLOR_GRAY2BGRA : cv::COLOR_BGR2BGRA);
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (x_->visual->red_mask != 0xff0000 || x_->visual->green_mask != 0xff00 ||
+      x_->visual->blue_mask != 0xff) {
+    return absl::UnavailableError(
+        "the projector's visual is not 8-8-8 RGB; cannot show exact pixels");
+  }
+  XImage* image = XCreateImage(
+      x_->display, x_->visual, static_cast<unsigned>(x_->depth), ZPixmap, 0,
+      reinterpret_cast<char*>(bgra.data), static_cast<unsigned>(size_.width),
+      static_cast<unsigned>(size_.height), 32, static_cast<int>(bgra.step));
+  if (image == nullptr) return absl::InternalError("XCreateImage failed");
+  image->byte_order = LSBFirst;
+  XPutImage(x_->display, x_->window, x_->gc, image, 0, 0, 0, 0,
+            static_cast<unsigned>(size_.width),
+            static_cast<unsigned>(size_.height));
+  image->data = nullptr;  // owned by `bgra`
+  XDestroyImage(image);
+  // XSync returns once the server has processed the request.
+  XSync(x_->display, False);
+  absl::SleepFor(options_.settle_time);
+  return absl::OkStatus();
+}
+
+absl::Status X11Projector::Blank() {
+  return Show(cv::Mat::zeros(size_, CV_8UC1));
+}
+
+}  // namespace hdrstereo::display

@@ -1,0 +1,714 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "hardware/gphoto2/gphoto2_camera.h"
+
+#include <gphoto2/gphoto2-port-result.h>
+#include <gphoto2/gphoto2-result.h>
+
+#include <algorithm>
+#include <condition_variable>
+#include <initializer_list>
+#include <thread>
+#include <utility>
+
+#include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "absl/time/clock.h"
+#include "hardware/gphoto2/libgphoto2_api.h"
+
+namespace hdrstereo::gphoto2 {
+namespace {
+
+constexpr std::initializer_list<absl::string_view> kShutterWidgets = {
+    "shutterspeed", "shutterspeed2", "exposuretime"};
+constexpr std::initializer_list<absl::string_view> kIsoWidgets = {"iso",
+                                                                  "isospeed"};
+constexpr std::initializer_list<absl::string_view> kApertureWidgets = {
+    "aperture", "f-number", "fnumber"};
+constexpr std::initializer_list<absl::string_view> kFormatWidgets = {
+    "imageformat", "imagequality"};
+
+const ConfigWidget* FindWidget(const std::vector<ConfigWidget>& widgets,
+                               absl::string_view name) {
+  for (const ConfigWidget& widget : widgets) {
+    if (widget.name == name) return &widget;
+  }
+  return nullptr;
+}
+
+// The first of `names` the camera has.
+const ConfigWidget* FindWidget(const std::vector<ConfigWidget>& widgets,
+                               std::initializer_list<absl::string_view> names) {
+  for (absl::string_view name : names) {
+    if (const ConfigWidget* widget = FindWidget(widgets, name)) return widget;
+  }
+  return nullptr;
+}
+
+// The shutter-speed widget: the first with at least one timed choice.
+const ConfigWidget* FindShutterWidget(
+    const std::vector<ConfigWidget>& widgets) {
+  for (absl::string_view name : kShutterWidgets) {
+    const ConfigWidget* widget = FindWidget(widgets, name);
+    if (widget != nullptr && !TimedShutterChoices(widget->choices).empty()) {
+      return widget;
+    }
+  }
+  return nullptr;
+}
+
+std::string JoinPath(const std::string& folder, const std::string& name) {
+  if (folder.empty() || absl::EndsWith(folder, "/")) {
+    return absl::StrCat(folder, name);
+  }
+  return absl::StrCat(folder, "/", name);
+}
+
+std::string ModeDialHint(absl::string_view name) {
+  return absl::StrCat(
+      "the camera does not let \"", name,
+      "\" be changed now; is the mode dial on M (manual) and the lens set "
+      "for this setting?");
+}
+
+}  // namespace
+
+absl::Status Gphoto2Error(absl::string_view what, int code,
+                          absl::string_view detail) {
+  const std::string reason = absl::StrCat(
+      detail.empty() ? "libgphoto2 error" : detail, " [", code, "]");
+  switch (code) {
+    case GP_ERROR_IO_USB_CLAIM:
+      return absl::UnavailableError(absl::StrCat(
+          what,
+          ": could not claim the USB device: another process holds the "
+          "camera, usually gvfs-gphoto2-volume-monitor (the desktop's "
+          "automounter), a file manager, or another gphoto2; stop it (e.g. "
+          "`pkill -f gvfs-gphoto2`) and try again (",
+          reason, ")"));
+    case GP_ERROR_IO_USB_FIND:
+      return absl::UnavailableError(absl::StrCat(
+          what,
+          ": the camera is not on the USB bus (unplugged, switched off "
+          "or asleep?) (",
+          reason, ")"));
+    case GP_ERROR_MODEL_NOT_FOUND:
+      return absl::NotFoundError(
+          absl::StrCat(what,
+                       ": libgphoto2 knows no such camera model (see `gphoto2 "
+                       "--list-cameras`) (",
+                       reason, ")"));
+    case GP_ERROR_UNKNOWN_PORT:
+      return absl::NotFoundError(absl::StrCat(
+          what, ": no such port (see `gphoto2 --list-ports`) (", reason, ")"));
+    case GP_ERROR_CAMERA_BUSY:
+      return absl::UnavailableError(
+          absl::StrCat(what, ": the camera is busy (", reason, ")"));
+    case GP_ERROR_TIMEOUT:
+      return absl::DeadlineExceededError(absl::StrCat(
+          what, ": the camera did not answer in time (", reason, ")"));
+    case GP_ERROR_NOT_SUPPORTED:
+      return absl::UnimplementedError(absl::StrCat(
+          what, ": not supported by this camera or its driver (", reason, ")"));
+    case GP_ERROR_BAD_PARAMETERS:
+      return absl::InvalidArgumentError(absl::StrCat(what, ": ", reason));
+    case GP_ERROR_CORRUPTED_DATA:
+      return absl::DataLossError(absl::StrCat(
+          what, ": corrupted data from the camera (", reason, ")"));
+    case GP_ERROR_FILE_NOT_FOUND:
+    case GP_ERROR_DIRECTORY_NOT_FOUND:
+      return absl::NotFoundError(absl::StrCat(what, ": ", reason));
+    case GP_ERROR_NO_SPACE:
+      return absl::ResourceExhaustedError(absl::StrCat(
+          what, ": no space left on the camera's card (", reason, ")"));
+    case GP_ERROR_CANCEL:
+      return absl::CancelledError(absl::StrCat(what, ": cancelled"));
+    default:
+      break;
+  }
+  // The port layer's I/O errors (GP_ERROR_IO and -20 .. -99).
+  if (code == GP_ERROR_IO ||
+      (code <= GP_ERROR_IO_SUPPORTED_SERIAL && code > -100)) {
+    return absl::UnavailableError(absl::StrCat(
+        what, ": I/O error talking to the camera (disconnected?) (", reason,
+        ")"));
+  }
+  return absl::UnknownError(absl::StrCat(what, ": ", reason));
+}
+
+// Runs the libgphoto2 calls on a thread of their own, so that a caller can
+// stop waiting for one. The state lives in a shared_ptr that the thread
+// holds too: a detached thread stuck in a call keeps the api alive and
+// destroys it (closing the camera) when the call returns.
+class Gphoto2Camera::Worker {
+ public:
+  struct Outcome {
+    int code = GP_OK;
+    std::string error_text;
+  };
+
+  explicit Worker(std::unique_ptr<Gphoto2Api> api)
+      : state_(std::make_shared<State>()) {
+    state_->api = std::move(api);
+    thread_ = std::thread(&Worker::Loop, state_);
+  }
+
+  ~Worker() {
+    bool stuck = false;
+    {
+      std::unique_lock<std::mutex> lock(state_->mutex);
+      stuck = state_->stuck;
+      if (!stuck) {
+        state_->cv.wait(lock,
+                        [&] { return !state_->running && !state_->task; });
+      }
+      state_->stop = true;
+      state_->cv.notify_all();
+    }
+    if (stuck) {
+      thread_.detach();
+    } else {
+      thread_.join();
+    }
+  }
+
+  absl::StatusOr<Outcome> Run(absl::string_view what, absl::Duration timeout,
+                              std::function<int(Gphoto2Api&)> fn) {
+    // InfiniteDuration would overflow the condition variable's clock.
+    timeout = std::min(timeout, absl::Hours(24 * 365));
+    auto outcome = std::make_shared<Outcome>();
+    auto finished = std::make_shared<bool>(false);
+    auto abandoned = std::make_shared<bool>(false);
+    std::unique_lock<std::mutex> lock(state_->mutex);
+    if (state_->stuck) {
+      return absl::UnavailableError(absl::StrCat(
+          "cannot ", what, ": the camera is still stuck in \"",
+          state_->stuck_call, "\", which timed out ",
+          absl::FormatDuration(absl::Now() - state_->stuck_since),
+          " ago; libgphoto2 has not returned yet (unplug the camera or "
+          "switch it off and on if this lasts)"));
+    }
+    // The previous call may still be winding up on the worker.
+    state_->cv.wait(lock, [&] { return !state_->running && !state_->task; });
+    State* state = state_.get();
+    state_->task = [state, outcome, finished, abandoned, fn = std::move(fn)]() {
+      {
+        // Under the lock that the caller's timeout takes: either the caller
+        // gave up before the call began (skip it), or BeginCall() comes
+        // before the caller's Cancel() (which then reaches the call).
+        std::lock_guard<std::mutex> start_lock(state->mutex);
+        if (*abandoned) return;
+        state->api->BeginCall();
+      }
+      int code = fn(*state->api);
+      std::string text = code < GP_OK ? state->api->ErrorText(code) : "";
+      std::lock_guard<std::mutex> done_lock(state->mutex);
+      outcome->code = code;
+      outcome->error_text = std::move(text);
+      *finished = true;
+      state->cv.notify_all();
+    };
+    state_->cv.notify_all();
+    if (!state_->cv.wait_for(lock, absl::ToChronoNanoseconds(timeout),
+                             [&] { return *finished; })) {
+      *abandoned = true;
+      state_->stuck = true;
+      state_->stuck_call = std::string(what);
+      state_->stuck_since = absl::Now();
+      state_->api->Cancel();
+      return absl::DeadlineExceededError(absl::StrCat(
+          what, ": no answer from the camera within ",
+          absl::FormatDuration(timeout),
+          "; the call was asked to cancel and the camera is unusable until "
+          "libgphoto2 returns"));
+    }
+    return *outcome;
+  }
+
+ private:
+  struct State {
+    std::unique_ptr<Gphoto2Api> api;
+    std::mutex mutex;
+    std::condition_variable cv;
+    std::function<void()> task;  // the next call to run
+    bool running = false;        // a call is running
+    bool stop = false;
+    bool stuck = false;      // the running call timed out
+    std::string stuck_call;  // which one
+    absl::Time stuck_since;
+  };
+
+  static void Loop(std::shared_ptr<State> state) {
+    std::unique_lock<std::mutex> lock(state->mutex);
+    while (true) {
+      state->cv.wait(lock, [&] { return state->stop || state->task; });
+      if (state->task == nullptr) break;  // stopping
+      std::function<void()> task = std::move(state->task);
+      state->task = nullptr;
+      state->running = true;
+      lock.unlock();
+      task();
+      task = nullptr;
+      lock.lock();
+      state->running = false;
+      state->stuck = false;
+      state->cv.notify_all();
+    }
+  }
+
+  std::shared_ptr<State> state_;
+  std::thread thread_;
+};
+
+Gphoto2Camera::Gphoto2Camera(const Gphoto2Options& options,
+                             std::unique_ptr<Worker> worker)
+    : options_(options), worker_(std::move(worker)) {}
+
+Gphoto2Camera::~Gphoto2Camera() = default;
+
+absl::StatusOr<std::unique_ptr<Gphoto2Camera>> Gphoto2Camera::Open(
+    const Gphoto2Options& options) {
+  return OpenWithApi(options, NewLibgphoto2Api());
+}
+
+absl::StatusOr<std::unique_ptr<Gphoto2Camera>> Gphoto2Camera::OpenWithApi(
+    const Gphoto2Options& options, std::unique_ptr<Gphoto2Api> api) {
+  if (api == nullptr) return absl::InvalidArgumentError("gphoto2: no api");
+  std::unique_ptr<Gphoto2Camera> camera(
+      new Gphoto2Camera(options, std::make_unique<Worker>(std::move(api))));
+  std::string model = options.model;
+  std::string port = options.port;
+  if (model.empty() || port.empty()) {
+    auto detected = std::make_shared<std::vector<DetectedCamera>>();
+    absl::Status status = camera->Call(
+        "autodetect cameras", options.call_timeout,
+        [detected](Gphoto2Api& api) { return api.Autodetect(detected.get()); });
+    if (!status.ok()) return status;
+    if (detected->empty()) {
+      return absl::UnavailableError(
+          "no camera found: libgphoto2's autodetect lists none. Is the camera "
+          "connected by USB, switched on and awake, and in PTP/PC mode (not "
+          "mass storage)? `gphoto2 --auto-detect` should list it.");
+    }
+    const DetectedCamera* match = nullptr;
+    for (const DetectedCamera& candidate : *detected) {
+      if ((model.empty() || absl::EqualsIgnoreCase(candidate.model, model)) &&
+          (port.empty() || candidate.port == port)) {
+        match = &candidate;
+        break;
+      }
+    }
+    if (match == nullptr) {
+      std::vector<std::string> found;
+      for (const DetectedCamera& candidate : *detected) {
+        found.push_back(
+            absl::StrCat("\"", candidate.model, "\" on ", candidate.port));
+      }
+      return absl::UnavailableError(absl::StrCat(
+          "no camera matching", model.empty() ? "" : " model \"", model,
+          model.empty() ? "" : "\"", port.empty() ? "" : " on port ", port,
+          "; found: ", absl::StrJoin(found, ", ")));
+    }
+    model = match->model;
+    port = match->port;
+  }
+  absl::Status status = camera->Call(
+      absl::StrCat("open \"", model, "\" on ", port), options.call_timeout,
+      [model, port](Gphoto2Api& api) { return api.Open(model, port); });
+  if (!status.ok()) return status;
+  camera->model_ = model;
+  camera->port_ = port;
+
+  std::lock_guard<std::mutex> lock(camera->mutex_);
+  if (options.capture_target != CaptureTarget::kLeaveAsIs) {
+    status = camera->SetCaptureTargetLocked(options.capture_target);
+    // Cameras without configuration or without the widget keep their own.
+    if (!status.ok() && !absl::IsUnimplemented(status) &&
+        !absl::IsNotFound(status)) {
+      return status;
+    }
+  }
+  // Remember the exposure and format in effect; fine to fail (no config).
+  camera->SettingsLocked().IgnoreError();
+  return camera;
+}
+
+absl::Status Gphoto2Camera::Call(absl::string_view what, absl::Duration timeout,
+                                 std::function<int(Gphoto2Api&)> fn) {
+  absl::Duration backoff = options_.busy_backoff;
+  const absl::Time start = absl::Now();
+  for (int attempt = 0;; ++attempt) {
+    absl::StatusOr<Worker::Outcome> outcome = worker_->Run(what, timeout, fn);
+    if (!outcome.ok()) return outcome.status();
+    if (outcome->code >= GP_OK) return absl::OkStatus();
+    if (outcome->code != GP_ERROR_CAMERA_BUSY) {
+      return Gphoto2Error(what, outcome->code, outcome->error_text);
+    }
+    if (attempt >= options_.busy_retries) {
+      return absl::UnavailableError(
+          absl::StrCat(what, ": the camera stayed busy (", outcome->error_text,
+                       ") through ", attempt + 1, " tries over ",
+                       absl::FormatDuration(absl::Now() - start)));
+    }
+    absl::SleepFor(backoff);
+    backoff = std::min(backoff * 2, options_.busy_backoff_max);
+  }
+}
+
+absl::StatusOr<std::vector<ConfigWidget>> Gphoto2Camera::ConfigLocked() {
+  auto widgets = std::make_shared<std::vector<ConfigWidget>>();
+  absl::Status status =
+      Call("read the camera configuration", options_.call_timeout,
+           [widgets](Gphoto2Api& api) { return api.GetConfig(widgets.get()); });
+  if (!status.ok()) return status;
+  return std::move(*widgets);
+}
+
+absl::Status Gphoto2Camera::SetLocked(const std::string& name,
+                                      const std::string& value) {
+  return Call(absl::StrCat("set ", name, " to \"", value, "\""),
+              options_.call_timeout, [name, value](Gphoto2Api& api) {
+                return api.SetConfigValue(name, value);
+              });
+}
+
+absl::StatusOr<hardware::ExposureSettings> Gphoto2Camera::SettingsLocked() {
+  absl::StatusOr<std::vector<ConfigWidget>> widgets = ConfigLocked();
+  if (!widgets.ok()) return widgets.status();
+  hardware::ExposureSettings settings;
+  if (const ConfigWidget* shutter = FindShutterWidget(*widgets)) {
+    settings.exposure_s = ParseShutterSpeed(shutter->value).value_or(0);
+  }
+  if (const ConfigWidget* iso = FindWidget(*widgets, kIsoWidgets)) {
+    settings.iso = ParseIso(iso->value).value_or(0);
+  }
+  if (const ConfigWidget* aperture = FindWidget(*widgets, kApertureWidgets)) {
+    settings.aperture_f = ParseAperture(aperture->value).value_or(0);
+  }
+  if (const ConfigWidget* format = FindWidget(*widgets, kFormatWidgets)) {
+    settings.format = ClassifyFormatChoice(format->value);
+  }
+  exposure_s_ = settings.exposure_s;
+  format_ = settings.format;
+  return settings;
+}
+
+absl::StatusOr<hardware::ExposureSettings> Gphoto2Camera::Settings() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return SettingsLocked();
+}
+
+absl::StatusOr<hardware::CameraInfo> Gphoto2Camera::Info() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  hardware::CameraInfo info;
+  info.model = model_;
+  info.port = port_;
+  absl::StatusOr<std::vector<ConfigWidget>> widgets = ConfigLocked();
+  if (absl::IsUnimplemented(widgets.status())) return info;  // no config
+  if (!widgets.ok()) return widgets.status();
+  for (absl::string_view name : {"cameramodel", "model"}) {
+    const ConfigWidget* widget = FindWidget(*widgets, name);
+    if (widget != nullptr && !widget->value.empty()) {
+      info.model = widget->value;
+      break;
+    }
+  }
+  if (const ConfigWidget* serial = FindWidget(*widgets, "serialnumber")) {
+    info.serial = serial->value;
+  }
+  if (const ConfigWidget* battery = FindWidget(*widgets, "batterylevel")) {
+    info.battery_percent = ParseBatteryPercent(battery->value);
+  }
+  if (const ConfigWidget* shutter = FindShutterWidget(*widgets)) {
+    std::vector<ShutterChoice> timed = TimedShutterChoices(shutter->choices);
+    info.min_exposure_s = timed.front().seconds;
+    info.max_exposure_s = timed.front().seconds;
+    for (const ShutterChoice& choice : timed) {
+      info.min_exposure_s = std::min(info.min_exposure_s, choice.seconds);
+      info.max_exposure_s = std::max(info.max_exposure_s, choice.seconds);
+    }
+  }
+  return info;
+}
+
+absl::StatusOr<hardware::ExposureSettings> Gphoto2Camera::Configure(
+    const hardware::ExposureSettings& settings) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!(settings.exposure_s > 0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("exposure must be a positive number of seconds, not ",
+                     settings.exposure_s));
+  }
+  if (settings.iso < 0 || settings.aperture_f < 0) {
+    return absl::InvalidArgumentError("ISO and f-number must not be negative");
+  }
+  absl::StatusOr<std::vector<ConfigWidget>> widgets = ConfigLocked();
+  if (!widgets.ok()) return widgets.status();
+
+  // Plan every change first: nothing is set unless all of it is valid.
+  struct Change {
+    const ConfigWidget* widget;
+    std::string value;
+  };
+  std::vector<Change> plan;
+  const ConfigWidget* shutter = FindShutterWidget(*widgets);
+  if (shutter == nullptr) {
+    return absl::FailedPreconditionError(
+        "the camera has no shutter-speed setting (shutterspeed, "
+        "shutterspeed2, exposuretime)");
+  }
+  absl::StatusOr<ShutterChoice> speed =
+      NearestShutterSpeed(shutter->choices, settings.exposure_s);
+  if (!speed.ok()) return speed.status();
+  plan.push_back({shutter, speed->choice});
+  if (settings.iso > 0) {
+    const ConfigWidget* iso = FindWidget(*widgets, kIsoWidgets);
+    if (iso == nullptr) {
+      return absl::InvalidArgumentError("the camera has no ISO setting");
+    }
+    absl::StatusOr<std::string> choice = MatchIso(iso->choices, settings.iso);
+    if (!choice.ok()) return choice.status();
+    plan.push_back({iso, *choice});
+  }
+  if (settings.aperture_f > 0) {
+    const ConfigWidget* aperture = FindWidget(*widgets, kApertureWidgets);
+    if (aperture == nullptr) {
+      return absl::InvalidArgumentError(
+          "the camera has no aperture setting (manual lens?)");
+    }
+    absl::StatusOr<std::string> choice =
+        MatchAperture(aperture->choices, settings.aperture_f);
+    if (!choice.ok()) return choice.status();
+    plan.push_back({aperture, *choice});
+  }
+  if (settings.format.has_value()) {
+    const ConfigWidget* format = FindWidget(*widgets, kFormatWidgets);
+    if (format == nullptr) {
+      return absl::InvalidArgumentError(
+          "the camera has no image format setting (imageformat, "
+          "imagequality)");
+    }
+    absl::StatusOr<std::string> choice =
+        MatchFormatChoice(format->choices, *settings.format);
+    if (!choice.ok()) return choice.status();
+    plan.push_back({format, *choice});
+  }
+  for (const Change& change : plan) {
+    if (change.widget->value == change.value) continue;
+    if (change.widget->read_only) {
+      return absl::FailedPreconditionError(
+          absl::StrCat(change.widget->name,
+                       " is read-only: ", ModeDialHint(change.widget->name)));
+    }
+  }
+
+  for (const Change& change : plan) {
+    if (change.widget->value == change.value) continue;
+    absl::Status status = SetLocked(change.widget->name, change.value);
+    if (!status.ok()) return status;
+  }
+
+  // Read back: the camera may ignore a value (wrong mode) without an error.
+  absl::StatusOr<std::vector<ConfigWidget>> after = ConfigLocked();
+  if (!after.ok()) return after.status();
+  for (const Change& change : plan) {
+    const ConfigWidget* now = FindWidget(*after, change.widget->name);
+    if (now != nullptr && now->value != change.value) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("the camera kept ", change.widget->name, " at \"",
+                       now->value, "\" instead of \"", change.value,
+                       "\": ", ModeDialHint(change.widget->name)));
+    }
+  }
+  return SettingsLocked();
+}
+
+absl::StatusOr<hardware::Frame> Gphoto2Camera::Capture() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto path = std::make_shared<std::pair<std::string, std::string>>();
+  absl::Status status =
+      Call("capture", options_.capture_timeout + absl::Seconds(exposure_s_),
+           [path](Gphoto2Api& api) {
+             return api.Capture(&path->first, &path->second);
+           });
+  if (!status.ok()) {
+    if (absl::IsUnknown(status)) {  // e.g. -1 "Unspecified error"
+      return absl::UnknownError(absl::StrCat(
+          status.message(),
+          "; if the camera could not focus, switch the lens to MF; check "
+          "the card, the capture target and the mode dial"));
+    }
+    return status;
+  }
+  std::vector<std::pair<std::string, std::string>> files = {*path};
+
+  // RAW+JPEG: the second file is announced as an event.
+  const bool two_files = format_ == hardware::ImageFormat::kRawAndJpeg;
+  if (two_files) {
+    const absl::Time deadline = absl::Now() + options_.second_file_timeout;
+    while (files.size() < 2 && absl::Now() < deadline) {
+      auto event = std::make_shared<CameraEvent>();
+      absl::Duration wait = deadline - absl::Now();
+      status =
+          Call("wait for the second file of a RAW+JPEG capture",
+               wait + options_.call_timeout, [event, wait](Gphoto2Api& api) {
+                 return api.WaitForEvent(wait, event.get());
+               });
+      if (!status.ok() || event->type == EventType::kTimeout) break;
+      if (event->type == EventType::kFileAdded) {
+        files.emplace_back(event->folder, event->name);
+      }
+    }
+  }
+  // The RAW file when there is one.
+  auto chosen = files.begin();
+  for (auto it = files.begin(); it != files.end(); ++it) {
+    if (FormatFromFileName(it->second) == hardware::ImageFormat::kRaw) {
+      chosen = it;
+      break;
+    }
+  }
+  absl::StatusOr<hardware::Frame> frame =
+      DownloadLocked(chosen->first, chosen->second);
+  if (!frame.ok()) return frame.status();  // the files stay on the camera
+  if (options_.delete_after_download) {
+    for (const auto& [folder, name] : files) {
+      absl::Status deleted =
+          Call(absl::StrCat("delete ", JoinPath(folder, name)),
+               options_.call_timeout,
+               [folder = folder, name = name](Gphoto2Api& api) {
+                 return api.DeleteFile(folder, name);
+               });
+      if (!deleted.ok()) undeleted_files_.push_back(JoinPath(folder, name));
+    }
+  }
+  return frame;
+}
+
+absl::StatusOr<hardware::Frame> Gphoto2Camera::DownloadLocked(
+    const std::string& folder, const std::string& name) {
+  const std::string path = JoinPath(folder, name);
+  std::optional<hardware::ImageFormat> format = FormatFromFileName(name);
+  if (!format.has_value()) {
+    return absl::FailedPreconditionError(
+        absl::StrCat(path,
+                     " is neither a JPEG nor a camera RAW file; set the image "
+                     "format to raw, jpeg or raw+jpeg"));
+  }
+  auto file = std::make_shared<FileData>();
+  absl::Status status =
+      Call(absl::StrCat("download ", path), options_.download_timeout,
+           [folder, name, file](Gphoto2Api& api) {
+             return api.GetFile(folder, name, file.get());
+           });
+  if (!status.ok()) return status;
+  if (file->bytes.empty()) {
+    return absl::DataLossError(absl::StrCat("downloaded ", path, " is empty"));
+  }
+  hardware::Frame frame;
+  frame.bytes = std::move(file->bytes);
+  frame.format = *format;
+  frame.extension = FileExtension(name);
+  frame.exposure_s = exposure_s_;
+  frame.camera_time = file->mtime;
+  return frame;
+}
+
+absl::StatusOr<std::vector<ConfigWidget>> Gphoto2Camera::Config() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return ConfigLocked();
+}
+
+absl::StatusOr<std::string> Gphoto2Camera::Summary() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto text = std::make_shared<std::string>();
+  absl::Status status =
+      Call("read the camera summary", options_.call_timeout,
+           [text](Gphoto2Api& api) { return api.GetSummary(text.get()); });
+  if (!status.ok()) return status;
+  return *text;
+}
+
+absl::Status Gphoto2Camera::SetConfigValue(const std::string& name,
+                                           const std::string& value) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  absl::StatusOr<std::vector<ConfigWidget>> widgets = ConfigLocked();
+  if (!widgets.ok()) return widgets.status();
+  const ConfigWidget* widget = FindWidget(*widgets, name);
+  if (widget == nullptr) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("the camera has no setting \"", name, "\""));
+  }
+  if ((widget->type == WidgetType::kRadio ||
+       widget->type == WidgetType::kMenu) &&
+      !widget->choices.empty() &&
+      std::find(widget->choices.begin(), widget->choices.end(), value) ==
+          widget->choices.end()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("\"", value, "\" is not a choice of ", name,
+                     "; choices: ", JoinChoices(widget->choices)));
+  }
+  if (widget->read_only) {
+    return absl::FailedPreconditionError(
+        absl::StrCat(name, " is read-only: ", ModeDialHint(name)));
+  }
+  return SetLocked(name, value);
+}
+
+absl::Status Gphoto2Camera::SetCaptureTargetLocked(CaptureTarget target) {
+  if (target == CaptureTarget::kLeaveAsIs) return absl::OkStatus();
+  absl::StatusOr<std::vector<ConfigWidget>> widgets = ConfigLocked();
+  if (!widgets.ok()) return widgets.status();
+  const ConfigWidget* widget = FindWidget(*widgets, "capturetarget");
+  if (widget == nullptr) {
+    return absl::NotFoundError("the camera has no capturetarget setting");
+  }
+  absl::StatusOr<std::string> choice =
+      MatchCaptureTarget(widget->choices, target);
+  if (!choice.ok()) return choice.status();
+  if (widget->value == *choice) return absl::OkStatus();
+  return SetLocked("capturetarget", *choice);
+}
+
+absl::Status Gphoto2Camera::SetCaptureTarget(CaptureTarget target) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  absl::Status status = SetCaptureTargetLocked(target);
+  if (absl::IsNotFound(status)) {
+    return absl::InvalidArgumentError(status.message());
+  }
+  return status;
+}
+
+absl::StatusOr<std::vector<std::string>> Gphoto2Camera::ListFiles(
+    const std::string& folder) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto names = std::make_shared<std::vector<std::string>>();
+  absl::Status status =
+      Call(absl::StrCat("list files in ", folder), options_.call_timeout,
+           [folder, names](Gphoto2Api& api) {
+             return api.ListFiles(folder, names.get());
+           });
+  if (!status.ok()) return status;
+  return *names;
+}
+
+absl::StatusOr<hardware::Frame> Gphoto2Camera::Download(
+    const std::string& folder, const std::string& name) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return DownloadLocked(folder, name);
+}
+
+absl::Status Gphoto2Camera::DeleteFile(const std::string& folder,
+                                       const std::string& name) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return Call(
+      absl::StrCat("delete ", JoinPath(folder, name)), options_.call_timeout,
+      [folder, name](Gphoto2Api& api) { return api.DeleteFile(folder, name); });
+}
+
+std::vector<std::string> Gphoto2Camera::undeleted_files() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return undeleted_files_;
+}
+
+}  // namespace hdrstereo::gphoto2

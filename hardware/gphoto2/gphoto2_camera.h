@@ -1,0 +1,182 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// A real camera (DSLR, mirrorless) over libgphoto2.
+//
+//   Gphoto2Options options;           // first camera found, capture to RAM
+//   options.model = "Canon EOS 5D Mark III";  // optional
+//   absl::StatusOr<std::unique_ptr<Gphoto2Camera>> camera =
+//       Gphoto2Camera::Open(options);
+//   (*camera)->Configure({.exposure_s = 1.0 / 100, .iso = 100,
+//                         .format = hardware::ImageFormat::kRaw});
+//   // -> exposure_s = 1/100 if offered, else the nearest choice (e.g. 1/125)
+//   absl::StatusOr<hardware::Frame> frame = (*camera)->Capture();
+//
+// Settings map onto the camera's widgets, whichever the camera has:
+// exposure -> "shutterspeed" / "shutterspeed2" / "exposuretime" (the nearest
+// timed choice in stops; bulb is never used), ISO -> "iso" / "isospeed",
+// aperture -> "aperture" / "f-number" / "fnumber", format -> "imageformat" /
+// "imagequality". Configure validates everything before it sets anything,
+// then reads the settings back and fails if the camera did not take them
+// (FAILED_PRECONDITION: typically the mode dial is not on M).
+//
+// Capture() runs gp_camera_capture, downloads the file (gp_camera_file_get)
+// and deletes it from the camera (gp_camera_file_delete). With RAW+JPEG the
+// camera announces the second file as an event; both are deleted and the RAW
+// file is returned. A failed delete does not fail the capture; the file is
+// remembered in undeleted_files().
+//
+// Retries: a call answered GP_ERROR_CAMERA_BUSY (-110, "I/O in progress") is
+// retried up to `busy_retries` times, sleeping busy_backoff, 2x, 4x ... (at
+// most busy_backoff_max) in between; then UNAVAILABLE. Other errors are not
+// retried. So one call takes at most (busy_retries + 1) times its deadline
+// plus the sleeps.
+//
+// Timeouts: every libgphoto2 call runs on this camera's own worker thread;
+// the caller waits at most the call's deadline, then gets DEADLINE_EXCEEDED.
+// The stuck call is asked to cancel (the GPContext cancel callback starts
+// answering "cancel", which libgphoto2 checks between transfer chunks) but
+// cannot be killed: it keeps the worker thread until libgphoto2 returns
+// (over USB usually when a transfer timeout fires; libgphoto2 gives no hard
+// bound). A call whose deadline passed before it began is skipped. Until the
+// stuck call returns, every call fails fast with UNAVAILABLE naming it;
+// afterwards the camera is usable again. Destroying the camera while a call
+// is stuck does not wait: the worker thread is detached and closes the
+// camera (gp_camera_exit) if and when the call returns.
+//
+// Thread-safe: calls from several threads are serialized.
+#ifndef HDRSTEREO_HARDWARE_GPHOTO2_GPHOTO2_CAMERA_H_
+#define HDRSTEREO_HARDWARE_GPHOTO2_GPHOTO2_CAMERA_H_
+
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "absl/time/time.h"
+#include "hardware/camera.h"
+#include "hardware/gphoto2/gphoto2_api.h"
+#include "hardware/gphoto2/settings.h"
+
+namespace hdrstereo::gphoto2 {
+
+struct Gphoto2Options {
+  // Which camera: both empty = the first one autodetected. A model alone
+  // (matched case-insensitively against autodetect's names) or a port alone
+  // ("usb:001,004") picks among the detected cameras. Both together open
+  // that model on that port without autodetection, which is also how
+  // libgphoto2's "Directory Browse" driver opens a folder as a camera:
+  // model "Directory Browse", port "disk:/path/to/folder".
+  std::string model;
+  std::string port;
+  // Applied at Open when the camera has a "capturetarget" widget (ignored
+  // otherwise). Internal RAM needs no card and is faster.
+  CaptureTarget capture_target = CaptureTarget::kInternalRam;
+  // Deadline of each ordinary call (open, config, list, delete).
+  absl::Duration call_timeout = absl::Seconds(10);
+  // Deadline of a capture: this plus the current exposure time.
+  absl::Duration capture_timeout = absl::Seconds(30);
+  // Deadline of one file download.
+  absl::Duration download_timeout = absl::Seconds(60);
+  // How long to wait for the second file of a RAW+JPEG capture.
+  absl::Duration second_file_timeout = absl::Seconds(5);
+  // GP_ERROR_CAMERA_BUSY handling (see above).
+  int busy_retries = 5;
+  absl::Duration busy_backoff = absl::Milliseconds(100);
+  absl::Duration busy_backoff_max = absl::Seconds(2);
+  // Delete each captured file from the camera after downloading it.
+  bool delete_after_download = true;
+};
+
+class Gphoto2Camera final : public hardware::Camera {
+ public:
+  // Opens a camera over the real libgphoto2. Errors: UNAVAILABLE "no camera
+  // found" (autodetect listed none) or "no camera matching ..." (listing those
+  // found), UNAVAILABLE "could not claim the USB device" (another process
+  // holds it; the message says which one usually does and how to stop it),
+  // NOT_FOUND for a model libgphoto2 does not know or a port that does not
+  // exist, DEADLINE_EXCEEDED.
+  static absl::StatusOr<std::unique_ptr<Gphoto2Camera>> Open(
+      const Gphoto2Options& options);
+  // The same over any Gphoto2Api (tests pass a fake).
+  static absl::StatusOr<std::unique_ptr<Gphoto2Camera>> OpenWithApi(
+      const Gphoto2Options& options, std::unique_ptr<Gphoto2Api> api);
+
+  ~Gphoto2Camera() override;
+  Gphoto2Camera(const Gphoto2Camera&) = delete;
+  Gphoto2Camera& operator=(const Gphoto2Camera&) = delete;
+
+  // Model, serial ("serialnumber" widget), port, battery ("batterylevel"),
+  // the shutter-speed range. Cameras without configuration (e.g. Directory
+  // Browse) give model and port only.
+  absl::StatusOr<hardware::CameraInfo> Info() override;
+  absl::StatusOr<hardware::ExposureSettings> Configure(
+      const hardware::ExposureSettings& settings) override;
+  // exposure_s is 0 for bulb, iso 0 for auto, aperture_f 0 when unknown.
+  absl::StatusOr<hardware::ExposureSettings> Settings() override;
+  // Frame.format is the format of Frame.bytes (kRaw for the RAW file of a
+  // RAW+JPEG capture); Frame.exposure_s the shutter speed last read or set
+  // through this object (a change on the camera body shows after the next
+  // Settings() or Configure()); camera_time the file's time on the camera.
+  absl::StatusOr<hardware::Frame> Capture() override;
+
+  // The whole current configuration, flattened (e.g. for a status page).
+  absl::StatusOr<std::vector<ConfigWidget>> Config();
+  // gp_camera_get_summary text.
+  absl::StatusOr<std::string> Summary();
+  // Sets any widget by name to a value (a choice of radio/menu widgets must
+  // be one of its choices: INVALID_ARGUMENT listing them otherwise).
+  absl::Status SetConfigValue(const std::string& name,
+                              const std::string& value);
+  absl::Status SetCaptureTarget(CaptureTarget target);
+
+  // Files on the camera (or in the Directory Browse folder).
+  absl::StatusOr<std::vector<std::string>> ListFiles(const std::string& folder);
+  // Downloads one file (format and extension from its name).
+  absl::StatusOr<hardware::Frame> Download(const std::string& folder,
+                                           const std::string& name);
+  absl::Status DeleteFile(const std::string& folder, const std::string& name);
+
+  // "folder/name" of captured files that could not be deleted.
+  std::vector<std::string> undeleted_files() const;
+  const std::string& model() const { return model_; }
+  const std::string& port() const { return port_; }
+
+ private:
+  class Worker;
+
+  Gphoto2Camera(const Gphoto2Options& options, std::unique_ptr<Worker> worker);
+
+  // Runs fn on the worker with `timeout`, retrying GP_ERROR_CAMERA_BUSY;
+  // maps a failure to a Status whose message starts with `what`.
+  absl::Status Call(absl::string_view what, absl::Duration timeout,
+                    std::function<int(Gphoto2Api&)> fn);
+  absl::StatusOr<std::vector<ConfigWidget>> ConfigLocked();
+  absl::StatusOr<hardware::ExposureSettings> SettingsLocked();
+  absl::Status SetLocked(const std::string& name, const std::string& value);
+  absl::StatusOr<hardware::Frame> DownloadLocked(const std::string& folder,
+                                                 const std::string& name);
+  absl::Status SetCaptureTargetLocked(CaptureTarget target);
+
+  const Gphoto2Options options_;
+  std::unique_ptr<Worker> worker_;
+  std::string model_;
+  std::string port_;
+  mutable std::mutex mutex_;  // one operation at a time
+  double exposure_s_ = 0;     // the shutter speed last read or set
+  std::optional<hardware::ImageFormat> format_;  // the format last read
+  std::vector<std::string> undeleted_files_;
+};
+
+// The status for a libgphoto2 result code: `what` failed because ... (for
+// the classic failures, with what to do about it). Exposed for tests.
+absl::Status Gphoto2Error(absl::string_view what, int code,
+                          absl::string_view detail);
+
+}  // namespace hdrstereo::gphoto2
+
+#endif  // HDRSTEREO_HARDWARE_GPHOTO2_GPHOTO2_CAMERA_H_

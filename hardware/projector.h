@@ -1,0 +1,30 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// A projector showing structured-light patterns. Implementations: display/
+// (a borderless fullscreen X11 window on the projector's screen), sim/.
+#ifndef HDRSTEREO_HARDWARE_PROJECTOR_H_
+#define HDRSTEREO_HARDWARE_PROJECTOR_H_
+
+#include <opencv2/core.hpp>
+#include <string>
+
+#include "absl/status/status.h"
+
+namespace hdrstereo::hardware {
+
+class Projector {
+ public:
+  virtual ~Projector() = default;
+
+  virtual cv::Size resolution() const = 0;
+  // Shows `pattern` (CV_8UC1 or CV_8UC3, exactly resolution()) pixel for
+  // pixel and returns once it is on screen and the settle time has passed.
+  // A wrong size or type is INVALID_ARGUMENT and the screen is unchanged.
+  virtual absl::Status Show(const cv::Mat& pattern) = 0;
+  // Shows black.
+  virtual absl::Status Blank() = 0;
+};
+
+}  // namespace hdrstereo::hardware
+
+#endif  // HDRSTEREO_HARDWARE_PROJECTOR_H_

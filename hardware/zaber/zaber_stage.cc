@@ -1,0 +1,253 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "hardware/zaber/zaber_stage.h"
+
+#include <libserialport.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/time/clock.h"
+
+namespace hdrstereo::zaber {
+namespace {
+
+// Zaber velocities are in microsteps per 1/1.6384 s.
+constexpr double kVelocityUnitsPerMicrostepPerSecond = 1.6384;
+
+absl::Status PortError(absl::string_view what, const std::string& port) {
+  char* message = sp_last_error_message();
+  absl::Status status = absl::UnavailableError(absl::StrCat(
+      what, " ", port, ": ", message != nullptr ? message : "unknown error"));
+  sp_free_error_message(message);
+  return status;
+}
+
+int ToMillisecondsAtLeastOne(absl::Duration d) {
+  return static_cast<int>(std::max<int64_t>(1, absl::ToInt64Milliseconds(d)));
+}
+
+}  // namespace
+
+absl::StatusOr<std::unique_ptr<ZaberStage>> ZaberStage::Open(
+    const ZaberOptions& options) {
+  if (options.microstep_um <= 0 || options.travel_mm <= 0) {
+    return absl::InvalidArgumentError(
+        "zaber: microstep_um and travel_mm must be positive");
+  }
+  sp_port* port = nullptr;
+  if (sp_get_port_by_name(options.port.c_str(), &port) != SP_OK) {
+    return PortError("cannot find serial port", options.port);
+  }
+  if (sp_open(port, SP_MODE_READ_WRITE) != SP_OK) {
+    absl::Status status = PortError("cannot open serial port", options.port);
+    sp_free_port(port);
+    return status;
+  }
+  std::unique_ptr<ZaberStage> stage(new ZaberStage(options, port));
+  if (sp_set_baudrate(port, options.baud_rate) != SP_OK ||
+      sp_set_bits(port, 8) != SP_OK ||
+      sp_set_parity(port, SP_PARITY_NONE) != SP_OK ||
+      sp_set_stopbits(port, 1) != SP_OK ||
+      sp_set_flowcontrol(port, SP_FLOWCONTROL_NONE) != SP_OK) {
+    return PortError("cannot configure serial port", options.port);
+  }
+  sp_flush(port, SP_BUF_BOTH);
+
+  absl::StatusOr<Reply> speed = stage->Command("get maxspeed");
+  if (!speed.ok()) {
+    return absl::UnavailableError(
+        absl::StrCat("no Zaber device ", options.device, " axis ", options.axis,
+                     " on ", options.port, ": ", speed.status().message()));
+  }
+  double velocity = 0;
+  if (!absl::SimpleAtod(speed->data, &velocity) || velocity <= 0) {
+    return absl::UnavailableError(absl::StrCat(
+        "zaber: unexpected maxspeed \"", speed->data, "\" on ", options.port));
+  }
+  stage->speed_mm_per_s_ = velocity / kVelocityUnitsPerMicrostepPerSecond *
+                           options.microstep_um / 1000.0;
+  return stage;
+}
+
+ZaberStage::~ZaberStage() {
+  sp_close(port_);
+  sp_free_port(port_);
+}
+
+int64_t ZaberStage::ToMicrosteps(double mm) const {
+  return std::llround(mm * 1000.0 / options_.microstep_um);
+}
+
+double ZaberStage::ToMillimetres(int64_t microsteps) const {
+  return static_cast<double>(microsteps) * options_.microstep_um / 1000.0;
+}
+
+absl::StatusOr<std::string> ZaberStage::ReadLine(absl::Time deadline) {
+  while (true) {
+    size_t newline = pending_.find('\n');
+    if (newline != std::string::npos) {
+      std::string line = pending_.substr(0, newline);
+      pending_.erase(0, newline + 1);
+      return line;
+    }
+    absl::Duration left = deadline - absl::Now();
+    if (left <= absl::ZeroDuration()) {
+      return absl::DeadlineExceededError("no reply");
+    }
+    char buffer[256];
+    sp_return n = sp_blocking_read_next(port_, buffer, sizeof buffer,
+                                        ToMillisecondsAtLeastOne(left));
+    if (n < 0) return PortError("cannot read from", options_.port);
+    pending_.append(buffer, static_cast<size_t>(n));
+  }
+}
+
+absl::StatusOr<Reply> ZaberStage::CommandOnce(absl::string_view command) {
+  std::string text = FormatCommand(options_.device, options_.axis, command);
+  sp_return written =
+      sp_blocking_write(port_, text.data(), text.size(),
+                        ToMillisecondsAtLeastOne(options_.reply_timeout));
+  if (written < 0) return PortError("cannot write to", options_.port);
+  if (static_cast<size_t>(written) != text.size()) {
+    return absl::DeadlineExceededError("write timed out");
+  }
+  const absl::Time deadline = absl::Now() + options_.reply_timeout;
+  while (true) {
+    absl::StatusOr<std::string> line = ReadLine(deadline);
+    if (!line.ok()) return line.status();
+    // Info ("#") and alert ("!") messages may arrive between replies.
+    if (absl::StartsWith(*line, "#") || absl::StartsWith(*line, "!")) continue;
+    absl::StatusOr<Reply> reply = ParseReply(*line);
+    if (!reply.ok()) return reply.status();
+    if (reply->device != options_.device || reply->axis != options_.axis) {
+      continue;  // another device on the chain
+    }
+    return reply;
+  }
+}
+
+absl::StatusOr<Reply> ZaberStage::Command(absl::string_view command) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  absl::Status last;
+  for (int attempt = 0; attempt <= options_.retries; ++attempt) {
+    absl::StatusOr<Reply> reply = CommandOnce(command);
+    if (reply.ok()) {
+      if (reply->rejected) {
+        return absl::FailedPreconditionError(absl::StrCat(
+            "stage rejected \"", command, "\": ", reply->data,
+            reply->warning.empty()
+                ? ""
+                : absl::StrCat(" (warning ", DescribeWarning(reply->warning),
+                               ")")));
+      }
+      return reply;
+    }
+    if (absl::IsUnavailable(reply.status())) return reply.status();
+    // Missing or garbled reply: drop whatever is buffered and resend.
+    last = reply.status();
+    pending_.clear();
+    sp_flush(port_, SP_BUF_INPUT);
+  }
+  if (absl::IsDeadlineExceeded(last)) {
+    return absl::DeadlineExceededError(
+        absl::StrCat("stage on ", options_.port, " did not answer \"", command,
+                     "\" within ", absl::FormatDuration(options_.reply_timeout),
+                     " (", options_.retries + 1, " tries)"));
+  }
+  return absl::DataLossError(absl::StrCat("stage on ", options_.port,
+                                          " answered \"", command,
+                                          "\" with garbage: ", last.message()));
+}
+
+absl::Status ZaberStage::WaitUntilIdle(absl::Duration timeout,
+                                       absl::string_view what,
+                                       double target_mm) {
+  const absl::Time deadline = absl::Now() + timeout;
+  while (true) {
+    // An empty command returns the status without doing anything.
+    absl::StatusOr<Reply> reply = Command("");
+    if (!reply.ok()) return reply.status();
+    if (IsFault(reply->warning)) {
+      Stop().IgnoreError();
+      return absl::AbortedError(absl::StrCat(what, " failed: stage reports ",
+                                             DescribeWarning(reply->warning)));
+    }
+    if (!reply->busy) {
+      if (reply->warning == "NI") {
+        return absl::AbortedError(absl::StrCat(what, " was interrupted (",
+                                               DescribeWarning("NI"), ")"));
+      }
+      return absl::OkStatus();
+    }
+    if (absl::Now() >= deadline) {
+      Stop().IgnoreError();
+      absl::StatusOr<hardware::StageState> state = State();
+      return absl::DeadlineExceededError(absl::StrFormat(
+          "%s did not finish within %s (target %.3f mm, stopped at %s); is "
+          "the stage stalled?",
+          what, absl::FormatDuration(timeout), target_mm,
+          state.ok() ? absl::StrFormat("%.3f mm", state->position_mm)
+                     : std::string("an unknown position")));
+    }
+    absl::SleepFor(options_.poll_interval);
+  }
+}
+
+absl::Status ZaberStage::Home() {
+  absl::StatusOr<Reply> reply = Command("home");
+  if (!reply.ok()) return reply.status();
+  absl::Duration ideal = absl::Seconds(options_.travel_mm / speed_mm_per_s_);
+  return WaitUntilIdle(
+      ideal * options_.move_time_factor + options_.move_time_margin, "homing",
+      0.0);
+}
+
+absl::Status ZaberStage::MoveTo(double position_mm) {
+  if (!std::isfinite(position_mm) || position_mm < 0 ||
+      position_mm > options_.travel_mm) {
+    return absl::InvalidArgumentError(
+        absl::StrFormat("stage target %g mm is outside the travel [0, %g] mm",
+                        position_mm, options_.travel_mm));
+  }
+  absl::StatusOr<hardware::StageState> before = State();
+  if (!before.ok()) return before.status();
+  absl::StatusOr<Reply> reply =
+      Command(absl::StrCat("move abs ", ToMicrosteps(position_mm)));
+  if (!reply.ok()) return reply.status();
+  absl::Duration ideal = absl::Seconds(
+      std::abs(position_mm - before->position_mm) / speed_mm_per_s_);
+  return WaitUntilIdle(
+      ideal * options_.move_time_factor + options_.move_time_margin,
+      absl::StrFormat("move to %.3f mm", position_mm), position_mm);
+}
+
+absl::StatusOr<hardware::StageState> ZaberStage::State() {
+  absl::StatusOr<Reply> position = Command("get pos");
+  if (!position.ok()) return position.status();
+  int64_t microsteps = 0;
+  if (!absl::SimpleAtoi(position->data, &microsteps)) {
+    return absl::DataLossError(absl::StrCat("stage position \"", position->data,
+                                            "\" is not a number"));
+  }
+  absl::StatusOr<Reply> warnings = Command("warnings");
+  if (!warnings.ok()) return warnings.status();
+  hardware::StageState state;
+  state.position_mm = ToMillimetres(microsteps);
+  state.busy = position->busy;
+  state.warning_flags = ParseWarningFlags(warnings->data);
+  state.homed =
+      std::find(state.warning_flags.begin(), state.warning_flags.end(), "WR") ==
+      state.warning_flags.end();
+  return state;
+}
+
+absl::Status ZaberStage::Stop() {
+  absl::StatusOr<Reply> reply = Command("stop");
+  return reply.ok() ? absl::OkStatus() : reply.status();
+}
+
+}  // namespace hdrstereo::zaber

@@ -1,0 +1,51 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// Float and high-bit-depth image files. Every writer writes atomically
+// (processing/io/atomic_file.h); every error names the file.
+//
+// Images are OpenCV-ordered (BGR for colour); the writers store RGB as each
+// format expects and the readers return BGR again.
+#ifndef HDRSTEREO_PROCESSING_IO_HDR_FORMATS_H_
+#define HDRSTEREO_PROCESSING_IO_HDR_FORMATS_H_
+
+#include <filesystem>
+#include <opencv2/core.hpp>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+
+namespace hdrstereo::io {
+
+// PFM, Middlebury convention: "PF" (3 channels) or "Pf" (1 channel), rows
+// stored bottom-to-top, negative scale = little-endian (always written so).
+// Accepts CV_32FC1 / CV_32FC3 (other depths are converted to float).
+absl::Status WritePfm(const std::filesystem::path& path, const cv::Mat& image);
+absl::StatusOr<cv::Mat> ReadPfm(const std::filesystem::path& path);
+
+// OpenEXR scanline file, channels R,G,B (or Y for one channel), ZIP
+// compression. kHalf stores 16-bit floats, kFloat 32-bit.
+enum class ExrPixelType { kHalf, kFloat };
+absl::Status WriteExr(const std::filesystem::path& path, const cv::Mat& image,
+                      ExrPixelType type = ExrPixelType::kHalf);
+// Returns CV_32FC3 (BGR) or CV_32FC1 for a file with only a Y channel.
+absl::StatusOr<cv::Mat> ReadExr(const std::filesystem::path& path);
+
+// Radiance RGBE (.hdr). Colour (CV_32FC3) only; one channel is replicated.
+absl::Status WriteRgbe(const std::filesystem::path& path, const cv::Mat& image);
+absl::StatusOr<cv::Mat> ReadRgbe(const std::filesystem::path& path);
+
+// PNG: CV_8U or CV_16U, 1 or 3 channels, written as is.
+absl::Status WritePng(const std::filesystem::path& path, const cv::Mat& image);
+
+// Any image encoded by OpenCV (png, tif, jpg, ...) to a file, atomically.
+absl::Status WriteEncoded(const std::filesystem::path& path,
+                          const cv::Mat& image);
+
+// Picks the writer by extension: .pfm, .exr (half), .hdr, otherwise
+// WriteEncoded.
+absl::Status WriteImage(const std::filesystem::path& path,
+                        const cv::Mat& image);
+
+}  // namespace hdrstereo::io
+
+#endif  // HDRSTEREO_PROCESSING_IO_HDR_FORMATS_H_

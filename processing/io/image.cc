@@ -1,0 +1,177 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "processing/io/image.h"
+
+#include <libraw/libraw.h>
+
+#include <algorithm>
+#include <cctype>
+#include <fstream>
+#include <memory>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+#include "processing/io/exif.h"
+#include "processing/io/hdr_formats.h"
+
+namespace hdrstereo::io {
+namespace {
+
+std::string LowerExtension(const std::filesystem::path& path) {
+  std::string ext = path.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
+  return ext;
+}
+
+}  // namespace
+
+bool IsRawExtension(const std::filesystem::path& path) {
+  static const char* const kRaw[] = {".cr2", ".cr3", ".crw", ".nef", ".nrw",
+                                     ".arw", ".srf", ".sr2", ".dng", ".orf",
+                                     ".rw2", ".raf", ".pef", ".srw", ".raw",
+                                     ".3fr", ".erf", ".kdc", ".mrw", ".x3f"};
+  std::string ext = LowerExtension(path);
+  return std::find(std::begin(kRaw), std::end(kRaw), ext) != std::end(kRaw);
+}
+
+absl::StatusOr<std::string> ReadFileBytes(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    return absl::NotFoundError(
+        absl::StrCat("no such file (or not a regular file): ", path.string()));
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    return absl::PermissionDeniedError(
+        absl::StrCat("cannot open ", path.string()));
+  }
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  if (in.bad()) {
+    return absl::DataLossError(absl::StrCat("cannot read ", path.string()));
+  }
+  return std::move(buffer).str();
+}
+
+absl::StatusOr<DecodedImage> DecodeImageFile(
+    const std::filesystem::path& path) {
+  if (IsRawExtension(path)) return DecodeRawFile(path);
+  const std::string ext = LowerExtension(path);
+  if (ext == ".pfm" || ext == ".exr" || ext == ".hdr") {
+    absl::StatusOr<cv::Mat> f = ext == ".pfm"   ? ReadPfm(path)
+                                : ext == ".exr" ? ReadExr(path)
+                                                : ReadRgbe(path);
+    if (!f.ok()) return f.status();
+    DecodedImage out;
+    out.pixels = *std::move(f);
+    out.metadata.linear = true;
+    return out;
+  }
+  absl::StatusOr<std::string> bytes = ReadFileBytes(path);
+  if (!bytes.ok()) return bytes.status();
+  if (bytes->empty()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("empty image file: ", path.string()));
+  }
+  DecodedImage out;
+  try {
+    std::vector<uchar> buf(bytes->begin(), bytes->end());
+    out.pixels = cv::imdecode(buf, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
+  } catch (const cv::Exception& e) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("cannot decode ", path.string(), ": ", e.what()));
+  }
+  if (out.pixels.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "cannot decode ", path.string(), " (corrupt or unsupported format)"));
+  }
+  int depth = out.pixels.depth();
+  if (depth != CV_8U && depth != CV_16U && depth != CV_32F) {
+    out.pixels.convertTo(out.pixels, CV_32F);
+  }
+  if (out.pixels.channels() == 4) {
+    cv::cvtColor(out.pixels, out.pixels, cv::COLOR_BGRA2BGR);
+  }
+  ExifInfo exif = ParseExifFromFile(*bytes);
+  out.metadata.exposure_s = exif.exposure_s;
+  out.metadata.iso = exif.iso;
+  out.metadata.aperture = exif.aperture;
+  out.metadata.camera = exif.camera;
+  out.metadata.linear = out.pixels.depth() == CV_32F;
+  return out;
+}
+
+absl::StatusOr<DecodedImage> DecodeRawFile(const std::filesystem::path& path) {
+  auto raw = std::make_unique<LibRaw>();
+  raw->imgdata.params.output_bps = 16;
+  raw->imgdata.params.gamm[0] = 1.0;  // linear
+  raw->imgdata.params.gamm[1] = 1.0;
+  raw->imgdata.params.no_auto_bright = 1;
+  raw->imgdata.params.use_camera_wb = 1;
+  raw->imgdata.params.use_auto_wb = 0;
+  raw->imgdata.params.output_color = 1;  // sRGB primaries, linear
+  auto fail = [&](absl::string_view stage, int rc) {
+    return absl::InvalidArgumentError(absl::StrCat("cannot decode RAW ",
+                                                   path.string(), " (", stage,
+                                                   "): ", libraw_strerror(rc)));
+  };
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    return absl::NotFoundError(
+        absl::StrCat("no such file (or not a regular file): ", path.string()));
+  }
+  if (int rc = raw->open_file(path.c_str()); rc != LIBRAW_SUCCESS) {
+    return fail("open", rc);
+  }
+  if (int rc = raw->unpack(); rc != LIBRAW_SUCCESS) return fail("unpack", rc);
+  if (int rc = raw->dcraw_process(); rc != LIBRAW_SUCCESS) {
+    return fail("demosaic", rc);
+  }
+  int rc = LIBRAW_SUCCESS;
+  libraw_processed_image_t* img = raw->dcraw_make_mem_image(&rc);
+  if (img == nullptr || rc != LIBRAW_SUCCESS) {
+    if (img != nullptr) LibRaw::dcraw_clear_mem(img);
+    return fail("make image", rc);
+  }
+  std::unique_ptr<libraw_processed_image_t, void (*)(libraw_processed_image_t*)>
+      guard(img, &LibRaw::dcraw_clear_mem);
+  if (img->type != LIBRAW_IMAGE_BITMAP || img->bits != 16 ||
+      (img->colors != 3 && img->colors != 1)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("unexpected LibRaw output for ", path.string(), ": ",
+                     img->colors, " colours, ", img->bits, " bits"));
+  }
+  DecodedImage out;
+  cv::Mat wrapped(img->height, img->width, CV_16UC(img->colors), img->data);
+  if (img->colors == 3) {
+    cv::cvtColor(wrapped, out.pixels, cv::COLOR_RGB2BGR);
+  } else {
+    out.pixels = wrapped.clone();
+  }
+  const auto& other = raw->imgdata.other;
+  if (other.shutter > 0) out.metadata.exposure_s = other.shutter;
+  if (other.iso_speed > 0) out.metadata.iso = other.iso_speed;
+  if (other.aperture > 0) out.metadata.aperture = other.aperture;
+  out.metadata.camera =
+      absl::StrCat(raw->imgdata.idata.make, " ", raw->imgdata.idata.model);
+  out.metadata.linear = true;
+  const float* mul = raw->imgdata.color.cam_mul;
+  out.metadata.white_balance =
+      std::array<float, 4>{mul[0], mul[1], mul[2], mul[3]};
+  return out;
+}
+
+cv::Mat ToFloat(const cv::Mat& pixels) {
+  cv::Mat out;
+  double scale = pixels.depth() == CV_8U    ? 1.0 / 255.0
+                 : pixels.depth() == CV_16U ? 1.0 / 65535.0
+                                            : 1.0;
+  pixels.convertTo(out, CV_32F, scale);
+  return out;
+}
+
+}  // namespace hdrstereo::io

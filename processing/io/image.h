@@ -1,0 +1,59 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// Decoding of camera frames: TIFF (8/16-bit), PNG, JPEG through OpenCV and
+// camera RAW (CR2, NEF, DNG, ...) through LibRaw, with exposure metadata.
+#ifndef HDRSTEREO_PROCESSING_IO_IMAGE_H_
+#define HDRSTEREO_PROCESSING_IO_IMAGE_H_
+
+#include <array>
+#include <filesystem>
+#include <opencv2/core.hpp>
+#include <optional>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+
+namespace hdrstereo::io {
+
+struct ImageMetadata {
+  std::optional<double> exposure_s;  // shutter time in seconds
+  std::optional<double> iso;
+  std::optional<double> aperture;  // f-number
+  std::string camera;              // make and model where known
+  // True when pixel values are proportional to scene radiance (LibRaw
+  // output); false for display-encoded files (JPEG, PNG, camera TIFF).
+  bool linear = false;
+  // Camera white-balance multipliers (R, G, B, G2) as LibRaw reports them
+  // (and applied to the decoded RAW); empty for non-RAW files.
+  std::optional<std::array<float, 4>> white_balance;
+};
+
+struct DecodedImage {
+  // BGR (or grey) in the file's own depth: CV_8U, CV_16U or CV_32F.
+  cv::Mat pixels;
+  ImageMetadata metadata;
+};
+
+// True for file extensions LibRaw decodes (cr2, cr3, nef, arw, dng, ...).
+bool IsRawExtension(const std::filesystem::path& path);
+
+// Decodes any supported file (float formats .pfm, .exr and .hdr through
+// hdr_formats.h, as linear CV_32F). Errors (missing, unreadable, corrupt,
+// unsupported) are returned as a status that names the file.
+absl::StatusOr<DecodedImage> DecodeImageFile(const std::filesystem::path& path);
+
+// Camera RAW through LibRaw: demosaiced, camera white balance, linear (gamma
+// 1, no auto-brightness), 16-bit BGR, sRGB primaries.
+absl::StatusOr<DecodedImage> DecodeRawFile(const std::filesystem::path& path);
+
+// Scales integer images to float in [0, 1] (8-bit / 255, 16-bit / 65535);
+// float images are returned converted to CV_32F unchanged.
+cv::Mat ToFloat(const cv::Mat& pixels);
+
+// Reads a whole file into memory.
+absl::StatusOr<std::string> ReadFileBytes(const std::filesystem::path& path);
+
+}  // namespace hdrstereo::io
+
+#endif  // HDRSTEREO_PROCESSING_IO_IMAGE_H_

@@ -1,0 +1,225 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// The job engine with a real SQLite store and runners that record what they
+// did, so ordering, pause, cancel and restart behaviour are observable.
+#include "daemon/jobs/job_engine.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <atomic>
+
+#include "daemon/store/session_repository.h"
+#include "tests/support/temp_dir.h"
+
+namespace hdrstereo::jobs {
+namespace {
+
+using ::hdrstereo::testing::TempDir;
+using store::JobKind;
+using store::JobState;
+using ::testing::ElementsAre;
+
+// Polls the store until job `id` is in `state` (generous bound; the
+// engine's threads decide the timing, not the test).
+bool WaitForState(store::JobRepository& jobs, int64_t id, JobState state) {
+  const absl::Time deadline = absl::Now() + absl::Seconds(30);
+  while (absl::Now() < deadline) {
+    absl::StatusOr<store::JobRecord> job = jobs.Get(id);
+    if (job.ok() && job->state == state) return true;
+    absl::SleepFor(absl::Milliseconds(5));
+  }
+  return false;
+}
+
+class JobEngineTest : public ::testing::Test {
+ protected:
+  void SetUp() override { OpenStore(); }
+
+  void OpenStore() {
+    absl::StatusOr<std::unique_ptr<store::Store>> s =
+        store::Store::Open(dir_.path());
+    ASSERT_TRUE(s.ok()) << s.status();
+    store_ = *std::move(s);
+    if (!store::SessionRepository(*store_).Get("s").ok()) {
+      ASSERT_TRUE(store::SessionRepository(*store_).Create("s", "").ok());
+    }
+  }
+
+  // A runner that does `steps` checkpointed steps, recording each.
+  JobRunner StepRunner(int steps) {
+    return [this, steps](JobContext& context) -> absl::Status {
+      for (int i = 0; i < steps; ++i) {
+        if (absl::Status s = context.Checkpoint(); !s.ok()) return s;
+        {
+          std::lock_guard<std::mutex> lock(log_mutex_);
+          log_.push_back(context.job().id * 100 + i);
+        }
+        if (absl::Status s = context.Progress(i + 1, steps, "step"); !s.ok()) {
+          return s;
+        }
+        while (hold_.load()) absl::SleepFor(absl::Milliseconds(1));
+      }
+      return absl::OkStatus();
+    };
+  }
+
+  std::vector<int64_t> Log() {
+    std::lock_guard<std::mutex> lock(log_mutex_);
+    return log_;
+  }
+
+  TempDir dir_;
+  std::unique_ptr<store::Store> store_;
+  std::mutex log_mutex_;
+  std::vector<int64_t> log_;
+  std::atomic<bool> hold_{false};
+};
+
+TEST_F(JobEngineTest, CapturesRunOneAtATimeInSubmissionOrder) {
+  JobEngine engine(*store_, StepRunner(3), StepRunner(1), {});
+  ASSERT_TRUE(engine.Start().ok());
+  std::vector<int64_t> ids;
+  for (int i = 0; i < 3; ++i) {
+    absl::StatusOr<store::JobRecord> job =
+        engine.Submit(JobKind::kCapture, "s", "", "test");
+    ASSERT_TRUE(job.ok()) << job.status();
+    ids.push_back(job->id);
+  }
+  for (int64_t id : ids) {
+    ASSERT_TRUE(WaitForState(engine.repository(), id, JobState::kSucceeded));
+  }
+  // No interleaving: each job's three steps are contiguous, in order.
+  EXPECT_THAT(Log(),
+              ElementsAre(ids[0] * 100, ids[0] * 100 + 1, ids[0] * 100 + 2,
+                          ids[1] * 100, ids[1] * 100 + 1, ids[1] * 100 + 2,
+                          ids[2] * 100, ids[2] * 100 + 1, ids[2] * 100 + 2));
+  absl::StatusOr<std::vector<store::JobEventRecord>> events =
+      engine.repository().Events(ids[0], 0);
+  ASSERT_TRUE(events.ok());
+  // queued, running, 3 progress events, succeeded; sequences 1..6.
+  ASSERT_EQ(events->size(), 6u);
+  EXPECT_EQ(events->front().state, JobState::kQueued);
+  EXPECT_EQ(events->back().state, JobState::kSucceeded);
+  EXPECT_EQ(events->back().progress_done, 3);
+  for (size_t i = 0; i < events->size(); ++i) {
+    EXPECT_EQ((*events)[i].sequence, static_cast<int64_t>(i + 1));
+  }
+}
+
+TEST_F(JobEngineTest, PauseWaitsAtTheNextCheckpointAndResumeContinues) {
+  JobEngine engine(*store_, StepRunner(5), StepRunner(1), {});
+  ASSERT_TRUE(engine.Start().ok());
+  hold_ = true;
+  absl::StatusOr<store::JobRecord> job =
+      engine.Submit(JobKind::kCapture, "s", "", "test");
+  ASSERT_TRUE(job.ok());
+  // Wait until the first step is done and the runner holds after it.
+  const absl::Time deadline = absl::Now() + absl::Seconds(30);
+  while (Log().empty() && absl::Now() < deadline) {
+    absl::SleepFor(absl::Milliseconds(1));
+  }
+  ASSERT_TRUE(engine.Pause(job->id).ok());
+  hold_ = false;
+  ASSERT_TRUE(WaitForState(engine.repository(), job->id, JobState::kPaused));
+  const size_t steps_when_paused = Log().size();
+  EXPECT_EQ(steps_when_paused, 1u);
+  EXPECT_EQ(engine.Pause(job->id).status().code(),
+            absl::StatusCode::kFailedPrecondition);
+  ASSERT_TRUE(engine.Resume(job->id).ok());
+  ASSERT_TRUE(WaitForState(engine.repository(), job->id, JobState::kSucceeded));
+  EXPECT_EQ(Log().size(), 5u);
+  EXPECT_EQ(engine.Resume(job->id).status().code(),
+            absl::StatusCode::kFailedPrecondition);
+}
+
+TEST_F(JobEngineTest, CancelQueuedAndRunningJobs) {
+  JobEngine engine(*store_, StepRunner(1000), StepRunner(1), {});
+  ASSERT_TRUE(engine.Start().ok());
+  hold_ = true;
+  absl::StatusOr<store::JobRecord> running =
+      engine.Submit(JobKind::kCapture, "s", "", "first");
+  absl::StatusOr<store::JobRecord> queued =
+      engine.Submit(JobKind::kCapture, "s", "", "second");
+  ASSERT_TRUE(running.ok() && queued.ok());
+  ASSERT_TRUE(
+      WaitForState(engine.repository(), running->id, JobState::kRunning));
+  ASSERT_TRUE(engine.Cancel(queued->id).ok());
+  EXPECT_EQ(engine.repository().Get(queued->id)->state, JobState::kCancelled);
+  ASSERT_TRUE(engine.Cancel(running->id).ok());
+  hold_ = false;
+  ASSERT_TRUE(
+      WaitForState(engine.repository(), running->id, JobState::kCancelled));
+  EXPECT_LT(Log().size(), 1000u);
+  EXPECT_EQ(engine.Cancel(running->id).status().code(),
+            absl::StatusCode::kFailedPrecondition);
+  EXPECT_EQ(engine.Cancel(12345).status().code(), absl::StatusCode::kNotFound);
+}
+
+TEST_F(JobEngineTest, FailureKeepsTheMessage) {
+  JobEngine engine(
+      *store_,
+      [](JobContext&) { return absl::UnavailableError("camera unplugged"); },
+      StepRunner(1), {});
+  ASSERT_TRUE(engine.Start().ok());
+  absl::StatusOr<store::JobRecord> job =
+      engine.Submit(JobKind::kCapture, "s", "", "test");
+  ASSERT_TRUE(WaitForState(engine.repository(), job->id, JobState::kFailed));
+  EXPECT_EQ(engine.repository().Get(job->id)->error, "camera unplugged");
+  EXPECT_EQ(engine.Submit(JobKind::kCapture, "nope", "", "x").status().code(),
+            absl::StatusCode::kNotFound);
+}
+
+TEST_F(JobEngineTest, ShutdownInterruptsAndTheNextStartResumes) {
+  int64_t id;
+  {
+    JobEngine engine(*store_, StepRunner(1000), StepRunner(1), {});
+    ASSERT_TRUE(engine.Start().ok());
+    hold_ = true;
+    absl::StatusOr<store::JobRecord> job =
+        engine.Submit(JobKind::kCapture, "s", "", "long");
+    ASSERT_TRUE(job.ok());
+    id = job->id;
+    ASSERT_TRUE(WaitForState(engine.repository(), id, JobState::kRunning));
+    std::thread release([this] {
+      absl::SleepFor(absl::Milliseconds(50));
+      hold_ = false;
+    });
+    engine.Shutdown();
+    release.join();
+    EXPECT_EQ(engine.repository().Get(id)->state, JobState::kInterrupted);
+  }
+  // A crash leaves a job "running": simulate one too.
+  {
+    std::unique_lock<std::mutex> lock = store_->db().Lock();
+    ASSERT_TRUE(store_->db()
+                    .Exec("INSERT INTO jobs (kind, session_id, state, request, "
+                          "create_time_ms) SELECT 'capture', id, 'running', "
+                          "x'', 0 FROM sessions")
+                    .ok());
+  }
+  JobEngine engine(*store_, StepRunner(2), StepRunner(1), {});
+  ASSERT_TRUE(engine.Start().ok());
+  ASSERT_TRUE(WaitForState(engine.repository(), id, JobState::kSucceeded));
+  ASSERT_TRUE(WaitForState(engine.repository(), id + 1, JobState::kSucceeded));
+  absl::StatusOr<std::vector<store::JobEventRecord>> events =
+      engine.repository().Events(id, 0);
+  ASSERT_TRUE(events.ok());
+  bool saw_interrupted = false;
+  for (const auto& e : *events) {
+    saw_interrupted |= e.state == JobState::kInterrupted;
+  }
+  EXPECT_TRUE(saw_interrupted);
+}
+
+TEST_F(JobEngineTest, WaitForEventsWakesOnProgress) {
+  JobEngine engine(*store_, StepRunner(1), StepRunner(1), {});
+  ASSERT_TRUE(engine.Start().ok());
+  const int64_t generation = engine.event_generation();
+  ASSERT_TRUE(engine.Submit(JobKind::kProcessing, "s", "", "p").ok());
+  engine.WaitForEvents(generation, absl::Now() + absl::Seconds(30));
+  EXPECT_NE(engine.event_generation(), generation);
+}
+
+}  // namespace
+}  // namespace hdrstereo::jobs
