@@ -16,6 +16,15 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // Offset of shadow-ray origins from the surface, in mm.
 constexpr double kSurfaceEpsilon = 1e-3;
 
+// Unrolled 3-vector helpers for the hot loops (cv::Vec's generic loops are
+// not unrolled by GCC at -O2).
+inline double Dot(const Vec3& a, const Vec3& b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+inline Vec3 Sub(const Vec3& a, const Vec3& b) {
+  return Vec3(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+}
+
 }  // namespace
 
 // The projector's emitted intensity per pattern pixel, RGB, as a fraction of
@@ -44,8 +53,100 @@ View CameraView(const Scene& scene, double stage_mm) {
 Renderer::Renderer(Scene scene) : scene_(std::move(scene)) {
   for (const Object& o : scene_.objects) {
     inverse_rotation_.push_back(o.rotation.t());
+    const Vec3 half = o.box_size * 0.5;
+    bound_radius2_.push_back(Dot(half, half) * (1 + 1e-9));
     v_axis_.push_back(o.normal.cross(o.u_axis));
   }
+}
+
+bool Renderer::IntersectOne(int index, const Vec3& origin, const Vec3& dir,
+                            double t_min, double t_max, double* t_out,
+                            int* face_out) const {
+  const Object& o = scene_.objects[index];
+  switch (o.shape) {
+    case ShapeKind::kPlane: {
+      const double denom = Dot(o.normal, dir);
+      if (std::abs(denom) < 1e-15) return false;
+      const double t = Dot(o.normal, Sub(o.center, origin)) / denom;
+      if (!(t > t_min && t < t_max)) return false;
+      if (o.size[0] > 0) {
+        const Vec3 d(origin[0] + t * dir[0] - o.center[0],
+                     origin[1] + t * dir[1] - o.center[1],
+                     origin[2] + t * dir[2] - o.center[2]);
+        if (std::abs(Dot(d, o.u_axis)) > o.size[0] / 2 ||
+            std::abs(Dot(d, v_axis_[index])) > o.size[1] / 2) {
+          return false;
+        }
+      }
+      if (t_out != nullptr) *t_out = t;
+      return true;
+    }
+    case ShapeKind::kSphere: {
+      const Vec3 oc = Sub(origin, o.center);
+      const double a = Dot(dir, dir), b = Dot(oc, dir),
+                   c = Dot(oc, oc) - o.radius * o.radius;
+      const double disc = b * b - a * c;
+      if (disc < 0) return false;
+      const double s = std::sqrt(disc);
+      double t = (-b - s) / a;
+      if (!(t > t_min)) t = (-b + s) / a;
+      if (!(t > t_min && t < t_max)) return false;
+      if (t_out != nullptr) *t_out = t;
+      return true;
+    }
+    case ShapeKind::kBox: {
+      const Vec3 oc = Sub(origin, o.center);
+      {  // Cheap rejection with the bounding sphere.
+        const double a = Dot(dir, dir), b = Dot(oc, dir),
+                     c = Dot(oc, oc) - bound_radius2_[index];
+        if (b * b - a * c < 0) return false;
+      }
+      const Mat3& r = inverse_rotation_[index];
+      const double lo[3] = {
+          r(0, 0) * oc[0] + r(0, 1) * oc[1] + r(0, 2) * oc[2],
+          r(1, 0) * oc[0] + r(1, 1) * oc[1] + r(1, 2) * oc[2],
+          r(2, 0) * oc[0] + r(2, 1) * oc[1] + r(2, 2) * oc[2]};
+      const double ld[3] = {
+          r(0, 0) * dir[0] + r(0, 1) * dir[1] + r(0, 2) * dir[2],
+          r(1, 0) * dir[0] + r(1, 1) * dir[1] + r(1, 2) * dir[2],
+          r(2, 0) * dir[0] + r(2, 1) * dir[1] + r(2, 2) * dir[2]};
+      double t_near = -kInf, t_far = kInf;
+      int face_near = 0, face_far = 0;
+      for (int k = 0; k < 3; ++k) {
+        const double half = o.box_size[k] / 2;
+        if (std::abs(ld[k]) < 1e-15) {
+          if (std::abs(lo[k]) > half) return false;
+          continue;
+        }
+        double t1 = (-half - lo[k]) / ld[k], t2 = (half - lo[k]) / ld[k];
+        int f1 = -(k + 1), f2 = k + 1;
+        if (t1 > t2) {
+          std::swap(t1, t2);
+          std::swap(f1, f2);
+        }
+        if (t1 > t_near) {
+          t_near = t1;
+          face_near = f1;
+        }
+        if (t2 < t_far) {
+          t_far = t2;
+          face_far = f2;
+        }
+      }
+      if (t_near > t_far) return false;
+      double t = t_near;
+      int face = face_near;
+      if (!(t > t_min)) {
+        t = t_far;
+        face = face_far;
+      }
+      if (!(t > t_min && t < t_max)) return false;
+      if (t_out != nullptr) *t_out = t;
+      if (face_out != nullptr) *face_out = face;
+      return true;
+    }
+  }
+  return false;
 }
 
 bool Renderer::Intersect(const Vec3& origin, const Vec3& dir, double t_min,
@@ -54,78 +155,13 @@ bool Renderer::Intersect(const Vec3& origin, const Vec3& dir, double t_min,
   int best_index = -1;
   int best_face = 0;  // boxes: signed local axis of the entered face (1-based)
   for (size_t i = 0; i < scene_.objects.size(); ++i) {
-    const Object& o = scene_.objects[i];
-    switch (o.shape) {
-      case ShapeKind::kPlane: {
-        const double denom = o.normal.dot(dir);
-        if (std::abs(denom) < 1e-15) break;
-        const double t = o.normal.dot(o.center - origin) / denom;
-        if (!(t > t_min && t < best)) break;
-        if (o.size[0] > 0) {
-          const Vec3 d = origin + t * dir - o.center;
-          if (std::abs(d.dot(o.u_axis)) > o.size[0] / 2 ||
-              std::abs(d.dot(v_axis_[i])) > o.size[1] / 2) {
-            break;
-          }
-        }
-        best = t;
-        best_index = static_cast<int>(i);
-        break;
-      }
-      case ShapeKind::kSphere: {
-        const Vec3 oc = origin - o.center;
-        const double a = dir.dot(dir), b = oc.dot(dir),
-                     c = oc.dot(oc) - o.radius * o.radius;
-        const double disc = b * b - a * c;
-        if (disc < 0) break;
-        const double s = std::sqrt(disc);
-        double t = (-b - s) / a;
-        if (!(t > t_min)) t = (-b + s) / a;
-        if (!(t > t_min && t < best)) break;
-        best = t;
-        best_index = static_cast<int>(i);
-        break;
-      }
-      case ShapeKind::kBox: {
-        const Mat3& r = inverse_rotation_[i];
-        const Vec3 lo = r * (origin - o.center), ld = r * dir;
-        double t_near = -kInf, t_far = kInf;
-        int face_near = 0, face_far = 0;
-        bool miss = false;
-        for (int k = 0; k < 3; ++k) {
-          const double half = o.box_size[k] / 2;
-          if (std::abs(ld[k]) < 1e-15) {
-            if (std::abs(lo[k]) > half) miss = true;
-            continue;
-          }
-          double t1 = (-half - lo[k]) / ld[k], t2 = (half - lo[k]) / ld[k];
-          int f1 = -(k + 1), f2 = k + 1;
-          if (t1 > t2) {
-            std::swap(t1, t2);
-            std::swap(f1, f2);
-          }
-          if (t1 > t_near) {
-            t_near = t1;
-            face_near = f1;
-          }
-          if (t2 < t_far) {
-            t_far = t2;
-            face_far = f2;
-          }
-        }
-        if (miss || t_near > t_far) break;
-        double t = t_near;
-        int face = face_near;
-        if (!(t > t_min)) {
-          t = t_far;
-          face = face_far;
-        }
-        if (!(t > t_min && t < best)) break;
-        best = t;
-        best_index = static_cast<int>(i);
-        best_face = face;
-        break;
-      }
+    double t = 0;
+    int face = 0;
+    if (IntersectOne(static_cast<int>(i), origin, dir, t_min, best, &t,
+                     &face)) {
+      best = t;
+      best_index = static_cast<int>(i);
+      best_face = face;
     }
   }
   if (best_index < 0) return false;
@@ -157,13 +193,14 @@ bool Renderer::Blocked(const Vec3& from, const Vec3& to,
   const double len = cv::norm(dir);
   if (len <= 0) return false;
   const double t_max = 1.0 - kSurfaceEpsilon / len;
-  if (!shadow_casters_only) return Intersect(from, dir, 0.0, t_max, nullptr);
-  // Walk the hits, skipping objects that cast no shadow.
-  double t_min = 0.0;
-  Hit hit;
-  while (Intersect(from, dir, t_min, t_max, &hit)) {
-    if (scene_.objects[hit.object].casts_shadow) return true;
-    t_min = hit.t + 1e-9;
+  // Any hit will do: test the objects one at a time, skipping those that
+  // cast no shadow (lamps) when asked to.
+  for (size_t i = 0; i < scene_.objects.size(); ++i) {
+    if (shadow_casters_only && !scene_.objects[i].casts_shadow) continue;
+    if (IntersectOne(static_cast<int>(i), from, dir, 0.0, t_max, nullptr,
+                     nullptr)) {
+      return true;
+    }
   }
   return false;
 }

@@ -69,12 +69,17 @@ class Renderer {
 
  private:
   struct ProjectorImage;
+  // Hit of object `index` with t in (t_min, t_max); boxes also report the
+  // entered face as a signed 1-based local axis.
+  bool IntersectOne(int index, const Vec3& origin, const Vec3& dir,
+                    double t_min, double t_max, double* t, int* face) const;
   Rgb Shade(const Hit& hit, const Vec3& ray_dir,
             const ProjectorImage* projector) const;
 
   Scene scene_;
   std::vector<Mat3> inverse_rotation_;  // boxes: world-to-local
   std::vector<Vec3> v_axis_;            // planes: normal x u_axis
+  std::vector<double> bound_radius2_;   // boxes: bounding sphere radius^2
 };
 
 }  // namespace hdrstereo::sim
