@@ -47,8 +47,11 @@ absl::Status SimWorld::SetProjectorPattern(const cv::Mat& pattern) {
     return absl::InvalidArgumentError(
         "projector pattern must be 8-bit or float, with 1 or 3 channels");
   }
-  std::lock_guard<std::mutex> lock(mu_);
-  pattern_ = pattern.clone();
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    pattern_ = pattern.clone();
+  }
+  SleepModelled(timing().projector_settle_s);
   return absl::OkStatus();
 }
 
@@ -81,15 +84,27 @@ RadianceFrame SimWorld::RenderRadiance() const {
 
 cv::Mat SimWorld::RenderExposure(const ExposureSettings& settings, int bits) {
   int64_t index = 0;
+  double stage = 0;
+  cv::Mat pattern;
   {
     std::lock_guard<std::mutex> lock(mu_);
     index = frame_index_++;
+    stage = stage_mm_;
+    pattern = pattern_;
   }
-  RadianceFrame frame = RenderRadiance();
-  cv::Mat electrons =
-      ExposeSensor(frame.radiance, scene().sensor, settings,
-                   HashCombine(scene().seed, static_cast<uint64_t>(index)));
-  return Digitize(electrons, scene().sensor, bits);
+  return RenderFrame(renderer_, CameraView(scene(), stage), pattern, settings,
+                     HashCombine(scene().seed, static_cast<uint64_t>(index)),
+                     bits);
+}
+
+cv::Mat RenderFrame(const Renderer& renderer, const View& view,
+                    const cv::Mat& projector_pattern,
+                    const ExposureSettings& settings, uint64_t noise_seed,
+                    int bits) {
+  const RadianceFrame frame = renderer.Render(view, projector_pattern);
+  const cv::Mat electrons = ExposeSensor(
+      frame.radiance, renderer.scene().sensor, settings, noise_seed);
+  return Digitize(electrons, renderer.scene().sensor, bits);
 }
 
 absl::StatusOr<SimCapture> SimWorld::Capture(const ExposureSettings& settings,

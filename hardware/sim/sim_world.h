@@ -53,8 +53,10 @@ class SimWorld {
   void SetStagePosition(double mm);
   double StagePosition() const;
 
-  // What the projector shows (see Renderer::Render for accepted types).
-  // INVALID_ARGUMENT for an unsupported type or a scene without projector.
+  // What the projector shows (see Renderer::Render for accepted types);
+  // then sleeps timing.projector_settle_s * timing.scale. INVALID_ARGUMENT
+  // for an unsupported type, FAILED_PRECONDITION for a scene without
+  // projector.
   absl::Status SetProjectorPattern(const cv::Mat& pattern);
   void BlankProjector();  // all-black pattern: only the black level shines
   void ProjectorOff();    // no light at all
@@ -97,6 +99,15 @@ class SimWorld {
   bool disconnected_ = false;
   CameraFaults faults_;
 };
+
+// One camera frame without a SimWorld: render `view` lit by
+// `projector_pattern`, expose with noise realisation `noise_seed`, digitise
+// to `bits` (8 or 16). SimWorld::RenderExposure is this at the current stage
+// position with seed HashCombine(scene.seed, frame index).
+cv::Mat RenderFrame(const Renderer& renderer, const View& view,
+                    const cv::Mat& projector_pattern,
+                    const ExposureSettings& settings, uint64_t noise_seed,
+                    int bits = 8);
 
 // Whether `trigger` fires on 1-based call `call` (seeded, reproducible).
 bool FaultFires(const FaultTrigger& trigger, int64_t call, uint64_t seed,
