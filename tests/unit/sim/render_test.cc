@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "hardware/sim/sim_world.h"
 #include "tests/unit/sim/test_scenes.h"
@@ -191,6 +193,49 @@ TEST(RenderTest, ProjectorBlackLevelAndGamma) {
   ASSERT_GT(unit, 0);
   EXPECT_NEAR((black - off) / unit, 0.05, 1e-5);
   EXPECT_NEAR((half - off) / unit, 0.05 + 0.95 * std::pow(0.5, 2.2), 1e-5);
+}
+
+// The bundled "shadowed" scene leaves projector shadows in view.
+TEST(RenderTest, ShadowedSceneHasProjectorShadowsInView) {
+  SimWorld world(SmallBundledScene("shadowed"));
+  world.ProjectorOff();
+  const cv::Mat off = world.RenderRadiance().radiance;
+  const ProjectorModel& p = world.scene().projector;
+  ASSERT_TRUE(world
+                  .SetProjectorPattern(
+                      cv::Mat(p.height, p.width, CV_8UC1, cv::Scalar(255)))
+                  .ok());
+  const cv::Mat on = world.RenderRadiance().radiance;
+  int same = 0, brighter = 0;
+  for (int y = 0; y < on.rows; ++y) {
+    for (int x = 0; x < on.cols; ++x) {
+      const cv::Vec3f a = on.at<cv::Vec3f>(y, x), b = off.at<cv::Vec3f>(y, x);
+      same += a == b;
+      brighter += a[1] > b[1];
+    }
+  }
+  const int n = on.rows * on.cols;
+  EXPECT_GT(same, n / 50) << "at least 2% of the view in projector shadow";
+  EXPECT_GT(brighter, n / 2) << "most of the view is lit by the projector";
+}
+
+// The checkerboard scene is usable for calibration: OpenCV finds its 9 x 6
+// inner corners.
+TEST(RenderTest, CheckerboardSceneHasNineBySixCorners) {
+  Scene scene = *LoadBundledScene("checkerboard");
+  scene.camera.width /= 2;
+  scene.camera.height /= 2;
+  scene.camera.fx /= 2;
+  scene.camera.fy /= 2;
+  scene.camera.cx = (scene.camera.width - 1) / 2.0;
+  scene.camera.cy = (scene.camera.height - 1) / 2.0;
+  SimWorld world(scene);
+  cv::Mat gray;
+  cv::cvtColor(world.RenderExposure({1.0 / 125, 100}), gray,
+               cv::COLOR_BGR2GRAY);
+  std::vector<cv::Point2f> corners;
+  EXPECT_TRUE(cv::findChessboardCorners(gray, cv::Size(9, 6), corners));
+  EXPECT_EQ(corners.size(), 54u);
 }
 
 }  // namespace
