@@ -30,14 +30,31 @@ cv::Mat ExposeSensor(const cv::Mat& radiance, const SensorModel& sensor,
           const auto* in = radiance.ptr<cv::Vec3f>(y);
           auto* out = electrons.ptr<cv::Vec3f>(y);
           for (int x = 0; x < width; ++x) {
+            double n[3] = {0, 0, 0};
+            if (noisy) {
+              // Three standard normals per pixel from two Box-Muller pairs
+              // of 32-bit uniforms (one hash chain per pixel).
+              const uint64_t h1 = SplitMix64(HashCombine(
+                  noise_seed, static_cast<uint64_t>(y) * width + x));
+              const uint64_t h2 = SplitMix64(h1);
+              constexpr double k32 = 1.0 / 4294967296.0;
+              const double u1 = ((h1 >> 32) + 0.5) * k32;
+              const double u2 = ((h1 & 0xffffffffu) + 0.5) * k32;
+              const double u3 = ((h2 >> 32) + 0.5) * k32;
+              const double u4 = ((h2 & 0xffffffffu) + 0.5) * k32;
+              constexpr double kTwoPi = 6.283185307179586;
+              const double r1 = std::sqrt(-2.0 * std::log(u1));
+              const double r2 = std::sqrt(-2.0 * std::log(u3));
+              n[0] = r1 * std::cos(kTwoPi * u2);
+              n[1] = r1 * std::sin(kTwoPi * u2);
+              n[2] = r2 * std::cos(kTwoPi * u4);
+            }
             for (int c = 0; c < 3; ++c) {
               double e = static_cast<double>(in[x][c]) * gain;
               if (noisy) {
-                const uint64_t key = HashCombine(
-                    noise_seed, (static_cast<uint64_t>(y) * width + x) * 3 + c);
                 double sigma2 = sensor.read_noise_e * sensor.read_noise_e;
                 if (sensor.shot_noise) sigma2 += e;
-                e += std::sqrt(sigma2) * GaussianAt(key);
+                e += std::sqrt(sigma2) * n[c];
               }
               out[x][c] = static_cast<float>(e);
             }
