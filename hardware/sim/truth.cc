@@ -118,6 +118,7 @@ absl::StatusOr<StereoTruth> ComputeStereoTruth(
   StereoTruth truth;
   truth.left_mm = left_mm;
   truth.baseline_mm = baseline_mm;
+  truth.rectified = scene.rig.IsIdeal();
   truth.intrinsics = scene.camera;
   const View left = CameraView(scene, left_mm);
   const View right = CameraView(scene, right_mm);
@@ -154,6 +155,10 @@ absl::Status WriteStereoTruth(const StereoTruth& truth,
     absl::Status s =
         WriteBytes(dir / ("nonocc" + n + ".png"), EncodePng(vt.nonoccluded));
     if (!s.ok()) return s;
+    if (!truth.rectified) {
+      s = WriteBytes(dir / ("dispy" + n + ".pfm"), EncodePfm(vt.disparity_y));
+      if (!s.ok()) return s;
+    }
   }
   // Middlebury 2014 calib.txt (f, cx, cy in px; baseline in mm; doffs = 0
   // because both views share the same intrinsics).

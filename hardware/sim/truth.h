@@ -35,6 +35,7 @@ struct ViewTruth {
 struct StereoTruth {
   double left_mm = 0;
   double baseline_mm = 0;
+  bool rectified = true;  // ideal rig: disparity_y is 0 everywhere
   CameraIntrinsics intrinsics;
   ViewTruth left;
   ViewTruth right;
@@ -47,7 +48,8 @@ absl::StatusOr<StereoTruth> ComputeStereoTruth(
 
 // Writes radiance{0,1}.pfm, depth{0,1}.pfm, disp{0,1}.pfm (0 = left,
 // 1 = right), nonocc{0,1}.png and a Middlebury-style calib.txt into `dir`
-// (created if missing), each file atomically.
+// (created if missing), each file atomically; for a misaligned rig also
+// dispy{0,1}.pfm (the vertical component).
 absl::Status WriteStereoTruth(const StereoTruth& truth,
                               const std::filesystem::path& dir);
 
