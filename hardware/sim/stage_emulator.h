@@ -27,6 +27,13 @@
 // Motion follows TimingModel (speed, acceleration) in real time divided by
 // timing.scale; with scale 0 a move completes immediately, but the reply to
 // the move command itself still says BUSY (as on a real device).
+//
+// Driver note: libserialport 0.1.1 (Debian 12) refuses pseudo-terminals:
+// sp_get_port_by_name("/dev/pts/N") fails with "Device not found" because it
+// looks the port up in /sys/class/tty/. A driver that must talk to this
+// emulator needs a plain POSIX termios path (open, cfmakeraw, tcsetattr,
+// poll/read/write) for such device paths; tests/unit/sim/
+// stage_emulator_test.cc has a minimal one (SerialClient).
 #ifndef HDRSTEREO_HARDWARE_SIM_STAGE_EMULATOR_H_
 #define HDRSTEREO_HARDWARE_SIM_STAGE_EMULATOR_H_
 
