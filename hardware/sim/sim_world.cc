@@ -1,0 +1,223 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "hardware/sim/sim_world.h"
+
+#include <algorithm>
+#include <chrono>
+#include <thread>
+
+#include "absl/strings/str_cat.h"
+#include "hardware/sim/noise.h"
+
+namespace hdrstereo::sim {
+
+bool FaultFires(const FaultTrigger& trigger, int64_t call, uint64_t seed,
+                uint64_t stream) {
+  if (std::find(trigger.calls.begin(), trigger.calls.end(), call) !=
+      trigger.calls.end()) {
+    return true;
+  }
+  if (trigger.probability <= 0) return false;
+  const double u = UniformFromBits(
+      HashCombine(HashCombine(seed, stream), static_cast<uint64_t>(call)));
+  return u < trigger.probability;
+}
+
+SimWorld::SimWorld(Scene scene)
+    : renderer_(std::move(scene)), faults_(renderer_.scene().camera_faults) {}
+
+void SimWorld::SetStagePosition(double mm) {
+  std::lock_guard<std::mutex> lock(mu_);
+  stage_mm_ = mm;
+}
+
+double SimWorld::StagePosition() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return stage_mm_;
+}
+
+absl::Status SimWorld::SetProjectorPattern(const cv::Mat& pattern) {
+  if (!scene().projector.present) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("scene \"", scene().name, "\" has no projector"));
+  }
+  const int depth = pattern.depth();
+  if (!pattern.empty() &&
+      ((pattern.channels() != 1 && pattern.channels() != 3) ||
+       (depth != CV_8U && depth != CV_32F))) {
+    return absl::InvalidArgumentError(
+        "projector pattern must be 8-bit or float, with 1 or 3 channels");
+  }
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    pattern_ = pattern.clone();
+  }
+  SleepModelled(timing().projector_settle_s);
+  return absl::OkStatus();
+}
+
+void SimWorld::BlankProjector() {
+  const ProjectorModel& p = scene().projector;
+  std::lock_guard<std::mutex> lock(mu_);
+  pattern_ = cv::Mat::zeros(p.height, p.width, CV_8UC1);
+}
+
+void SimWorld::ProjectorOff() {
+  std::lock_guard<std::mutex> lock(mu_);
+  pattern_.release();
+}
+
+cv::Mat SimWorld::ProjectorPattern() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return pattern_;
+}
+
+RadianceFrame SimWorld::RenderRadiance() const {
+  double stage = 0;
+  cv::Mat pattern;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    stage = stage_mm_;
+    pattern = pattern_;
+  }
+  return renderer_.Render(CameraView(scene(), stage), pattern);
+}
+
+cv::Mat SimWorld::RenderExposure(const ExposureSettings& settings, int bits) {
+  int64_t index = 0;
+  double stage = 0;
+  cv::Mat pattern;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    index = frame_index_++;
+    stage = stage_mm_;
+    pattern = pattern_;
+  }
+  return RenderFrame(renderer_, CameraView(scene(), stage), pattern, settings,
+                     HashCombine(scene().seed, static_cast<uint64_t>(index)),
+                     bits);
+}
+
+cv::Mat RenderFrame(const Renderer& renderer, const View& view,
+                    const cv::Mat& projector_pattern,
+                    const ExposureSettings& settings, uint64_t noise_seed,
+                    int bits) {
+  const RadianceFrame frame = renderer.Render(view, projector_pattern);
+  const cv::Mat electrons = ExposeSensor(
+      frame.radiance, renderer.scene().sensor, settings, noise_seed);
+  return Digitize(electrons, renderer.scene().sensor, bits);
+}
+
+absl::StatusOr<SimCapture> SimWorld::Capture(const ExposureSettings& settings,
+                                             ImageFormat format) {
+  if (!(settings.exposure_s > 0) || !(settings.iso > 0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("exposure (", settings.exposure_s, " s) and ISO (",
+                     settings.iso, ") must be > 0"));
+  }
+  int64_t call = 0, index = 0;
+  double stage = 0;
+  cv::Mat pattern;
+  CameraFaults faults;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (disconnected_) {
+      return absl::FailedPreconditionError(
+          "camera disconnected (simulated); reconnect first");
+    }
+    call = ++capture_calls_;
+    faults = faults_;
+    stage = stage_mm_;
+    pattern = pattern_;
+  }
+  const uint64_t seed = scene().seed;
+  const double capture_s = timing().CaptureSeconds(settings.exposure_s);
+  if (call <= faults.busy_first_calls) {
+    return absl::UnavailableError(
+        absl::StrCat("camera busy (simulated fault, call ", call, ")"));
+  }
+  if (FaultFires(faults.timeout, call, seed, 1)) {
+    SleepModelled(capture_s);
+    return absl::DeadlineExceededError(
+        absl::StrCat("camera timed out (simulated fault, call ", call, ")"));
+  }
+  if (FaultFires(faults.disconnect, call, seed, 2)) {
+    SleepModelled(settings.exposure_s + timing().readout_s +
+                  timing().transfer_s / 2);
+    std::lock_guard<std::mutex> lock(mu_);
+    disconnected_ = true;
+    return absl::AbortedError(absl::StrCat(
+        "camera disconnected during transfer (simulated fault, call ", call,
+        ")"));
+  }
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    index = frame_index_++;
+  }
+  SimCapture capture;
+  capture.format = format;
+  capture.settings = settings;
+  capture.stage_mm = stage;
+  capture.frame_index = index;
+  RadianceFrame frame = renderer_.Render(CameraView(scene(), stage), pattern);
+  cv::Mat electrons =
+      ExposeSensor(frame.radiance, scene().sensor, settings,
+                   HashCombine(seed, static_cast<uint64_t>(index)));
+  absl::StatusOr<std::string> bytes;
+  switch (format) {
+    case ImageFormat::kPng:
+    case ImageFormat::kJpeg:
+      capture.image = Digitize(electrons, scene().sensor, 8);
+      bytes = EncodeImage(capture.image, format);
+      break;
+    case ImageFormat::kTiff16:
+      capture.image = Digitize(electrons, scene().sensor, 16);
+      bytes = EncodeImage(capture.image, format);
+      break;
+    case ImageFormat::kDng:
+      capture.image = MosaicBayer(electrons, scene().sensor);
+      bytes = EncodeDng(capture.image, scene().sensor, settings);
+      break;
+  }
+  if (!bytes.ok()) return bytes.status();
+  capture.bytes = *std::move(bytes);
+  if (FaultFires(faults.corrupt, call, seed, 3) && capture.bytes.size() > 64) {
+    // Flip bytes after the header so the damage is in the pixel data.
+    uint64_t h = HashCombine(seed, 1000 + static_cast<uint64_t>(call));
+    const size_t span = capture.bytes.size() - 64;
+    for (int i = 0; i < 32; ++i) {
+      h = SplitMix64(h);
+      capture.bytes[64 + h % span] ^= static_cast<char>(0x5a);
+    }
+    capture.corrupted = true;
+  }
+  SleepModelled(capture_s);
+  return capture;
+}
+
+void SimWorld::ReconnectCamera() {
+  std::lock_guard<std::mutex> lock(mu_);
+  disconnected_ = false;
+}
+
+void SimWorld::SetCameraFaults(const CameraFaults& faults) {
+  std::lock_guard<std::mutex> lock(mu_);
+  faults_ = faults;
+}
+
+int64_t SimWorld::capture_calls() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return capture_calls_;
+}
+
+absl::StatusOr<StereoTruth> SimWorld::Truth(double left_mm,
+                                            double baseline_mm) const {
+  return ComputeStereoTruth(renderer_, left_mm, baseline_mm,
+                            ProjectorPattern());
+}
+
+void SimWorld::SleepModelled(double seconds) const {
+  const double s = seconds * timing().scale;
+  if (s > 0) std::this_thread::sleep_for(std::chrono::duration<double>(s));
+}
+
+}  // namespace hdrstereo::sim

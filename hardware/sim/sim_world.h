@@ -1,0 +1,118 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// SimWorld: one simulated lab. It holds the scene, the stage position and
+// the projector's current pattern, renders what the camera sees, and knows
+// the exact truth. Every method is thread-safe: a stage emulator thread can
+// move the stage while a capture job renders.
+//
+// Adapters for the hardware interfaces (issue 4) map:
+//   Camera::Configure/Capture -> SimWorld::Capture(ExposureSettings, format)
+//   Stage                     -> StageEmulator (a Zaber device on a pty),
+//                                or SetStagePosition() directly
+//   Projector::Show/Blank     -> SetProjectorPattern() / BlankProjector()
+#ifndef HDRSTEREO_HARDWARE_SIM_SIM_WORLD_H_
+#define HDRSTEREO_HARDWARE_SIM_SIM_WORLD_H_
+
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <opencv2/core.hpp>
+#include <string>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "hardware/sim/camera_model.h"
+#include "hardware/sim/render.h"
+#include "hardware/sim/scene.h"
+#include "hardware/sim/truth.h"
+
+namespace hdrstereo::sim {
+
+struct SimCapture {
+  std::string bytes;  // the encoded file, as a camera would deliver it
+  ImageFormat format = ImageFormat::kPng;
+  cv::Mat image;  // the decoded pixels (BGR, or the Bayer mosaic for DNG)
+  ExposureSettings settings;
+  double stage_mm = 0;
+  int64_t frame_index = 0;  // selects the noise realisation
+  bool corrupted = false;   // a corrupt-bytes fault hit this file
+};
+
+class SimWorld {
+ public:
+  explicit SimWorld(Scene scene);
+  SimWorld(const SimWorld&) = delete;
+  SimWorld& operator=(const SimWorld&) = delete;
+
+  const Scene& scene() const { return renderer_.scene(); }
+  const Renderer& renderer() const { return renderer_; }
+  const TimingModel& timing() const { return renderer_.scene().timing; }
+
+  // Stage position in mm along the stage axis (not range-checked here: the
+  // stage emulator enforces travel limits).
+  void SetStagePosition(double mm);
+  double StagePosition() const;
+
+  // What the projector shows (see Renderer::Render for accepted types);
+  // then sleeps timing.projector_settle_s * timing.scale. INVALID_ARGUMENT
+  // for an unsupported type, FAILED_PRECONDITION for a scene without
+  // projector.
+  absl::Status SetProjectorPattern(const cv::Mat& pattern);
+  void BlankProjector();  // all-black pattern: only the black level shines
+  void ProjectorOff();    // no light at all
+  cv::Mat ProjectorPattern() const;
+
+  // Noise-free radiance, depth and ids at the current stage position.
+  RadianceFrame RenderRadiance() const;
+  // One frame at the current stage position: bits 8 -> CV_8UC3 (response
+  // curve), 16 -> CV_16UC3 (linear). Each call uses the next noise
+  // realisation (frame index), so the sequence is reproducible per seed.
+  cv::Mat RenderExposure(const ExposureSettings& settings, int bits = 8);
+
+  // A full camera capture: applies camera faults, renders, encodes, and
+  // sleeps for the modelled capture time times timing.scale. Errors:
+  //   UNAVAILABLE "camera busy" (faults.busy_first_calls; retry later),
+  //   DEADLINE_EXCEEDED (timeout fault),
+  //   ABORTED (disconnected mid-transfer), then FAILED_PRECONDITION on every
+  //   call until ReconnectCamera().
+  // A corrupt fault returns OK with damaged bytes (corrupted = true).
+  absl::StatusOr<SimCapture> Capture(const ExposureSettings& settings,
+                                     ImageFormat format);
+  void ReconnectCamera();
+  void SetCameraFaults(const CameraFaults& faults);
+  int64_t capture_calls() const;
+
+  // Exact truth for views at left_mm and left_mm + baseline_mm, lit by the
+  // current projector pattern.
+  absl::StatusOr<StereoTruth> Truth(double left_mm, double baseline_mm) const;
+
+  // Sleeps seconds * timing.scale (no-op for scale 0).
+  void SleepModelled(double seconds) const;
+
+ private:
+  Renderer renderer_;
+  mutable std::mutex mu_;
+  double stage_mm_ = 0;
+  cv::Mat pattern_;
+  int64_t frame_index_ = 0;
+  int64_t capture_calls_ = 0;
+  bool disconnected_ = false;
+  CameraFaults faults_;
+};
+
+// One camera frame without a SimWorld: render `view` lit by
+// `projector_pattern`, expose with noise realisation `noise_seed`, digitise
+// to `bits` (8 or 16). SimWorld::RenderExposure is this at the current stage
+// position with seed HashCombine(scene.seed, frame index).
+cv::Mat RenderFrame(const Renderer& renderer, const View& view,
+                    const cv::Mat& projector_pattern,
+                    const ExposureSettings& settings, uint64_t noise_seed,
+                    int bits = 8);
+
+// Whether `trigger` fires on 1-based call `call` (seeded, reproducible).
+bool FaultFires(const FaultTrigger& trigger, int64_t call, uint64_t seed,
+                uint64_t stream);
+
+}  // namespace hdrstereo::sim
+
+#endif  // HDRSTEREO_HARDWARE_SIM_SIM_WORLD_H_

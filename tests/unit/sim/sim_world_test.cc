@@ -1,0 +1,129 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "hardware/sim/sim_world.h"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "tests/unit/sim/test_scenes.h"
+
+namespace hdrstereo::sim {
+namespace {
+
+using ::hdrstereo::sim::testing::SmallBundledScene;
+
+std::string Bytes(const cv::Mat& m) {
+  return std::string(m.datastart, m.dataend);
+}
+
+TEST(SimWorldTest, SameSceneAndSeedGiveIdenticalBytes) {
+  Scene scene = SmallBundledScene("lab-lamp");
+  SimWorld a(scene), b(scene);
+  for (SimWorld* w : {&a, &b}) w->SetStagePosition(37.5);
+  const ExposureSettings settings{1.0 / 125, 100};
+  const std::string a1 = Bytes(a.RenderExposure(settings));
+  const std::string a2 = Bytes(a.RenderExposure(settings));
+  const std::string b1 = Bytes(b.RenderExposure(settings));
+  const std::string b2 = Bytes(b.RenderExposure(settings));
+  EXPECT_EQ(a1, b1);
+  EXPECT_EQ(a2, b2);
+  EXPECT_NE(a1, a2);  // each frame has its own noise
+  absl::StatusOr<SimCapture> ca = a.Capture(settings, ImageFormat::kPng);
+  absl::StatusOr<SimCapture> cb = b.Capture(settings, ImageFormat::kPng);
+  ASSERT_TRUE(ca.ok() && cb.ok());
+  EXPECT_EQ(ca->bytes, cb->bytes);
+
+  scene.seed += 1;
+  SimWorld c(scene);
+  c.SetStagePosition(37.5);
+  EXPECT_NE(Bytes(c.RenderExposure(settings)), a1);
+}
+
+TEST(SimWorldTest, StagePositionMovesTheView) {
+  SimWorld world(SmallBundledScene("textured"));
+  world.SetStagePosition(0);
+  const std::string left = Bytes(world.RenderRadiance().radiance);
+  world.SetStagePosition(150);
+  EXPECT_DOUBLE_EQ(world.StagePosition(), 150);
+  EXPECT_NE(Bytes(world.RenderRadiance().radiance), left);
+}
+
+TEST(SimWorldTest, CaptureEncodesEveryFormat) {
+  SimWorld world(SmallBundledScene("textured"));
+  for (ImageFormat f : {ImageFormat::kPng, ImageFormat::kJpeg,
+                        ImageFormat::kTiff16, ImageFormat::kDng}) {
+    absl::StatusOr<SimCapture> c = world.Capture({1.0 / 60, 100}, f);
+    ASSERT_TRUE(c.ok()) << ImageFormatName(f) << ": " << c.status();
+    EXPECT_FALSE(c->corrupted);
+    if (f == ImageFormat::kDng) {
+      EXPECT_EQ(c->image.type(), CV_16UC1);
+      continue;
+    }
+    const std::vector<uint8_t> buf(c->bytes.begin(), c->bytes.end());
+    const cv::Mat decoded = cv::imdecode(buf, cv::IMREAD_UNCHANGED);
+    ASSERT_EQ(decoded.size(), cv::Size(300, 225)) << ImageFormatName(f);
+    EXPECT_EQ(decoded.depth(), f == ImageFormat::kTiff16 ? CV_16U : CV_8U);
+    if (f != ImageFormat::kJpeg) {
+      EXPECT_EQ(cv::norm(decoded, c->image, cv::NORM_INF), 0.0);
+    }
+  }
+}
+
+TEST(SimWorldTest, CameraFaultsFireOnTheConfiguredCalls) {
+  Scene scene = SmallBundledScene("textured");
+  scene.camera_faults.busy_first_calls = 2;
+  scene.camera_faults.timeout.calls = {3};
+  scene.camera_faults.disconnect.calls = {4};
+  scene.camera_faults.corrupt.calls = {6};
+  SimWorld world(scene);
+  const ExposureSettings s{1.0 / 60, 100};
+  EXPECT_EQ(world.Capture(s, ImageFormat::kPng).status().code(),
+            absl::StatusCode::kUnavailable);
+  EXPECT_EQ(world.Capture(s, ImageFormat::kPng).status().code(),
+            absl::StatusCode::kUnavailable);
+  EXPECT_EQ(world.Capture(s, ImageFormat::kPng).status().code(),
+            absl::StatusCode::kDeadlineExceeded);
+  EXPECT_EQ(world.Capture(s, ImageFormat::kPng).status().code(),
+            absl::StatusCode::kAborted);
+  // Disconnected until reconnected; those attempts are not counted as calls.
+  EXPECT_EQ(world.Capture(s, ImageFormat::kPng).status().code(),
+            absl::StatusCode::kFailedPrecondition);
+  world.ReconnectCamera();
+  absl::StatusOr<SimCapture> good = world.Capture(s, ImageFormat::kPng);  // 5
+  ASSERT_TRUE(good.ok()) << good.status();
+  EXPECT_FALSE(good->corrupted);
+  absl::StatusOr<SimCapture> bad = world.Capture(s, ImageFormat::kPng);  // 6
+  ASSERT_TRUE(bad.ok()) << bad.status();
+  EXPECT_TRUE(bad->corrupted);
+  const std::vector<uint8_t> buf(bad->bytes.begin(), bad->bytes.end());
+  const cv::Mat decoded = cv::imdecode(buf, cv::IMREAD_UNCHANGED);
+  EXPECT_TRUE(decoded.empty() || cv::norm(decoded, bad->image) > 0)
+      << "the corrupted file decodes to the true image";
+  EXPECT_EQ(world.capture_calls(), 6);
+}
+
+TEST(SimWorldTest, ProbabilisticFaultsAreSeeded) {
+  FaultTrigger t;
+  t.probability = 0.3;
+  int fired = 0;
+  for (int call = 1; call <= 2000; ++call) {
+    const bool a = FaultFires(t, call, 42, 1);
+    EXPECT_EQ(a, FaultFires(t, call, 42, 1));
+    fired += a;
+  }
+  // Binomial(2000, 0.3): mean 600, sd 20.5; allow 5 sd.
+  EXPECT_NEAR(fired, 600, 103);
+}
+
+TEST(SimWorldTest, ProjectorPatternValidation) {
+  SimWorld lab(SmallBundledScene("lab-lamp"));
+  EXPECT_TRUE(lab.SetProjectorPattern(cv::Mat(768, 1024, CV_8UC1)).ok());
+  EXPECT_EQ(lab.SetProjectorPattern(cv::Mat(8, 8, CV_16UC1)).code(),
+            absl::StatusCode::kInvalidArgument);
+  SimWorld textured(SmallBundledScene("textured"));  // has no projector
+  EXPECT_EQ(textured.SetProjectorPattern(cv::Mat(8, 8, CV_8UC1)).code(),
+            absl::StatusCode::kFailedPrecondition);
+}
+
+}  // namespace
+}  // namespace hdrstereo::sim
