@@ -61,6 +61,57 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
       ->capture_default_str();
   app.add_option("--ready-file", config.ready_file,
                  "Write the bound address here once serving");
+  app.add_option("--processing-threads", config.processing_threads,
+                 "Processing jobs run in parallel")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
+  app.add_option("--resume-interrupted", config.resume_interrupted,
+                 "Resume jobs a stop interrupted")
+      ->capture_default_str();
+  app.add_option("--home-position-mm", config.home_position_mm,
+                 "Stage position of the left view")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--camera-model", config.camera_model,
+                 "libgphoto2 camera model [default: first found]");
+  app.add_option("--camera-port", config.camera_port,
+                 "libgphoto2 port, e.g. usb:001,004");
+  app.add_option("--stage-port", config.stage_port, "Zaber serial port")
+      ->capture_default_str();
+  app.add_option("--stage-device", config.stage_device, "Zaber device number")
+      ->check(CLI::Range(1, 99))
+      ->capture_default_str();
+  app.add_option("--stage-axis", config.stage_axis, "Zaber axis number")
+      ->check(CLI::Range(1, 9))
+      ->capture_default_str();
+  app.add_option("--stage-travel-mm", config.stage_travel_mm, "Stage travel")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--stage-microstep-um", config.stage_microstep_um,
+                 "Distance of one microstep")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--projector-display", config.projector_display,
+                 "X display of the projector [default: $DISPLAY]");
+  app.add_option("--projector-x", config.projector_x, "Projector left edge");
+  app.add_option("--projector-y", config.projector_y, "Projector top edge");
+  app.add_option("--projector-width", config.projector_width,
+                 "Projector width in pixels [default: screen]")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--projector-height", config.projector_height,
+                 "Projector height in pixels [default: screen]")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--projector-settle-s", config.projector_settle_s,
+                 "Wait after showing a pattern")
+      ->check(CLI::Range(0.0, 10.0))
+      ->capture_default_str();
+  app.add_option("--sim-scene", config.sim_scene,
+                 "Simulated scene: bundled name or JSON file")
+      ->capture_default_str();
+  app.add_option("--sim-time-scale", config.sim_time_scale,
+                 "Simulated hardware time: 0 = instant, 1 = real time")
+      ->check(CLI::Range(0.0, 10.0))
+      ->capture_default_str();
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForVersion&) {

@@ -22,6 +22,28 @@ struct Config {
   // Written (atomically) with the bound address once the server is serving;
   // lets scripts and tests use --listen 127.0.0.1:0.
   std::filesystem::path ready_file;
+  int processing_threads = 2;
+  bool resume_interrupted = true;
+
+  // The rig.
+  double home_position_mm = 0;  // stage position of the left view
+  // Real devices (--hardware real).
+  std::string camera_model;  // empty = first camera found
+  std::string camera_port;   // e.g. "usb:001,004"
+  std::string stage_port = "/dev/ttyUSB0";
+  int stage_device = 1;
+  int stage_axis = 1;
+  double stage_travel_mm = 150;
+  double stage_microstep_um = 0.047625;
+  std::string projector_display;  // empty = $DISPLAY
+  int projector_x = 0;
+  int projector_y = 0;
+  int projector_width = 0;  // 0 = whole screen
+  int projector_height = 0;
+  double projector_settle_s = 0.1;
+  // Simulated devices (--hardware sim).
+  std::string sim_scene = "lab-lamp";  // bundled scene name or JSON file
+  double sim_time_scale = 0;           // 0 = instant, 1 = real time
 };
 
 // The result of parsing: a config to run with, or a text (help, version) to

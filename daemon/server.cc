@@ -10,14 +10,30 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
+#include "daemon/jobs/capture_job.h"
 #include "processing/io/atomic_file.h"
 
 namespace hdrstereo::daemon {
 
-Server::Server(std::unique_ptr<store::Store> store, const Config& config)
+Server::Server(std::unique_ptr<store::Store> store,
+               std::unique_ptr<Hardware> hardware, const Config& config)
     : store_(std::move(store)),
+      hardware_(std::move(hardware)),
+      engine_(
+          *store_,
+          [rig = hardware_->rig.get()](jobs::JobContext& context) {
+            return jobs::RunCaptureJob(*rig, context);
+          },
+          [](jobs::JobContext&) {
+            return absl::UnimplementedError(
+                "processing jobs are not implemented yet");
+          },
+          {.processing_threads = config.processing_threads,
+           .resume_interrupted = config.resume_interrupted}),
       server_service_(*store_, config.hardware, absl::Now()),
-      sessions_service_(*store_) {}
+      sessions_service_(*store_),
+      hardware_service_(*hardware_->rig),
+      jobs_service_(engine_, *hardware_->rig) {}
 
 absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
   absl::StatusOr<std::unique_ptr<store::Store>> store =
@@ -26,7 +42,11 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
   spdlog::info("data root {} (schema version {})",
                (*store)->files().root().string(), (*store)->schema_version());
 
-  std::unique_ptr<Server> server(new Server(*std::move(store), config));
+  absl::StatusOr<std::unique_ptr<Hardware>> hardware = SetUpHardware(config);
+  if (!hardware.ok()) return hardware.status();
+  std::unique_ptr<Server> server(
+      new Server(*std::move(store), *std::move(hardware), config));
+  if (absl::Status s = server->engine_.Start(); !s.ok()) return s;
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
@@ -63,6 +83,7 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
 }
 
 void Server::Shutdown() {
+  engine_.Shutdown();
   if (grpc_server_ == nullptr) return;
   spdlog::info("shutting down: finishing in-flight calls");
   grpc_server_->Shutdown(std::chrono::system_clock::now() +

@@ -11,11 +11,13 @@
 
 #include "absl/status/statusor.h"
 #include "daemon/config.h"
+#include "daemon/hardware_setup.h"
+#include "daemon/jobs/job_engine.h"
+#include "daemon/rpc/hardware_service.h"
+#include "daemon/rpc/jobs_service.h"
 #include "daemon/rpc/server_service.h"
 #include "daemon/rpc/sessions_service.h"
 #include "daemon/store/store.h"
-#include "hdrstereo/v1/hardware.grpc.pb.h"
-#include "hdrstereo/v1/jobs.grpc.pb.h"
 #include "hdrstereo/v1/schedules.grpc.pb.h"
 
 namespace hdrstereo::daemon {
@@ -29,20 +31,26 @@ class Server {
 
   // The address actually bound (port resolved when 0 was asked for).
   const std::string& address() const { return address_; }
-  // Stops accepting calls, lets in-flight calls finish (up to a deadline),
-  // then closes the database.
+  // Stops the jobs at their next checkpoint (they resume at the next start),
+  // stops accepting calls, lets in-flight calls finish (up to a deadline),
+  // then releases the hardware and closes the database.
   void Shutdown();
 
  private:
-  explicit Server(std::unique_ptr<store::Store> store, const Config& config);
+  Server(std::unique_ptr<store::Store> store,
+         std::unique_ptr<Hardware> hardware, const Config& config);
 
+  // Declaration order is destruction order reversed: the services and the
+  // engine go before the hardware and the store they use.
   std::unique_ptr<store::Store> store_;
+  std::unique_ptr<Hardware> hardware_;
+  jobs::JobEngine engine_;
   rpc::ServerService server_service_;
   rpc::SessionsService sessions_service_;
-  // Defined in the wire contract; their handlers arrive with later issues and
+  rpc::HardwareService hardware_service_;
+  rpc::JobsService jobs_service_;
+  // Defined in the wire contract; its handlers arrive with scheduling and
   // answer UNIMPLEMENTED until then.
-  v1::Hardware::Service hardware_service_;
-  v1::Jobs::Service jobs_service_;
   v1::Schedules::Service schedules_service_;
   std::unique_ptr<grpc::Server> grpc_server_;
   std::string address_;

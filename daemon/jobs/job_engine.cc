@@ -121,12 +121,14 @@ void JobEngine::Enqueue(JobKind kind, int64_t id) {
 absl::StatusOr<JobRecord> JobEngine::Submit(JobKind kind,
                                             absl::string_view session,
                                             absl::string_view request,
+                                            int64_t total,
                                             absl::string_view message) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (stopping_) return absl::UnavailableError("the daemon is stopping");
   }
-  absl::StatusOr<JobRecord> job = jobs_.Create(kind, session, request, message);
+  absl::StatusOr<JobRecord> job =
+      jobs_.Create(kind, session, request, total, message);
   if (!job.ok()) return job.status();
   spdlog::info("job {} ({}): queued: {}", job->id, job->session,
                std::string(message));
@@ -320,6 +322,11 @@ void JobEngine::NotifyEventLocked() {
 int64_t JobEngine::event_generation() {
   std::lock_guard<std::mutex> lock(mutex_);
   return event_generation_;
+}
+
+bool JobEngine::stopping() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return stopping_;
 }
 
 void JobEngine::WaitForEvents(int64_t seen_generation, absl::Time deadline) {

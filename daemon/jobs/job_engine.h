@@ -79,6 +79,7 @@ class JobEngine {
   absl::StatusOr<store::JobRecord> Submit(store::JobKind kind,
                                           absl::string_view session,
                                           absl::string_view request,
+                                          int64_t total,
                                           absl::string_view message);
   // Pause and resume apply to running jobs; cancel to queued, running and
   // paused ones. FAILED_PRECONDITION for other states, with the reason.
@@ -90,6 +91,7 @@ class JobEngine {
   // then read the new events from the store.
   void WaitForEvents(int64_t seen_generation, absl::Time deadline);
   int64_t event_generation();
+  bool stopping();
 
   store::JobRepository& repository() { return jobs_; }
 

@@ -141,11 +141,12 @@ grpc::Status JobsService::SubmitCapture(grpc::ServerContext*,
     return ToGrpcStatus(s);
   }
   const size_t frames = jobs::ExpandPlan(*plan, *limits, 0).size();
-  return Reply(engine_.Submit(store::JobKind::kCapture, request->session(),
-                              plan->SerializeAsString(),
-                              absl::StrCat("queued ", jobs::PlanKindName(*plan),
-                                           " capture of ", frames, " frames")),
-               response);
+  return Reply(
+      engine_.Submit(store::JobKind::kCapture, request->session(),
+                     plan->SerializeAsString(), static_cast<int64_t>(frames),
+                     absl::StrCat("queued ", jobs::PlanKindName(*plan),
+                                  " capture of ", frames, " frames")),
+      response);
 }
 
 grpc::Status JobsService::Get(grpc::ServerContext*,
@@ -200,6 +201,11 @@ grpc::Status JobsService::Watch(grpc::ServerContext* context,
   if (!job.ok()) return ToGrpcStatus(job.status());
   int64_t last = 0;
   while (!context->IsCancelled()) {
+    if (engine_.stopping()) {
+      return grpc::Status(grpc::StatusCode::UNAVAILABLE,
+                          "hdrstereod is shutting down; the job resumes when "
+                          "it starts again");
+    }
     // Read the generation first: an event recorded after it wakes us.
     const int64_t generation = engine_.event_generation();
     absl::StatusOr<std::vector<store::JobEventRecord>> events =

@@ -139,19 +139,22 @@ RETURNING sequence)sql");
 absl::StatusOr<JobRecord> JobRepository::Create(JobKind kind,
                                                 absl::string_view session,
                                                 absl::string_view request,
+                                                int64_t total,
                                                 absl::string_view message) {
   Database& db = store_.db();
   absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
   if (!tx.ok()) return tx.status();
   absl::StatusOr<Statement> insert = db.Prepare(R"sql(
-INSERT INTO jobs (kind, session_id, state, request, create_time_ms)
-SELECT ?1, id, 'queued', ?2, ?3 FROM sessions WHERE name = ?4)sql");
+INSERT INTO jobs (kind, session_id, state, request, create_time_ms,
+                  progress_total)
+SELECT ?1, id, 'queued', ?2, ?3, ?5 FROM sessions WHERE name = ?4)sql");
   if (!insert.ok()) return insert.status();
   if (absl::Status s =
           insert->Bind(1, kind == JobKind::kCapture ? "capture" : "processing")
               .Bind(2, request)
               .Bind(3, NowMs())
               .Bind(4, session)
+              .Bind(5, total)
               .Run();
       !s.ok()) {
     return s;

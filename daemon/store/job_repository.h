@@ -73,10 +73,10 @@ class JobRepository {
  public:
   explicit JobRepository(Store& store) : store_(store) {}
 
-  // Queues a job for an existing session (NOT_FOUND otherwise) and records
-  // its first event.
+  // Queues a job of `total` units (frames, steps) for an existing session
+  // (NOT_FOUND otherwise) and records its first event.
   absl::StatusOr<JobRecord> Create(JobKind kind, absl::string_view session,
-                                   absl::string_view request,
+                                   absl::string_view request, int64_t total,
                                    absl::string_view message);
   absl::StatusOr<JobRecord> Get(int64_t id);
   absl::StatusOr<std::vector<JobRecord>> List(const JobFilter& filter);

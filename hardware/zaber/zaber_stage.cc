@@ -1,8 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "hardware/zaber/zaber_stage.h"
 
-#include <libserialport.h>
-
 #include <algorithm>
 #include <cmath>
 
@@ -18,18 +16,6 @@ namespace {
 // Zaber velocities are in microsteps per 1/1.6384 s.
 constexpr double kVelocityUnitsPerMicrostepPerSecond = 1.6384;
 
-absl::Status PortError(absl::string_view what, const std::string& port) {
-  char* message = sp_last_error_message();
-  absl::Status status = absl::UnavailableError(absl::StrCat(
-      what, " ", port, ": ", message != nullptr ? message : "unknown error"));
-  sp_free_error_message(message);
-  return status;
-}
-
-int ToMillisecondsAtLeastOne(absl::Duration d) {
-  return static_cast<int>(std::max<int64_t>(1, absl::ToInt64Milliseconds(d)));
-}
-
 }  // namespace
 
 absl::StatusOr<std::unique_ptr<ZaberStage>> ZaberStage::Open(
@@ -38,24 +24,10 @@ absl::StatusOr<std::unique_ptr<ZaberStage>> ZaberStage::Open(
     return absl::InvalidArgumentError(
         "zaber: microstep_um and travel_mm must be positive");
   }
-  sp_port* port = nullptr;
-  if (sp_get_port_by_name(options.port.c_str(), &port) != SP_OK) {
-    return PortError("cannot find serial port", options.port);
-  }
-  if (sp_open(port, SP_MODE_READ_WRITE) != SP_OK) {
-    absl::Status status = PortError("cannot open serial port", options.port);
-    sp_free_port(port);
-    return status;
-  }
-  std::unique_ptr<ZaberStage> stage(new ZaberStage(options, port));
-  if (sp_set_baudrate(port, options.baud_rate) != SP_OK ||
-      sp_set_bits(port, 8) != SP_OK ||
-      sp_set_parity(port, SP_PARITY_NONE) != SP_OK ||
-      sp_set_stopbits(port, 1) != SP_OK ||
-      sp_set_flowcontrol(port, SP_FLOWCONTROL_NONE) != SP_OK) {
-    return PortError("cannot configure serial port", options.port);
-  }
-  sp_flush(port, SP_BUF_BOTH);
+  absl::StatusOr<std::unique_ptr<SerialLine>> line =
+      OpenSerialLine(options.port, options.baud_rate);
+  if (!line.ok()) return line.status();
+  std::unique_ptr<ZaberStage> stage(new ZaberStage(options, *std::move(line)));
 
   absl::StatusOr<Reply> speed = stage->Command("get maxspeed");
   if (!speed.ok()) {
@@ -71,11 +43,6 @@ absl::StatusOr<std::unique_ptr<ZaberStage>> ZaberStage::Open(
   stage->speed_mm_per_s_ = velocity / kVelocityUnitsPerMicrostepPerSecond *
                            options.microstep_um / 1000.0;
   return stage;
-}
-
-ZaberStage::~ZaberStage() {
-  sp_close(port_);
-  sp_free_port(port_);
 }
 
 int64_t ZaberStage::ToMicrosteps(double mm) const {
@@ -98,22 +65,16 @@ absl::StatusOr<std::string> ZaberStage::ReadLine(absl::Time deadline) {
     if (left <= absl::ZeroDuration()) {
       return absl::DeadlineExceededError("no reply");
     }
-    char buffer[256];
-    sp_return n = sp_blocking_read_next(port_, buffer, sizeof buffer,
-                                        ToMillisecondsAtLeastOne(left));
-    if (n < 0) return PortError("cannot read from", options_.port);
-    pending_.append(buffer, static_cast<size_t>(n));
+    absl::StatusOr<std::string> bytes = line_->Read(left);
+    if (!bytes.ok()) return bytes.status();
+    pending_ += *bytes;
   }
 }
 
 absl::StatusOr<Reply> ZaberStage::CommandOnce(absl::string_view command) {
   std::string text = FormatCommand(options_.device, options_.axis, command);
-  sp_return written =
-      sp_blocking_write(port_, text.data(), text.size(),
-                        ToMillisecondsAtLeastOne(options_.reply_timeout));
-  if (written < 0) return PortError("cannot write to", options_.port);
-  if (static_cast<size_t>(written) != text.size()) {
-    return absl::DeadlineExceededError("write timed out");
+  if (absl::Status s = line_->Write(text, options_.reply_timeout); !s.ok()) {
+    return s;
   }
   const absl::Time deadline = absl::Now() + options_.reply_timeout;
   while (true) {
@@ -150,7 +111,7 @@ absl::StatusOr<Reply> ZaberStage::Command(absl::string_view command) {
     // Missing or garbled reply: drop whatever is buffered and resend.
     last = reply.status();
     pending_.clear();
-    sp_flush(port_, SP_BUF_INPUT);
+    line_->DiscardInput();
   }
   if (absl::IsDeadlineExceeded(last)) {
     return absl::DeadlineExceededError(

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
 // Stage over a Zaber controller speaking the ASCII protocol on a serial port
-// (libserialport). In simulation the port is the emulator's pseudo-terminal,
-// so this same driver runs in every integration test.
+// (see serial_line.h). In simulation the port is the emulator's
+// pseudo-terminal, so this same driver runs in every integration test.
 #ifndef HDRSTEREO_HARDWARE_ZABER_ZABER_STAGE_H_
 #define HDRSTEREO_HARDWARE_ZABER_ZABER_STAGE_H_
 
@@ -14,8 +14,7 @@
 #include "absl/time/time.h"
 #include "hardware/stage.h"
 #include "hardware/zaber/protocol.h"
-
-struct sp_port;
+#include "hardware/zaber/serial_line.h"
 
 namespace hdrstereo::zaber {
 
@@ -44,7 +43,6 @@ class ZaberStage final : public hardware::Stage {
   // UNAVAILABLE when the port cannot be opened or the device does not answer.
   static absl::StatusOr<std::unique_ptr<ZaberStage>> Open(
       const ZaberOptions& options);
-  ~ZaberStage() override;
 
   absl::Status Home() override;
   absl::Status MoveTo(double position_mm) override;
@@ -57,8 +55,8 @@ class ZaberStage final : public hardware::Stage {
   double ToMillimetres(int64_t microsteps) const;
 
  private:
-  ZaberStage(const ZaberOptions& options, sp_port* port)
-      : options_(options), port_(port) {}
+  ZaberStage(const ZaberOptions& options, std::unique_ptr<SerialLine> line)
+      : options_(options), line_(std::move(line)) {}
 
   // Sends one command and returns its reply; resends on a missing or garbled
   // reply; a rejection (RJ) becomes an error naming the command and reason.
@@ -70,7 +68,7 @@ class ZaberStage final : public hardware::Stage {
                              double target_mm);
 
   const ZaberOptions options_;
-  sp_port* port_;
+  std::unique_ptr<SerialLine> line_;
   std::mutex mutex_;     // one command/reply exchange at a time
   std::string pending_;  // bytes read past the last line
   double speed_mm_per_s_ = 0;

@@ -82,7 +82,7 @@ TEST_F(JobEngineTest, CapturesRunOneAtATimeInSubmissionOrder) {
   std::vector<int64_t> ids;
   for (int i = 0; i < 3; ++i) {
     absl::StatusOr<store::JobRecord> job =
-        engine.Submit(JobKind::kCapture, "s", "", "test");
+        engine.Submit(JobKind::kCapture, "s", "", 0, "test");
     ASSERT_TRUE(job.ok()) << job.status();
     ids.push_back(job->id);
   }
@@ -112,7 +112,7 @@ TEST_F(JobEngineTest, PauseWaitsAtTheNextCheckpointAndResumeContinues) {
   ASSERT_TRUE(engine.Start().ok());
   hold_ = true;
   absl::StatusOr<store::JobRecord> job =
-      engine.Submit(JobKind::kCapture, "s", "", "test");
+      engine.Submit(JobKind::kCapture, "s", "", 0, "test");
   ASSERT_TRUE(job.ok());
   // Wait until the first step is done and the runner holds after it.
   const absl::Time deadline = absl::Now() + absl::Seconds(30);
@@ -138,9 +138,9 @@ TEST_F(JobEngineTest, CancelQueuedAndRunningJobs) {
   ASSERT_TRUE(engine.Start().ok());
   hold_ = true;
   absl::StatusOr<store::JobRecord> running =
-      engine.Submit(JobKind::kCapture, "s", "", "first");
+      engine.Submit(JobKind::kCapture, "s", "", 0, "first");
   absl::StatusOr<store::JobRecord> queued =
-      engine.Submit(JobKind::kCapture, "s", "", "second");
+      engine.Submit(JobKind::kCapture, "s", "", 0, "second");
   ASSERT_TRUE(running.ok() && queued.ok());
   ASSERT_TRUE(
       WaitForState(engine.repository(), running->id, JobState::kRunning));
@@ -163,11 +163,12 @@ TEST_F(JobEngineTest, FailureKeepsTheMessage) {
       StepRunner(1), {});
   ASSERT_TRUE(engine.Start().ok());
   absl::StatusOr<store::JobRecord> job =
-      engine.Submit(JobKind::kCapture, "s", "", "test");
+      engine.Submit(JobKind::kCapture, "s", "", 0, "test");
   ASSERT_TRUE(WaitForState(engine.repository(), job->id, JobState::kFailed));
   EXPECT_EQ(engine.repository().Get(job->id)->error, "camera unplugged");
-  EXPECT_EQ(engine.Submit(JobKind::kCapture, "nope", "", "x").status().code(),
-            absl::StatusCode::kNotFound);
+  EXPECT_EQ(
+      engine.Submit(JobKind::kCapture, "nope", "", 0, "x").status().code(),
+      absl::StatusCode::kNotFound);
 }
 
 TEST_F(JobEngineTest, ShutdownInterruptsAndTheNextStartResumes) {
@@ -177,7 +178,7 @@ TEST_F(JobEngineTest, ShutdownInterruptsAndTheNextStartResumes) {
     ASSERT_TRUE(engine.Start().ok());
     hold_ = true;
     absl::StatusOr<store::JobRecord> job =
-        engine.Submit(JobKind::kCapture, "s", "", "long");
+        engine.Submit(JobKind::kCapture, "s", "", 0, "long");
     ASSERT_TRUE(job.ok());
     id = job->id;
     ASSERT_TRUE(WaitForState(engine.repository(), id, JobState::kRunning));
@@ -216,7 +217,7 @@ TEST_F(JobEngineTest, WaitForEventsWakesOnProgress) {
   JobEngine engine(*store_, StepRunner(1), StepRunner(1), {});
   ASSERT_TRUE(engine.Start().ok());
   const int64_t generation = engine.event_generation();
-  ASSERT_TRUE(engine.Submit(JobKind::kProcessing, "s", "", "p").ok());
+  ASSERT_TRUE(engine.Submit(JobKind::kProcessing, "s", "", 0, "p").ok());
   engine.WaitForEvents(generation, absl::Now() + absl::Seconds(30));
   EXPECT_NE(engine.event_generation(), generation);
 }

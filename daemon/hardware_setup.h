@@ -1,0 +1,34 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// Builds the rig the configuration asks for: real drivers, or the simulated
+// world with the real Zaber driver talking to the emulated controller.
+#ifndef HDRSTEREO_DAEMON_HARDWARE_SETUP_H_
+#define HDRSTEREO_DAEMON_HARDWARE_SETUP_H_
+
+#include <memory>
+
+#include "absl/status/statusor.h"
+#include "daemon/config.h"
+#include "hardware/rig.h"
+#include "hardware/sim/sim_world.h"
+#include "hardware/sim/stage_emulator.h"
+
+namespace hdrstereo::daemon {
+
+// Owns the rig and, in simulation, the world it lives in. Members are
+// destroyed in reverse order: the rig's drivers before the emulator and the
+// world they use.
+struct Hardware {
+  std::unique_ptr<sim::SimWorld> world;
+  std::unique_ptr<sim::StageEmulator> emulator;
+  std::unique_ptr<hardware::Rig> rig;
+};
+
+// Real devices that cannot be opened are left out of the rig (with the
+// reason) so that the daemon still serves and reports them. In simulation a
+// bad scene is an error: there is nothing to serve without it.
+absl::StatusOr<std::unique_ptr<Hardware>> SetUpHardware(const Config& config);
+
+}  // namespace hdrstereo::daemon
+
+#endif  // HDRSTEREO_DAEMON_HARDWARE_SETUP_H_
