@@ -11,6 +11,7 @@
 #include <optional>
 
 #include "daemon/store/database.h"
+#include "tests/support/daemon_fixture.h"
 #include "tests/support/subprocess.h"
 #include "tests/support/temp_dir.h"
 
@@ -19,66 +20,13 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::hdrstereo::testing::CommandResult;
-using ::hdrstereo::testing::Process;
 using ::hdrstereo::testing::ReadFileOrDie;
 using ::hdrstereo::testing::RunCommand;
-using ::hdrstereo::testing::TempDir;
-using ::hdrstereo::testing::WaitForFile;
 using ::testing::HasSubstr;
 using ::testing::Not;
 
-class DaemonCliTest : public ::testing::Test {
+class DaemonCliTest : public ::hdrstereo::testing::DaemonFixture {
  protected:
-  fs::path data_root() const { return dir_ / "data"; }
-
-  void StartDaemon() {
-    fs::remove(ready_file());
-    absl::StatusOr<Process> process =
-        Process::Start({HDRSTEREOD, "--listen", "127.0.0.1:0", "--data-root",
-                        data_root().string(), "--hardware", "sim",
-                        "--ready-file", ready_file().string()},
-                       dir_ / "daemon.log");
-    ASSERT_TRUE(process.ok()) << process.status();
-    daemon_.emplace(*std::move(process));
-    ASSERT_TRUE(WaitForFile(ready_file(), absl::Seconds(30)))
-        << ReadFileOrDie(dir_ / "daemon.log");
-    address_ = ReadFileOrDie(ready_file());
-    address_.pop_back();  // newline
-  }
-
-  // Sends SIGTERM and returns the daemon's exit code.
-  int StopDaemon() {
-    daemon_->Signal(SIGTERM);
-    std::optional<int> code = daemon_->Wait(absl::Seconds(30));
-    EXPECT_TRUE(code.has_value()) << "hdrstereod ignored SIGTERM";
-    daemon_.reset();
-    return code.value_or(-1);
-  }
-
-  CommandResult Cli(std::vector<std::string> args) {
-    std::vector<std::string> argv = {HDRSTEREO_CLI, "--server", address_};
-    argv.insert(argv.end(), args.begin(), args.end());
-    absl::StatusOr<CommandResult> result = RunCommand(argv);
-    EXPECT_TRUE(result.ok()) << result.status();
-    return result.value_or(CommandResult{});
-  }
-
-  // One value from the daemon's database, read by a separate connection as
-  // a person with the sqlite3 shell would.
-  std::string Sql(const std::string& query) {
-    absl::StatusOr<std::unique_ptr<store::Database>> db = store::Database::Open(
-        data_root() / "hdrstereo.db", store::Database::Mode::kReadOnly);
-    EXPECT_TRUE(db.ok()) << db.status();
-    if (!db.ok()) return "";
-    std::unique_lock<std::mutex> lock = (*db)->Lock();
-    absl::StatusOr<store::Statement> stmt = (*db)->Prepare(query);
-    EXPECT_TRUE(stmt.ok()) << stmt.status();
-    if (!stmt.ok()) return "";
-    absl::StatusOr<bool> row = stmt->Step();
-    EXPECT_TRUE(row.ok()) << row.status();
-    return row.ok() && *row ? stmt->ColumnText(0) : "<no row>";
-  }
-
   // Runs hdrstereod expecting it to refuse to start.
   CommandResult RunDaemonExpectingFailure(const fs::path& root) {
     absl::StatusOr<CommandResult> result = RunCommand(
@@ -88,12 +36,6 @@ class DaemonCliTest : public ::testing::Test {
     EXPECT_TRUE(result.ok()) << result.status();
     return result.value_or(CommandResult{});
   }
-
-  fs::path ready_file() const { return dir_ / "ready"; }
-
-  TempDir dir_;
-  std::optional<Process> daemon_;
-  std::string address_;
 };
 
 TEST_F(DaemonCliTest, StatusReportsServingAndVersions) {

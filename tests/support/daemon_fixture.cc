@@ -1,0 +1,125 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "tests/support/daemon_fixture.h"
+
+#include <signal.h>
+
+#include "absl/strings/ascii.h"
+#include "absl/time/clock.h"
+#include "daemon/store/database.h"
+#include "hardware/sim/bundled_scenes.h"
+#include "processing/io/atomic_file.h"
+
+namespace hdrstereo::testing {
+
+namespace fs = std::filesystem;
+
+void DaemonFixture::StartDaemon(const std::vector<std::string>& extra) {
+  const fs::path ready = dir_ / "ready";
+  fs::remove(ready);
+  std::vector<std::string> argv = {
+      HDRSTEREOD,           "--listen",     "127.0.0.1:0", "--data-root",
+      data_root().string(), "--ready-file", ready.string()};
+  bool has_hardware = false;
+  for (const std::string& arg : extra) has_hardware |= arg == "--hardware";
+  if (!has_hardware) {
+    argv.push_back("--hardware");
+    argv.push_back("sim");
+  }
+  argv.insert(argv.end(), extra.begin(), extra.end());
+  absl::StatusOr<Process> process = Process::Start(argv, dir_ / "daemon.log");
+  ASSERT_TRUE(process.ok()) << process.status();
+  daemon_.emplace(*std::move(process));
+  ASSERT_TRUE(WaitForFile(ready, absl::Seconds(60))) << daemon_log();
+  address_ = std::string(absl::StripAsciiWhitespace(ReadFileOrDie(ready)));
+}
+
+int DaemonFixture::StopDaemon() {
+  if (!daemon_.has_value()) return -1;
+  daemon_->Signal(SIGTERM);
+  std::optional<int> code = daemon_->Wait(absl::Seconds(60));
+  EXPECT_TRUE(code.has_value()) << "hdrstereod ignored SIGTERM";
+  daemon_.reset();
+  return code.value_or(-1);
+}
+
+void DaemonFixture::KillDaemon() {
+  if (!daemon_.has_value()) return;
+  daemon_->Signal(SIGKILL);
+  daemon_->Wait(absl::Seconds(30));
+  daemon_.reset();
+}
+
+CommandResult DaemonFixture::Cli(std::vector<std::string> args,
+                                 absl::Duration timeout) {
+  std::vector<std::string> argv = {HDRSTEREO_CLI, "--server", address_};
+  argv.insert(argv.end(), args.begin(), args.end());
+  absl::StatusOr<CommandResult> result = RunCommand(argv, timeout);
+  EXPECT_TRUE(result.ok()) << result.status();
+  return result.value_or(CommandResult{});
+}
+
+nlohmann::json DaemonFixture::CliJson(std::vector<std::string> args) {
+  args.insert(args.begin(), "--json");
+  CommandResult result = Cli(args);
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  nlohmann::json parsed = nlohmann::json::parse(result.out, nullptr, false);
+  EXPECT_FALSE(parsed.is_discarded()) << result.out;
+  return parsed;
+}
+
+std::string DaemonFixture::Sql(const std::string& query) {
+  absl::StatusOr<std::unique_ptr<store::Database>> db = store::Database::Open(
+      data_root() / "hdrstereo.db", store::Database::Mode::kReadOnly);
+  EXPECT_TRUE(db.ok()) << db.status();
+  if (!db.ok()) return "";
+  std::unique_lock<std::mutex> lock = (*db)->Lock();
+  absl::StatusOr<store::Statement> stmt = (*db)->Prepare(query);
+  EXPECT_TRUE(stmt.ok()) << stmt.status();
+  if (!stmt.ok()) return "";
+  absl::StatusOr<bool> row = stmt->Step();
+  EXPECT_TRUE(row.ok()) << row.status();
+  return row.ok() && *row ? stmt->ColumnText(0) : "<no row>";
+}
+
+fs::path DaemonFixture::WriteScene(const std::string& bundled,
+                                   const nlohmann::json& patch) {
+  for (const sim::BundledScene& scene : sim::BundledScenes()) {
+    if (scene.name != bundled) continue;
+    nlohmann::json json = nlohmann::json::parse(
+        std::string(scene.json.data(), scene.json.size()));
+    json.merge_patch(patch);
+    const fs::path path = dir_ / (bundled + "-test.json");
+    EXPECT_TRUE(io::WriteFileAtomically(path, json.dump(2)).ok());
+    return path;
+  }
+  ADD_FAILURE() << "no bundled scene " << bundled;
+  return {};
+}
+
+bool DaemonFixture::WaitForJobState(int64_t job_id, const std::string& state,
+                                    absl::Duration timeout) {
+  const absl::Time deadline = absl::Now() + timeout;
+  while (absl::Now() < deadline) {
+    absl::StatusOr<CommandResult> result =
+        RunCommand({HDRSTEREO_CLI, "--server", address_, "--json", "jobs",
+                    "show", std::to_string(job_id)});
+    if (result.ok() && result->exit_code == 0) {
+      nlohmann::json job = nlohmann::json::parse(result->out, nullptr, false);
+      if (!job.is_discarded() &&
+          job.value("state", "") ==
+              "JOB_STATE_" + absl::AsciiStrToUpper(state)) {
+        return true;
+      }
+    }
+    absl::SleepFor(absl::Milliseconds(50));
+  }
+  return false;
+}
+
+std::string DaemonFixture::daemon_log() const {
+  std::error_code ec;
+  if (!fs::exists(dir_ / "daemon.log", ec)) return "";
+  return ReadFileOrDie(dir_ / "daemon.log");
+}
+
+}  // namespace hdrstereo::testing

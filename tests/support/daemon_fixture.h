@@ -1,0 +1,63 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// The real hdrstereod binary on a free loopback port with a temporary data
+// root, the real hdrstereo CLI, and direct reads of the SQLite file: what
+// integration tests need.
+#ifndef HDRSTEREO_TESTS_SUPPORT_DAEMON_FIXTURE_H_
+#define HDRSTEREO_TESTS_SUPPORT_DAEMON_FIXTURE_H_
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "nlohmann/json.hpp"
+#include "tests/support/subprocess.h"
+#include "tests/support/temp_dir.h"
+
+namespace hdrstereo::testing {
+
+class DaemonFixture : public ::testing::Test {
+ protected:
+  std::filesystem::path data_root() const { return dir_ / "data"; }
+
+  // Starts hdrstereod (--hardware sim unless `extra` says otherwise) and
+  // waits until it serves.
+  void StartDaemon(const std::vector<std::string>& extra = {});
+  // SIGTERM; returns the exit code.
+  int StopDaemon();
+  // SIGKILL: a crash.
+  void KillDaemon();
+
+  // Runs the CLI against the daemon.
+  CommandResult Cli(std::vector<std::string> args,
+                    absl::Duration timeout = absl::Seconds(120));
+  // Parses the CLI's --json output.
+  nlohmann::json CliJson(std::vector<std::string> args);
+
+  // One value (first column of the first row) read by a separate read-only
+  // connection, as a person with the sqlite3 shell would.
+  std::string Sql(const std::string& query);
+
+  // Writes a bundled scene, modified by `patch` (a JSON merge patch, RFC
+  // 7396), to the test folder and returns its path for --sim-scene.
+  std::filesystem::path WriteScene(const std::string& bundled,
+                                   const nlohmann::json& patch);
+
+  // Polls `hdrstereo jobs show` until the job is in `state` (e.g.
+  // "succeeded"); false after `timeout`.
+  bool WaitForJobState(int64_t job_id, const std::string& state,
+                       absl::Duration timeout = absl::Seconds(120));
+
+  std::string daemon_log() const;
+
+  TempDir dir_;
+  std::optional<Process> daemon_;
+  std::string address_;
+};
+
+}  // namespace hdrstereo::testing
+
+#endif  // HDRSTEREO_TESTS_SUPPORT_DAEMON_FIXTURE_H_
