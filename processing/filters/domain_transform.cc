@@ -2,9 +2,8 @@
 #include "processing/filters/domain_transform.h"
 
 #include <cmath>
-#include <vector>
-
 #include <opencv2/core/hal/hal.hpp>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -13,8 +12,8 @@
 namespace hdrstereo::filters {
 namespace {
 
-// dx(y, x) = 1 + k * sum_c |g(y, x) - g(y, x - 1)| for x >= 1 (dx(y, 0) unused),
-// dy(y, x) = 1 + k * sum_c |g(y, x) - g(y - 1, x)| for y >= 1.
+// dx(y, x) = 1 + k * sum_c |g(y, x) - g(y, x - 1)| for x >= 1 (dx(y, 0)
+// unused), dy(y, x) = 1 + k * sum_c |g(y, x) - g(y - 1, x)| for y >= 1.
 void DomainDerivatives(const std::vector<cv::Mat>& guide, float k, cv::Mat& dx,
                        cv::Mat& dy) {
   const cv::Size sz = guide[0].size();
@@ -28,7 +27,8 @@ void DomainDerivatives(const std::vector<cv::Mat>& guide, float k, cv::Mat& dx,
       const float* up = g.ptr<float>(y > 0 ? y - 1 : 0);
       float* ox = dx.ptr<float>(y);
       float* oy = dy.ptr<float>(y);
-      for (int x = 1; x < sz.width; ++x) ox[x] += k * std::fabs(p[x] - p[x - 1]);
+      for (int x = 1; x < sz.width; ++x)
+        ox[x] += k * std::fabs(p[x] - p[x - 1]);
       if (y > 0) {
         for (int x = 0; x < sz.width; ++x) oy[x] += k * std::fabs(p[x] - up[x]);
       }
@@ -105,7 +105,8 @@ absl::StatusOr<cv::Mat> DomainTransformFilter(
       !std::isfinite(options.sigma_s) || !std::isfinite(options.sigma_r) ||
       options.iterations < 1) {
     return absl::InvalidArgumentError(absl::StrCat(
-        "domain transform needs sigma_s > 0, sigma_r > 0, iterations >= 1; got ",
+        "domain transform needs sigma_s > 0, sigma_r > 0, iterations >= 1; "
+        "got ",
         options.sigma_s, ", ", options.sigma_r, ", ", options.iterations));
   }
   try {

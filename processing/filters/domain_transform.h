@@ -22,8 +22,8 @@
 namespace hdrstereo::filters {
 
 struct DomainTransformOptions {
-  double sigma_s = 60.0;   // spatial standard deviation, pixels
-  double sigma_r = 0.33;   // range standard deviation, guide units
+  double sigma_s = 60.0;  // spatial standard deviation, pixels
+  double sigma_r = 0.33;  // range standard deviation, guide units
   int iterations = 3;
 };
 

@@ -3,10 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <vector>
-
 #include <opencv2/core/hal/hal.hpp>
 #include <opencv2/imgproc.hpp>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -36,8 +35,8 @@ std::vector<Tap> Taps(int full, int low, int ds) {
 
 absl::StatusOr<cv::Mat> FastBilateralFilter(
     const cv::Mat& src, const FastBilateralOptions& options) {
-  if (absl::Status s = CheckImage(src, "bilateral input", /*float_only=*/false,
-                                  {1});
+  if (absl::Status s =
+          CheckImage(src, "bilateral input", /*float_only=*/false, {1});
       !s.ok()) {
     return s;
   }
@@ -57,8 +56,8 @@ absl::StatusOr<cv::Mat> FastBilateralFilter(
         options.downsample > 0
             ? options.downsample
             : std::max(1, static_cast<int>(std::floor(options.sigma_s / 2.0)));
-    const int segments =
-        std::max(2, static_cast<int>(std::ceil((hi - lo) / options.sigma_r)) + 1);
+    const int segments = std::max(
+        2, static_cast<int>(std::ceil((hi - lo) / options.sigma_r)) + 1);
     const double step = (hi - lo) / (segments - 1);
     const cv::Size low_size((in.cols + ds - 1) / ds, (in.rows + ds - 1) / ds);
     cv::Mat low;

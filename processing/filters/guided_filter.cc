@@ -3,10 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 #include <utility>
 #include <vector>
-
-#include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
 #include "processing/filters/mat_checks.h"
@@ -30,7 +29,8 @@ cv::Mat Mul(const cv::Mat& a, const cv::Mat& b) {
 
 cv::Mat GuidedFilter::Box(const cv::Mat& m) const {
   cv::Mat out;
-  cv::boxFilter(m, out, CV_32F, cv::Size(2 * work_radius_ + 1, 2 * work_radius_ + 1),
+  cv::boxFilter(m, out, CV_32F,
+                cv::Size(2 * work_radius_ + 1, 2 * work_radius_ + 1),
                 cv::Point(-1, -1), /*normalize=*/true, cv::BORDER_REFLECT);
   return out;
 }
@@ -43,8 +43,8 @@ absl::StatusOr<GuidedFilter> GuidedFilter::Create(
     return s;
   }
   if (options.radius < 1) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("guided filter radius must be >= 1, got ", options.radius));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "guided filter radius must be >= 1, got ", options.radius));
   }
   if (!(options.eps > 0.0) || !std::isfinite(options.eps)) {
     return absl::InvalidArgumentError("guided filter eps must be > 0");
@@ -79,8 +79,8 @@ void GuidedFilter::Init(const cv::Mat& guide_float) {
     for (size_t c = 0; c < full_guide_.size(); ++c) {
       cv::resize(full_guide_[c], guide_[c], low, 0, 0, cv::INTER_AREA);
     }
-    work_radius_ = std::max(
-        1, static_cast<int>(std::lround(static_cast<double>(options_.radius) / s)));
+    work_radius_ = std::max(1, static_cast<int>(std::lround(
+                                   static_cast<double>(options_.radius) / s)));
   }
   mean_guide_.clear();
   for (const cv::Mat& g : guide_) mean_guide_.push_back(Box(g));

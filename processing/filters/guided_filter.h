@@ -29,9 +29,9 @@
 namespace hdrstereo::filters {
 
 struct GuidedFilterOptions {
-  int radius = 9;      // window is (2 radius + 1)^2 pixels
-  double eps = 1e-4;   // ridge term, in squared guide units
-  int subsample = 1;   // 1 = exact filter; s > 1 = fast guided filter
+  int radius = 9;     // window is (2 radius + 1)^2 pixels
+  double eps = 1e-4;  // ridge term, in squared guide units
+  int subsample = 1;  // 1 = exact filter; s > 1 = fast guided filter
 };
 
 class GuidedFilter {

@@ -3,9 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <vector>
-
 #include <opencv2/core/hal/hal.hpp>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -65,7 +64,9 @@ class WlsSystem {
 
   size_t size() const { return diag_.size(); }
 
-  // out = A v; returns v . out.
+  // out = A v; returns v . out. Written as v + sum of w (v - v_neighbour)
+  // rather than diag * v - sum of w v_neighbour: with weights up to 1 / small
+  // = 1e4 the latter cancels catastrophically in float.
   double Apply(const std::vector<float>& v, std::vector<float>& out) const {
     double dot = 0.0;
     for (int y = 0; y < h_; ++y) {
@@ -73,21 +74,21 @@ class WlsSystem {
       const float* pv = &v[row];
       const float* ax = &ax_[row];
       const float* ay = &ay_[row];
-      const float* d = &diag_[row];
       float* o = &out[row];
-      for (int x = 0; x < w_; ++x) o[x] = d[x] * pv[x];
+      for (int x = 0; x < w_; ++x) o[x] = pv[x];
       for (int x = 0; x + 1 < w_; ++x) {
-        o[x] -= ax[x] * pv[x + 1];
-        o[x + 1] -= ax[x] * pv[x];
+        const float f = ax[x] * (pv[x] - pv[x + 1]);
+        o[x] += f;
+        o[x + 1] -= f;
       }
       if (y + 1 < h_) {
         const float* pv_s = pv + w_;
-        for (int x = 0; x < w_; ++x) o[x] -= ay[x] * pv_s[x];
+        for (int x = 0; x < w_; ++x) o[x] += ay[x] * (pv[x] - pv_s[x]);
       }
       if (y > 0) {
         const float* pv_n = pv - w_;
         const float* ay_n = ay - w_;
-        for (int x = 0; x < w_; ++x) o[x] -= ay_n[x] * pv_n[x];
+        for (int x = 0; x < w_; ++x) o[x] += ay_n[x] * (pv[x] - pv_n[x]);
       }
       float s = 0.0f;
       for (int x = 0; x < w_; ++x) s += o[x] * pv[x];
@@ -96,7 +97,7 @@ class WlsSystem {
     return dot;
   }
 
-  // z = M^-1 r with M the MIC(0) factorisation.
+  // z = M^-1 r with M the incomplete Cholesky factorisation.
   void Precondition(const std::vector<float>& r, std::vector<float>& z) const {
     std::vector<float>& q = scratch_;
     q.resize(size());

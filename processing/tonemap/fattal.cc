@@ -4,10 +4,10 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
-#include <vector>
-
 #include <opencv2/core/hal/hal.hpp>
 #include <opencv2/imgproc.hpp>
+#include <utility>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -27,7 +27,8 @@ cv::Mat GradientMagnitude(const cv::Mat& h, int level) {
     const float* dn = h.ptr<float>(std::min(y + 1, rows - 1));
     float* o = g.ptr<float>(y);
     for (int x = 0; x < w; ++x) {
-      const float gx = (p[std::min(x + 1, w - 1)] - p[std::max(x - 1, 0)]) * scale;
+      const float gx =
+          (p[std::min(x + 1, w - 1)] - p[std::max(x - 1, 0)]) * scale;
       const float gy = (dn[x] - up[x]) * scale;
       o[x] = std::sqrt(gx * gx + gy * gy);
     }
@@ -54,6 +55,56 @@ cv::Mat Attenuation(const cv::Mat& grad, double alpha, double beta) {
   return phi;
 }
 
+// Divides DCT coefficients by the Laplacian's eigenvalues
+// 2 cos(pi u / w) - 2 + 2 cos(pi v / h) - 2 (the constant mode is set to 0).
+void DivideByEigenvalues(cv::Mat& spec, int w, int h, double pi) {
+  std::vector<double> cx(w);
+  for (int u = 0; u < w; ++u) cx[u] = 2.0 * std::cos(pi * u / w) - 2.0;
+  for (int v = 0; v < h; ++v) {
+    double* s = spec.ptr<double>(v);
+    const double cy = 2.0 * std::cos(pi * v / h) - 2.0;
+    for (int u = 0; u < w; ++u) {
+      s[u] = (u == 0 && v == 0) ? 0.0 : s[u] / (cx[u] + cy);
+    }
+  }
+}
+
+// Median of a - b over the pixels with lo <= a <= hi (every second pixel of
+// every second row); over all pixels if none qualifies.
+float MedianDifference(const cv::Mat& a, const cv::Mat& b, float lo, float hi) {
+  std::vector<float> d, all;
+  for (int y = 0; y < a.rows; y += 2) {
+    const float* pa = a.ptr<float>(y);
+    const float* pb = b.ptr<float>(y);
+    for (int x = 0; x < a.cols; x += 2) {
+      all.push_back(pa[x] - pb[x]);
+      if (pa[x] >= lo && pa[x] <= hi) d.push_back(pa[x] - pb[x]);
+    }
+  }
+  std::vector<float>& v = d.empty() ? all : d;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+// Pooled quantiles q_lo, q_hi of all views (subsampled 2x2).
+std::pair<float, float> PooledQuantiles(const std::vector<cv::Mat>& mats,
+                                        double q_lo, double q_hi) {
+  std::vector<float> pool;
+  for (const cv::Mat& m : mats) {
+    for (int y = 0; y < m.rows; y += 2) {
+      const float* p = m.ptr<float>(y);
+      for (int x = 0; x < m.cols; x += 2) pool.push_back(p[x]);
+    }
+  }
+  const size_t n = pool.size();
+  const size_t a = static_cast<size_t>(q_lo * (n - 1));
+  const size_t b = static_cast<size_t>(q_hi * (n - 1));
+  std::nth_element(pool.begin(), pool.begin() + a, pool.end());
+  const float lo = pool[a];
+  std::nth_element(pool.begin(), pool.begin() + b, pool.end());
+  return {lo, pool[b]};
+}
+
 }  // namespace
 
 absl::StatusOr<cv::Mat> SolvePoissonNeumann(const cv::Mat& f) {
@@ -64,31 +115,46 @@ absl::StatusOr<cv::Mat> SolvePoissonNeumann(const cv::Mat& f) {
   }
   try {
     const int w = f.cols, h = f.rows;
-    // cv::dct needs even sizes: pad by one replicated row / column with zero
-    // divergence, which leaves the Neumann solution on the original domain
-    // unchanged (the padded pixel just copies its neighbour).
-    const int pw = w + (w % 2), ph = h + (h % 2);
-    cv::Mat rhs = cv::Mat::zeros(ph, pw, CV_64FC1);
-    f.convertTo(rhs(cv::Rect(0, 0, w, h)), CV_64F);
-    cv::Mat spec;
-    cv::dct(rhs, spec);
-    std::vector<double> cx(pw), cy(ph);
-    for (int u = 0; u < pw; ++u) {
-      cx[u] = 2.0 * std::cos(std::numbers::pi * u / pw) - 2.0;
-    }
-    for (int v = 0; v < ph; ++v) {
-      cy[v] = 2.0 * std::cos(std::numbers::pi * v / ph) - 2.0;
-    }
-    for (int v = 0; v < ph; ++v) {
-      double* s = spec.ptr<double>(v);
-      for (int u = 0; u < pw; ++u) {
-        const double lambda = cx[u] + cy[v];
-        s[u] = (u == 0 && v == 0) ? 0.0 : s[u] / lambda;
-      }
-    }
+    cv::Mat rhs;
+    f.convertTo(rhs, CV_64F);
     cv::Mat sol;
-    cv::dct(spec, sol, cv::DCT_INVERSE);
-    cv::Mat out = sol(cv::Rect(0, 0, w, h)).clone();
+    if (w % 2 == 0 && h % 2 == 0) {
+      // DCT-II diagonalises the Neumann 5-point Laplacian.
+      cv::Mat spec;
+      cv::dct(rhs, spec);
+      DivideByEigenvalues(spec, w, h, std::numbers::pi);
+      cv::dct(spec, sol, cv::DCT_INVERSE);
+    } else {
+      // cv::dct needs even sizes. The even (mirror) extension to 2w x 2h
+      // turns the Neumann problem into a periodic one of the same solution,
+      // diagonalised by the DFT.
+      cv::Mat ext;
+      cv::Mat flipped_x, flipped_y, flipped_xy;
+      cv::flip(rhs, flipped_x, 1);
+      cv::flip(rhs, flipped_y, 0);
+      cv::flip(rhs, flipped_xy, -1);
+      cv::Mat top, bottom;
+      cv::hconcat(rhs, flipped_x, top);
+      cv::hconcat(flipped_y, flipped_xy, bottom);
+      cv::vconcat(top, bottom, ext);
+      cv::Mat spec;
+      cv::dft(ext, spec, cv::DFT_COMPLEX_OUTPUT);
+      const int ew = 2 * w, eh = 2 * h;
+      for (int v = 0; v < eh; ++v) {
+        cv::Vec2d* s = spec.ptr<cv::Vec2d>(v);
+        const double cy = 2.0 * std::cos(2.0 * std::numbers::pi * v / eh) - 2.0;
+        for (int u = 0; u < ew; ++u) {
+          const double lambda =
+              cy + 2.0 * std::cos(2.0 * std::numbers::pi * u / ew) - 2.0;
+          s[u] = (u == 0 && v == 0) ? cv::Vec2d(0, 0) : s[u] / lambda;
+        }
+      }
+      cv::Mat full;
+      cv::dft(spec, full,
+              cv::DFT_INVERSE | cv::DFT_SCALE | cv::DFT_REAL_OUTPUT);
+      sol = full(cv::Rect(0, 0, w, h));
+    }
+    cv::Mat out = sol.clone();
     out -= cv::mean(out)[0];
     return out;
   } catch (const cv::Exception& e) {
@@ -140,6 +206,7 @@ absl::StatusOr<std::vector<cv::Mat>> FattalCompress(
         count[k] += grads[v][k].total();
       }
     }
+    const auto [band_lo, band_hi] = PooledQuantiles(log_lum, 0.4, 0.6);
     std::vector<cv::Mat> out(views);
     for (size_t v = 0; v < views; ++v) {
       // Attenuation accumulated from the coarsest level down.
@@ -193,9 +260,15 @@ absl::StatusOr<std::vector<cv::Mat>> FattalCompress(
       }
       absl::StatusOr<cv::Mat> solved = SolvePoissonNeumann(div);
       if (!solved.ok()) return solved.status();
+      // The Poisson solution is defined up to a constant. Anchor it on the
+      // mid-tones: the median of (H - I) over the pixels whose H lies between
+      // the pooled 40th and 60th percentiles is made zero. In a stereo pair
+      // those are mostly the same scene points in both views, so both views
+      // get the same constant (a mean or a plain median is pulled by content
+      // that enters one view only, e.g. a lamp at the border).
       cv::Mat result;
-      solved->convertTo(result, CV_32F, 1.0, cv::mean(h)[0]);
-      out[v] = result;
+      solved->convertTo(result, CV_32F);
+      out[v] = result + MedianDifference(h, result, band_lo, band_hi);
     }
     return out;
   } catch (const cv::Exception& e) {

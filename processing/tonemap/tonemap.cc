@@ -5,11 +5,10 @@
 #include <cfloat>
 #include <cmath>
 #include <numbers>
-#include <utility>
-#include <vector>
-
 #include <opencv2/core/hal/hal.hpp>
 #include <opencv2/imgproc.hpp>
+#include <utility>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -38,7 +37,8 @@ constexpr NamedOperator kOperators[] = {
 };
 
 absl::Status ValidateRadiance(const cv::Mat& m, absl::string_view what) {
-  if (m.empty()) return absl::InvalidArgumentError(absl::StrCat(what, " is empty"));
+  if (m.empty())
+    return absl::InvalidArgumentError(absl::StrCat(what, " is empty"));
   if (m.type() != CV_32FC3 || m.dims != 2) {
     return absl::InvalidArgumentError(absl::StrCat(
         what, " must be a 2-D CV_32FC3 linear radiance image, got type ",
@@ -53,9 +53,8 @@ absl::Status ValidateRadiance(const cv::Mat& m, absl::string_view what) {
             what, " contains NaN or Inf at (", bad.x, ", ", bad.y, ")"));
       }
     }
-    return absl::InvalidArgumentError(
-        absl::StrCat(what, " contains negative radiance at (", bad.x, ", ",
-                     bad.y, ")"));
+    return absl::InvalidArgumentError(absl::StrCat(
+        what, " contains negative radiance at (", bad.x, ", ", bad.y, ")"));
   }
   return absl::OkStatus();
 }
@@ -63,8 +62,7 @@ absl::Status ValidateRadiance(const cv::Mat& m, absl::string_view what) {
 absl::Status ValidateParams(const Params& p) {
   if (!(p.saturation >= 0) || !(p.gamma > 0) || !std::isfinite(p.saturation) ||
       !std::isfinite(p.gamma)) {
-    return absl::InvalidArgumentError(
-        "saturation must be >= 0 and gamma > 0");
+    return absl::InvalidArgumentError("saturation must be >= 0 and gamma > 0");
   }
   if (!(p.clip_low >= 0) || !(p.clip_high >= 0) ||
       !(p.clip_low + p.clip_high < 0.5)) {
@@ -127,8 +125,8 @@ cv::Mat EncodeView(const cv::Mat& bgr, const cv::Mat& lum, float lum_floor,
       cv::hal::log32f(ld.data(), ld.data(), w);
       for (int x = 0; x < w; ++x) {
         for (int c = 0; c < 3; ++c) {
-          ratio[3 * x + c] = std::min(
-              (s * ratio[3 * x + c] + ld[x]) * inv_gamma, 1.0f);
+          ratio[3 * x + c] =
+              std::min((s * ratio[3 * x + c] + ld[x]) * inv_gamma, 1.0f);
         }
       }
       cv::hal::exp32f(ratio.data(), ratio.data(), 3 * w);
@@ -184,23 +182,21 @@ double MeanLogLuminance(const PairLuminance& pl) {
 }
 
 std::vector<cv::Mat> ToneMapReinhard(const std::vector<cv::Mat>& views,
-                                     const PairLuminance& pl,
-                                     const Params& p) {
+                                     const PairLuminance& pl, const Params& p) {
   const double log_avg = std::exp(MeanLogLuminance(pl));
   const float scale = static_cast<float>(p.reinhard.key / log_avg);
-  const double white =
-      p.reinhard.white > 0 ? p.reinhard.white : pl.max * scale;
+  const double white = p.reinhard.white > 0 ? p.reinhard.white : pl.max * scale;
   const float inv_white2 = static_cast<float>(1.0 / (white * white));
   std::vector<cv::Mat> out;
   for (size_t v = 0; v < views.size(); ++v) {
-    out.push_back(EncodeView(
-        views[v], pl.lum[v], pl.floor, p,
-        [&](int, const float* l, float* ld, int n) {
-          for (int x = 0; x < n; ++x) {
-            const float ls = l[x] * scale;
-            ld[x] = ls * (1.0f + ls * inv_white2) / (1.0f + ls);
-          }
-        }));
+    out.push_back(EncodeView(views[v], pl.lum[v], pl.floor, p,
+                             [&](int, const float* l, float* ld, int n) {
+                               for (int x = 0; x < n; ++x) {
+                                 const float ls = l[x] * scale;
+                                 ld[x] = ls * (1.0f + ls * inv_white2) /
+                                         (1.0f + ls);
+                               }
+                             }));
   }
   return out;
 }
@@ -212,29 +208,30 @@ std::vector<cv::Mat> ToneMapDrago(const std::vector<cv::Mat>& views,
   const double lw_max = pl.max / lwa;
   const float inv_lw_max = static_cast<float>(1.0 / lw_max);
   const float k = static_cast<float>(std::log(p.drago.bias) / std::log(0.5));
-  const float front = static_cast<float>((p.drago.ld_max / 100.0) /
-                                         std::log10(lw_max + 1.0));
+  const float front =
+      static_cast<float>((p.drago.ld_max / 100.0) / std::log10(lw_max + 1.0));
   std::vector<cv::Mat> out;
   for (size_t v = 0; v < views.size(); ++v) {
-    out.push_back(EncodeView(
-        views[v], pl.lum[v], pl.floor, p,
-        [&](int, const float* l, float* ld, int n) {
-          thread_local std::vector<float> num, den;
-          num.resize(n);
-          den.resize(n);
-          for (int x = 0; x < n; ++x) {
-            const float lw = l[x] * inv_lwa;
-            num[x] = lw + 1.0f;
-            den[x] = lw * inv_lw_max;
-          }
-          cv::hal::log32f(den.data(), den.data(), n);
-          for (int x = 0; x < n; ++x) den[x] *= k;
-          cv::hal::exp32f(den.data(), den.data(), n);
-          for (int x = 0; x < n; ++x) den[x] = 2.0f + 8.0f * den[x];
-          cv::hal::log32f(num.data(), num.data(), n);
-          cv::hal::log32f(den.data(), den.data(), n);
-          for (int x = 0; x < n; ++x) ld[x] = front * num[x] / den[x];
-        }));
+    out.push_back(EncodeView(views[v], pl.lum[v], pl.floor, p,
+                             [&](int, const float* l, float* ld, int n) {
+                               thread_local std::vector<float> num, den;
+                               num.resize(n);
+                               den.resize(n);
+                               for (int x = 0; x < n; ++x) {
+                                 const float lw = l[x] * inv_lwa;
+                                 num[x] = lw + 1.0f;
+                                 den[x] = lw * inv_lw_max;
+                               }
+                               cv::hal::log32f(den.data(), den.data(), n);
+                               for (int x = 0; x < n; ++x) den[x] *= k;
+                               cv::hal::exp32f(den.data(), den.data(), n);
+                               for (int x = 0; x < n; ++x)
+                                 den[x] = 2.0f + 8.0f * den[x];
+                               cv::hal::log32f(num.data(), num.data(), n);
+                               cv::hal::log32f(den.data(), den.data(), n);
+                               for (int x = 0; x < n; ++x)
+                                 ld[x] = front * num[x] / den[x];
+                             }));
   }
   return out;
 }
@@ -252,7 +249,8 @@ std::pair<float, float> PooledPercentiles(const std::vector<cv::Mat>& mats,
   }
   const size_t n = pool.size();
   const size_t i_lo = std::min(n - 1, static_cast<size_t>(lo * (n - 1)));
-  const size_t i_hi = std::min(n - 1, static_cast<size_t>((1.0 - hi) * (n - 1)));
+  const size_t i_hi =
+      std::min(n - 1, static_cast<size_t>((1.0 - hi) * (n - 1)));
   std::nth_element(pool.begin(), pool.begin() + i_hi, pool.end());
   const float v_hi = pool[i_hi];
   std::nth_element(pool.begin(), pool.begin() + i_lo, pool.begin() + i_hi + 1);
@@ -266,7 +264,9 @@ std::vector<cv::Mat> StretchAndEncode(const std::vector<cv::Mat>& views,
                                       const std::vector<cv::Mat>& ld,
                                       const Params& p) {
   auto [lo, hi] = PooledPercentiles(ld, p.clip_low, p.clip_high);
-  if (!(hi > lo)) {
+  // A (nearly) uniform image has no range to stretch: map its level to white
+  // instead of amplifying rounding noise.
+  if (!(hi - lo > 1e-3f * hi)) {
     lo = 0.0f;
     hi = std::max(hi, 1e-30f);
   }
@@ -299,54 +299,38 @@ cv::Mat Log10Luminance(const cv::Mat& lum, float floor) {
 }
 
 absl::StatusOr<cv::Mat> BaseLayer(Operator op, const cv::Mat& log10_lum,
-                                  double lo, double hi, const Params& p) {
+                                  const Params& p) {
   if (op == Operator::kDurand) {
     filters::FastBilateralOptions o;
-    o.sigma_s = p.durand.sigma_s_fraction *
-                std::max(log10_lum.cols, log10_lum.rows);
+    o.sigma_s =
+        p.durand.sigma_s_fraction * std::max(log10_lum.cols, log10_lum.rows);
     o.sigma_r = p.durand.sigma_r;
     return filters::FastBilateralFilter(log10_lum, o);
   }
-  // The other filters see log10 luminance normalised to [0, 1].
-  const double range = std::max(hi - lo, 1e-6);
-  cv::Mat n;
-  log10_lum.convertTo(n, CV_32F, 1.0 / range, -lo / range);
-  absl::StatusOr<cv::Mat> filtered;
+  // The other filters work on the same log10 luminance (see tonemap.h).
   switch (op) {
     case Operator::kGuided:
-      filtered = filters::ApplyGuidedFilter(n, n, p.guided);
-      break;
+      return filters::ApplyGuidedFilter(log10_lum, log10_lum, p.guided);
     case Operator::kDomainTransform:
-      filtered = filters::DomainTransformFilter(n, cv::Mat(),
-                                                p.domain_transform);
-      break;
+      return filters::DomainTransformFilter(log10_lum, cv::Mat(),
+                                            p.domain_transform);
     case Operator::kWls:
-      filtered = filters::WlsFilter(n, cv::Mat(), p.wls);
-      break;
+      return filters::WlsFilter(log10_lum, cv::Mat(), p.wls);
     default:
       return absl::InternalError("not a base/detail operator");
   }
-  if (!filtered.ok()) return filtered.status();
-  cv::Mat base;
-  filtered->convertTo(base, CV_32F, range, lo);
-  return base;
 }
 
 absl::StatusOr<std::vector<cv::Mat>> ToneMapBaseDetail(
     const std::vector<cv::Mat>& views, const PairLuminance& pl, Operator op,
     const Params& p) {
   std::vector<cv::Mat> log_lum, base;
-  double lo = DBL_MAX, hi = -DBL_MAX;
   for (const cv::Mat& lum : pl.lum) {
     log_lum.push_back(Log10Luminance(lum, pl.floor));
-    double a, b;
-    cv::minMaxLoc(log_lum.back(), &a, &b);
-    lo = std::min(lo, a);
-    hi = std::max(hi, b);
   }
   double b_lo = DBL_MAX, b_hi = -DBL_MAX;
   for (const cv::Mat& l : log_lum) {
-    absl::StatusOr<cv::Mat> b = BaseLayer(op, l, lo, hi, p);
+    absl::StatusOr<cv::Mat> b = BaseLayer(op, l, p);
     if (!b.ok()) return b.status();
     double a, c;
     cv::minMaxLoc(*b, &a, &c);
@@ -425,9 +409,9 @@ absl::StatusOr<std::vector<cv::Mat>> ToneMapViews(
     const std::vector<cv::Mat>& radiance, Operator op, const Params& params) {
   if (radiance.empty()) return absl::InvalidArgumentError("no views given");
   for (size_t v = 0; v < radiance.size(); ++v) {
-    const std::string what =
-        radiance.size() == 1 ? std::string("radiance")
-                             : absl::StrCat("radiance of view ", v);
+    const std::string what = radiance.size() == 1
+                                 ? std::string("radiance")
+                                 : absl::StrCat("radiance of view ", v);
     if (absl::Status s = ValidateRadiance(radiance[v], what); !s.ok()) return s;
   }
   if (absl::Status s = ValidateParams(params); !s.ok()) return s;
@@ -462,9 +446,10 @@ absl::StatusOr<cv::Mat> ToneMap(const cv::Mat& radiance, Operator op,
   return std::move(out->front());
 }
 
-absl::StatusOr<std::pair<cv::Mat, cv::Mat>> ToneMapPair(
-    const cv::Mat& left, const cv::Mat& right, Operator op,
-    const Params& params) {
+absl::StatusOr<std::pair<cv::Mat, cv::Mat>> ToneMapPair(const cv::Mat& left,
+                                                        const cv::Mat& right,
+                                                        Operator op,
+                                                        const Params& params) {
   absl::StatusOr<std::vector<cv::Mat>> out =
       ToneMapViews({left, right}, op, params);
   if (!out.ok()) return out.status();

@@ -25,9 +25,11 @@
 //   wls               "Farbman": the Durand scheme with the WLS filter
 //                     (alpha = 1.2, lambda = 1).
 //
-// The guided, domain-transform and WLS filters work on log10 luminance
-// normalised to [0, 1] by the (pair's) min and max, the domain in which the
-// thesis' parameters are meaningful (eps and sigma_r in [0, 1] units).
+// All four base/detail operators filter log10 luminance itself (Durand's
+// domain), so the thesis' parameters are in decades: Gastal's sigma_r = 0.33
+// is close to Durand's 0.4, He's eps = 1e-4 is a 0.01-decade (2 %) noise
+// level, Farbman's weights see log10 gradients. No per-image normalisation
+// is involved, which also keeps stereo pairs consistent.
 //
 // Display step, shared by all operators:
 //   luminance L = 0.2126 R + 0.7152 G + 0.0722 B, floored at 1e-6 times the
@@ -48,11 +50,10 @@
 #ifndef HDRSTEREO_PROCESSING_TONEMAP_TONEMAP_H_
 #define HDRSTEREO_PROCESSING_TONEMAP_TONEMAP_H_
 
+#include <opencv2/core.hpp>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
@@ -96,18 +97,18 @@ struct FattalParams {
 };
 
 struct Params {
-  double saturation = 0.6;  // colour exponent, see above
-  double gamma = 2.2;       // display encoding exponent
-  double clip_low = 0.001;  // fraction of pixels clipped to black (local ops)
-  double clip_high = 0.001; // fraction clipped to white (local ops)
+  double saturation = 0.6;   // colour exponent, see above
+  double gamma = 2.2;        // display encoding exponent
+  double clip_low = 0.001;   // fraction of pixels clipped to black (local ops)
+  double clip_high = 0.001;  // fraction clipped to white (local ops)
   double base_contrast = 5.0;  // target contrast of the base layer (Durand)
   ReinhardParams reinhard;
   DragoParams drago;
   DurandParams durand;
   FattalParams fattal;
-  filters::GuidedFilterOptions guided;                  // r = 9, eps = 1e-4
-  filters::DomainTransformOptions domain_transform;     // 60, 0.33, 3 iters
-  filters::WlsOptions wls;                              // 1.2, 1
+  filters::GuidedFilterOptions guided;               // r = 9, eps = 1e-4
+  filters::DomainTransformOptions domain_transform;  // 60, 0.33, 3 iters
+  filters::WlsOptions wls;                           // 1.2, 1
 };
 
 // "reinhard", "durand", "fattal", "drago", "guided", "domain-transform",

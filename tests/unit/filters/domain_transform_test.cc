@@ -2,6 +2,7 @@
 #include "processing/filters/domain_transform.h"
 
 #include <gtest/gtest.h>
+
 #include <opencv2/ximgproc/edge_filter.hpp>
 
 #include "tests/unit/filters/test_images.h"

@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "processing/filters/fast_bilateral.h"
 
-#include <cmath>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 #include "tests/unit/filters/test_images.h"
 
@@ -25,9 +25,9 @@ cv::Mat BruteBilateral(const cv::Mat& in, double ss, double sr) {
         for (int i = std::max(0, x - r); i <= std::min(in.cols - 1, x + r);
              ++i) {
           const double v = in.at<float>(j, i);
-          const double w =
-              std::exp(-((i - x) * (i - x) + (j - y) * (j - y)) / (2 * ss * ss) -
-                       (v - c) * (v - c) / (2 * sr * sr));
+          const double w = std::exp(-((i - x) * (i - x) + (j - y) * (j - y)) /
+                                        (2 * ss * ss) -
+                                    (v - c) * (v - c) / (2 * sr * sr));
           num += w * v;
           den += w;
         }

@@ -1,13 +1,13 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "processing/filters/guided_filter.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <limits>
-#include <vector>
-
-#include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/ximgproc/edge_filter.hpp>
+#include <vector>
 
 #include "tests/unit/filters/test_images.h"
 
@@ -21,8 +21,7 @@ double MaxAbsDiff(const cv::Mat& a, const cv::Mat& b) {
   return cv::norm(a, b, cv::NORM_INF);
 }
 
-cv::Mat Reference(const cv::Mat& guide, const cv::Mat& src, int r,
-                  double eps) {
+cv::Mat Reference(const cv::Mat& guide, const cv::Mat& src, int r, double eps) {
   cv::Mat out;
   cv::ximgproc::guidedFilter(guide, src, out, r, eps, CV_32F);
   return out;
@@ -50,10 +49,11 @@ TEST_P(GuidedVsOpenCv, MatchesXimgprocGuidedFilter) {
   EXPECT_LE(diff, kRefTolerance);
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    GrayAndColour, GuidedVsOpenCv,
-    ::testing::Values(std::make_tuple(1, 9, 1e-4), std::make_tuple(1, 4, 1e-2),
-                      std::make_tuple(3, 9, 1e-2), std::make_tuple(3, 2, 1e-2)));
+INSTANTIATE_TEST_SUITE_P(GrayAndColour, GuidedVsOpenCv,
+                         ::testing::Values(std::make_tuple(1, 9, 1e-4),
+                                           std::make_tuple(1, 4, 1e-2),
+                                           std::make_tuple(3, 9, 1e-2),
+                                           std::make_tuple(3, 2, 1e-2)));
 
 // Colour guide, thesis eps = 1e-4: the 3x3 systems are nearly singular and
 // ximgproc's float implementation is off by up to 0.23 on this image

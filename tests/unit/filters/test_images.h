@@ -3,7 +3,6 @@
 #define HDRSTEREO_TESTS_UNIT_FILTERS_TEST_IMAGES_H_
 
 #include <cmath>
-
 #include <opencv2/core.hpp>
 
 namespace hdrstereo::testing {
@@ -21,7 +20,8 @@ inline cv::Mat TestImage(int width, int height, int channels, int seed) {
         if (y > 2 * height / 3 && x < width / 3) v -= 0.2;
         v += 0.05 * std::sin(1.3 * x + 0.7 * y);
         v += rng.gaussian(0.02);
-        p[x * channels + c] = static_cast<float>(std::min(1.0, std::max(0.0, v)));
+        p[x * channels + c] =
+            static_cast<float>(std::min(1.0, std::max(0.0, v)));
       }
     }
   }

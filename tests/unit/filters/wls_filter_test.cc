@@ -1,10 +1,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "processing/filters/wls_filter.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <limits>
-
-#include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
 #include "tests/unit/filters/test_images.h"
@@ -31,8 +31,10 @@ cv::Mat DenseWls(const cv::Mat& g, const cv::Mat& l, double alpha,
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
       const int i = y * w + x;
-      if (x + 1 < w) couple(i, i + 1, l.at<float>(y, x + 1) - l.at<float>(y, x));
-      if (y + 1 < h) couple(i, i + w, l.at<float>(y + 1, x) - l.at<float>(y, x));
+      if (x + 1 < w)
+        couple(i, i + 1, l.at<float>(y, x + 1) - l.at<float>(y, x));
+      if (y + 1 < h)
+        couple(i, i + w, l.at<float>(y + 1, x) - l.at<float>(y, x));
     }
   }
   cv::Mat b;

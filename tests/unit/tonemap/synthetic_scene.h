@@ -8,7 +8,6 @@
 
 #include <algorithm>
 #include <cmath>
-
 #include <opencv2/core.hpp>
 
 namespace hdrstereo::testing {
@@ -21,8 +20,8 @@ inline cv::Vec3f SceneRadiance(double x, double y, int width, int height) {
   double lum = std::pow(10.0, 2.0 * std::clamp(u, 0.0, 1.2)) * (1.0 + 0.3 * v);
   // Texture in the upper half.
   if (v < 0.5) {
-    lum *= 1.0 + 0.3 * std::sin(2 * CV_PI * x / 7.0) *
-                     std::sin(2 * CV_PI * y / 5.0);
+    lum *= 1.0 +
+           0.3 * std::sin(2 * CV_PI * x / 7.0) * std::sin(2 * CV_PI * y / 5.0);
   }
   // 100:1 step edge in a horizontal band.
   if (v > 0.6 && v < 0.85) lum = (u < 0.5) ? 5.0 : 500.0;
@@ -32,10 +31,11 @@ inline cv::Vec3f SceneRadiance(double x, double y, int width, int height) {
   if (dx * dx + dy * dy < radius * radius) lum = 8000.0;
   lum = std::max(lum, 1.0);
   // Tints (B, G, R) by region; luminance weights sum to 1 for grey.
-  cv::Vec3f tint = (u < 0.5) ? cv::Vec3f(0.8f, 1.0f, 1.25f)
-                             : cv::Vec3f(1.3f, 1.0f, 0.75f);
+  cv::Vec3f tint =
+      (u < 0.5) ? cv::Vec3f(0.8f, 1.0f, 1.25f) : cv::Vec3f(1.3f, 1.0f, 0.75f);
   if (v > 0.9) tint = cv::Vec3f(1.0f, 1.0f, 1.0f);
-  const float l_tint = 0.0722f * tint[0] + 0.7152f * tint[1] + 0.2126f * tint[2];
+  const float l_tint =
+      0.0722f * tint[0] + 0.7152f * tint[1] + 0.2126f * tint[2];
   const float k = static_cast<float>(lum) / l_tint;
   return cv::Vec3f(tint[0] * k, tint[1] * k, tint[2] * k);
 }
