@@ -9,10 +9,11 @@
 //
 // i.e. the sparse SPD system (I + lambda L_g) u = g with L_g the 5-point
 // Laplacian weighted by a (forward differences, Neumann boundary), l the
-// guide (Farbman uses the log-luminance). Solved by conjugate gradients
-// preconditioned with modified incomplete Cholesky MIC(0) (tau = 0.97, as in
-// Bridson's "Fluid simulation" notes), starting from u = g, until
-// ||r|| <= tolerance * ||g||. A real solve of the full system, not an
+// guide (Farbman uses the log-luminance). Solved by conjugate gradients,
+// starting from u = g, until ||g - A u|| <= tolerance * ||g||, preconditioned
+// by an aggregation-multigrid V-cycle (2x2 piecewise-constant aggregation,
+// Galerkin coarse operators, symmetric Gauss-Seidel smoothing; default) or by
+// incomplete Cholesky IC(0). A real solve of the full system, not an
 // approximation by separable 1-D passes.
 #ifndef HDRSTEREO_PROCESSING_FILTERS_WLS_FILTER_H_
 #define HDRSTEREO_PROCESSING_FILTERS_WLS_FILTER_H_
@@ -29,6 +30,11 @@ struct WlsOptions {
   double small_number = 1e-4;  // avoids division by zero in flat regions
   double tolerance = 1e-4;     // relative residual ||g - A u|| / ||g||
   int max_iterations = 2000;
+  enum class Preconditioner {
+    kMultigrid,           // aggregation multigrid V-cycle (default)
+    kIncompleteCholesky,  // IC(0)
+  };
+  Preconditioner preconditioner = Preconditioner::kMultigrid;
 };
 
 struct WlsReport {
