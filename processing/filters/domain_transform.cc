@@ -39,12 +39,14 @@ void DomainDerivatives(const std::vector<cv::Mat>& guide, float k, cv::Mat& dx,
 // w = a^d = exp(d * ln a), vectorised.
 void Weights(const cv::Mat& d, float ln_a, cv::Mat& w) {
   w.create(d.size(), CV_32FC1);
-  std::vector<float> buf(d.cols);
-  for (int y = 0; y < d.rows; ++y) {
-    const float* pd = d.ptr<float>(y);
-    for (int x = 0; x < d.cols; ++x) buf[x] = pd[x] * ln_a;
-    cv::hal::exp32f(buf.data(), w.ptr<float>(y), d.cols);
-  }
+  cv::parallel_for_(cv::Range(0, d.rows), [&](const cv::Range& r) {
+    std::vector<float> buf(d.cols);
+    for (int y = r.start; y < r.end; ++y) {
+      const float* pd = d.ptr<float>(y);
+      for (int x = 0; x < d.cols; ++x) buf[x] = pd[x] * ln_a;
+      cv::hal::exp32f(buf.data(), w.ptr<float>(y), d.cols);
+    }
+  });
 }
 
 void HorizontalPass(cv::Mat& img, const cv::Mat& w) {

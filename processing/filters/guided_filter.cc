@@ -13,15 +13,23 @@
 namespace hdrstereo::filters {
 namespace {
 
+// Runs fn(y) for every row, rows split over OpenCV's thread pool.
+template <typename Fn>
+void ForRows(int rows, const Fn& fn) {
+  cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& r) {
+    for (int y = r.start; y < r.end; ++y) fn(y);
+  });
+}
+
 // Element-wise product of two CV_32FC1 mats of equal size.
 cv::Mat Mul(const cv::Mat& a, const cv::Mat& b) {
   cv::Mat out(a.size(), CV_32FC1);
-  for (int y = 0; y < a.rows; ++y) {
+  ForRows(a.rows, [&](int y) {
     const float* pa = a.ptr<float>(y);
     const float* pb = b.ptr<float>(y);
     float* po = out.ptr<float>(y);
     for (int x = 0; x < a.cols; ++x) po[x] = pa[x] * pb[x];
-  }
+  });
   return out;
 }
 
@@ -89,14 +97,14 @@ void GuidedFilter::Init(const cv::Mat& guide_float) {
   if (guide_.size() == 1) {
     cv::Mat corr = Box(Mul(guide_[0], guide_[0]));
     cv::Mat inv(sz, CV_32FC1);
-    for (int y = 0; y < sz.height; ++y) {
+    ForRows(sz.height, [&](int y) {
       const float* m = mean_guide_[0].ptr<float>(y);
       const float* c = corr.ptr<float>(y);
       float* o = inv.ptr<float>(y);
       for (int x = 0; x < sz.width; ++x) {
         o[x] = 1.0f / (c[x] - m[x] * m[x] + eps);
       }
-    }
+    });
     inv_ = {inv};
     return;
   }
@@ -108,7 +116,7 @@ void GuidedFilter::Init(const cv::Mat& guide_float) {
   }
   inv_.assign(6, cv::Mat());
   for (cv::Mat& m : inv_) m.create(sz, CV_32FC1);
-  for (int y = 0; y < sz.height; ++y) {
+  ForRows(sz.height, [&](int y) {
     const float* m0 = mean_guide_[0].ptr<float>(y);
     const float* m1 = mean_guide_[1].ptr<float>(y);
     const float* m2 = mean_guide_[2].ptr<float>(y);
@@ -140,7 +148,7 @@ void GuidedFilter::Init(const cv::Mat& guide_float) {
       o[4][x] = i_gb * inv_det;
       o[5][x] = i_bb * inv_det;
     }
-  }
+  });
 }
 
 void GuidedFilter::FilterPlane(const cv::Mat& src_full, cv::Mat& dst) const {
@@ -158,7 +166,7 @@ void GuidedFilter::FilterPlane(const cv::Mat& src_full, cv::Mat& dst) const {
     const cv::Mat mean_ip = Box(Mul(guide_[0], src));
     a_b[0].create(sz, CV_32FC1);
     a_b[1].create(sz, CV_32FC1);
-    for (int y = 0; y < sz.height; ++y) {
+    ForRows(sz.height, [&](int y) {
       const float* mi = mean_guide_[0].ptr<float>(y);
       const float* mp = mean_p.ptr<float>(y);
       const float* mip = mean_ip.ptr<float>(y);
@@ -169,12 +177,12 @@ void GuidedFilter::FilterPlane(const cv::Mat& src_full, cv::Mat& dst) const {
         a[x] = (mip[x] - mi[x] * mp[x]) * inv[x];
         b[x] = mp[x] - a[x] * mi[x];
       }
-    }
+    });
   } else {
     cv::Mat mean_ip[3];
     for (int c = 0; c < 3; ++c) mean_ip[c] = Box(Mul(guide_[c], src));
     for (int k = 0; k < 4; ++k) a_b[k].create(sz, CV_32FC1);
-    for (int y = 0; y < sz.height; ++y) {
+    ForRows(sz.height, [&](int y) {
       const float* mi[3];
       const float* mip[3];
       const float* inv[6];
@@ -199,7 +207,7 @@ void GuidedFilter::FilterPlane(const cv::Mat& src_full, cv::Mat& dst) const {
         a[2][x] = a2;
         b[x] = mp[x] - a0 * mi[0][x] - a1 * mi[1][x] - a2 * mi[2][x];
       }
-    }
+    });
   }
   for (int k = 0; k <= nc; ++k) {
     a_b[k] = Box(a_b[k]);
@@ -211,7 +219,7 @@ void GuidedFilter::FilterPlane(const cv::Mat& src_full, cv::Mat& dst) const {
   }
   const cv::Size full = src_full.size();
   dst.create(full, CV_32FC1);
-  for (int y = 0; y < full.height; ++y) {
+  ForRows(full.height, [&](int y) {
     float* q = dst.ptr<float>(y);
     const float* b = a_b[nc].ptr<float>(y);
     const float* a0 = a_b[0].ptr<float>(y);
@@ -227,7 +235,7 @@ void GuidedFilter::FilterPlane(const cv::Mat& src_full, cv::Mat& dst) const {
         q[x] = a0[x] * i0[x] + a1[x] * i1[x] + a2[x] * i2[x] + b[x];
       }
     }
-  }
+  });
 }
 
 absl::StatusOr<cv::Mat> GuidedFilter::Filter(const cv::Mat& src) const {

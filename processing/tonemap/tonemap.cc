@@ -288,13 +288,15 @@ std::vector<cv::Mat> StretchAndEncode(const std::vector<cv::Mat>& views,
 // log10 of the floored luminance.
 cv::Mat Log10Luminance(const cv::Mat& lum, float floor) {
   cv::Mat out(lum.size(), CV_32FC1);
-  for (int y = 0; y < lum.rows; ++y) {
-    const float* p = lum.ptr<float>(y);
-    float* o = out.ptr<float>(y);
-    for (int x = 0; x < lum.cols; ++x) o[x] = std::max(p[x], floor);
-    cv::hal::log32f(o, o, lum.cols);
-    for (int x = 0; x < lum.cols; ++x) o[x] *= 1.0f / kLn10;
-  }
+  cv::parallel_for_(cv::Range(0, lum.rows), [&](const cv::Range& r) {
+    for (int y = r.start; y < r.end; ++y) {
+      const float* p = lum.ptr<float>(y);
+      float* o = out.ptr<float>(y);
+      for (int x = 0; x < lum.cols; ++x) o[x] = std::max(p[x], floor);
+      cv::hal::log32f(o, o, lum.cols);
+      for (int x = 0; x < lum.cols; ++x) o[x] *= 1.0f / kLn10;
+    }
+  });
   return out;
 }
 
@@ -346,15 +348,17 @@ absl::StatusOr<std::vector<cv::Mat>> ToneMapBaseDetail(
   std::vector<cv::Mat> ld;
   for (size_t v = 0; v < views.size(); ++v) {
     cv::Mat d(log_lum[v].size(), CV_32FC1);
-    for (int y = 0; y < d.rows; ++y) {
-      const float* l = log_lum[v].ptr<float>(y);
-      const float* b = base[v].ptr<float>(y);
-      float* o = d.ptr<float>(y);
-      for (int x = 0; x < d.cols; ++x) {
-        o[x] = (compression * (b[x] - top) + (l[x] - b[x])) * kLn10;
+    cv::parallel_for_(cv::Range(0, d.rows), [&](const cv::Range& r) {
+      for (int y = r.start; y < r.end; ++y) {
+        const float* l = log_lum[v].ptr<float>(y);
+        const float* b = base[v].ptr<float>(y);
+        float* o = d.ptr<float>(y);
+        for (int x = 0; x < d.cols; ++x) {
+          o[x] = (compression * (b[x] - top) + (l[x] - b[x])) * kLn10;
+        }
+        cv::hal::exp32f(o, o, d.cols);
       }
-      cv::hal::exp32f(o, o, d.cols);
-    }
+    });
     ld.push_back(d);
   }
   return StretchAndEncode(views, pl, ld, p);
