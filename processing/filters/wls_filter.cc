@@ -15,6 +15,18 @@
 namespace hdrstereo::filters {
 namespace {
 
+// fn(y) for every row, split over OpenCV's thread pool when large.
+template <typename Fn>
+void ParallelRows(int rows, const Fn& fn) {
+  if (rows < 64) {
+    for (int y = 0; y < rows; ++y) fn(y);
+    return;
+  }
+  cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& r) {
+    for (int y = r.start; y < r.end; ++y) fn(y);
+  });
+}
+
 // Aggregation multigrid V-cycle used as a CG preconditioner. Level l + 1
 // merges 2x2 cells of level l (piecewise-constant prolongation P, restriction
 // P^T, Galerkin coarse operator P^T A P), which keeps the "identity part +
@@ -29,7 +41,7 @@ class Multigrid {
   struct Level {
     int w = 0, h = 0;
     std::vector<float> ident, ax, ay, inv_diag;
-    mutable std::vector<float> x, b, r;
+    mutable std::vector<float> x, b, r, snap;
   };
 
   Multigrid(int w, int h, const std::vector<float>& ax,
@@ -95,54 +107,83 @@ class Multigrid {
     return c;
   }
 
-  // One Gauss-Seidel sweep. Per row, everything but the neighbour updated
-  // just before (west when going forward, east when going backward) is
-  // gathered in a vectorisable pass; the recurrence is then one multiply-add
-  // per pixel.
+  // One Gauss-Seidel sweep. The rows are cut into a fixed number of blocks
+  // swept concurrently (block Gauss-Seidel: a block sees its neighbours'
+  // rows as they were before the sweep, snapshotted first, so the result
+  // does not depend on the thread count or timing). Per row, everything but
+  // the neighbour updated just before (west when going forward, east when
+  // going backward) is gathered in a vectorisable pass; the recurrence is
+  // then one multiply-add per pixel.
   static void Sweep(const Level& l, bool forward) {
     const int w = l.w, h = l.h;
-    float* t = l.r.data();  // scratch row (r is recomputed after sweeps)
-    for (int k = 0; k < h; ++k) {
-      const int y = forward ? k : h - 1 - k;
-      const size_t row = static_cast<size_t>(y) * w;
-      float* x = &l.x[row];
-      const float* b = &l.b[row];
-      const float* ax = &l.ax[row];
-      const float* inv = &l.inv_diag[row];
-      for (int px = 0; px < w; ++px) t[px] = b[px];
-      if (y > 0) {
-        const float* ay_n = &l.ay[row - w];
-        const float* xn = x - w;
-        for (int px = 0; px < w; ++px) t[px] += ay_n[px] * xn[px];
+    const int blocks = h >= 128 ? kSweepBlocks : 1;
+    l.snap.resize(static_cast<size_t>(2 * blocks) * w);
+    auto first = [&](int k) { return k * h / blocks; };
+    for (int k = 0; k < blocks; ++k) {
+      const int y0 = first(k), y1 = first(k + 1);
+      if (y0 > 0) {
+        std::copy_n(&l.x[static_cast<size_t>(y0 - 1) * w], w,
+                    &l.snap[static_cast<size_t>(2 * k) * w]);
       }
-      if (y + 1 < h) {
-        const float* ay = &l.ay[row];
-        const float* xs = x + w;
-        for (int px = 0; px < w; ++px) t[px] += ay[px] * xs[px];
+      if (y1 < h) {
+        std::copy_n(&l.x[static_cast<size_t>(y1) * w], w,
+                    &l.snap[static_cast<size_t>(2 * k + 1) * w]);
       }
-      if (forward) {
-        for (int px = 0; px + 1 < w; ++px) t[px] += ax[px] * x[px + 1];
-        float prev = 0.0f, a_prev = 0.0f;
-        for (int px = 0; px < w; ++px) {
-          prev = (t[px] + a_prev * prev) * inv[px];
-          x[px] = prev;
-          a_prev = ax[px];
+    }
+    auto sweep_block = [&](int k) {
+      const int y0 = first(k), y1 = first(k + 1);
+      for (int i = y0; i < y1; ++i) {
+        const int y = forward ? i : y0 + y1 - 1 - i;
+        const size_t row = static_cast<size_t>(y) * w;
+        float* x = &l.x[row];
+        float* t = &l.r[row];  // scratch (r is recomputed after sweeps)
+        const float* b = &l.b[row];
+        const float* ax = &l.ax[row];
+        const float* inv = &l.inv_diag[row];
+        for (int px = 0; px < w; ++px) t[px] = b[px];
+        if (y > 0) {
+          const float* ay_n = &l.ay[row - w];
+          const float* xn =
+              y == y0 ? &l.snap[static_cast<size_t>(2 * k) * w] : x - w;
+          for (int px = 0; px < w; ++px) t[px] += ay_n[px] * xn[px];
         }
-      } else {
-        for (int px = 1; px < w; ++px) t[px] += ax[px - 1] * x[px - 1];
-        float next = 0.0f;
-        for (int px = w - 1; px >= 0; --px) {
-          next = (t[px] + ax[px] * next) * inv[px];
-          x[px] = next;
+        if (y + 1 < h) {
+          const float* ay = &l.ay[row];
+          const float* xs =
+              y == y1 - 1 ? &l.snap[static_cast<size_t>(2 * k + 1) * w] : x + w;
+          for (int px = 0; px < w; ++px) t[px] += ay[px] * xs[px];
+        }
+        if (forward) {
+          for (int px = 0; px + 1 < w; ++px) t[px] += ax[px] * x[px + 1];
+          float prev = 0.0f, a_prev = 0.0f;
+          for (int px = 0; px < w; ++px) {
+            prev = (t[px] + a_prev * prev) * inv[px];
+            x[px] = prev;
+            a_prev = ax[px];
+          }
+        } else {
+          for (int px = 1; px < w; ++px) t[px] += ax[px - 1] * x[px - 1];
+          float next = 0.0f;
+          for (int px = w - 1; px >= 0; --px) {
+            next = (t[px] + ax[px] * next) * inv[px];
+            x[px] = next;
+          }
         }
       }
+    };
+    if (blocks == 1) {
+      sweep_block(0);
+    } else {
+      cv::parallel_for_(cv::Range(0, blocks), [&](const cv::Range& r) {
+        for (int k = r.start; k < r.end; ++k) sweep_block(k);
+      });
     }
   }
 
   // r = b - A x in the cancellation-free form.
   static void Residual(const Level& l) {
     const int w = l.w, h = l.h;
-    for (int y = 0; y < h; ++y) {
+    ParallelRows(h, [&](int y) {
       const size_t row = static_cast<size_t>(y) * w;
       const float* x = &l.x[row];
       const float* ax = &l.ax[row];
@@ -165,7 +206,7 @@ class Multigrid {
         const float* xn = x - w;
         for (int px = 0; px < w; ++px) r[px] -= ay_n[px] * (x[px] - xn[px]);
       }
-    }
+    });
   }
 
   void Cycle(size_t k) const {
@@ -181,20 +222,22 @@ class Multigrid {
     for (int s = 0; s < kNu; ++s) Sweep(l, true);
     Residual(l);
     const Level& c = levels_[k + 1];
-    std::fill(c.b.begin(), c.b.end(), 0.0f);
-    for (int y = 0; y < l.h; ++y) {
-      for (int x = 0; x < l.w; ++x) {
-        c.b[static_cast<size_t>(y / 2) * c.w + x / 2] +=
-            l.r[static_cast<size_t>(y) * l.w + x];
+    // Restriction P^T: each coarse row sums its two fine rows.
+    ParallelRows(c.h, [&](int cy) {
+      float* cb = &c.b[static_cast<size_t>(cy) * c.w];
+      std::fill_n(cb, c.w, 0.0f);
+      for (int y = 2 * cy; y < std::min(2 * cy + 2, l.h); ++y) {
+        const float* r = &l.r[static_cast<size_t>(y) * l.w];
+        for (int x = 0; x < l.w; ++x) cb[x / 2] += r[x];
       }
-    }
+    });
     Cycle(k + 1);
-    for (int y = 0; y < l.h; ++y) {
-      for (int x = 0; x < l.w; ++x) {
-        l.x[static_cast<size_t>(y) * l.w + x] +=
-            kOmega * c.x[static_cast<size_t>(y / 2) * c.w + x / 2];
-      }
-    }
+    // Prolongation P: piecewise constant.
+    ParallelRows(l.h, [&](int y) {
+      float* x_row = &l.x[static_cast<size_t>(y) * l.w];
+      const float* cx = &c.x[static_cast<size_t>(y / 2) * c.w];
+      for (int x = 0; x < l.w; ++x) x_row[x] += kOmega * cx[x / 2];
+    });
     for (int s = 0; s < kNu; ++s) Sweep(l, false);
   }
 
@@ -203,6 +246,8 @@ class Multigrid {
   // coarse step by 1.5 .. 2 needs more iterations).
   static constexpr float kOmega = 1.0f;
   static constexpr int kNu = 1;
+  // Row blocks of the parallel Gauss-Seidel sweep (levels >= 128 rows).
+  static constexpr int kSweepBlocks = 8;
   std::vector<Level> levels_;
 };
 
@@ -265,8 +310,8 @@ class WlsSystem {
   // rather than diag * v - sum of w v_neighbour: with weights up to 1 / small
   // = 1e4 the latter cancels catastrophically in float.
   double Apply(const std::vector<float>& v, std::vector<float>& out) const {
-    double dot = 0.0;
-    for (int y = 0; y < h_; ++y) {
+    row_dots_.resize(h_);
+    ParallelRows(h_, [&](int y) {
       const size_t row = static_cast<size_t>(y) * w_;
       const float* pv = &v[row];
       const float* ax = &ax_[row];
@@ -289,8 +334,10 @@ class WlsSystem {
       }
       float s = 0.0f;
       for (int x = 0; x < w_; ++x) s += o[x] * pv[x];
-      dot += s;
-    }
+      row_dots_[y] = s;
+    });
+    double dot = 0.0;  // summed in row order: deterministic
+    for (float d : row_dots_) dot += d;
     return dot;
   }
 
@@ -354,19 +401,37 @@ class WlsSystem {
   std::vector<float> ax_, ay_, diag_, p_;
   std::unique_ptr<Multigrid> multigrid_;
   mutable std::vector<float> scratch_;
+  mutable std::vector<float> row_dots_;
 };
 
+// Chunked partial sums (fixed chunks, summed in order: deterministic).
 double Dot(const std::vector<float>& a, const std::vector<float>& b) {
-  double s = 0.0;
+  constexpr size_t kChunk = 4096;
   const size_t n = a.size();
-  size_t i = 0;
-  for (; i + 1024 <= n; i += 1024) {
-    float part = 0.0f;
-    for (size_t k = i; k < i + 1024; ++k) part += a[k] * b[k];
-    s += part;
-  }
-  for (; i < n; ++i) s += static_cast<double>(a[i]) * b[i];
+  const int chunks = static_cast<int>((n + kChunk - 1) / kChunk);
+  std::vector<double> part(chunks);
+  cv::parallel_for_(cv::Range(0, chunks), [&](const cv::Range& r) {
+    for (int c = r.start; c < r.end; ++c) {
+      const size_t lo = c * kChunk, hi = std::min(n, lo + kChunk);
+      float s = 0.0f;
+      for (size_t k = lo; k < hi; ++k) s += a[k] * b[k];
+      part[c] = s;
+    }
+  });
+  double s = 0.0;
+  for (double p : part) s += p;
   return s;
+}
+
+// out[i] = f(i) for all i, in parallel chunks.
+template <typename Fn>
+void ParallelFor(size_t n, const Fn& f) {
+  constexpr size_t kChunk = 16384;
+  const int chunks = static_cast<int>((n + kChunk - 1) / kChunk);
+  cv::parallel_for_(cv::Range(0, chunks), [&](const cv::Range& r) {
+    const size_t lo = r.start * kChunk, hi = std::min(n, r.end * kChunk);
+    for (size_t i = lo; i < hi; ++i) f(i);
+  });
 }
 
 // Solves A u = b in place (u holds the initial guess).
@@ -392,10 +457,10 @@ WlsReport SolveCg(const WlsSystem& a, const std::vector<float>& b,
     const double sq = a.Apply(s, q);
     if (!(sq > 0.0)) break;
     const float step = static_cast<float>(rho / sq);
-    for (size_t i = 0; i < n; ++i) {
+    ParallelFor(n, [&](size_t i) {
       u[i] += step * s[i];
       r[i] -= step * q[i];
-    }
+    });
     r_norm = std::sqrt(Dot(r, r));
     report.iterations = it;
     report.relative_residual = r_norm / b_norm;
@@ -404,7 +469,7 @@ WlsReport SolveCg(const WlsSystem& a, const std::vector<float>& b,
     const double rho_new = Dot(r, z);
     const float beta = static_cast<float>(rho_new / rho);
     rho = rho_new;
-    for (size_t i = 0; i < n; ++i) s[i] = z[i] + beta * s[i];
+    ParallelFor(n, [&](size_t i) { s[i] = z[i] + beta * s[i]; });
   }
   return report;
 }
