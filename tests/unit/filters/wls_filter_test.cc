@@ -110,6 +110,20 @@ TEST(WlsFilter, KeepsAStepEdgeAndSmoothsNoise) {
   EXPECT_GE(out->at<float>(24, 48) - out->at<float>(24, 47), 0.8 * 0.6);
 }
 
+// The parallel parts (block Gauss-Seidel, chunked dot products) are
+// deterministic: the result does not depend on the number of threads.
+TEST(WlsFilter, IndependentOfThreadCount) {
+  const cv::Mat g = TestImage(200, 160, 1, 7);
+  const int threads = cv::getNumThreads();
+  cv::setNumThreads(1);
+  absl::StatusOr<cv::Mat> one = WlsFilter(g, cv::Mat(), {});
+  cv::setNumThreads(4);
+  absl::StatusOr<cv::Mat> four = WlsFilter(g, cv::Mat(), {});
+  cv::setNumThreads(threads);
+  ASSERT_TRUE(one.ok() && four.ok());
+  EXPECT_EQ(cv::norm(*one, *four, cv::NORM_INF), 0.0);
+}
+
 TEST(WlsFilter, ZeroLambdaIsIdentity) {
   const cv::Mat g = TestImage(40, 30, 1, 6);
   WlsOptions o;
