@@ -250,6 +250,11 @@ absl::StatusOr<cv::Mat> GuidedFilter::Filter(const cv::Mat& src) const {
   }
   try {
     const cv::Mat srcf = ToFloat(src);
+    if (srcf.channels() == 1) {
+      cv::Mat out;
+      FilterPlane(srcf, out);
+      return out;
+    }
     std::vector<cv::Mat> planes;
     cv::split(srcf, planes);
     for (cv::Mat& p : planes) {
