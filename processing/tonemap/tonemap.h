@@ -8,7 +8,10 @@
 //                     L = key / Lavg * Lw, Ld = L (1 + L / Lwhite^2) / (1 + L),
 //                     Lavg the log-average luminance, Lwhite the white point
 //                     (default: the largest scaled luminance).
-//   drago             Drago et al. 2003, adaptive logarithmic mapping (bias).
+//   drago             Drago et al. 2003, adaptive logarithmic mapping:
+//                     Lw = L / Lavg, Ld = (ld_max / 100) / log10(Lwmax + 1)
+//                     * ln(Lw + 1) / ln(2 + 8 (Lw / Lwmax)^(ln b / ln 0.5)),
+//                     bias b = 0.85 (Lwmax maps to 1).
 //   durand            Durand & Dorsey 2002: base/detail on log10 luminance,
 //                     base = bilateral filter (our piecewise-linear fast
 //                     bilateral, sigma_s = 2 % of the image size,
@@ -16,8 +19,10 @@
 //                     `base_contrast`, detail kept.
 //   fattal            Fattal et al. 2002: log-luminance gradients attenuated
 //                     by (|grad| / alpha)^(beta - 1) accumulated over a
-//                     Gaussian pyramid, image recovered by a DCT Poisson solve
-//                     (Neumann boundary).
+//                     Gaussian pyramid (alpha = 0.1 x the level's mean
+//                     gradient, beta = 0.85), image recovered by a DCT
+//                     Poisson solve (Neumann boundary); the free constant is
+//                     fixed on the mid-tones (see fattal.h).
 //   guided            "He": the Durand scheme with the guided filter
 //                     (r = 9, eps = 1e-4) as the edge-aware filter.
 //   domain-transform  "Gastal": the Durand scheme with the domain-transform
@@ -25,6 +30,8 @@
 //   wls               "Farbman": the Durand scheme with the WLS filter
 //                     (alpha = 1.2, lambda = 1).
 //
+// Base/detail (Durand's scheme): l = log10 L, base B = filter(l), detail
+// D = l - B; log10 Ld = log10(base_contrast) / (Bmax - Bmin) * (B - Bmax) + D.
 // All four base/detail operators filter log10 luminance itself (Durand's
 // domain), so the thesis' parameters are in decades: Gastal's sigma_r = 0.33
 // is close to Durand's 0.4, He's eps = 1e-4 is a 0.01-decade (2 %) noise
