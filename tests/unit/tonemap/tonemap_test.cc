@@ -132,6 +132,19 @@ TEST_P(EveryOperator, UniformColourHandChecked) {
   }
 }
 
+// Degenerate sizes (1x1, single rows / columns, odd sizes) are handled
+// without crashing and produce an image of the input's size.
+TEST_P(EveryOperator, TinyImages) {
+  for (const cv::Size size : {cv::Size(1, 1), cv::Size(7, 1), cv::Size(1, 5),
+                              cv::Size(3, 2), cv::Size(33, 17)}) {
+    absl::StatusOr<cv::Mat> out =
+        ToneMap(SyntheticScene(size.width, size.height), GetParam());
+    ASSERT_TRUE(out.ok()) << size << " " << out.status();
+    EXPECT_EQ(out->size(), size);
+    EXPECT_EQ(out->type(), CV_8UC3);
+  }
+}
+
 // Same radiance in both views gives the same output, identical to the
 // single-view result.
 TEST_P(EveryOperator, IdenticalViewsGiveIdenticalOutput) {
