@@ -130,52 +130,109 @@ class Multigrid {
                     &l.snap[static_cast<size_t>(2 * k + 1) * w]);
       }
     }
-    auto sweep_block = [&](int k) {
+    // Fills the scratch row t of row y (block k) with everything but the
+    // recurrence term.
+    auto gather = [&](int k, int y) {
       const int y0 = first(k), y1 = first(k + 1);
-      for (int i = y0; i < y1; ++i) {
-        const int y = forward ? i : y0 + y1 - 1 - i;
-        const size_t row = static_cast<size_t>(y) * w;
-        float* x = &l.x[row];
-        float* t = &l.r[row];  // scratch (r is recomputed after sweeps)
-        const float* b = &l.b[row];
-        const float* ax = &l.ax[row];
-        const float* inv = &l.inv_diag[row];
-        for (int px = 0; px < w; ++px) t[px] = b[px];
-        if (y > 0) {
-          const float* ay_n = &l.ay[row - w];
-          const float* xn =
-              y == y0 ? &l.snap[static_cast<size_t>(2 * k) * w] : x - w;
-          for (int px = 0; px < w; ++px) t[px] += ay_n[px] * xn[px];
-        }
-        if (y + 1 < h) {
-          const float* ay = &l.ay[row];
-          const float* xs =
-              y == y1 - 1 ? &l.snap[static_cast<size_t>(2 * k + 1) * w] : x + w;
-          for (int px = 0; px < w; ++px) t[px] += ay[px] * xs[px];
-        }
+      const size_t row = static_cast<size_t>(y) * w;
+      float* x = &l.x[row];
+      float* t = &l.r[row];  // scratch (r is recomputed after sweeps)
+      const float* b = &l.b[row];
+      const float* ax = &l.ax[row];
+      for (int px = 0; px < w; ++px) t[px] = b[px];
+      if (y > 0) {
+        const float* ay_n = &l.ay[row - w];
+        const float* xn =
+            y == y0 ? &l.snap[static_cast<size_t>(2 * k) * w] : x - w;
+        for (int px = 0; px < w; ++px) t[px] += ay_n[px] * xn[px];
+      }
+      if (y + 1 < h) {
+        const float* ay = &l.ay[row];
+        const float* xs =
+            y == y1 - 1 ? &l.snap[static_cast<size_t>(2 * k + 1) * w] : x + w;
+        for (int px = 0; px < w; ++px) t[px] += ay[px] * xs[px];
+      }
+      if (forward) {
+        for (int px = 0; px + 1 < w; ++px) t[px] += ax[px] * x[px + 1];
+      } else {
+        for (int px = 1; px < w; ++px) t[px] += ax[px - 1] * x[px - 1];
+      }
+    };
+    // The recurrence of one row, or of two rows interleaved (independent
+    // chains: twice the instruction-level parallelism).
+    auto recur = [&](int ya, int yb) {
+      const size_t ra = static_cast<size_t>(ya) * w;
+      const size_t rb = static_cast<size_t>(yb < 0 ? ya : yb) * w;
+      float* xa = &l.x[ra];
+      float* xb = &l.x[rb];
+      const float* ta = &l.r[ra];
+      const float* tb = &l.r[rb];
+      const float* axa = &l.ax[ra];
+      const float* axb = &l.ax[rb];
+      const float* ia = &l.inv_diag[ra];
+      const float* ib = &l.inv_diag[rb];
+      if (yb < 0) {
         if (forward) {
-          for (int px = 0; px + 1 < w; ++px) t[px] += ax[px] * x[px + 1];
           float prev = 0.0f, a_prev = 0.0f;
           for (int px = 0; px < w; ++px) {
-            prev = (t[px] + a_prev * prev) * inv[px];
-            x[px] = prev;
-            a_prev = ax[px];
+            prev = (ta[px] + a_prev * prev) * ia[px];
+            xa[px] = prev;
+            a_prev = axa[px];
           }
         } else {
-          for (int px = 1; px < w; ++px) t[px] += ax[px - 1] * x[px - 1];
           float next = 0.0f;
           for (int px = w - 1; px >= 0; --px) {
-            next = (t[px] + ax[px] * next) * inv[px];
-            x[px] = next;
+            next = (ta[px] + axa[px] * next) * ia[px];
+            xa[px] = next;
           }
+        }
+        return;
+      }
+      if (forward) {
+        float pa = 0.0f, pb = 0.0f, aa = 0.0f, ab = 0.0f;
+        for (int px = 0; px < w; ++px) {
+          pa = (ta[px] + aa * pa) * ia[px];
+          pb = (tb[px] + ab * pb) * ib[px];
+          xa[px] = pa;
+          xb[px] = pb;
+          aa = axa[px];
+          ab = axb[px];
+        }
+      } else {
+        float na = 0.0f, nb = 0.0f;
+        for (int px = w - 1; px >= 0; --px) {
+          na = (ta[px] + axa[px] * na) * ia[px];
+          nb = (tb[px] + axb[px] * nb) * ib[px];
+          xa[px] = na;
+          xb[px] = nb;
+        }
+      }
+    };
+    // Sweeps block ka, and block kb (if >= 0) interleaved with it.
+    auto sweep_blocks = [&](int ka, int kb) {
+      const int na = first(ka + 1) - first(ka);
+      const int nb = kb < 0 ? 0 : first(kb + 1) - first(kb);
+      auto row_of = [&](int k, int n, int i) {
+        return forward ? first(k) + i : first(k) + n - 1 - i;
+      };
+      for (int i = 0; i < std::max(na, nb); ++i) {
+        const int ya = i < na ? row_of(ka, na, i) : -1;
+        const int yb = i < nb ? row_of(kb, nb, i) : -1;
+        if (ya >= 0) gather(ka, ya);
+        if (yb >= 0) gather(kb, yb);
+        if (ya >= 0 && yb >= 0) {
+          recur(ya, yb);
+        } else {
+          recur(ya >= 0 ? ya : yb, -1);
         }
       }
     };
     if (blocks == 1) {
-      sweep_block(0);
+      sweep_blocks(0, -1);
     } else {
-      cv::parallel_for_(cv::Range(0, blocks), [&](const cv::Range& r) {
-        for (int k = r.start; k < r.end; ++k) sweep_block(k);
+      const int pairs = blocks / 2;
+      cv::parallel_for_(cv::Range(0, pairs), [&](const cv::Range& r) {
+        for (int k = r.start; k < r.end; ++k) sweep_blocks(k, k + pairs);
       });
     }
   }
