@@ -110,6 +110,19 @@ TEST(WlsFilter, KeepsAStepEdgeAndSmoothsNoise) {
   EXPECT_GE(out->at<float>(24, 48) - out->at<float>(24, 47), 0.8 * 0.6);
 }
 
+// Tall enough (>= 128 rows) for the block-parallel multigrid smoother: both
+// preconditioners must reach the same solution.
+TEST(WlsFilter, PreconditionersAgreeOnATallImage) {
+  const cv::Mat g = TestImage(48, 150, 1, 8);
+  WlsOptions o;
+  o.tolerance = 1e-7;
+  absl::StatusOr<cv::Mat> mg = WlsFilter(g, cv::Mat(), o);
+  o.preconditioner = WlsOptions::Preconditioner::kIncompleteCholesky;
+  absl::StatusOr<cv::Mat> ic = WlsFilter(g, cv::Mat(), o);
+  ASSERT_TRUE(mg.ok() && ic.ok());
+  EXPECT_LE(cv::norm(*mg, *ic, cv::NORM_INF), 1e-4);
+}
+
 // The parallel parts (block Gauss-Seidel, chunked dot products) are
 // deterministic: the result does not depend on the number of threads.
 TEST(WlsFilter, IndependentOfThreadCount) {
