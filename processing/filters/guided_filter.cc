@@ -22,18 +22,29 @@ void ForRows(int rows, const Fn& fn) {
 }
 
 // Element-wise product of two CV_32FC1 mats of equal size.
-cv::Mat Mul(const cv::Mat& a, const cv::Mat& b) {
-  cv::Mat out(a.size(), CV_32FC1);
+void MulInto(const cv::Mat& a, const cv::Mat& b, cv::Mat& out) {
+  out.create(a.size(), CV_32FC1);
   ForRows(a.rows, [&](int y) {
     const float* pa = a.ptr<float>(y);
     const float* pb = b.ptr<float>(y);
     float* po = out.ptr<float>(y);
     for (int x = 0; x < a.cols; ++x) po[x] = pa[x] * pb[x];
   });
+}
+
+cv::Mat Mul(const cv::Mat& a, const cv::Mat& b) {
+  cv::Mat out;
+  MulInto(a, b, out);
   return out;
 }
 
 }  // namespace
+
+void GuidedFilter::BoxInto(const cv::Mat& m, cv::Mat& out) const {
+  cv::boxFilter(m, out, CV_32F,
+                cv::Size(2 * work_radius_ + 1, 2 * work_radius_ + 1),
+                cv::Point(-1, -1), /*normalize=*/true, cv::BORDER_REFLECT);
+}
 
 cv::Mat GuidedFilter::Box(const cv::Mat& m) const {
   cv::Mat out;
@@ -151,19 +162,24 @@ void GuidedFilter::Init(const cv::Mat& guide_float) {
   });
 }
 
-void GuidedFilter::FilterPlane(const cv::Mat& src_full, cv::Mat& dst) const {
-  cv::Mat src;
-  if (options_.subsample == 1) {
-    src = src_full;
-  } else {
-    cv::resize(src_full, src, guide_[0].size(), 0, 0, cv::INTER_AREA);
+void GuidedFilter::FilterPlane(const cv::Mat& src_full, cv::Mat& dst,
+                               GuidedFilterWorkspace* workspace) const {
+  GuidedFilterWorkspace local;
+  GuidedFilterWorkspace& ws = workspace != nullptr ? *workspace : local;
+  cv::Mat src = src_full;
+  if (options_.subsample > 1) {
+    cv::resize(src_full, ws.low_src, guide_[0].size(), 0, 0, cv::INTER_AREA);
+    src = ws.low_src;
   }
   const cv::Size sz = src.size();
-  const cv::Mat mean_p = Box(src);
-  cv::Mat a_b[4];  // a (1 or 3 planes) then b
+  BoxInto(src, ws.mean_p);
+  const cv::Mat& mean_p = ws.mean_p;
+  cv::Mat* a_b = ws.ab;  // a (1 or 3 planes) then b
   const int nc = static_cast<int>(guide_.size());
   if (nc == 1) {
-    const cv::Mat mean_ip = Box(Mul(guide_[0], src));
+    MulInto(guide_[0], src, ws.prod);
+    BoxInto(ws.prod, ws.mean_ip[0]);
+    const cv::Mat& mean_ip = ws.mean_ip[0];
     a_b[0].create(sz, CV_32FC1);
     a_b[1].create(sz, CV_32FC1);
     ForRows(sz.height, [&](int y) {
@@ -179,8 +195,11 @@ void GuidedFilter::FilterPlane(const cv::Mat& src_full, cv::Mat& dst) const {
       }
     });
   } else {
-    cv::Mat mean_ip[3];
-    for (int c = 0; c < 3; ++c) mean_ip[c] = Box(Mul(guide_[c], src));
+    const cv::Mat* mean_ip = ws.mean_ip;
+    for (int c = 0; c < 3; ++c) {
+      MulInto(guide_[c], src, ws.prod);
+      BoxInto(ws.prod, ws.mean_ip[c]);
+    }
     for (int k = 0; k < 4; ++k) a_b[k].create(sz, CV_32FC1);
     ForRows(sz.height, [&](int y) {
       const float* mi[3];
@@ -209,26 +228,27 @@ void GuidedFilter::FilterPlane(const cv::Mat& src_full, cv::Mat& dst) const {
       }
     });
   }
+  const cv::Mat* mean_ab = ws.mean_ab;
   for (int k = 0; k <= nc; ++k) {
-    a_b[k] = Box(a_b[k]);
+    BoxInto(a_b[k], ws.mean_ab[k]);
     if (options_.subsample > 1) {
-      cv::Mat up;
-      cv::resize(a_b[k], up, src_full.size(), 0, 0, cv::INTER_LINEAR);
-      a_b[k] = up;
+      cv::resize(ws.mean_ab[k], ws.up[k], src_full.size(), 0, 0,
+                 cv::INTER_LINEAR);
+      mean_ab = ws.up;
     }
   }
   const cv::Size full = src_full.size();
   dst.create(full, CV_32FC1);
   ForRows(full.height, [&](int y) {
     float* q = dst.ptr<float>(y);
-    const float* b = a_b[nc].ptr<float>(y);
-    const float* a0 = a_b[0].ptr<float>(y);
+    const float* b = mean_ab[nc].ptr<float>(y);
+    const float* a0 = mean_ab[0].ptr<float>(y);
     const float* i0 = full_guide_[0].ptr<float>(y);
     if (nc == 1) {
       for (int x = 0; x < full.width; ++x) q[x] = a0[x] * i0[x] + b[x];
     } else {
-      const float* a1 = a_b[1].ptr<float>(y);
-      const float* a2 = a_b[2].ptr<float>(y);
+      const float* a1 = mean_ab[1].ptr<float>(y);
+      const float* a2 = mean_ab[2].ptr<float>(y);
       const float* i1 = full_guide_[1].ptr<float>(y);
       const float* i2 = full_guide_[2].ptr<float>(y);
       for (int x = 0; x < full.width; ++x) {

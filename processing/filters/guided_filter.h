@@ -34,6 +34,13 @@ struct GuidedFilterOptions {
   int subsample = 1;  // 1 = exact filter; s > 1 = fast guided filter
 };
 
+// Full-size scratch images of GuidedFilter::FilterPlane. Passing the same
+// workspace to repeated calls (one workspace per thread) avoids allocating
+// and page-faulting ~8 temporaries per call.
+struct GuidedFilterWorkspace {
+  cv::Mat low_src, mean_p, prod, mean_ip[3], ab[4], mean_ab[4], up[4];
+};
+
 class GuidedFilter {
  public:
   // guide: CV_8U or CV_32F, 1 or 3 channels, non-empty, finite. 8-bit guides
@@ -46,8 +53,11 @@ class GuidedFilter {
   absl::StatusOr<cv::Mat> Filter(const cv::Mat& src) const;
 
   // Hot-loop variant without validation: src must be CV_32FC1 of the guide's
-  // size; dst is (re)allocated as CV_32FC1. Never throws for valid input.
-  void FilterPlane(const cv::Mat& src, cv::Mat& dst) const;
+  // size; dst is (re)allocated as CV_32FC1 (must not alias src). Never
+  // throws for valid input. Thread-safe (the filter is not modified) as long
+  // as each thread passes its own workspace (or none).
+  void FilterPlane(const cv::Mat& src, cv::Mat& dst,
+                   GuidedFilterWorkspace* workspace = nullptr) const;
 
   const GuidedFilterOptions& options() const { return options_; }
   cv::Size size() const { return full_guide_[0].size(); }
@@ -57,6 +67,7 @@ class GuidedFilter {
   GuidedFilter() = default;
   void Init(const cv::Mat& guide_float);
   cv::Mat Box(const cv::Mat& m) const;
+  void BoxInto(const cv::Mat& m, cv::Mat& out) const;
 
   GuidedFilterOptions options_;
   int work_radius_ = 0;

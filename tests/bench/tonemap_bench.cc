@@ -117,8 +117,9 @@ void BM_GuidedOursReusedGuide(benchmark::State& state) {
   absl::StatusOr<hdrstereo::filters::GuidedFilter> f =
       hdrstereo::filters::GuidedFilter::Create(guide, {});
   cv::Mat out;
+  hdrstereo::filters::GuidedFilterWorkspace ws;
   for (auto _ : state) {
-    f->FilterPlane(src, out);
+    f->FilterPlane(src, out, &ws);
     benchmark::DoNotOptimize(out.data);
   }
 }

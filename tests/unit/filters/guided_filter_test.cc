@@ -133,16 +133,23 @@ TEST(GuidedFilter, MultiChannelInputFilteredPerChannel) {
 }
 
 TEST(GuidedFilter, ReusedGuideGivesSameResultAsOneShot) {
-  const cv::Mat guide = TestImage(128, 96, 3, 6);
-  absl::StatusOr<GuidedFilter> f = GuidedFilter::Create(guide, {});
-  ASSERT_TRUE(f.ok());
-  for (int seed = 10; seed < 13; ++seed) {
-    const cv::Mat src = TestImage(128, 96, 1, seed);
-    cv::Mat plane;
-    f->FilterPlane(src, plane);
-    absl::StatusOr<cv::Mat> one_shot = ApplyGuidedFilter(guide, src, {});
-    ASSERT_TRUE(one_shot.ok());
-    EXPECT_EQ(MaxAbsDiff(plane, *one_shot), 0.0);
+  for (const int channels : {1, 3}) {
+    for (const int subsample : {1, 4}) {
+      const cv::Mat guide = TestImage(128, 96, channels, 6);
+      const GuidedFilterOptions o{9, 1e-4, subsample};
+      absl::StatusOr<GuidedFilter> f = GuidedFilter::Create(guide, o);
+      ASSERT_TRUE(f.ok());
+      GuidedFilterWorkspace ws;
+      for (int seed = 10; seed < 13; ++seed) {
+        const cv::Mat src = TestImage(128, 96, 1, seed);
+        cv::Mat plane;
+        f->FilterPlane(src, plane, &ws);
+        absl::StatusOr<cv::Mat> one_shot = ApplyGuidedFilter(guide, src, o);
+        ASSERT_TRUE(one_shot.ok());
+        EXPECT_EQ(MaxAbsDiff(plane, *one_shot), 0.0)
+            << channels << " " << subsample;
+      }
+    }
   }
 }
 
