@@ -1,0 +1,338 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// Capture jobs end to end: the real daemon with simulated hardware (the real
+// Zaber driver on the emulated controller's pty), real SQLite, real gRPC and
+// the real CLI. Scenes are the bundled lab-lamp at a small resolution so the
+// suite stays quick; what is checked does not depend on the size.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <set>
+
+#include "absl/strings/str_cat.h"
+#include "daemon/store/database.h"
+#include "hardware/sim/scene.h"
+#include "hardware/sim/sim_world.h"
+#include "processing/io/sha256.h"
+#include "tests/support/daemon_fixture.h"
+
+namespace hdrstereo {
+namespace {
+
+namespace fs = std::filesystem;
+using ::hdrstereo::testing::CommandResult;
+using ::hdrstereo::testing::Process;
+using ::hdrstereo::testing::ReadFileOrDie;
+using ::testing::HasSubstr;
+
+// 240 x 180 camera (a fifth of the default, same field of view) and a
+// 128 x 96 projector: 7 + 7 Gray-code bits, 30 patterns per exposure.
+nlohmann::json SmallLabLamp() {
+  return {{"camera",
+           {{"width", 240},
+            {"height", 180},
+            {"fx", 320},
+            {"fy", 320},
+            {"cx", 119.5},
+            {"cy", 89.5}}},
+          {"projector", {{"width", 128}, {"height", 96}}}};
+}
+
+// Protobuf's JSON writes 64-bit integers as strings.
+int64_t JsonInt(const nlohmann::json& value) {
+  if (value.is_string()) return std::stoll(value.get<std::string>());
+  return value.is_number() ? value.get<int64_t>() : 0;
+}
+
+class CaptureTest : public ::hdrstereo::testing::DaemonFixture {
+ protected:
+  void StartSim(const nlohmann::json& patch = SmallLabLamp(),
+                double time_scale = 0) {
+    scene_path_ = WriteScene("lab-lamp", patch);
+    StartDaemon({"--sim-scene", scene_path_.string(), "--sim-time-scale",
+                 absl::StrCat(time_scale)});
+  }
+
+  int64_t Submit(std::vector<std::string> args) {
+    nlohmann::json job = CliJson(std::move(args));
+    return job.contains("id") ? JsonInt(job["id"]) : 0;
+  }
+
+  nlohmann::json Job(int64_t id) {
+    return CliJson({"jobs", "show", std::to_string(id)});
+  }
+
+  int64_t FramesDone(int64_t id) {
+    const nlohmann::json job = Job(id);
+    return job.contains("progress") ? JsonInt(job["progress"]["done"]) : 0;
+  }
+
+  // Every recorded frame's file exists and matches its sha256; no file under
+  // captures/ lacks a row; sequences are 0..n-1 without gaps or duplicates.
+  void ExpectConsistentStore(const std::string& session, int expected) {
+    absl::StatusOr<std::unique_ptr<store::Database>> db = store::Database::Open(
+        data_root() / "hdrstereo.db", store::Database::Mode::kReadOnly);
+    ASSERT_TRUE(db.ok());
+    std::unique_lock<std::mutex> lock = (*db)->Lock();
+    absl::StatusOr<store::Statement> stmt = (*db)->Prepare(
+        "SELECT f.capture_id, f.sequence, f.path, f.sha256 FROM frames f "
+        "JOIN captures c ON c.id = f.capture_id JOIN sessions s ON "
+        "s.id = c.session_id WHERE s.name = ?1 ORDER BY f.capture_id, "
+        "f.sequence");
+    ASSERT_TRUE(stmt.ok());
+    stmt->Bind(1, session);
+    const fs::path session_dir = data_root() / "sessions" / session;
+    std::set<fs::path> recorded;
+    std::map<int64_t, int> next_sequence;
+    while (*stmt->Step()) {
+      const int64_t capture = stmt->ColumnInt(0);
+      EXPECT_EQ(stmt->ColumnInt(1), next_sequence[capture]++)
+          << "gap or duplicate in capture " << capture;
+      const fs::path path = stmt->ColumnText(2);
+      absl::StatusOr<std::string> sha = io::Sha256HexOfFile(session_dir / path);
+      ASSERT_TRUE(sha.ok()) << path << " is missing";
+      EXPECT_EQ(*sha, stmt->ColumnText(3)) << path << " does not match";
+      recorded.insert(path);
+    }
+    EXPECT_EQ(static_cast<int>(recorded.size()), expected);
+    for (const auto& entry :
+         fs::recursive_directory_iterator(session_dir / "captures")) {
+      if (entry.is_regular_file()) {
+        EXPECT_TRUE(recorded.contains(fs::relative(entry.path(), session_dir)))
+            << "orphan file " << entry.path();
+      }
+    }
+    lock.unlock();
+    EXPECT_EQ(Sql("PRAGMA integrity_check"), "ok");
+  }
+
+  fs::path scene_path_;
+};
+
+// Mean absolute grey difference between the left image and the right image
+// sampled at x - d (the true disparity), over non-occluded pixels; with
+// `shift` false the right image is sampled at x.
+double WarpError(const cv::Mat& left, const cv::Mat& right,
+                 const sim::ViewTruth& truth, bool shift) {
+  cv::Mat l, r;
+  cv::cvtColor(left, l, cv::COLOR_BGR2GRAY);
+  cv::cvtColor(right, r, cv::COLOR_BGR2GRAY);
+  double sum = 0;
+  int n = 0;
+  for (int y = 0; y < l.rows; ++y) {
+    for (int x = 0; x < l.cols; ++x) {
+      const float d = truth.disparity.at<float>(y, x);
+      if (!truth.nonoccluded.at<uchar>(y, x) || !std::isfinite(d)) continue;
+      const int xr = static_cast<int>(std::lround(x - (shift ? d : 0)));
+      if (xr < 0 || xr >= r.cols) continue;
+      const uchar lv = l.at<uchar>(y, x);
+      if (lv == 255 || lv < 8) continue;  // clipped: carries no position
+      sum += std::abs(int(lv) - int(r.at<uchar>(y, xr)));
+      ++n;
+    }
+  }
+  return n > 0 ? sum / n : 1e9;
+}
+
+TEST_F(CaptureTest, BracketedStereoFramesRowsAndTrueDisparity) {
+  StartSim();
+  ASSERT_EQ(Cli({"session", "create", "lab"}).exit_code, 0);
+  CommandResult capture = Cli({"capture", "stereo", "lab", "--watch"});
+  ASSERT_EQ(capture.exit_code, 0) << capture.out << capture.err;
+  EXPECT_THAT(capture.out, HasSubstr("succeeded"));
+
+  EXPECT_EQ(Sql("SELECT count(*) FROM frames"), "17");
+  EXPECT_EQ(Sql("SELECT count(*) FROM frames WHERE view_index = 1"), "8");
+  EXPECT_EQ(Sql("SELECT group_concat(DISTINCT stage_position_mm) FROM frames "
+                "WHERE path LIKE '%/right/%'"),
+            "150.0");
+  EXPECT_EQ(Sql("SELECT count(DISTINCT exposure_s) FROM frames"), "8");
+  EXPECT_EQ(Sql("SELECT width_px || 'x' || height_px FROM frames LIMIT 1"),
+            "240x180");
+  ExpectConsistentStore("lab", 17);
+
+  const fs::path dir = data_root() / "sessions/lab/captures/1";
+  for (const char* name :
+       {"left/ambient/exp_1-250s.png", "left/stereo/exp_1-15s.png",
+        "left/stereo/exp_1-2000s.png", "right/stereo/exp_1-125s.png"}) {
+    EXPECT_TRUE(fs::exists(dir / name)) << name;
+  }
+  // The right view is the left moved by 150 mm: shifting it by the
+  // simulator's exact disparity must line it up with the left view.
+  absl::StatusOr<sim::Scene> scene = sim::LoadScene(scene_path_.string());
+  ASSERT_TRUE(scene.ok());
+  sim::SimWorld world(*scene);
+  world.BlankProjector();
+  absl::StatusOr<sim::StereoTruth> truth = world.Truth(0, 150);
+  ASSERT_TRUE(truth.ok());
+  const cv::Mat left =
+      cv::imread((dir / "left/stereo/exp_1-125s.png").string());
+  const cv::Mat right =
+      cv::imread((dir / "right/stereo/exp_1-125s.png").string());
+  const double aligned = WarpError(left, right, truth->left, true);
+  const double unaligned = WarpError(left, right, truth->left, false);
+  RecordProperty("aligned_grey_error", std::to_string(aligned));
+  RecordProperty("unaligned_grey_error", std::to_string(unaligned));
+  EXPECT_LT(aligned, 6.0) << "grey levels";
+  EXPECT_LT(aligned, 0.5 * unaligned);
+
+  // ListFrames over the wire agrees with the database.
+  nlohmann::json frames = CliJson({"jobs", "show", "1"});
+  EXPECT_EQ(JsonInt(frames["progress"]["done"]), 17);
+}
+
+TEST_F(CaptureTest,
+       StructuredLightFramesAreEveryPatternAtEveryExposureAndView) {
+  StartSim();
+  ASSERT_EQ(Cli({"session", "create", "sl"}).exit_code, 0);
+  CommandResult capture = Cli({"capture", "sl", "sl", "--watch"});
+  ASSERT_EQ(capture.exit_code, 0) << capture.err;
+  // 2 views x 2 exposures x (2 x (7 + 7) + white + black).
+  EXPECT_EQ(Sql("SELECT count(*) FROM frames"), "120");
+  EXPECT_EQ(Sql("SELECT count(*) FROM frames WHERE inverse = 1"), "56");
+  EXPECT_EQ(Sql("SELECT count(*) FROM frames WHERE pattern = 'white'"), "4");
+  EXPECT_EQ(Sql("SELECT count(DISTINCT pattern) FROM frames"), "16");
+  EXPECT_TRUE(
+      fs::exists(data_root() / "sessions/sl/captures/1/right/structured_light/"
+                               "sl_row_b06_inv_exp_1-125s.png"));
+  ExpectConsistentStore("sl", 120);
+}
+
+TEST_F(CaptureTest, BadPlansAreRefusedAndNothingIsQueued) {
+  StartSim();
+  ASSERT_EQ(Cli({"session", "create", "s"}).exit_code, 0);
+  CommandResult zero = Cli({"capture", "stereo", "s", "--exposures", "1/60,0"});
+  EXPECT_EQ(zero.exit_code, 2);
+  EXPECT_THAT(zero.err, HasSubstr("exposure"));
+  CommandResult far = Cli({"capture", "stereo", "s", "--baseline-mm", "400"});
+  EXPECT_EQ(far.exit_code, 2);
+  EXPECT_THAT(far.err, HasSubstr("beyond the stage travel"));
+  std::string many = "1/100";
+  for (int i = 0; i < 64; ++i) absl::StrAppend(&many, ",1/100");
+  CommandResult too_many = Cli({"capture", "sl", "s", "--exposures", many});
+  EXPECT_EQ(too_many.exit_code, 2);
+  EXPECT_THAT(too_many.err, HasSubstr("at most 64"));
+  CommandResult unknown = Cli({"capture", "stereo", "nope"});
+  EXPECT_EQ(unknown.exit_code, 4);
+  EXPECT_THAT(unknown.err, HasSubstr("no session named \"nope\""));
+  EXPECT_EQ(Sql("SELECT count(*) FROM jobs"), "0");
+}
+
+TEST_F(CaptureTest, KilledDuringStructuredLightResumesWithNothingMissing) {
+  // A little modelled time per frame so that kills land mid-capture.
+  StartSim(SmallLabLamp(), 0.02);
+  ASSERT_EQ(Cli({"session", "create", "crash"}).exit_code, 0);
+  const int64_t job = Submit({"capture", "sl", "crash"});
+  ASSERT_GT(job, 0);
+  int kills = 0;
+  for (int64_t kill_after : {5, 35, 70}) {
+    const absl::Time deadline = absl::Now() + absl::Seconds(120);
+    while (FramesDone(job) < kill_after && absl::Now() < deadline) {
+      absl::SleepFor(absl::Milliseconds(10));
+    }
+    if (Job(job).value("state", "") == "JOB_STATE_SUCCEEDED") break;
+    KillDaemon();
+    ++kills;
+    StartSim(SmallLabLamp(), 0.02);
+  }
+  EXPECT_GE(kills, 2) << "the capture finished before it could be killed";
+  ASSERT_TRUE(WaitForJobState(job, "succeeded", absl::Seconds(300)))
+      << daemon_log();
+  ExpectConsistentStore("crash", 120);
+  EXPECT_EQ(Sql("SELECT count(*) FROM jobs"), "1");
+  EXPECT_EQ(Sql(absl::StrCat("SELECT count(*) FROM job_events WHERE job_id = ",
+                             job, " AND state = 'interrupted'")),
+            std::to_string(kills));
+  // No temporary file survived anywhere in the data root.
+  for (const auto& entry : fs::recursive_directory_iterator(data_root())) {
+    EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos)
+        << entry.path();
+  }
+}
+
+TEST_F(CaptureTest, PauseResumeAndCancelLeaveTheRigSafe) {
+  StartSim(SmallLabLamp(), 0.05);
+  ASSERT_EQ(Cli({"session", "create", "p"}).exit_code, 0);
+  const int64_t job = Submit({"capture", "sl", "p"});
+  const absl::Time deadline = absl::Now() + absl::Seconds(60);
+  while (FramesDone(job) < 3 && absl::Now() < deadline) {
+    absl::SleepFor(absl::Milliseconds(10));
+  }
+  ASSERT_EQ(Cli({"jobs", "pause", std::to_string(job)}).exit_code, 0);
+  ASSERT_TRUE(WaitForJobState(job, "paused"));
+  const int64_t paused_at = FramesDone(job);
+  absl::SleepFor(absl::Milliseconds(500));
+  EXPECT_EQ(FramesDone(job), paused_at) << "frames taken while paused";
+  // While paused, the hardware still belongs to the job.
+  CommandResult move = Cli({"hw", "stage", "move", "10"});
+  EXPECT_EQ(move.exit_code, 1);
+  EXPECT_THAT(move.err, HasSubstr("in use by a capture job"));
+
+  ASSERT_EQ(Cli({"jobs", "resume", std::to_string(job)}).exit_code, 0);
+  ASSERT_TRUE(WaitForJobState(job, "running"));
+  ASSERT_EQ(Cli({"jobs", "cancel", std::to_string(job)}).exit_code, 0);
+  ASSERT_TRUE(WaitForJobState(job, "cancelled"));
+  EXPECT_GT(FramesDone(job), paused_at);
+  // The rig is free again and idle; frames taken so far are kept intact.
+  nlohmann::json status = CliJson({"hw", "status"});
+  EXPECT_EQ(status["stage"]["state"], "DEVICE_STATE_CONNECTED");
+  ExpectConsistentStore("p", std::stoi(Sql("SELECT count(*) FROM frames")));
+  EXPECT_EQ(Cli({"jobs", "cancel", std::to_string(job)}).exit_code, 1);
+}
+
+TEST_F(CaptureTest, ConcurrentAndLateWatchersSeeTheSameHistory) {
+  StartSim(SmallLabLamp(), 0.01);
+  ASSERT_EQ(Cli({"session", "create", "w"}).exit_code, 0);
+  const int64_t job = Submit({"capture", "stereo", "w"});
+  std::vector<Process> watchers;
+  for (int i = 0; i < 2; ++i) {
+    absl::StatusOr<Process> watcher =
+        Process::Start({HDRSTEREO_CLI, "--server", address_, "jobs", "watch",
+                        std::to_string(job)},
+                       dir_ / absl::StrCat("watch", i, ".log"));
+    ASSERT_TRUE(watcher.ok());
+    watchers.push_back(*std::move(watcher));
+  }
+  for (Process& watcher : watchers) {
+    std::optional<int> code = watcher.Wait(absl::Seconds(120));
+    ASSERT_TRUE(code.has_value());
+    EXPECT_EQ(*code, 0);
+  }
+  const std::string first = ReadFileOrDie(dir_ / "watch0.log");
+  const std::string second = ReadFileOrDie(dir_ / "watch1.log");
+  EXPECT_THAT(first, HasSubstr("17/17"));
+  EXPECT_THAT(first, HasSubstr("succeeded"));
+  // Not a terminal: one line per event, the same events for both.
+  EXPECT_EQ(first, second);
+
+  CommandResult late = Cli({"jobs", "watch", std::to_string(job)});
+  EXPECT_EQ(late.exit_code, 0);
+  EXPECT_EQ(late.out, first) << "a late watcher replays the whole history";
+}
+
+TEST_F(CaptureTest, CameraFaultFailsTheJobKeepsFramesAndAResubmitFinishes) {
+  nlohmann::json patch = SmallLabLamp();
+  patch["faults"] = {{"camera", {{"timeout", {{"calls", {6}}}}}}};
+  StartSim(patch);
+  ASSERT_EQ(Cli({"session", "create", "f"}).exit_code, 0);
+  CommandResult first = Cli({"capture", "stereo", "f", "--watch"});
+  EXPECT_EQ(first.exit_code, 1);
+  nlohmann::json failed = Job(1);
+  EXPECT_EQ(failed["state"], "JOB_STATE_FAILED");
+  EXPECT_FALSE(failed.value("error", "").empty());
+  EXPECT_EQ(Sql("SELECT count(*) FROM frames"), "5");
+  ExpectConsistentStore("f", 5);
+
+  CommandResult again = Cli({"capture", "stereo", "f", "--watch"});
+  ASSERT_EQ(again.exit_code, 0) << again.out << again.err;
+  EXPECT_THAT(again.out, HasSubstr("resuming: 5 frames already recorded"));
+  EXPECT_EQ(Sql("SELECT count(*) FROM captures"), "1");
+  ExpectConsistentStore("f", 17);
+}
+
+}  // namespace
+}  // namespace hdrstereo
