@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The main job on the embedded defaults: builds, starts hdrstereod with
-# simulated hardware and a local data root, creates a session through the
-# CLI, lists it, and stops the daemon cleanly.
+# simulated hardware (the lab-lamp scene) and a local data root, creates a
+# session, runs a bracketed stereo capture (the thesis' 8 exposures, 150 mm)
+# and a structured-light capture with live progress, and stops the daemon
+# cleanly.
 # Usage: deploy/demo.sh [DATA_ROOT]   (default: ./demo-data)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -27,11 +29,19 @@ echo "== hdrstereo status"
 session="demo-$(date +%Y%m%d-%H%M%S)"
 echo "== hdrstereo session create $session"
 "$cli" session create "$session" --note "created by deploy/demo.sh"
+echo "== hdrstereo hw status"
+"$cli" hw status
+echo "== hdrstereo capture stereo $session --watch"
+"$cli" capture stereo "$session" --watch
+echo "== hdrstereo capture sl $session --watch"
+"$cli" capture sl "$session" --watch
 echo "== hdrstereo session list"
 "$cli" session list
+echo "== hdrstereo jobs list"
+"$cli" jobs list
 
 echo "== stopping hdrstereod"
 kill -TERM $daemon
 wait $daemon
 trap - EXIT
-echo "== done: the database is $data_root/hdrstereo.db"
+echo "== done: frames are under $data_root/sessions/$session, the database is $data_root/hdrstereo.db"

@@ -231,16 +231,35 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context) {
   }
   const int views = ViewsOf(plan);
 
+  // Time inside device calls versus the whole loop: the rest is the daemon's
+  // own overhead (pattern rendering, hashing, writing, recording).
+  absl::Duration device_time;
+  auto timed = [&device_time](auto&& call) {
+    const absl::Time start = absl::Now();
+    auto result = call();
+    device_time += absl::Now() - start;
+    return result;
+  };
+  const absl::Time loop_start = absl::Now();
+  const int64_t first_count = count;
+
   for (const FrameSpec& spec : specs) {
     if (done->contains(spec.sequence)) continue;
     if (absl::Status s = context.Checkpoint(); !s.ok()) return s;
     if (!(std::abs(position - spec.stage_position_mm) < 1e-6)) {
       moved = true;
-      if (absl::Status s = stage.MoveTo(spec.stage_position_mm); !s.ok()) {
+      if (absl::Status s =
+              timed([&] { return stage.MoveTo(spec.stage_position_mm); });
+          !s.ok()) {
         return s;
       }
       position = spec.stage_position_mm;
-      if (base.settle_s > 0) absl::SleepFor(absl::Seconds(base.settle_s));
+      if (base.settle_s > 0) {
+        timed([&] {
+          absl::SleepFor(absl::Seconds(base.settle_s));
+          return 0;
+        });
+      }
     }
     if (projector != nullptr) {
       const std::string wanted =
@@ -253,23 +272,29 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context) {
           absl::StatusOr<cv::Mat> image =
               sl::Render(*spec.pattern, projector->resolution());
           if (!image.ok()) return image.status();
-          if (absl::Status s = projector->Show(*image); !s.ok()) return s;
-        } else if (absl::Status s = projector->Blank(); !s.ok()) {
+          if (absl::Status s = timed([&] { return projector->Show(*image); });
+              !s.ok()) {
+            return s;
+          }
+        } else if (absl::Status s = timed([&] { return projector->Blank(); });
+                   !s.ok()) {
           return s;
         }
         showing = wanted;
       }
     }
     if (exposure != spec.exposure_s) {
-      absl::StatusOr<hardware::ExposureSettings> applied =
-          camera.Configure({.exposure_s = spec.exposure_s,
-                            .iso = base.iso,
-                            .aperture_f = base.aperture_f,
-                            .format = base.format});
+      absl::StatusOr<hardware::ExposureSettings> applied = timed([&] {
+        return camera.Configure({.exposure_s = spec.exposure_s,
+                                 .iso = base.iso,
+                                 .aperture_f = base.aperture_f,
+                                 .format = base.format});
+      });
       if (!applied.ok()) return applied.status();
       exposure = spec.exposure_s;
     }
-    absl::StatusOr<hardware::Frame> frame = camera.Capture();
+    absl::StatusOr<hardware::Frame> frame =
+        timed([&] { return camera.Capture(); });
     if (!frame.ok()) return frame.status();
 
     store::FrameRecord record;
@@ -311,6 +336,16 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context) {
     }
   }
 
+  const absl::Duration loop_time = absl::Now() - loop_start;
+  if (count > first_count && loop_time > absl::ZeroDuration()) {
+    const absl::Duration own = loop_time - device_time;
+    context.Info(absl::StrFormat(
+        "%d frames in %.2f s: %.2f s in the devices, %.3f s (%.2f%%) in the "
+        "daemon",
+        count - first_count, absl::ToDoubleSeconds(loop_time),
+        absl::ToDoubleSeconds(device_time), absl::ToDoubleSeconds(own),
+        100.0 * absl::ToDoubleSeconds(own) / absl::ToDoubleSeconds(loop_time)));
+  }
   if (projector != nullptr) {
     if (absl::Status s = projector->Blank(); !s.ok()) return s;
   }

@@ -35,6 +35,13 @@ absl::Status JobContext::Progress(int64_t done, int64_t total,
   return absl::OkStatus();
 }
 
+void JobContext::Info(absl::string_view message) {
+  spdlog::info("job {} ({}): {}", job_.id, job_.session, std::string(message));
+  engine_.jobs_.AddEvent(job_.id, store::EventLevel::kInfo, message)
+      .IgnoreError();
+  engine_.NotifyEvent();
+}
+
 void JobContext::Warn(absl::string_view message) {
   spdlog::warn("job {} ({}): {}", job_.id, job_.session, std::string(message));
   engine_.jobs_.AddEvent(job_.id, store::EventLevel::kWarning, message)

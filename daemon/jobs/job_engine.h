@@ -41,6 +41,7 @@ class JobContext {
   absl::Status Progress(int64_t done, int64_t total, absl::string_view step,
                         const std::function<absl::Status()>& also = nullptr);
   void Warn(absl::string_view message);
+  void Info(absl::string_view message);
 
  private:
   friend class JobEngine;

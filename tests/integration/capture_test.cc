@@ -177,7 +177,7 @@ TEST_F(CaptureTest, BracketedStereoFramesRowsAndTrueDisparity) {
   const double unaligned = WarpError(left, right, truth->left, false);
   RecordProperty("aligned_grey_error", std::to_string(aligned));
   RecordProperty("unaligned_grey_error", std::to_string(unaligned));
-  EXPECT_LT(aligned, 6.0) << "grey levels";
+  EXPECT_LT(aligned, 2.0) << "grey levels";
   EXPECT_LT(aligned, 0.5 * unaligned);
 
   // ListFrames over the wire agrees with the database.
