@@ -1,0 +1,625 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "processing/fusion/fusion.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <new>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/strings/str_cat.h"
+
+// libmaxflow's headers come in as SYSTEM (imported target PkgConfig::MAXFLOW).
+#include <maxflow.h>
+
+namespace hdrstereo::fusion {
+namespace {
+
+using Graph = maxflow::Graph<int, int, int>;
+using Clock = std::chrono::steady_clock;
+
+double Seconds(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double>(b - a).count();
+}
+
+[[noreturn]] void MaxflowError(const char* /*message*/) {
+  throw std::bad_alloc();
+}
+
+bool Valid(float z, int max_disp) {
+  return std::isfinite(z) && z >= 0.0f &&
+         z <= static_cast<float>(max_disp) + 0.5f;
+}
+
+inline int32_t Rho(const MrfProblem& pr, int32_t a, int32_t b) {
+  if (pr.potts) return a != b ? 1 : 0;
+  const int64_t d = static_cast<int64_t>(a) - b;
+  return static_cast<int32_t>(std::min<int64_t>(d * d, pr.truncation));
+}
+
+inline int32_t RhoMax(const MrfProblem& pr) {
+  return pr.potts ? 1 : pr.truncation;
+}
+
+absl::Status CheckCandidates(const std::vector<cv::Mat>& candidates,
+                             int max_disp) {
+  if (candidates.empty()) {
+    return absl::InvalidArgumentError("fusion: no candidate disparity maps");
+  }
+  if (max_disp < 1 || max_disp > 4096) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("fusion: max_disp must be in [1, 4096], got ", max_disp));
+  }
+  const cv::Size size = candidates[0].size();
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    const cv::Mat& c = candidates[k];
+    if (c.empty() || c.type() != CV_32FC1) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "fusion: candidate ", k, " must be a non-empty CV_32FC1 map"));
+    }
+    if (c.size() != size) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("fusion: candidate ", k, " is ", c.cols, "x", c.rows,
+                       ", candidate 0 is ", size.width, "x", size.height));
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<cv::Mat> GuideGrey8(const cv::Mat& guide, cv::Size size) {
+  if (guide.empty() || guide.size() != size) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("fusion: the guide must be ", size.width, "x", size.height,
+                     ", got ", guide.cols, "x", guide.rows));
+  }
+  const int depth = guide.depth();
+  const int ch = guide.channels();
+  if ((depth != CV_8U && depth != CV_32F) || (ch != 1 && ch != 3)) {
+    return absl::InvalidArgumentError(
+        "fusion: the guide must be 8-bit or float [0, 1], 1 or 3 channels");
+  }
+  cv::Mat grey = guide;
+  if (ch == 3) cv::cvtColor(guide, grey, cv::COLOR_BGR2GRAY);
+  if (depth == CV_32F) {
+    cv::Mat g8;
+    grey.convertTo(g8, CV_8U, 255.0);
+    grey = g8;
+  }
+  return grey.isContinuous() ? grey : grey.clone();
+}
+
+// Per-candidate data cost at offset d = l - z, before confidence and scale.
+double UnitCost(const FusionParams& params, double d) {
+  if (params.data == DataModel::kGaussian) {
+    return 1.0 - std::exp(-d * d / (2.0 * params.sigma * params.sigma));
+  }
+  return std::min(d * d, params.data_truncation);
+}
+
+double UnitCostMax(const FusionParams& params) {
+  return params.data == DataModel::kGaussian ? 1.0 : params.data_truncation;
+}
+
+absl::StatusOr<MrfProblem> BuildProblemImpl(
+    const std::vector<cv::Mat>& candidates, const cv::Mat& guide,
+    const FusionParams& params, const std::vector<cv::Mat>& confidences) {
+  if (absl::Status s = CheckCandidates(candidates, params.max_disp); !s.ok()) {
+    return s;
+  }
+  if (!(params.sigma > 0) || !(params.data_scale > 0) ||
+      !(params.lambda >= 0) || !(params.data_truncation > 0) ||
+      params.quadratic_truncation < 1 || !(params.linear_model_thr >= 1) ||
+      params.candidate_label_radius < 0) {
+    return absl::InvalidArgumentError(
+        "fusion: sigma, data_scale, data_truncation must be > 0, lambda >= 0, "
+        "linear_model_thr >= 1, quadratic_truncation >= 1, "
+        "candidate_label_radius >= 0");
+  }
+  const int num_k = static_cast<int>(candidates.size());
+  const double per_candidate_max =
+      std::round(params.data_scale * UnitCostMax(params));
+  if (per_candidate_max * num_k > 65535.0) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "fusion: data_scale too large: ", num_k, " candidates x max cost ",
+        per_candidate_max, " exceeds 65535"));
+  }
+  if (!confidences.empty()) {
+    if (confidences.size() != candidates.size()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("fusion: ", confidences.size(), " confidence maps for ",
+                       candidates.size(), " candidates"));
+    }
+    for (size_t k = 0; k < confidences.size(); ++k) {
+      if (confidences[k].type() != CV_32FC1 ||
+          confidences[k].size() != candidates[0].size()) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "fusion: confidence ", k, " must be CV_32FC1 of the same size"));
+      }
+    }
+  }
+  const cv::Size size = candidates[0].size();
+  absl::StatusOr<cv::Mat> grey = GuideGrey8(guide, size);
+  if (!grey.ok()) return grey.status();
+
+  MrfProblem pr;
+  pr.width = size.width;
+  pr.height = size.height;
+  pr.num_labels = params.max_disp + 1;
+  const int64_t n = static_cast<int64_t>(pr.width) * pr.height;
+  const int num_labels = pr.num_labels;
+  if (n * num_labels > (int64_t{1} << 31)) {
+    return absl::InvalidArgumentError(
+        "fusion: image x labels too large (more than 2^31 data costs)");
+  }
+
+  // Data term: a constant per valid candidate, lowered inside a window
+  // around z where the rounded cost differs from the maximum.
+  const double cost_max = UnitCostMax(params);
+  std::vector<int32_t> base(static_cast<size_t>(n), 0);
+  auto confidence = [&](int k, int64_t p) -> double {
+    if (confidences.empty()) return 1.0;
+    const float c = confidences[static_cast<size_t>(k)].ptr<float>()[p];
+    return std::isfinite(c) ? std::clamp(static_cast<double>(c), 0.0, 1.0)
+                            : 0.0;
+  };
+  std::vector<const float*> cand(static_cast<size_t>(num_k));
+  std::vector<cv::Mat> cont(static_cast<size_t>(num_k));
+  for (int k = 0; k < num_k; ++k) {
+    cont[static_cast<size_t>(k)] =
+        candidates[static_cast<size_t>(k)].isContinuous()
+            ? candidates[static_cast<size_t>(k)]
+            : candidates[static_cast<size_t>(k)].clone();
+    cand[static_cast<size_t>(k)] = cont[static_cast<size_t>(k)].ptr<float>();
+  }
+  for (int64_t p = 0; p < n; ++p) {
+    int32_t b = 0;
+    for (int k = 0; k < num_k; ++k) {
+      if (!Valid(cand[static_cast<size_t>(k)][p], params.max_disp)) continue;
+      b += static_cast<int32_t>(
+          std::lround(params.data_scale * confidence(k, p) * cost_max));
+    }
+    base[static_cast<size_t>(p)] = b;
+  }
+  pr.data.resize(static_cast<size_t>(n * num_labels));
+  for (int l = 0; l < num_labels; ++l) {
+    uint16_t* row = pr.data.data() + static_cast<int64_t>(l) * n;
+    for (int64_t p = 0; p < n; ++p) {
+      row[p] = static_cast<uint16_t>(base[static_cast<size_t>(p)]);
+    }
+  }
+  // Half-width of the window outside which the rounded cost is the maximum.
+  int window = 1;
+  while (window < num_labels &&
+         std::lround(params.data_scale * UnitCost(params, window)) <
+             std::lround(params.data_scale * cost_max)) {
+    ++window;
+  }
+  for (int64_t p = 0; p < n; ++p) {
+    for (int k = 0; k < num_k; ++k) {
+      const float z = cand[static_cast<size_t>(k)][p];
+      if (!Valid(z, params.max_disp)) continue;
+      const double scale = params.data_scale * confidence(k, p);
+      const long full = std::lround(scale * cost_max);
+      const int centre = static_cast<int>(std::lround(z));
+      const int lo = std::max(0, centre - window - 1);
+      const int hi = std::min(num_labels - 1, centre + window + 1);
+      for (int l = lo; l <= hi; ++l) {
+        const long c = std::lround(scale * UnitCost(params, l - z));
+        uint16_t& cell = pr.data[static_cast<size_t>(l * n + p)];
+        cell = static_cast<uint16_t>(cell - (full - c));
+      }
+    }
+  }
+
+  // Smoothness weights.
+  pr.right.assign(static_cast<size_t>(n), 0);
+  pr.down.assign(static_cast<size_t>(n), 0);
+  pr.potts = params.smoothness != SmoothnessModel::kQuadratic;
+  pr.truncation = pr.potts ? 1 : params.quadratic_truncation;
+  auto weight = [&](int a, int b) -> int32_t {
+    double g = std::abs(a - b);
+    double w = 0;
+    switch (params.smoothness) {
+      case SmoothnessModel::kPottsLinear:
+        if (g < params.static_cue) g = 0;
+        w = std::max(params.linear_model_thr - g, 1.0);
+        break;
+      case SmoothnessModel::kPotts:
+        w = params.linear_model_thr;
+        break;
+      case SmoothnessModel::kPottsStaticCue:
+        w = (g <= params.static_cue) ? 2.0 : 1.0;
+        break;
+      case SmoothnessModel::kQuadratic: {
+        const double u = (g / 255.0) * (g / 255.0);
+        w = params.linear_model_thr * std::exp(-params.quadratic_c * u);
+        break;
+      }
+    }
+    return static_cast<int32_t>(std::lround(params.lambda * w));
+  };
+  const uchar* img = grey->ptr<uchar>();
+  for (int y = 0; y < pr.height; ++y) {
+    for (int x = 0; x < pr.width; ++x) {
+      const int64_t p = static_cast<int64_t>(y) * pr.width + x;
+      if (x + 1 < pr.width) {
+        pr.right[static_cast<size_t>(p)] = weight(img[p], img[p + 1]);
+      }
+      if (y + 1 < pr.height) {
+        pr.down[static_cast<size_t>(p)] = weight(img[p], img[p + pr.width]);
+      }
+    }
+  }
+
+  if (params.candidate_labels_only) {
+    pr.allowed.assign(static_cast<size_t>(n * num_labels), 0);
+    const int r = params.candidate_label_radius;
+    for (int64_t p = 0; p < n; ++p) {
+      bool any = false;
+      for (int k = 0; k < num_k; ++k) {
+        const float z = cand[static_cast<size_t>(k)][p];
+        if (!Valid(z, params.max_disp)) continue;
+        any = true;
+        const int c = static_cast<int>(std::lround(z));
+        for (int l = std::max(0, c - r); l <= std::min(num_labels - 1, c + r);
+             ++l) {
+          pr.allowed[static_cast<size_t>(l * n + p)] = 1;
+        }
+      }
+      if (!any) {
+        for (int l = 0; l < num_labels; ++l) {
+          pr.allowed[static_cast<size_t>(l * n + p)] = 1;
+        }
+      }
+    }
+  }
+  return pr;
+}
+
+absl::Status CheckProblem(const MrfProblem& pr) {
+  const int64_t n = static_cast<int64_t>(pr.width) * pr.height;
+  if (pr.width < 1 || pr.height < 1 || pr.num_labels < 1) {
+    return absl::InvalidArgumentError("fusion: empty MRF problem");
+  }
+  if (static_cast<int64_t>(pr.data.size()) != n * pr.num_labels ||
+      static_cast<int64_t>(pr.right.size()) != n ||
+      static_cast<int64_t>(pr.down.size()) != n ||
+      (!pr.allowed.empty() &&
+       static_cast<int64_t>(pr.allowed.size()) != n * pr.num_labels)) {
+    return absl::InvalidArgumentError("fusion: inconsistent MRF problem sizes");
+  }
+  for (int64_t p = 0; p < n; ++p) {
+    if (pr.right[static_cast<size_t>(p)] < 0 ||
+        pr.down[static_cast<size_t>(p)] < 0) {
+      return absl::InvalidArgumentError("fusion: negative smoothness weight");
+    }
+  }
+  if (!pr.potts && pr.truncation < 1) {
+    return absl::InvalidArgumentError("fusion: truncation must be >= 1");
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<MrfProblem> BuildProblem(
+    const std::vector<cv::Mat>& candidates, const cv::Mat& guide,
+    const FusionParams& params, const std::vector<cv::Mat>& confidences) {
+  try {
+    return BuildProblemImpl(candidates, guide, params, confidences);
+  } catch (const cv::Exception& e) {
+    return absl::InternalError(absl::StrCat("fusion: OpenCV: ", e.what()));
+  } catch (const std::bad_alloc&) {
+    return absl::ResourceExhaustedError("fusion: out of memory");
+  }
+}
+
+int64_t Energy(const MrfProblem& pr, const std::vector<int32_t>& labels) {
+  const int64_t n = static_cast<int64_t>(pr.width) * pr.height;
+  int64_t e = 0;
+  for (int64_t p = 0; p < n; ++p) {
+    const int32_t l = labels[static_cast<size_t>(p)];
+    e += pr.data[static_cast<size_t>(l * n + p)];
+    const int x = static_cast<int>(p % pr.width);
+    if (x + 1 < pr.width) {
+      e += static_cast<int64_t>(pr.right[static_cast<size_t>(p)]) *
+           Rho(pr, l, labels[static_cast<size_t>(p + 1)]);
+    }
+    if (p + pr.width < n) {
+      e += static_cast<int64_t>(pr.down[static_cast<size_t>(p)]) *
+           Rho(pr, l, labels[static_cast<size_t>(p + pr.width)]);
+    }
+  }
+  return e;
+}
+
+std::vector<int32_t> WinnerTakesAll(const MrfProblem& pr) {
+  const int64_t n = static_cast<int64_t>(pr.width) * pr.height;
+  std::vector<int32_t> labels(static_cast<size_t>(n), 0);
+  std::vector<int32_t> best(static_cast<size_t>(n),
+                            std::numeric_limits<int32_t>::max());
+  for (int l = 0; l < pr.num_labels; ++l) {
+    const uint16_t* row = pr.data.data() + static_cast<int64_t>(l) * n;
+    const uint8_t* ok =
+        pr.allowed.empty() ? nullptr : pr.allowed.data() + l * n;
+    for (int64_t p = 0; p < n; ++p) {
+      if (ok != nullptr && ok[p] == 0) continue;
+      if (row[p] < best[static_cast<size_t>(p)]) {
+        best[static_cast<size_t>(p)] = row[p];
+        labels[static_cast<size_t>(p)] = l;
+      }
+    }
+  }
+  return labels;
+}
+
+absl::StatusOr<SolverStats> AlphaExpansion(const MrfProblem& pr,
+                                           std::vector<int32_t>* labels_ptr,
+                                           int max_cycles) {
+  if (absl::Status s = CheckProblem(pr); !s.ok()) return s;
+  const int64_t n64 = static_cast<int64_t>(pr.width) * pr.height;
+  if (labels_ptr == nullptr ||
+      static_cast<int64_t>(labels_ptr->size()) != n64) {
+    return absl::InvalidArgumentError(
+        "fusion: the labelling must have one label per pixel");
+  }
+  if (n64 > std::numeric_limits<int>::max() / 4) {
+    return absl::InvalidArgumentError("fusion: image too large");
+  }
+  std::vector<int32_t>& labels = *labels_ptr;
+  for (int32_t l : labels) {
+    if (l < 0 || l >= pr.num_labels) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "fusion: initial label ", l, " out of [0, ", pr.num_labels, ")"));
+    }
+  }
+  const int n = static_cast<int>(n64);
+  const int w = pr.width;
+  const Clock::time_point t_start = Clock::now();
+  SolverStats stats;
+  try {
+    std::vector<int32_t> cur(static_cast<size_t>(n));
+    for (int p = 0; p < n; ++p) {
+      cur[static_cast<size_t>(p)] =
+          pr.data[static_cast<size_t>(labels[static_cast<size_t>(p)]) *
+                      static_cast<size_t>(n) +
+                  static_cast<size_t>(p)];
+    }
+    // Largest saving a pixel can get from its edges by switching.
+    std::vector<int64_t> bound(static_cast<size_t>(n), 0);
+    const int64_t rho_max = RhoMax(pr);
+    for (int p = 0; p < n; ++p) {
+      const int x = p % w;
+      int64_t b = 0;
+      if (x + 1 < w) b += pr.right[static_cast<size_t>(p)];
+      if (x > 0) b += pr.right[static_cast<size_t>(p - 1)];
+      if (p + w < n) b += pr.down[static_cast<size_t>(p)];
+      if (p - w >= 0) b += pr.down[static_cast<size_t>(p - w)];
+      bound[static_cast<size_t>(p)] = b * rho_max;
+    }
+    std::vector<int> node(static_cast<size_t>(n), -1);
+    std::vector<int> free_px;
+    free_px.reserve(static_cast<size_t>(n));
+    std::vector<int64_t> e0(static_cast<size_t>(n)), e1(static_cast<size_t>(n));
+    std::vector<uint8_t> moved(static_cast<size_t>(n), 0);
+    std::vector<int> changed;
+    changed.reserve(static_cast<size_t>(n));
+    Graph graph(n, 2 * n, &MaxflowError);
+
+    int64_t energy = Energy(pr, labels);
+    stats.energy_before = energy;
+    for (int cycle = 0; cycle < max_cycles; ++cycle) {
+      ++stats.cycles;
+      bool improved = false;
+      for (int32_t alpha = 0; alpha < pr.num_labels; ++alpha) {
+        const Clock::time_point t0 = Clock::now();
+        const uint16_t* da = pr.data.data() + static_cast<size_t>(alpha) *
+                                                  static_cast<size_t>(n);
+        const uint8_t* ok =
+            pr.allowed.empty()
+                ? nullptr
+                : pr.allowed.data() +
+                      static_cast<size_t>(alpha) * static_cast<size_t>(n);
+        free_px.clear();
+        for (int p = 0; p < n; ++p) {
+          if (labels[static_cast<size_t>(p)] == alpha) continue;
+          if (ok != nullptr && ok[p] == 0) continue;
+          if (da[p] - cur[static_cast<size_t>(p)] >
+              bound[static_cast<size_t>(p)]) {
+            continue;  // dominated: stays in every optimal move
+          }
+          node[static_cast<size_t>(p)] = static_cast<int>(free_px.size());
+          free_px.push_back(p);
+        }
+        if (free_px.empty()) {
+          stats.build_seconds += Seconds(t0, Clock::now());
+          continue;
+        }
+        const int m = static_cast<int>(free_px.size());
+        graph.reset();
+        graph.add_node(m);
+        for (int i = 0; i < m; ++i) {
+          const int p = free_px[static_cast<size_t>(i)];
+          e0[static_cast<size_t>(i)] = cur[static_cast<size_t>(p)];
+          e1[static_cast<size_t>(i)] = da[p];
+        }
+        for (int i = 0; i < m; ++i) {
+          const int p = free_px[static_cast<size_t>(i)];
+          const int32_t fp = labels[static_cast<size_t>(p)];
+          const int x = p % w;
+          auto edge = [&](int q, int32_t wpq, bool forward) {
+            if (wpq == 0) return;
+            const int nq = node[static_cast<size_t>(q)];
+            const int32_t fq = labels[static_cast<size_t>(q)];
+            if (nq < 0) {
+              e0[static_cast<size_t>(i)] +=
+                  static_cast<int64_t>(wpq) * Rho(pr, fp, fq);
+              e1[static_cast<size_t>(i)] +=
+                  static_cast<int64_t>(wpq) * Rho(pr, alpha, fq);
+            } else if (forward) {
+              const int64_t a = static_cast<int64_t>(wpq) * Rho(pr, fp, fq);
+              const int64_t b = static_cast<int64_t>(wpq) * Rho(pr, fp, alpha);
+              const int64_t c = static_cast<int64_t>(wpq) * Rho(pr, alpha, fq);
+              // E = A + (C - A) x_p + (D - C) x_q + (B + C - A - D)(1-x_p)x_q,
+              // D = 0.
+              e1[static_cast<size_t>(i)] += c - a;
+              e1[static_cast<size_t>(nq)] -= c;
+              const int64_t cap = std::max<int64_t>(b + c - a, 0);
+              if (cap > 0) graph.add_edge(i, nq, static_cast<int>(cap), 0);
+            }
+          };
+          if (x + 1 < w) edge(p + 1, pr.right[static_cast<size_t>(p)], true);
+          if (x > 0) edge(p - 1, pr.right[static_cast<size_t>(p - 1)], false);
+          if (p + w < n) edge(p + w, pr.down[static_cast<size_t>(p)], true);
+          if (p - w >= 0) {
+            edge(p - w, pr.down[static_cast<size_t>(p - w)], false);
+          }
+        }
+        for (int i = 0; i < m; ++i) {
+          // x = 1 (switch to alpha) <=> SINK; cap_source is paid in SINK.
+          const int64_t d =
+              e1[static_cast<size_t>(i)] - e0[static_cast<size_t>(i)];
+          if (d > 0) {
+            graph.add_tweights(i, static_cast<int>(d), 0);
+          } else {
+            graph.add_tweights(i, 0, static_cast<int>(-d));
+          }
+        }
+        const Clock::time_point t1 = Clock::now();
+        graph.maxflow();
+        const Clock::time_point t2 = Clock::now();
+        stats.build_seconds += Seconds(t0, t1);
+        stats.maxflow_seconds += Seconds(t1, t2);
+        ++stats.expansions;
+        stats.graph_nodes += m;
+
+        changed.clear();
+        for (int i = 0; i < m; ++i) {
+          if (graph.what_segment(i) == Graph::SINK) {
+            const int p = free_px[static_cast<size_t>(i)];
+            changed.push_back(p);
+            moved[static_cast<size_t>(p)] = 1;
+          }
+        }
+        // Exact energy change of the move.
+        int64_t delta = 0;
+        auto new_label = [&](int q) {
+          return moved[static_cast<size_t>(q)] ? alpha
+                                               : labels[static_cast<size_t>(q)];
+        };
+        for (int p : changed) {
+          delta += static_cast<int64_t>(da[p]) - cur[static_cast<size_t>(p)];
+          const int32_t fp = labels[static_cast<size_t>(p)];
+          const int x = p % w;
+          auto pair = [&](int q, int32_t wpq) {
+            if (wpq == 0) return;
+            if (moved[static_cast<size_t>(q)] && q < p) return;  // counted
+            delta += static_cast<int64_t>(wpq) *
+                     (Rho(pr, alpha, new_label(q)) -
+                      Rho(pr, fp, labels[static_cast<size_t>(q)]));
+          };
+          if (x + 1 < w) pair(p + 1, pr.right[static_cast<size_t>(p)]);
+          if (x > 0) pair(p - 1, pr.right[static_cast<size_t>(p - 1)]);
+          if (p + w < n) pair(p + w, pr.down[static_cast<size_t>(p)]);
+          if (p - w >= 0) pair(p - w, pr.down[static_cast<size_t>(p - w)]);
+        }
+        if (delta < 0) {
+          for (int p : changed) {
+            labels[static_cast<size_t>(p)] = alpha;
+            cur[static_cast<size_t>(p)] = da[p];
+          }
+          energy += delta;
+          improved = true;
+          ++stats.accepted;
+        }
+        for (int p : changed) moved[static_cast<size_t>(p)] = 0;
+        for (int p : free_px) node[static_cast<size_t>(p)] = -1;
+      }
+      if (!improved) break;
+    }
+    stats.energy_after = energy;
+  } catch (const std::bad_alloc&) {
+    return absl::ResourceExhaustedError("fusion: out of memory in max-flow");
+  }
+  stats.total_seconds = Seconds(t_start, Clock::now());
+  return stats;
+}
+
+absl::StatusOr<FusionResult> FuseAlphaExpansion(
+    const std::vector<cv::Mat>& candidates, const cv::Mat& guide,
+    const FusionParams& params, const std::vector<cv::Mat>& confidences) {
+  const Clock::time_point t0 = Clock::now();
+  absl::StatusOr<MrfProblem> pr =
+      BuildProblem(candidates, guide, params, confidences);
+  if (!pr.ok()) return pr.status();
+  std::vector<int32_t> labels = WinnerTakesAll(*pr);
+  const double setup = Seconds(t0, Clock::now());
+  absl::StatusOr<SolverStats> stats =
+      AlphaExpansion(*pr, &labels, params.max_cycles);
+  if (!stats.ok()) return stats.status();
+  FusionResult result;
+  result.stats = *stats;
+  result.stats.setup_seconds = setup;
+  result.disparity.create(pr->height, pr->width, CV_32FC1);
+  float* out = result.disparity.ptr<float>();
+  for (size_t p = 0; p < labels.size(); ++p) {
+    out[p] = static_cast<float>(labels[p]);
+  }
+  return result;
+}
+
+namespace {
+
+template <typename Reduce>
+absl::StatusOr<cv::Mat> FuseReduce(const std::vector<cv::Mat>& candidates,
+                                   int max_disp, Reduce reduce) {
+  if (absl::Status s = CheckCandidates(candidates, max_disp); !s.ok()) {
+    return s;
+  }
+  const cv::Size size = candidates[0].size();
+  cv::Mat out(size, CV_32FC1);
+  std::vector<float> values;
+  values.reserve(candidates.size());
+  for (int y = 0; y < size.height; ++y) {
+    float* o = out.ptr<float>(y);
+    for (int x = 0; x < size.width; ++x) {
+      values.clear();
+      for (const cv::Mat& c : candidates) {
+        const float z = c.ptr<float>(y)[x];
+        if (Valid(z, max_disp)) values.push_back(z);
+      }
+      o[x] = values.empty() ? std::numeric_limits<float>::quiet_NaN()
+                            : reduce(values);
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+absl::StatusOr<cv::Mat> FuseMean(const std::vector<cv::Mat>& candidates,
+                                 int max_disp) {
+  return FuseReduce(candidates, max_disp, [](std::vector<float>& v) {
+    double s = 0;
+    for (float z : v) s += z;
+    return static_cast<float>(s / static_cast<double>(v.size()));
+  });
+}
+
+absl::StatusOr<cv::Mat> FuseMedian(const std::vector<cv::Mat>& candidates,
+                                   int max_disp) {
+  return FuseReduce(candidates, max_disp, [](std::vector<float>& v) {
+    std::sort(v.begin(), v.end());
+    const size_t h = v.size() / 2;
+    return v.size() % 2 == 1 ? v[h] : 0.5f * (v[h - 1] + v[h]);
+  });
+}
+
+}  // namespace hdrstereo::fusion
