@@ -2,6 +2,7 @@
 #include "processing/fusion/fusion.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -32,6 +33,9 @@ double Seconds(Clock::time_point a, Clock::time_point b) {
 [[noreturn]] void MaxflowError(const char* /*message*/) {
   throw std::bad_alloc();
 }
+
+// Rounds a non-negative cost (std::lround is slow in the inner loops).
+inline int32_t Round(double v) { return static_cast<int32_t>(v + 0.5); }
 
 bool Valid(float z, int max_disp) {
   return std::isfinite(z) && z >= 0.0f &&
@@ -162,7 +166,6 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
   // Data term: a constant per valid candidate, lowered inside a window
   // around z where the rounded cost differs from the maximum.
   const double cost_max = UnitCostMax(params);
-  std::vector<int32_t> base(static_cast<size_t>(n), 0);
   auto confidence = [&](int k, int64_t p) -> double {
     if (confidences.empty()) return 1.0;
     const float c = confidences[static_cast<size_t>(k)].ptr<float>()[p];
@@ -178,22 +181,6 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
             : candidates[static_cast<size_t>(k)].clone();
     cand[static_cast<size_t>(k)] = cont[static_cast<size_t>(k)].ptr<float>();
   }
-  for (int64_t p = 0; p < n; ++p) {
-    int32_t b = 0;
-    for (int k = 0; k < num_k; ++k) {
-      if (!Valid(cand[static_cast<size_t>(k)][p], params.max_disp)) continue;
-      b += static_cast<int32_t>(
-          std::lround(params.data_scale * confidence(k, p) * cost_max));
-    }
-    base[static_cast<size_t>(p)] = b;
-  }
-  pr.data.resize(static_cast<size_t>(n * num_labels));
-  for (int l = 0; l < num_labels; ++l) {
-    uint16_t* row = pr.data.data() + static_cast<int64_t>(l) * n;
-    for (int64_t p = 0; p < n; ++p) {
-      row[p] = static_cast<uint16_t>(base[static_cast<size_t>(p)]);
-    }
-  }
   // Half-width of the window outside which the rounded cost is the maximum.
   int window = 1;
   while (window < num_labels &&
@@ -201,21 +188,90 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
              std::lround(params.data_scale * cost_max)) {
     ++window;
   }
-  for (int64_t p = 0; p < n; ++p) {
-    for (int k = 0; k < num_k; ++k) {
-      const float z = cand[static_cast<size_t>(k)][p];
-      if (!Valid(z, params.max_disp)) continue;
-      const double scale = params.data_scale * confidence(k, p);
-      const long full = std::lround(scale * cost_max);
-      const int centre = static_cast<int>(std::lround(z));
-      const int lo = std::max(0, centre - window - 1);
-      const int hi = std::min(num_labels - 1, centre + window + 1);
-      for (int l = lo; l <= hi; ++l) {
-        const long c = std::lround(scale * UnitCost(params, l - z));
-        uint16_t& cell = pr.data[static_cast<size_t>(l * n + p)];
-        cell = static_cast<uint16_t>(cell - (full - c));
+  // Unit cost by |l - z| in steps of 1 / kLutStep px (the candidate's
+  // sub-pixel position is used to 1e-3 px).
+  constexpr int kLutStep = 1024;
+  std::vector<double> lut(static_cast<size_t>((window + 2) * kLutStep + 1));
+  for (size_t i = 0; i < lut.size(); ++i) {
+    lut[i] = UnitCost(params, static_cast<double>(i) / kLutStep);
+  }
+  // Without confidences: the integer saving below the maximum by offset.
+  std::vector<int32_t> saving(lut.size());
+  for (size_t i = 0; i < lut.size(); ++i) {
+    saving[i] =
+        Round(params.data_scale * cost_max) - Round(params.data_scale * lut[i]);
+  }
+  pr.data.resize(static_cast<size_t>(n * num_labels));
+  // Row by row into a small label x width buffer (cache friendly), then
+  // copied into the label-major volume; rows in parallel.
+  const int width = pr.width;
+  std::atomic<bool> failed{false};
+  cv::parallel_for_(cv::Range(0, pr.height), [&](const cv::Range& rows) {
+    try {
+      std::vector<int32_t> buf(static_cast<size_t>(num_labels) *
+                               static_cast<size_t>(width));
+      std::vector<int32_t> base(static_cast<size_t>(width));
+      for (int y = rows.start; y < rows.end; ++y) {
+        const int64_t row0 = static_cast<int64_t>(y) * width;
+        for (int x = 0; x < width; ++x) {
+          int32_t b = 0;
+          for (int k = 0; k < num_k; ++k) {
+            if (!Valid(cand[static_cast<size_t>(k)][row0 + x],
+                       params.max_disp)) {
+              continue;
+            }
+            b += Round(params.data_scale * confidence(k, row0 + x) * cost_max);
+          }
+          base[static_cast<size_t>(x)] = b;
+        }
+        for (int l = 0; l < num_labels; ++l) {
+          std::copy(base.begin(), base.end(),
+                    buf.begin() + static_cast<int64_t>(l) * width);
+        }
+        for (int x = 0; x < width; ++x) {
+          for (int k = 0; k < num_k; ++k) {
+            const float z = cand[static_cast<size_t>(k)][row0 + x];
+            if (!Valid(z, params.max_disp)) continue;
+            const int centre = static_cast<int>(z + 0.5f);
+            const int lo = std::max(0, centre - window - 1);
+            const int hi = std::min(num_labels - 1, centre + window + 1);
+            int32_t* cell = buf.data() + x;
+            if (confidences.empty()) {
+              for (int l = lo; l <= hi; ++l) {
+                const size_t i = std::min(
+                    static_cast<size_t>(
+                        std::abs(static_cast<float>(l) - z) * kLutStep + 0.5f),
+                    saving.size() - 1);
+                cell[static_cast<int64_t>(l) * width] -= saving[i];
+              }
+            } else {
+              const double scale = params.data_scale * confidence(k, row0 + x);
+              const int32_t full = Round(scale * cost_max);
+              for (int l = lo; l <= hi; ++l) {
+                const size_t i = std::min(
+                    static_cast<size_t>(
+                        std::abs(static_cast<float>(l) - z) * kLutStep + 0.5f),
+                    lut.size() - 1);
+                cell[static_cast<int64_t>(l) * width] -=
+                    full - Round(scale * lut[i]);
+              }
+            }
+          }
+        }
+        for (int l = 0; l < num_labels; ++l) {
+          uint16_t* dst = pr.data.data() + static_cast<int64_t>(l) * n + row0;
+          const int32_t* src = buf.data() + static_cast<int64_t>(l) * width;
+          for (int x = 0; x < width; ++x) {
+            dst[x] = static_cast<uint16_t>(src[x]);
+          }
+        }
       }
+    } catch (...) {
+      failed = true;
     }
+  });
+  if (failed) {
+    return absl::ResourceExhaustedError("fusion: out of memory (data term)");
   }
 
   // Smoothness weights.
@@ -362,7 +418,8 @@ std::vector<int32_t> WinnerTakesAll(const MrfProblem& pr) {
 
 absl::StatusOr<SolverStats> AlphaExpansion(const MrfProblem& pr,
                                            std::vector<int32_t>* labels_ptr,
-                                           int max_cycles) {
+                                           int max_cycles,
+                                           bool prune_dominated) {
   if (absl::Status s = CheckProblem(pr); !s.ok()) return s;
   const int64_t n64 = static_cast<int64_t>(pr.width) * pr.height;
   if (labels_ptr == nullptr ||
@@ -404,6 +461,38 @@ absl::StatusOr<SolverStats> AlphaExpansion(const MrfProblem& pr,
       if (p - w >= 0) b += pr.down[static_cast<size_t>(p - w)];
       bound[static_cast<size_t>(p)] = b * rho_max;
     }
+    // A pixel can only switch to alpha in an optimal move when
+    // D_p(alpha) - D_p(f_p) <= bound_p; as D_p(f_p) >= min_l D_p(l), the
+    // pixels with D_p(alpha) - min_l D_p(l) <= bound_p are a static superset,
+    // listed once per label so an expansion scans only its list.
+    std::vector<int32_t> dmin(static_cast<size_t>(n),
+                              std::numeric_limits<int32_t>::max());
+    for (int l = 0; l < pr.num_labels; ++l) {
+      const uint16_t* row =
+          pr.data.data() + static_cast<size_t>(l) * static_cast<size_t>(n);
+      for (int p = 0; p < n; ++p) {
+        dmin[static_cast<size_t>(p)] =
+            std::min<int32_t>(dmin[static_cast<size_t>(p)], row[p]);
+      }
+    }
+    std::vector<std::vector<int>> reach(static_cast<size_t>(pr.num_labels));
+    for (int l = 0; l < pr.num_labels; ++l) {
+      const uint16_t* row =
+          pr.data.data() + static_cast<size_t>(l) * static_cast<size_t>(n);
+      const uint8_t* ok = pr.allowed.empty()
+                              ? nullptr
+                              : pr.allowed.data() + static_cast<size_t>(l) *
+                                                        static_cast<size_t>(n);
+      std::vector<int>& list = reach[static_cast<size_t>(l)];
+      for (int p = 0; p < n; ++p) {
+        if (ok != nullptr && ok[p] == 0) continue;
+        if (!prune_dominated || row[p] - dmin[static_cast<size_t>(p)] <=
+                                    bound[static_cast<size_t>(p)]) {
+          list.push_back(p);
+        }
+      }
+    }
+    stats.build_seconds += Seconds(t_start, Clock::now());
     std::vector<int> node(static_cast<size_t>(n), -1);
     std::vector<int> free_px;
     free_px.reserve(static_cast<size_t>(n));
@@ -422,17 +511,11 @@ absl::StatusOr<SolverStats> AlphaExpansion(const MrfProblem& pr,
         const Clock::time_point t0 = Clock::now();
         const uint16_t* da = pr.data.data() + static_cast<size_t>(alpha) *
                                                   static_cast<size_t>(n);
-        const uint8_t* ok =
-            pr.allowed.empty()
-                ? nullptr
-                : pr.allowed.data() +
-                      static_cast<size_t>(alpha) * static_cast<size_t>(n);
         free_px.clear();
-        for (int p = 0; p < n; ++p) {
+        for (int p : reach[static_cast<size_t>(alpha)]) {
           if (labels[static_cast<size_t>(p)] == alpha) continue;
-          if (ok != nullptr && ok[p] == 0) continue;
-          if (da[p] - cur[static_cast<size_t>(p)] >
-              bound[static_cast<size_t>(p)]) {
+          if (prune_dominated && da[p] - cur[static_cast<size_t>(p)] >
+                                     bound[static_cast<size_t>(p)]) {
             continue;  // dominated: stays in every optimal move
           }
           node[static_cast<size_t>(p)] = static_cast<int>(free_px.size());
@@ -562,7 +645,7 @@ absl::StatusOr<FusionResult> FuseAlphaExpansion(
   std::vector<int32_t> labels = WinnerTakesAll(*pr);
   const double setup = Seconds(t0, Clock::now());
   absl::StatusOr<SolverStats> stats =
-      AlphaExpansion(*pr, &labels, params.max_cycles);
+      AlphaExpansion(*pr, &labels, params.max_cycles, params.prune_dominated);
   if (!stats.ok()) return stats.status();
   FusionResult result;
   result.stats = *stats;

@@ -81,6 +81,9 @@ struct FusionParams {
   double quadratic_c = 50.0;       // Eq. 5.6, on [0, 1] grey
   int quadratic_truncation = 4;    // rho cap for kQuadratic
   int max_cycles = 20;
+  // Leave dominated pixels out of the expansion graphs (exact; see above).
+  // false builds the full graph of every pixel not at alpha (for comparison).
+  bool prune_dominated = true;
   bool candidate_labels_only = false;  // fusion-move variant
   int candidate_label_radius = 1;
 };
@@ -136,7 +139,8 @@ std::vector<int32_t> WinnerTakesAll(const MrfProblem& problem);
 // energy never increases.
 absl::StatusOr<SolverStats> AlphaExpansion(const MrfProblem& problem,
                                            std::vector<int32_t>* labels,
-                                           int max_cycles = 20);
+                                           int max_cycles = 20,
+                                           bool prune_dominated = true);
 
 // BuildProblem + WinnerTakesAll + AlphaExpansion.
 absl::StatusOr<FusionResult> FuseAlphaExpansion(
