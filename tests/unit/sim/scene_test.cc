@@ -14,7 +14,7 @@ using ::hdrstereo::sim::testing::SmallSceneJson;
 
 TEST(SceneTest, BundledScenesLoad) {
   const std::vector<std::string> names = BundledSceneNames();
-  ASSERT_EQ(names.size(), 4u);
+  ASSERT_EQ(names.size(), 6u);
   for (const std::string& name : names) {
     absl::StatusOr<Scene> scene = LoadBundledScene(name);
     ASSERT_TRUE(scene.ok()) << name << ": " << scene.status();
