@@ -71,7 +71,8 @@ class ZaberStageTest : public ::testing::Test {
         sim::StageEmulator::Start(options);
     ASSERT_TRUE(emulator.ok()) << emulator.status();
     emulator_ = *std::move(emulator);
-    absl::StatusOr<std::unique_ptr<ZaberStage>> stage = ZaberStage::Open(Options());
+    absl::StatusOr<std::unique_ptr<ZaberStage>> stage =
+        ZaberStage::Open(Options());
     ASSERT_TRUE(stage.ok()) << stage.status();
     stage_ = *std::move(stage);
     ASSERT_EQ(emulator_->commands_received(), 1);  // get maxspeed
@@ -161,7 +162,8 @@ TEST_F(ZaberStageTest, MillimetresAndMicrostepsConvertWithTheResolution) {
   stage_.reset();  // one client on the pty at a time
   ZaberOptions options = Options();
   options.microstep_um = 0.1;
-  absl::StatusOr<std::unique_ptr<ZaberStage>> coarse = ZaberStage::Open(options);
+  absl::StatusOr<std::unique_ptr<ZaberStage>> coarse =
+      ZaberStage::Open(options);
   ASSERT_TRUE(coarse.ok()) << coarse.status();
   EXPECT_EQ((*coarse)->ToMicrosteps(1.0), 10000);
   EXPECT_DOUBLE_EQ((*coarse)->ToMillimetres(12345), 1.2345);
@@ -201,9 +203,9 @@ TEST_F(ZaberStageTest, TargetsOutsideTheTravelAreRejectedWithoutMoving) {
   ASSERT_TRUE(stage_->Home().ok());
   ASSERT_TRUE(stage_->MoveTo(20.0).ok());
   const int64_t commands = emulator_->commands_received();
-  for (double target : {-0.001, 150.001, 200.0, -1e9,
-                        std::numeric_limits<double>::quiet_NaN(),
-                        std::numeric_limits<double>::infinity()}) {
+  for (double target :
+       {-0.001, 150.001, 200.0, -1e9, std::numeric_limits<double>::quiet_NaN(),
+        std::numeric_limits<double>::infinity()}) {
     SCOPED_TRACE(target);
     absl::Status status = stage_->MoveTo(target);
     EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << status;
