@@ -14,7 +14,7 @@
 //   Home       2 calls  home, status poll ("/1 1")
 //   State      2 calls  get pos, warnings
 //   MoveTo     4 calls  get pos, warnings, move abs N, status poll
-// Each test asserts commands_received() before the call it targets, so a
+// The tests check commands_received() before the call they target, so a
 // change in these sequences fails loudly instead of hitting another command.
 #include "hardware/zaber/zaber_stage.h"
 
@@ -41,10 +41,12 @@ using ::testing::Not;
 
 constexpr double kMicrostepUm = 0.047625;
 constexpr double kMicrostepMm = kMicrostepUm / 1000.0;
-// The per-reply wait: the emulator answers within ~5 ms, so 250 ms is ample
-// even on a loaded machine, and keeps the fault tests short.
-constexpr absl::Duration kReplyTimeout = absl::Milliseconds(250);
+// The per-reply wait: the emulator answers within ~5 ms, so 400 ms is ample
+// even on a loaded machine (a late reply would add a resend and break the
+// call counting below), and keeps the fault tests short.
+constexpr absl::Duration kReplyTimeout = absl::Milliseconds(400);
 constexpr absl::Duration kMoveMargin = absl::Milliseconds(400);
+
 std::string Message(const absl::Status& status) {
   return std::string(status.message());
 }
@@ -390,8 +392,8 @@ TEST_F(ZaberStageTest, WarningFlagsAreSurfacedButDoNotStopMoves) {
 }
 
 TEST_F(ZaberStageTest, RejectedCommandsAreErrorsNamingTheReason) {
-  // The emulator answers RJ for a device address it does not have on
-  // another axis; drive axis 2 through the same pty.
+  // The emulator has one axis and answers "RJ ... BADAXIS" for axis 2; a
+  // driver configured for axis 2 must say so instead of opening.
   ASSERT_NO_FATAL_FAILURE(Start());
   stage_.reset();  // one client on the pty at a time
   ZaberOptions options = Options();
