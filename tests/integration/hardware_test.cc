@@ -393,5 +393,31 @@ TEST_F(HardwareTest, StageFallingSilentIsReportedAsAFault) {
   EXPECT_EQ(StopDaemon(), 0);
 }
 
+TEST_F(HardwareTest, GarbledStageIsLeftOutWithTheReason) {
+  nlohmann::json patch;
+  patch["faults"] = {{"stage", {{"garbled", {{"probability", 1.0}}}}}};
+  StartDaemon({"--sim-scene", WriteScene("lab-lamp", patch).string()});
+  const std::string stage = StatusLine("stage");
+  EXPECT_THAT(stage, StartsWith("disconnected"));
+  EXPECT_THAT(stage, HasSubstr("answered \"get maxspeed\" with garbage"));
+  EXPECT_THAT(StatusLine("camera"), StartsWith("connected"));
+  EXPECT_EQ(StopDaemon(), 0);
+}
+
+TEST_F(HardwareTest, FaultFlagAbortsStageCommandsOnTheWire) {
+  nlohmann::json patch;
+  patch["faults"] = {{"stage", {{"warning_flag", "FS"}}}};
+  StartDaemon({"--sim-scene", WriteScene("lab-lamp", patch).string()});
+  EXPECT_THAT(StatusLine("stage"), HasSubstr("[FS WR]"));
+  CommandResult home = Cli({"hw", "stage", "home"});
+  EXPECT_EQ(home.exit_code, 1) << home.err;
+  EXPECT_THAT(home.err, HasSubstr("homing failed: stage reports FS (stalled"));
+  CommandResult move = Cli({"hw", "stage", "move", "3"});
+  EXPECT_EQ(move.exit_code, 1) << move.err;
+  EXPECT_THAT(move.err, HasSubstr("move to 3.000 mm failed"));
+  EXPECT_EQ(Cli({"hw", "status"}).exit_code, 0);
+  EXPECT_EQ(StopDaemon(), 0);
+}
+
 }  // namespace
 }  // namespace hdrstereo
