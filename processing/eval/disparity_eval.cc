@@ -17,7 +17,8 @@ absl::Status CheckMask(const cv::Mat& m, const cv::Size& size,
   if (m.empty()) return absl::OkStatus();
   if (m.type() != CV_8UC1 || m.size() != size) {
     return absl::InvalidArgumentError(absl::StrCat(
-        what, " must be an 8-bit single-channel image of the disparity's size"));
+        what,
+        " must be an 8-bit single-channel image of the disparity's size"));
   }
   return absl::OkStatus();
 }
@@ -66,9 +67,9 @@ std::string RegionJson(const RegionMetrics& m,
       "\"rmse\": %.6f, \"mae\": %.6f, \"bad\": {",
       m.pixels, m.estimated, m.coverage, m.rmse, m.mae);
   for (size_t i = 0; i < thresholds.size(); ++i) {
-    absl::StrAppend(&s, i ? ", " : "",
-                    absl::StrFormat("\"%g\": %.4f", thresholds[i],
-                                    m.bad_percent[i]));
+    absl::StrAppend(
+        &s, i ? ", " : "",
+        absl::StrFormat("\"%g\": %.4f", thresholds[i], m.bad_percent[i]));
   }
   absl::StrAppend(&s, "}}");
   return s;
@@ -87,12 +88,13 @@ absl::StatusOr<DisparityEvaluation> EvaluateDisparity(
         "disparity and ground truth must be single-channel float");
   }
   if (disparity.size() != truth.size()) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "disparity (", disparity.cols, "x", disparity.rows,
-        ") and ground truth (", truth.cols, "x", truth.rows,
-        ") differ in size"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("disparity (", disparity.cols, "x", disparity.rows,
+                     ") and ground truth (", truth.cols, "x", truth.rows,
+                     ") differ in size"));
   }
-  if (absl::Status s = CheckMask(nonoccluded, truth.size(), "non-occlusion mask");
+  if (absl::Status s =
+          CheckMask(nonoccluded, truth.size(), "non-occlusion mask");
       !s.ok()) {
     return s;
   }
@@ -108,7 +110,8 @@ absl::StatusOr<DisparityEvaluation> EvaluateDisparity(
   for (int y = 0; y < truth.rows; ++y) {
     const float* d = disparity.ptr<float>(y);
     const float* g = truth.ptr<float>(y);
-    const uint8_t* no = nonoccluded.empty() ? nullptr : nonoccluded.ptr<uint8_t>(y);
+    const uint8_t* no =
+        nonoccluded.empty() ? nullptr : nonoccluded.ptr<uint8_t>(y);
     const uint8_t* mk = mask.empty() ? nullptr : mask.ptr<uint8_t>(y);
     for (int x = 0; x < truth.cols; ++x) {
       if (mk != nullptr && mk[x] == 0) continue;
@@ -134,24 +137,27 @@ std::string EvaluationToJson(const DisparityEvaluation& e) {
   for (size_t i = 0; i < e.thresholds.size(); ++i) {
     absl::StrAppend(&s, i ? ", " : "", absl::StrFormat("%g", e.thresholds[i]));
   }
-  absl::StrAppend(&s, "], \"all\": ", RegionJson(e.all, e.thresholds),
-                  ", \"nonoccluded\": ", RegionJson(e.nonoccluded, e.thresholds),
-                  ", \"valid\": ", RegionJson(e.valid, e.thresholds), "}");
+  absl::StrAppend(
+      &s, "], \"all\": ", RegionJson(e.all, e.thresholds),
+      ", \"nonoccluded\": ", RegionJson(e.nonoccluded, e.thresholds),
+      ", \"valid\": ", RegionJson(e.valid, e.thresholds), "}");
   return s;
 }
 
 std::string EvaluationToText(const DisparityEvaluation& e) {
   std::string s = absl::StrFormat("%-12s %9s %8s %9s %9s", "region", "pixels",
                                   "coverage", "rmse", "mae");
-  for (double th : e.thresholds) absl::StrAppend(&s, absl::StrFormat("  bad>%-4g", th));
+  for (double th : e.thresholds)
+    absl::StrAppend(&s, absl::StrFormat("  bad>%-4g", th));
   absl::StrAppend(&s, "\n");
   const std::pair<const char*, const RegionMetrics*> rows[] = {
       {"all", &e.all}, {"nonoccluded", &e.nonoccluded}, {"valid", &e.valid}};
   for (const auto& [name, m] : rows) {
-    absl::StrAppend(&s, absl::StrFormat("%-12s %9d %7.2f%% %9.4f %9.4f", name,
-                                        m->pixels, 100.0 * m->coverage, m->rmse,
-                                        m->mae));
-    for (double b : m->bad_percent) absl::StrAppend(&s, absl::StrFormat("  %7.3f%%", b));
+    absl::StrAppend(
+        &s, absl::StrFormat("%-12s %9d %7.2f%% %9.4f %9.4f", name, m->pixels,
+                            100.0 * m->coverage, m->rmse, m->mae));
+    for (double b : m->bad_percent)
+      absl::StrAppend(&s, absl::StrFormat("  %7.3f%%", b));
     absl::StrAppend(&s, "\n");
   }
   return s;
@@ -165,7 +171,8 @@ absl::StatusOr<cv::Mat> ColorizeDisparity(const cv::Mat& disparity,
   }
   try {
     cv::Mat finite = (disparity == disparity);  // false for NaN
-    cv::Mat not_inf = cv::abs(disparity) < std::numeric_limits<float>::infinity();
+    cv::Mat not_inf =
+        cv::abs(disparity) < std::numeric_limits<float>::infinity();
     finite &= not_inf;
     if (min_disp >= max_disp) {
       cv::minMaxLoc(disparity, &min_disp, &max_disp, nullptr, nullptr, finite);
@@ -193,7 +200,8 @@ absl::StatusOr<cv::Mat> ColorizeError(const cv::Mat& disparity,
     return absl::InvalidArgumentError(
         "disparity and truth must be single-channel float of one size");
   }
-  if (!(max_error > 0)) return absl::InvalidArgumentError("max_error must be > 0");
+  if (!(max_error > 0))
+    return absl::InvalidArgumentError("max_error must be > 0");
   try {
     cv::Mat scaled(disparity.size(), CV_8UC1);
     cv::Mat invalid(disparity.size(), CV_8UC1, cv::Scalar(0));

@@ -22,15 +22,16 @@ constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 bool IsHdr(CostMode mode) { return mode != CostMode::kLdr; }
 
 absl::Status CheckInput(const cv::Mat& m, const char* what, bool hdr) {
-  if (m.empty()) return absl::InvalidArgumentError(absl::StrCat(what, " is empty"));
+  if (m.empty())
+    return absl::InvalidArgumentError(absl::StrCat(what, " is empty"));
   if (m.dims != 2 || m.rows < 2 || m.cols < 2) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        what, " must be a 2-D image of at least 2x2 pixels, got ", m.cols, "x",
-        m.rows));
+    return absl::InvalidArgumentError(
+        absl::StrCat(what, " must be a 2-D image of at least 2x2 pixels, got ",
+                     m.cols, "x", m.rows));
   }
   if (m.channels() != 1 && m.channels() != 3) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        what, " must have 1 or 3 channels, got ", m.channels()));
+    return absl::InvalidArgumentError(
+        absl::StrCat(what, " must have 1 or 3 channels, got ", m.channels()));
   }
   const int depth = m.depth();
   if (hdr && depth != CV_32F) {
@@ -58,18 +59,20 @@ absl::Status CheckInput(const cv::Mat& m, const char* what, bool hdr) {
 
 absl::Status CheckOptions(const StereoOptions& o, int width) {
   if (o.max_disparity <= o.min_disparity) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "max disparity (", o.max_disparity, ") must be greater than min "
-        "disparity (", o.min_disparity, ")"));
+    return absl::InvalidArgumentError(absl::StrCat("max disparity (",
+                                                   o.max_disparity,
+                                                   ") must be greater than min "
+                                                   "disparity (",
+                                                   o.min_disparity, ")"));
   }
-  if (std::max(std::abs(o.min_disparity), std::abs(o.max_disparity)) >=
-      width) {
+  if (std::max(std::abs(o.min_disparity), std::abs(o.max_disparity)) >= width) {
     return absl::InvalidArgumentError(absl::StrCat(
         "disparity range [", o.min_disparity, ", ", o.max_disparity,
         "] is wider than the image (", width, " pixels)"));
   }
   if (o.radius < 1 || !(o.eps > 0) || !std::isfinite(o.eps)) {
-    return absl::InvalidArgumentError("guided filter needs radius >= 1, eps > 0");
+    return absl::InvalidArgumentError(
+        "guided filter needs radius >= 1, eps > 0");
   }
   if (!(o.alpha >= 0 && o.alpha <= 1) || !(o.tau_color > 0) ||
       !(o.tau_gradient > 0)) {
@@ -82,8 +85,7 @@ absl::Status CheckOptions(const StereoOptions& o, int width) {
         "weighted median needs radius >= 1 and positive sigmas");
   }
   if (o.lr_tolerance < 0 || o.threads < 0) {
-    return absl::InvalidArgumentError(
-        "lr_tolerance and threads must be >= 0");
+    return absl::InvalidArgumentError("lr_tolerance and threads must be >= 0");
   }
   return absl::OkStatus();
 }
@@ -140,9 +142,10 @@ double WhitePoint(const cv::Mat& a, const cv::Mat& b, double percentile) {
     const float* p = c.ptr<float>();
     v.insert(v.end(), p, p + c.total() * c.channels());
   }
-  const size_t k = std::min(
-      v.size() - 1, static_cast<size_t>(percentile / 100.0 * v.size()));
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+  const size_t k = std::min(v.size() - 1,
+                            static_cast<size_t>(percentile / 100.0 * v.size()));
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k),
+                   v.end());
   return v[k];
 }
 
@@ -206,12 +209,15 @@ absl::StatusOr<MatchingImages> PrepareMatchingImages(
   }
 }
 
-void ComputeCostSlice(const MatchingImages& images, const StereoOptions& options,
-                      View view, int d, cv::Mat& cost) {
+void ComputeCostSlice(const MatchingImages& images,
+                      const StereoOptions& options, View view, int d,
+                      cv::Mat& cost) {
   const cv::Mat& a = view == View::kLeft ? images.left : images.right;
   const cv::Mat& b = view == View::kLeft ? images.right : images.left;
-  const cv::Mat& ga = view == View::kLeft ? images.left_grad : images.right_grad;
-  const cv::Mat& gb = view == View::kLeft ? images.right_grad : images.left_grad;
+  const cv::Mat& ga =
+      view == View::kLeft ? images.left_grad : images.right_grad;
+  const cv::Mat& gb =
+      view == View::kLeft ? images.right_grad : images.left_grad;
   // Partner of x is x + shift.
   const int shift = view == View::kLeft ? -d : d;
   const int w = a.cols;
@@ -233,7 +239,8 @@ void ComputeCostSlice(const MatchingImages& images, const StereoOptions& options
     float* out = cost.ptr<float>(y);
     auto border = [&](int x) {
       float cd = 0;
-      for (int c = 0; c < nc; ++c) cd += std::abs(pa[x * nc + c] - kBorderValue);
+      for (int c = 0; c < nc; ++c)
+        cd += std::abs(pa[x * nc + c] - kBorderValue);
       const float gd = std::abs(pga[x] - kBorderValue);
       out[x] = alpha * std::min(cd * inv_nc, t1) + beta * std::min(gd, t2);
     };
@@ -282,12 +289,11 @@ absl::StatusOr<WtaResult> ComputeWta(const MatchingImages& images,
     std::vector<ChunkState> states(static_cast<size_t>(chunks));
     auto run_chunk = [&](int k) {
       ChunkState& st = states[static_cast<size_t>(k)];
-      const int d0 = dmin + static_cast<int>(static_cast<int64_t>(labels) * k /
-                                             chunks);
-      const int d1 = dmin +
-                     static_cast<int>(static_cast<int64_t>(labels) * (k + 1) /
-                                      chunks) -
-                     1;
+      const int d0 =
+          dmin + static_cast<int>(static_cast<int64_t>(labels) * k / chunks);
+      const int d1 =
+          dmin +
+          static_cast<int>(static_cast<int64_t>(labels) * (k + 1) / chunks) - 1;
       st.best.create(size, CV_32FC1);
       st.best.setTo(std::numeric_limits<float>::infinity());
       st.label.create(size, CV_32SC1);
@@ -312,7 +318,8 @@ absl::StatusOr<WtaResult> ComputeWta(const MatchingImages& images,
           float* before = st.before.ptr<float>();
           const float* prev = st.prev.empty() ? nullptr : st.prev.ptr<float>();
           for (int i = 0; i < n; ++i) {
-            if (label[i] == d - 1 && best[i] < std::numeric_limits<float>::infinity()) {
+            if (label[i] == d - 1 &&
+                best[i] < std::numeric_limits<float>::infinity()) {
               after[i] = q[i];
             }
           }
@@ -381,7 +388,8 @@ absl::StatusOr<WtaResult> ComputeWta(const MatchingImages& images,
       if (std::isnan(cm[i]) || std::isnan(cp[i])) continue;
       const float denom = cm[i] - 2.0f * c0[i] + cp[i];
       if (!(denom > 0)) continue;
-      const float offset = std::clamp(0.5f * (cm[i] - cp[i]) / denom, -0.5f, 0.5f);
+      const float offset =
+          std::clamp(0.5f * (cm[i] - cp[i]) / denom, -0.5f, 0.5f);
       disp[i] += offset;
     }
     return out;
@@ -449,7 +457,8 @@ cv::Mat WeightedMedian(const cv::Mat& disparity, const cv::Mat& valid,
   for (int dy = -radius; dy <= radius; ++dy) {
     for (int dx = -radius; dx <= radius; ++dx) {
       spatial[static_cast<size_t>((dy + radius) * side + dx + radius)] =
-          static_cast<float>(std::exp(-(dx * dx + dy * dy) / (sigma_s * sigma_s)));
+          static_cast<float>(
+              std::exp(-(dx * dx + dy * dy) / (sigma_s * sigma_s)));
     }
   }
   // exp(-dist2 / sigma_c^2) tabulated up to dist2 = 20 sigma_c^2 (weight
@@ -461,8 +470,8 @@ cv::Mat WeightedMedian(const cv::Mat& disparity, const cv::Mat& valid,
   for (int i = 0; i <= kLut; ++i) {
     colour[static_cast<size_t>(i)] =
         i == kLut ? 0.0f
-                  : static_cast<float>(std::exp(-(i + 0.5) / lut_scale /
-                                                (sigma_c * sigma_c)));
+                  : static_cast<float>(
+                        std::exp(-(i + 0.5) / lut_scale / (sigma_c * sigma_c)));
   }
   const int nc = guide.channels();
   const int w = disparity.cols;
@@ -478,12 +487,13 @@ cv::Mat WeightedMedian(const cv::Mat& disparity, const cv::Mat& valid,
         std::fill(hist.begin(), hist.end(), 0.0f);
         float total = 0;
         const float* ci = gi + x * nc;
-        for (int yy = std::max(0, y - radius); yy <= std::min(h - 1, y + radius);
-             ++yy) {
+        for (int yy = std::max(0, y - radius);
+             yy <= std::min(h - 1, y + radius); ++yy) {
           const float* gj = guide.ptr<float>(yy);
           const float* dj = disparity.ptr<float>(yy);
           const float* sw =
-              spatial.data() + static_cast<size_t>((yy - y + radius) * side + radius);
+              spatial.data() +
+              static_cast<size_t>((yy - y + radius) * side + radius);
           for (int xx = std::max(0, x - radius);
                xx <= std::min(w - 1, x + radius); ++xx) {
             const float* cj = gj + xx * nc;
@@ -494,8 +504,8 @@ cv::Mat WeightedMedian(const cv::Mat& disparity, const cv::Mat& valid,
             }
             const int bin = std::min(kLut, static_cast<int>(dist2 * lut_scale));
             const float wgt = sw[xx - x] * colour[static_cast<size_t>(bin)];
-            const int l = std::clamp(static_cast<int>(std::lround(dj[xx])) - dmin,
-                                     0, labels - 1);
+            const int l = std::clamp(
+                static_cast<int>(std::lround(dj[xx])) - dmin, 0, labels - 1);
             hist[static_cast<size_t>(l)] += wgt;
             total += wgt;
           }
@@ -540,8 +550,8 @@ absl::StatusOr<StereoResult> ComputeDisparity(const cv::Mat& left,
         ComputeWta(*images, right_options, View::kRight);
     if (!wr.ok()) return wr.status();
     result.raw_right = wr->labels;
-    result.consistent = LeftRightCheck(wl->labels, wr->labels,
-                                       static_cast<float>(options.lr_tolerance));
+    result.consistent = LeftRightCheck(
+        wl->labels, wr->labels, static_cast<float>(options.lr_tolerance));
     cv::Mat disp = wl->labels.clone();
     if (options.fill) {
       FillScanlines(disp, result.consistent,

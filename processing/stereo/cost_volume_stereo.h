@@ -45,32 +45,45 @@
 namespace hdrstereo::stereo {
 
 enum class CostMode {
-  kLdr,                   // Eq. 4.1: intensity + luma gradient
-  kHdrLogLuminance,       // Eq. 4.2: radiance + log-luminance gradient
-  kHdrRadianceGradient,   // Eq. 5.11: radiance + radiance (luma) gradient
+  kLdr,                  // Eq. 4.1: intensity + luma gradient
+  kHdrLogLuminance,      // Eq. 4.2: radiance + log-luminance gradient
+  kHdrRadianceGradient,  // Eq. 5.11: radiance + radiance (luma) gradient
 };
 
 struct StereoOptions {
+  // Defaults for HDR radiance input: Eq. 4.2, white point at the 95th
+  // percentile (clips light sources in view, which would otherwise squeeze
+  // the scene into the bottom of [0,1]) and tau1 = 2/255 (linear radiance
+  // differences are smaller than display-encoded ones). Chosen on the
+  // simulator's lab-lamp scene; the thesis' LDR values otherwise.
+  static StereoOptions Hdr() {
+    StereoOptions o;
+    o.mode = CostMode::kHdrLogLuminance;
+    o.hdr_white_percentile = 95.0;
+    o.tau_color = 2.0 / 255.0;
+    return o;
+  }
+
   int min_disparity = 0;   // inclusive
   int max_disparity = 64;  // inclusive; must be > min_disparity
   CostMode mode = CostMode::kLdr;
   double alpha = 0.9;
   double tau_color = 7.0 / 255.0;
   double tau_gradient = 2.0 / 255.0;
-  int radius = 9;      // guided filter
-  double eps = 1e-4;   // guided filter, on [0,1] data
+  int radius = 9;                // guided filter
+  double eps = 1e-4;             // guided filter, on [0,1] data
   bool left_right_check = true;  // needs the right view (twice the work)
   int lr_tolerance = 0;          // |dL - dR| allowed, in labels
   bool fill = true;              // scanline fill of inconsistent pixels
   bool weighted_median = true;   // on the filled pixels
   int median_radius = 19;
-  double sigma_s = 9.0;    // spatial sigma of Eq. 4.6, pixels
-  double sigma_c = 0.1;    // colour sigma of Eq. 4.6, on [0,1] data
-  bool subpixel = false;   // parabola fit on the filtered costs
+  double sigma_s = 9.0;   // spatial sigma of Eq. 4.6, pixels
+  double sigma_c = 0.1;   // colour sigma of Eq. 4.6, on [0,1] data
+  bool subpixel = false;  // parabola fit on the filtered costs
   // HDR: radiance is divided by this percentile of the pair's channel values
   // (100 = the maximum) and clipped to [0,1].
   double hdr_white_percentile = 100.0;
-  int threads = 0;         // 0 = cv::getNumThreads()
+  int threads = 0;  // 0 = cv::getNumThreads()
 };
 
 // Images as the matcher sees them (step 1 and the gradient planes).
@@ -87,10 +100,10 @@ struct WtaResult {
 };
 
 struct StereoResult {
-  cv::Mat disparity;        // CV_32FC1, left view, every pixel filled
-  cv::Mat raw_left;         // CV_32FC1, left WTA labels
-  cv::Mat raw_right;        // CV_32FC1, right WTA labels (if LR check)
-  cv::Mat consistent;       // CV_8UC1, 255 where the LR check passed
+  cv::Mat disparity;   // CV_32FC1, left view, every pixel filled
+  cv::Mat raw_left;    // CV_32FC1, left WTA labels
+  cv::Mat raw_right;   // CV_32FC1, right WTA labels (if LR check)
+  cv::Mat consistent;  // CV_8UC1, 255 where the LR check passed
 };
 
 // Which view a slice/WTA is computed for.
@@ -107,17 +120,18 @@ absl::StatusOr<MatchingImages> PrepareMatchingImages(
 // The unfiltered cost plane (Eq. 4.1/4.2) of disparity d for `view`:
 // CV_32FC1 of the images' size. For the left view pixel x is compared with
 // right pixel x - d; for the right view with left pixel x + d.
-void ComputeCostSlice(const MatchingImages& images, const StereoOptions& options,
-                      View view, int d, cv::Mat& cost);
+void ComputeCostSlice(const MatchingImages& images,
+                      const StereoOptions& options, View view, int d,
+                      cv::Mat& cost);
 
 // Filtered-cost WTA of one view (steps 2-4, plus 8 if options.subpixel).
 absl::StatusOr<WtaResult> ComputeWta(const MatchingImages& images,
                                      const StereoOptions& options, View view);
 
 // The full pipeline (steps 1-8).
-absl::StatusOr<StereoResult> ComputeDisparity(const cv::Mat& left,
-                                              const cv::Mat& right,
-                                              const StereoOptions& options = {});
+absl::StatusOr<StereoResult> ComputeDisparity(
+    const cv::Mat& left, const cv::Mat& right,
+    const StereoOptions& options = {});
 
 // Post-processing, usable on their own (e.g. by disparity fusion).
 // Left-right check: CV_8UC1 mask, 255 where consistent. Both CV_32FC1.
