@@ -476,6 +476,16 @@ cv::Mat WeightedMedian(const cv::Mat& disparity, const cv::Mat& valid,
   const int nc = guide.channels();
   const int w = disparity.cols;
   const int h = disparity.rows;
+  // Labels 0..labels-1 once, not per neighbour.
+  cv::Mat label_img(disparity.size(), CV_32SC1);
+  for (int y = 0; y < h; ++y) {
+    const float* d = disparity.ptr<float>(y);
+    int* l = label_img.ptr<int>(y);
+    for (int x = 0; x < w; ++x) {
+      const float v = std::isfinite(d[x]) ? d[x] : static_cast<float>(dmin);
+      l[x] = std::clamp(static_cast<int>(std::lround(v)) - dmin, 0, labels - 1);
+    }
+  }
   cv::parallel_for_(cv::Range(0, h), [&](const cv::Range& rows) {
     std::vector<float> hist(static_cast<size_t>(labels));
     for (int y = rows.start; y < rows.end; ++y) {
@@ -490,7 +500,7 @@ cv::Mat WeightedMedian(const cv::Mat& disparity, const cv::Mat& valid,
         for (int yy = std::max(0, y - radius);
              yy <= std::min(h - 1, y + radius); ++yy) {
           const float* gj = guide.ptr<float>(yy);
-          const float* dj = disparity.ptr<float>(yy);
+          const int* lj = label_img.ptr<int>(yy);
           const float* sw =
               spatial.data() +
               static_cast<size_t>((yy - y + radius) * side + radius);
@@ -504,9 +514,7 @@ cv::Mat WeightedMedian(const cv::Mat& disparity, const cv::Mat& valid,
             }
             const int bin = std::min(kLut, static_cast<int>(dist2 * lut_scale));
             const float wgt = sw[xx - x] * colour[static_cast<size_t>(bin)];
-            const int l = std::clamp(
-                static_cast<int>(std::lround(dj[xx])) - dmin, 0, labels - 1);
-            hist[static_cast<size_t>(l)] += wgt;
+            hist[static_cast<size_t>(lj[xx])] += wgt;
             total += wgt;
           }
         }
