@@ -541,6 +541,14 @@ TEST(StereoBadInput, GreyAndSixteenBitWork) {
   ASSERT_TRUE(r.ok()) << r.status();
   // Identical views: disparity 0 wherever the texture decides.
   EXPECT_EQ(r->disparity.at<float>(12, 20), 0);
+  // Images much smaller than the filter windows (r = 9, 19) still work.
+  cv::Mat tiny(2, 3, CV_8UC3);
+  cv::randu(tiny, 0, 255);
+  StereoOptions t;
+  t.max_disparity = 1;
+  absl::StatusOr<StereoResult> tr = ComputeDisparity(tiny, tiny, t);
+  ASSERT_TRUE(tr.ok()) << tr.status();
+  EXPECT_EQ(tr->disparity.size(), tiny.size());
 }
 
 }  // namespace
