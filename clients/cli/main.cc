@@ -30,6 +30,13 @@ int Client::Fail(const grpc::Status& status) const {
                 << ": " << status.error_message() << "\n";
       return kExitUnreachable;
     case grpc::StatusCode::DEADLINE_EXCEEDED:
+      // A device that timed out (a stalled stage) comes back from the daemon
+      // with this code and the daemon's message; only gRPC's own "Deadline
+      // Exceeded" means that the daemon did not answer within --timeout.
+      if (status.error_message() != "Deadline Exceeded") {
+        std::cerr << "hdrstereo: " << status.error_message() << "\n";
+        return kExitError;
+      }
       std::cerr << "hdrstereo: hdrstereod at " << options_.server
                 << " did not answer within " << options_.timeout_s << " s\n";
       return kExitUnreachable;

@@ -24,6 +24,16 @@ grpc::Status LaneBusy() {
                       "or cancel it");
 }
 
+// A device that is unreachable is a precondition of the call, not the
+// daemon being unavailable: clients treat UNAVAILABLE as "no daemon".
+grpc::Status DeviceError(const absl::Status& status) {
+  if (absl::IsUnavailable(status)) {
+    return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION,
+                        std::string(status.message()));
+  }
+  return ToGrpcStatus(status);
+}
+
 grpc::Status Missing(absl::string_view device, const absl::Status& why) {
   return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION,
                       absl::StrCat("no ", device, ": ", why.message()));
@@ -224,7 +234,7 @@ grpc::Status HardwareService::GetCameraSettings(
   if (!lane.owns_lock()) return LaneBusy();
   absl::StatusOr<hardware::ExposureSettings> settings =
       rig_.camera()->Settings();
-  if (!settings.ok()) return ToGrpcStatus(settings.status());
+  if (!settings.ok()) return DeviceError(settings.status());
   ToProto(*settings, response);
   return grpc::Status::OK;
 }
@@ -260,7 +270,7 @@ grpc::Status HardwareService::SetCameraSettings(
   if (!lane.owns_lock()) return LaneBusy();
 
   absl::StatusOr<hardware::CameraInfo> info = rig_.camera()->Info();
-  if (!info.ok()) return ToGrpcStatus(info.status());
+  if (!info.ok()) return DeviceError(info.status());
   if (info->max_exposure_s > 0 && (s.exposure_s() < info->min_exposure_s ||
                                    s.exposure_s() > info->max_exposure_s)) {
     return InvalidArgument(absl::StrFormat(
@@ -272,7 +282,7 @@ grpc::Status HardwareService::SetCameraSettings(
                                 .iso = s.iso(),
                                 .aperture_f = s.aperture_f(),
                                 .format = format});
-  if (!applied.ok()) return ToGrpcStatus(applied.status());
+  if (!applied.ok()) return DeviceError(applied.status());
   ToProto(*applied, response);
   return grpc::Status::OK;
 }
@@ -283,7 +293,7 @@ grpc::Status HardwareService::HomeStage(grpc::ServerContext*,
   if (rig_.stage() == nullptr) return Missing("stage", rig_.stage_error());
   std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
   if (!lane.owns_lock()) return LaneBusy();
-  if (absl::Status s = rig_.stage()->Home(); !s.ok()) return ToGrpcStatus(s);
+  if (absl::Status s = rig_.stage()->Home(); !s.ok()) return DeviceError(s);
   FillStage(response);
   return grpc::Status::OK;
 }
@@ -302,7 +312,7 @@ grpc::Status HardwareService::MoveStage(grpc::ServerContext*,
   std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
   if (!lane.owns_lock()) return LaneBusy();
   if (absl::Status s = rig_.stage()->MoveTo(request->position_mm()); !s.ok()) {
-    return ToGrpcStatus(s);
+    return DeviceError(s);
   }
   FillStage(response);
   return grpc::Status::OK;
@@ -320,7 +330,7 @@ grpc::Status HardwareService::ShowPattern(grpc::ServerContext*,
   std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
   if (!lane.owns_lock()) return LaneBusy();
   if (absl::Status s = rig_.projector()->Show(pattern->first); !s.ok()) {
-    return ToGrpcStatus(s);
+    return DeviceError(s);
   }
   {
     std::lock_guard<std::mutex> lock(showing_mutex_);
@@ -339,7 +349,7 @@ grpc::Status HardwareService::BlankProjector(grpc::ServerContext*,
   std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
   if (!lane.owns_lock()) return LaneBusy();
   if (absl::Status s = rig_.projector()->Blank(); !s.ok()) {
-    return ToGrpcStatus(s);
+    return DeviceError(s);
   }
   {
     std::lock_guard<std::mutex> lock(showing_mutex_);

@@ -77,11 +77,23 @@ absl::StatusOr<Reply> ZaberStage::CommandOnce(absl::string_view command) {
     return s;
   }
   const absl::Time deadline = absl::Now() + options_.reply_timeout;
+  std::string info;  // the last "#" line seen instead of a reply
   while (true) {
     absl::StatusOr<std::string> line = ReadLine(deadline);
-    if (!line.ok()) return line.status();
+    if (!line.ok()) {
+      // Info messages only ever follow a reply, so a "#" line and then
+      // silence was the reply itself, scrambled into looking like one.
+      if (absl::IsDeadlineExceeded(line.status()) && !info.empty()) {
+        return ParseReply(info).status();
+      }
+      return line.status();
+    }
     // Info ("#") and alert ("!") messages may arrive between replies.
-    if (absl::StartsWith(*line, "#") || absl::StartsWith(*line, "!")) continue;
+    if (absl::StartsWith(*line, "#")) {
+      info = *line;
+      continue;
+    }
+    if (absl::StartsWith(*line, "!")) continue;
     absl::StatusOr<Reply> reply = ParseReply(*line);
     if (!reply.ok()) return reply.status();
     if (reply->device != options_.device || reply->axis != options_.axis) {
@@ -92,6 +104,11 @@ absl::StatusOr<Reply> ZaberStage::CommandOnce(absl::string_view command) {
 }
 
 absl::StatusOr<Reply> ZaberStage::Command(absl::string_view command) {
+  // For messages: the empty command is the bare address, a status request.
+  const std::string quoted =
+      command.empty() ? absl::StrCat("\"/", options_.device, " ", options_.axis,
+                                     "\" (status request)")
+                      : absl::StrCat("\"", command, "\"");
   std::lock_guard<std::mutex> lock(mutex_);
   absl::Status last;
   for (int attempt = 0; attempt <= options_.retries; ++attempt) {
@@ -99,7 +116,7 @@ absl::StatusOr<Reply> ZaberStage::Command(absl::string_view command) {
     if (reply.ok()) {
       if (reply->rejected) {
         return absl::FailedPreconditionError(absl::StrCat(
-            "stage rejected \"", command, "\": ", reply->data,
+            "stage rejected ", quoted, ": ", reply->data,
             reply->warning.empty()
                 ? ""
                 : absl::StrCat(" (warning ", DescribeWarning(reply->warning),
@@ -115,13 +132,13 @@ absl::StatusOr<Reply> ZaberStage::Command(absl::string_view command) {
   }
   if (absl::IsDeadlineExceeded(last)) {
     return absl::DeadlineExceededError(
-        absl::StrCat("stage on ", options_.port, " did not answer \"", command,
-                     "\" within ", absl::FormatDuration(options_.reply_timeout),
+        absl::StrCat("stage on ", options_.port, " did not answer ", quoted,
+                     " within ", absl::FormatDuration(options_.reply_timeout),
                      " (", options_.retries + 1, " tries)"));
   }
   return absl::DataLossError(absl::StrCat("stage on ", options_.port,
-                                          " answered \"", command,
-                                          "\" with garbage: ", last.message()));
+                                          " answered ", quoted,
+                                          " with garbage: ", last.message()));
 }
 
 absl::Status ZaberStage::WaitUntilIdle(absl::Duration timeout,
