@@ -118,12 +118,13 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
     return s;
   }
   if (!(params.sigma > 0) || !(params.data_scale > 0) ||
-      !(params.lambda >= 0) || !(params.data_truncation > 0) ||
+      !(params.lambda >= 0) || !(params.lambda <= 1e4) ||
+      !(params.linear_model_thr <= 1e4) || !(params.data_truncation > 0) ||
       params.quadratic_truncation < 1 || !(params.linear_model_thr >= 1) ||
       params.candidate_label_radius < 0) {
     return absl::InvalidArgumentError(
-        "fusion: sigma, data_scale, data_truncation must be > 0, lambda >= 0, "
-        "linear_model_thr >= 1, quadratic_truncation >= 1, "
+        "fusion: sigma, data_scale, data_truncation must be > 0, lambda in "
+        "[0, 1e4], linear_model_thr in [1, 1e4], quadratic_truncation >= 1, "
         "candidate_label_radius >= 0");
   }
   const int num_k = static_cast<int>(candidates.size());
@@ -357,8 +358,19 @@ absl::Status CheckProblem(const MrfProblem& pr) {
       return absl::InvalidArgumentError("fusion: negative smoothness weight");
     }
   }
-  if (!pr.potts && pr.truncation < 1) {
-    return absl::InvalidArgumentError("fusion: truncation must be >= 1");
+  if (!pr.potts && (pr.truncation < 1 || pr.truncation > (1 << 16))) {
+    return absl::InvalidArgumentError(
+        "fusion: truncation must be in [1, 65536]");
+  }
+  // Keeps every unary sum and edge capacity of a move inside int.
+  const int64_t rho_max = pr.potts ? 1 : pr.truncation;
+  for (int64_t p = 0; p < n; ++p) {
+    const int64_t w = std::max(pr.right[static_cast<size_t>(p)],
+                               pr.down[static_cast<size_t>(p)]);
+    if (w * rho_max > (int64_t{1} << 26)) {
+      return absl::InvalidArgumentError(
+          "fusion: smoothness weight x rho cap exceeds 2^26");
+    }
   }
   return absl::OkStatus();
 }

@@ -32,6 +32,7 @@
 //   kPottsStaticCue: w = lambda * ((g <= static_cue) + 1), rho = Potts;
 //   kQuadratic (Eqs. 5.5-5.7): w = lambda * linear_model_thr * exp(-c g^2)
 //       with g on [0, 1] grey, rho = min((f_p - f_q)^2, quadratic_truncation).
+//       (4-neighbours here; the thesis' Eq. 5.5 uses 8).
 //       This rho is not a metric, so an expansion move can be
 //       non-submodular; such pairwise terms are truncated (Rother et al.
 //       2005) and a move is only accepted when the true energy drops.

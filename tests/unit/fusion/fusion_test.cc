@@ -152,6 +152,12 @@ TEST(AlphaExpansion, RejectsBadInput) {
   broken.data.pop_back();
   std::vector<int32_t> ok(9, 0);
   EXPECT_FALSE(AlphaExpansion(broken, &ok).ok());
+  MrfProblem heavy = pr;
+  heavy.right[0] = 1 << 30;
+  EXPECT_FALSE(AlphaExpansion(heavy, &ok).ok());
+  heavy = pr;
+  heavy.down[0] = -1;
+  EXPECT_FALSE(AlphaExpansion(heavy, &ok).ok());
 }
 
 // A piecewise-constant disparity map (three vertical bands) and a guide with
@@ -298,6 +304,9 @@ TEST(Fuse, RejectsBadInput) {
   EXPECT_FALSE(FuseAlphaExpansion({truth}, Guide(), bad).ok());
   bad = p;
   bad.max_disp = 0;
+  EXPECT_FALSE(FuseAlphaExpansion({truth}, Guide(), bad).ok());
+  bad = p;
+  bad.lambda = 1e9;
   EXPECT_FALSE(FuseAlphaExpansion({truth}, Guide(), bad).ok());
   bad = p;
   bad.data_scale = 60000;
