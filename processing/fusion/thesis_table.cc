@@ -2,6 +2,7 @@
 #include "processing/fusion/thesis_table.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -149,7 +150,7 @@ absl::StatusOr<TableResult> RunImpl(const TableInput& in,
   int subsets = 0;
   const int k = static_cast<int>(cands.size());
   for (int mask = 0; mask < (1 << k); ++mask) {
-    if (__builtin_popcount(static_cast<unsigned>(mask)) != 4) continue;
+    if (std::popcount(static_cast<unsigned>(mask)) != 4) continue;
     std::vector<cv::Mat> c4, w4;
     for (int i = 0; i < k; ++i) {
       if ((mask >> i) & 1) {
