@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include <cmath>
+#include <future>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <set>
@@ -136,6 +137,42 @@ int ViewsOf(const v1::CapturePlan& plan) {
   }
 }
 
+absl::Status FinishPending(std::future<absl::Status>& pending) {
+  if (!pending.valid()) return absl::OkStatus();
+  return pending.get();
+}
+
+// Hashes, checks, writes (atomically) and records one frame; the row and the
+// progress it advances are one transaction.
+absl::Status PersistFrame(JobContext& context, store::FrameRepository& frames,
+                          const std::string& session, store::FrameRecord record,
+                          const std::string& bytes, int64_t done, int64_t total,
+                          const std::string& step) {
+  if (record.format != hardware::ImageFormatName(hardware::ImageFormat::kRaw)) {
+    // A transfer that arrived damaged usually no longer decodes.
+    cv::Mat decoded =
+        cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1,
+                             const_cast<char*>(bytes.data())),
+                     cv::IMREAD_UNCHANGED);
+    if (decoded.empty()) {
+      return absl::DataLossError(
+          absl::StrCat("frame ", record.path,
+                       " arrived corrupt from the camera (it does "
+                       "not decode); resubmit the capture to take it again"));
+    }
+    record.width_px = decoded.cols;
+    record.height_px = decoded.rows;
+  }
+  record.sha256 = io::Sha256Hex(bytes);
+  if (absl::Status s =
+          context.store().files().WriteSessionFile(session, record.path, bytes);
+      !s.ok()) {
+    return s;
+  }
+  return context.Progress(done, total, step,
+                          [&] { return frames.InsertLocked(record); });
+}
+
 }  // namespace
 
 absl::StatusOr<RigLimits> LimitsOf(const hardware::Rig& rig) {
@@ -242,6 +279,12 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context) {
   };
   const absl::Time loop_start = absl::Now();
   const int64_t first_count = count;
+  // At most one frame is being written while the next is captured; it is
+  // always finished before the job returns, whatever the outcome.
+  std::future<absl::Status> pending;
+  absl::Cleanup wait_for_pending = [&pending] {
+    if (pending.valid()) pending.wait();
+  };
 
   for (const FrameSpec& spec : specs) {
     if (done->contains(spec.sequence)) continue;
@@ -309,32 +352,24 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context) {
     record.format = hardware::ImageFormatName(frame->format);
     record.width_px = frame->width_px;
     record.height_px = frame->height_px;
-    if (record.width_px == 0 && frame->format != hardware::ImageFormat::kRaw) {
-      cv::Mat decoded =
-          cv::imdecode(cv::Mat(1, static_cast<int>(frame->bytes.size()),
-                               CV_8UC1, frame->bytes.data()),
-                       cv::IMREAD_UNCHANGED);
-      record.width_px = decoded.cols;
-      record.height_px = decoded.rows;
-    }
     record.path = absl::StrCat(spec.relative_stem, ".", frame->extension);
-    record.sha256 = io::Sha256Hex(frame->bytes);
     if (frame->camera_time != absl::InfinitePast()) {
       record.camera_time_ms = absl::ToUnixMillis(frame->camera_time);
     }
-    if (absl::Status s = context.store().files().WriteSessionFile(
-            job.session, record.path, frame->bytes);
-        !s.ok()) {
-      return s;
-    }
+    // The previous frame must be recorded before this one (progress is
+    // sequential); then this one is persisted while the rig takes the next.
+    if (absl::Status s = FinishPending(pending); !s.ok()) return s;
     ++count;
-    if (absl::Status s =
-            context.Progress(count, total, Describe(spec, views),
-                             [&] { return frames.InsertLocked(record); });
-        !s.ok()) {
-      return s;
-    }
+    pending = std::async(
+        std::launch::async,
+        [&context, &frames, &job, total, done = count,
+         step = Describe(spec, views), record = std::move(record),
+         bytes = std::move(frame->bytes)]() mutable {
+          return PersistFrame(context, frames, job.session, std::move(record),
+                              bytes, done, total, step);
+        });
   }
+  if (absl::Status s = FinishPending(pending); !s.ok()) return s;
 
   const absl::Duration loop_time = absl::Now() - loop_start;
   if (count > first_count && loop_time > absl::ZeroDuration()) {

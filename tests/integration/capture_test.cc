@@ -334,5 +334,20 @@ TEST_F(CaptureTest, CameraFaultFailsTheJobKeepsFramesAndAResubmitFinishes) {
   ExpectConsistentStore("f", 17);
 }
 
+TEST_F(CaptureTest, CorruptTransferIsCaughtNotStored) {
+  nlohmann::json patch = SmallLabLamp();
+  patch["faults"] = {{"camera", {{"corrupt", {{"calls", {3}}}}}}};
+  StartSim(patch);
+  ASSERT_EQ(Cli({"session", "create", "c"}).exit_code, 0);
+  EXPECT_EQ(Cli({"capture", "stereo", "c", "--watch"}).exit_code, 1);
+  nlohmann::json failed = Job(1);
+  EXPECT_EQ(failed["state"], "JOB_STATE_FAILED");
+  EXPECT_THAT(failed.value("error", ""), HasSubstr("arrived corrupt"));
+  EXPECT_EQ(Sql("SELECT count(*) FROM frames"), "2");
+  ExpectConsistentStore("c", 2);
+  ASSERT_EQ(Cli({"capture", "stereo", "c", "--watch"}).exit_code, 0);
+  ExpectConsistentStore("c", 17);
+}
+
 }  // namespace
 }  // namespace hdrstereo
