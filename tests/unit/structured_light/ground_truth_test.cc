@@ -146,7 +146,8 @@ INSTANTIATE_TEST_SUITE_P(Scenes, SimGroundTruthTest,
                          });
 
 TEST(GroundTruthTest, WritesMiddleburyFiles) {
-  const testing::SimCapture& capture = testing::CachedSimCapture("shadowed");
+  const testing::SimCapture capture =
+      testing::RenderSimCapture("shadowed", {1.0 / 30}, 128);
   absl::StatusOr<DecodedView> left = Decode(capture.views[0]);
   absl::StatusOr<DecodedView> right = Decode(capture.views[1]);
   ASSERT_TRUE(left.ok() && right.ok());

@@ -6,13 +6,14 @@
 // differs from radiance with the projector off) and the analytic projector
 // column and row of every camera pixel.
 //
-// Resolutions: the camera is scaled to 320 x 240 (f scaled alike) to keep
+// Resolutions: the camera is scaled to 256 x 192 (f scaled alike) to keep
 // the tests fast; the projector keeps the bundled 1024 x 768. The simulator
 // samples the projector at the nearest pattern pixel, so a camera pixel's
-// code is quantised to +-0.5 projector pixels; with about 3 projector
-// columns per camera pixel on the scene that is +-0.17 camera pixels, well
-// inside the 0.5 px error budget. A projector coarser than the camera
-// (e.g. 256 x 192) would quantise codes to more than a camera pixel.
+// code is quantised to +-0.5 projector pixels; with about 3.6 projector
+// columns per camera pixel on the scene that is +-0.14 camera pixels per
+// view, well inside the 0.5 px error budget. A projector with about as many
+// columns as the camera (e.g. 256 x 192 here) would quantise each view to
+// +-0.5 camera pixels, so a disparity error of up to 1 px.
 #ifndef HDRSTEREO_TESTS_UNIT_STRUCTURED_LIGHT_SIM_CAPTURE_H_
 #define HDRSTEREO_TESTS_UNIT_STRUCTURED_LIGHT_SIM_CAPTURE_H_
 
@@ -55,7 +56,7 @@ struct SimCapture {
   double baseline_mm = 150;
 };
 
-inline sim::Scene SmallScene(const std::string& name, int width = 320) {
+inline sim::Scene SmallScene(const std::string& name, int width = 256) {
   absl::StatusOr<sim::Scene> scene = sim::LoadBundledScene(name);
   EXPECT_TRUE(scene.ok()) << scene.status();
   if (!scene.ok()) return sim::Scene();
@@ -123,7 +124,7 @@ inline SimViewTruth AnalyticTruth(const sim::Renderer& renderer,
 // (stage 0) and right (stage baseline) views.
 inline SimCapture RenderSimCapture(const std::string& scene_name,
                                    const std::vector<double>& exposures,
-                                   int width = 320) {
+                                   int width = 256) {
   SimCapture capture;
   capture.scene = SmallScene(scene_name, width);
   sim::SimWorld world(capture.scene);
