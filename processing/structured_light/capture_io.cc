@@ -2,13 +2,16 @@
 #include "processing/structured_light/capture_io.h"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
-#include <regex>
 #include <system_error>
 #include <utility>
 #include <vector>
 
 #include "absl/status/status.h"
+#include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "processing/io/image.h"
@@ -16,20 +19,69 @@
 
 namespace hdrstereo::structured_light {
 
-std::optional<double> ParseExposureTag(const std::string& tag) {
-  static const std::regex kFraction(R"(^(\d+)-(\d+)s$)");
-  static const std::regex kSeconds(R"(^(\d+(\.\d*)?([eE]-?\d+)?)s$)");
-  std::smatch m;
-  try {
-    if (std::regex_match(tag, m, kFraction)) {
-      const double num = std::stod(m[1].str()), den = std::stod(m[2].str());
-      if (den > 0) return num / den;
-    } else if (std::regex_match(tag, m, kSeconds)) {
-      return std::stod(m[1].str());
+namespace {
+
+// "sl_col_b03_inv_exp_1-30s" -> id "col_b03_inv", tag "1-30s";
+// "sl_white_exp_1-30s" -> id "white". False for other names.
+bool ParseFrameName(const std::string& stem, std::string* id, std::string* tag,
+                    bool* column, int* bit) {
+  if (!absl::StartsWith(stem, "sl_")) return false;
+  const std::string rest = stem.substr(3);
+  for (const char* flat : {"white", "black"}) {
+    const std::string prefix = absl::StrCat(flat, "_exp_");
+    if (absl::StartsWith(rest, prefix) && rest.size() > prefix.size()) {
+      *id = flat;
+      *tag = rest.substr(prefix.size());
+      *bit = -1;
+      return true;
     }
-  } catch (const std::exception&) {
   }
-  return std::nullopt;
+  if (!absl::StartsWith(rest, "col_b") && !absl::StartsWith(rest, "row_b")) {
+    return false;
+  }
+  *column = rest[0] == 'c';
+  size_t i = 5;
+  int value = 0;
+  while (i < rest.size() && absl::ascii_isdigit(rest[i]) && i < 8) {
+    value = value * 10 + (rest[i] - '0');
+    ++i;
+  }
+  if (i == 5) return false;
+  bool inverse = false;
+  if (absl::StartsWith(absl::string_view(rest).substr(i), "_inv")) {
+    inverse = true;
+    i += 4;
+  }
+  const absl::string_view exp = absl::string_view(rest).substr(i);
+  if (!absl::StartsWith(exp, "_exp_") || exp.size() <= 5) return false;
+  *bit = value;
+  *tag = std::string(exp.substr(5));
+  *id = absl::StrFormat("%s_b%02d%s", *column ? "col" : "row", value,
+                        inverse ? "_inv" : "");
+  return true;
+}
+
+}  // namespace
+
+std::optional<double> ParseExposureTag(const std::string& tag) {
+  if (!absl::EndsWith(tag, "s") || tag.size() < 2) return std::nullopt;
+  const absl::string_view body =
+      absl::string_view(tag).substr(0, tag.size() - 1);
+  double value = 0;
+  const size_t dash = body.find('-');
+  if (dash != absl::string_view::npos) {
+    int num = 0, den = 0;
+    if (!absl::SimpleAtoi(body.substr(0, dash), &num) ||
+        !absl::SimpleAtoi(body.substr(dash + 1), &den) || num <= 0 ||
+        den <= 0) {
+      return std::nullopt;
+    }
+    value = static_cast<double>(num) / den;
+  } else if (!absl::SimpleAtod(body, &value)) {
+    return std::nullopt;
+  }
+  if (!std::isfinite(value) || value <= 0) return std::nullopt;
+  return value;
 }
 
 absl::StatusOr<ViewFrames> LoadCaptureView(
@@ -41,25 +93,24 @@ absl::StatusOr<ViewFrames> LoadCaptureView(
     return absl::NotFoundError(
         absl::StrCat(folder.string(), ": no structured-light folder"));
   }
-  static const std::regex kBit(R"(^sl_(col|row)_b(\d+)(_inv)?_exp_(.+)$)");
-  static const std::regex kFlat(R"(^sl_(white|black)_exp_(.+)$)");
   // tag -> frame id -> file
   std::map<std::string, std::map<std::string, std::filesystem::path>> files;
   int col_bits = 0, row_bits = 0;
   for (const auto& entry : std::filesystem::directory_iterator(folder, ec)) {
     if (!entry.is_regular_file()) continue;
-    const std::string stem = entry.path().stem().string();
-    std::smatch m;
-    if (std::regex_match(stem, m, kBit)) {
-      const int bit = std::stoi(m[2].str());
-      if (bit > 15) continue;
-      int& bits = m[1].str() == "col" ? col_bits : row_bits;
-      bits = std::max(bits, bit + 1);
-      files[m[4].str()][absl::StrFormat("%s_b%02d%s", m[1].str(), bit,
-                                        m[3].str())] = entry.path();
-    } else if (std::regex_match(stem, m, kFlat)) {
-      files[m[2].str()][m[1].str()] = entry.path();
+    std::string id, tag;
+    bool column = false;
+    int bit = -1;
+    if (!ParseFrameName(entry.path().stem().string(), &id, &tag, &column,
+                        &bit)) {
+      continue;
     }
+    if (bit > 15) continue;
+    if (bit >= 0) {
+      int& bits = column ? col_bits : row_bits;
+      bits = std::max(bits, bit + 1);
+    }
+    files[tag][id] = entry.path();
   }
   if (ec) {
     return absl::InternalError(

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "processing/io/hdr_formats.h"
+#include "processing/structured_light/capture_io.h"
 #include "processing/structured_light/decode.h"
 #include "tests/support/subprocess.h"
 #include "tests/support/temp_dir.h"
@@ -124,6 +125,16 @@ TEST(SlToolTest, BrokenCapturesAreClearErrors) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("no structured-light folder"), std::string::npos)
       << r.err;
+}
+
+TEST(CaptureIoTest, ExposureTagsAsCaptureJobsWriteThem) {
+  EXPECT_DOUBLE_EQ(ParseExposureTag("1-30s").value_or(0), 1.0 / 30);
+  EXPECT_DOUBLE_EQ(ParseExposureTag("1-125s").value_or(0), 1.0 / 125);
+  EXPECT_DOUBLE_EQ(ParseExposureTag("0.5s").value_or(0), 0.5);
+  EXPECT_DOUBLE_EQ(ParseExposureTag("2s").value_or(0), 2.0);
+  EXPECT_FALSE(ParseExposureTag("1-0s").has_value());
+  EXPECT_FALSE(ParseExposureTag("fast").has_value());
+  EXPECT_FALSE(ParseExposureTag("s").has_value());
 }
 
 }  // namespace
