@@ -100,6 +100,11 @@ TEST_P(SimGroundTruthTest, MeetsAccuracyTargetsAgainstSimTruth) {
     std::cout << "warning: " << w << "\n";
   ASSERT_TRUE(gt->stats.projector_fitted);
   EXPECT_LT(gt->stats.projector_rms_px, 0.5);
+  // Illumination disparities fill pixels only one camera matches (mostly
+  // occluded in the other view), and the projector shadows are reported as
+  // unlit regions, not filled.
+  EXPECT_GT(gt->stats.view[0].illumination_only, 0);
+  EXPECT_GT(gt->stats.view[0].unlit_regions, 0);
 
   const cv::Mat* maps[2] = {&gt->disp0, &gt->disp1};
   for (int v = 0; v < 2; ++v) {
