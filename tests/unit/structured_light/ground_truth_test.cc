@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "processing/io/hdr_formats.h"
+#include "processing/stereo/cost_volume_stereo.h"
 #include "processing/structured_light/decode.h"
 #include "processing/structured_light/disparity.h"
 #include "tests/support/temp_dir.h"
@@ -140,6 +141,55 @@ TEST_P(SimGroundTruthTest, MeetsAccuracyTargetsAgainstSimTruth) {
   std::cout << GetParam() << " mask0nocc agrees with sim on "
             << 100.0 * agree / std::max(1, nocc) << "% of valid pixels\n";
   EXPECT_GE(agree, 0.98 * nocc);
+}
+
+// Issue 10: the ground truth must be more accurate than the matchers it
+// scores. The matchers get their best case: the projector dark, the
+// mid-exposure LDR pair, and the exact noise-free radiance for HDR. All are
+// scored on the same pixels as above.
+TEST_P(SimGroundTruthTest, MoreAccurateThanCostVolumeStereoOnTheSameScene) {
+  const testing::SimCapture& capture = testing::CachedSimCapture(GetParam());
+  absl::StatusOr<DecodedView> left = Decode(capture.views[0]);
+  absl::StatusOr<DecodedView> right = Decode(capture.views[1]);
+  ASSERT_TRUE(left.ok() && right.ok());
+  absl::StatusOr<GroundTruth> gt = ComputeGroundTruth(*left, *right);
+  ASSERT_TRUE(gt.ok()) << gt.status();
+  const Score sl = Evaluate(gt->disp0, capture.truth[0]);
+
+  sim::SimWorld world(capture.scene);
+  world.BlankProjector();
+  cv::Mat ldr[2], hdr[2];
+  for (int v = 0; v < 2; ++v) {
+    world.SetStagePosition(v * capture.baseline_mm);
+    ldr[v] = world.RenderExposure({1.0 / 125, 100}, 8);
+    hdr[v] = world.RenderRadiance().radiance;
+  }
+  double max_disparity = 0;
+  cv::Mat finite = capture.truth[0].disparity.clone();
+  cv::patchNaNs(finite, 0);
+  finite.setTo(0, finite == std::numeric_limits<float>::infinity());
+  cv::minMaxLoc(finite, nullptr, &max_disparity);
+  stereo::StereoOptions ldr_options;
+  ldr_options.max_disparity = static_cast<int>(std::ceil(max_disparity)) + 2;
+  stereo::StereoOptions hdr_options = stereo::StereoOptions::Hdr();
+  hdr_options.max_disparity = ldr_options.max_disparity;
+  absl::StatusOr<stereo::StereoResult> ldr_result =
+      stereo::ComputeDisparity(ldr[0], ldr[1], ldr_options);
+  absl::StatusOr<stereo::StereoResult> hdr_result =
+      stereo::ComputeDisparity(hdr[0], hdr[1], hdr_options);
+  ASSERT_TRUE(ldr_result.ok()) << ldr_result.status();
+  ASSERT_TRUE(hdr_result.ok()) << hdr_result.status();
+  const Score ldr_score = Evaluate(ldr_result->disparity, capture.truth[0]);
+  const Score hdr_score = Evaluate(hdr_result->disparity, capture.truth[0]);
+  std::cout << GetParam() << " RMSE / within 0.5 px: structured light "
+            << sl.rmse() << " / " << sl.within() * 100 << "%, LDR CVF "
+            << ldr_score.rmse() << " / " << ldr_score.within() * 100
+            << "%, HDR CVF " << hdr_score.rmse() << " / "
+            << hdr_score.within() * 100 << "%\n";
+  for (const Score* matcher : {&ldr_score, &hdr_score}) {
+    EXPECT_LT(sl.rmse(), matcher->rmse());
+    EXPECT_GT(sl.within(), matcher->within());
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, SimGroundTruthTest,
