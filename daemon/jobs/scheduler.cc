@@ -168,7 +168,11 @@ absl::Status Scheduler::SettleRunning() {
         }
         continue;
       }
-      if (!store::IsFinal(job->state)) {
+      // Interrupted jobs are queued again at start-up unless the daemon
+      // runs with --resume-interrupted false; then they stay interrupted
+      // and would block the schedule forever, so they end the run.
+      if (!store::IsFinal(job->state) &&
+          job->state != store::JobState::kInterrupted) {
         final = false;
         break;
       }

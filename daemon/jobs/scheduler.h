@@ -17,8 +17,9 @@
 //  - Never two runs of one schedule at once: a due time that comes while the
 //    previous run's jobs are unfinished is recorded as skipped, with the
 //    reason.
-//  - A run is running until all its jobs are final, then succeeded (all
-//    succeeded) or failed (with the first failure's reason).
+//  - A run is running until all its jobs are final (or interrupted and not
+//    resumed), then succeeded (all succeeded) or failed (with the first
+//    failure's reason).
 #ifndef HDRSTEREO_DAEMON_JOBS_SCHEDULER_H_
 #define HDRSTEREO_DAEMON_JOBS_SCHEDULER_H_
 

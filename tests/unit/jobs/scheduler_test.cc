@@ -200,6 +200,24 @@ TEST_F(SchedulerTest, FailedJobFailsTheRun) {
   EXPECT_THAT(runs[0].reason, HasSubstr("camera disconnected"));
 }
 
+TEST_F(SchedulerTest, InterruptedJobNotResumedEndsTheRun) {
+  std::unique_ptr<Scheduler> scheduler = NewScheduler();
+  AddSchedule(*scheduler, "hourly", "0 * * * *", "UTC");
+  RunUntil(*scheduler, Utc("2026-03-23 13:05"), /*finish=*/false);
+  std::vector<store::ScheduleRunRecord> runs = Runs(*scheduler, "hourly");
+  ASSERT_EQ(runs.size(), 1u);
+  const int64_t job = runs[0].job_ids.at(0);
+  ASSERT_TRUE(jobs_->SetState(job, store::JobState::kRunning, "run").ok());
+  ASSERT_TRUE(
+      jobs_->SetState(job, store::JobState::kInterrupted, "stopped").ok());
+  RunUntil(*scheduler, Utc("2026-03-23 14:05"));
+  runs = Runs(*scheduler, "hourly");
+  ASSERT_EQ(runs.size(), 2u);
+  EXPECT_EQ(runs[0].outcome, store::RunOutcome::kFailed);
+  EXPECT_THAT(runs[0].reason, HasSubstr("interrupted"));
+  EXPECT_EQ(runs[1].outcome, store::RunOutcome::kSucceeded);
+}
+
 TEST_F(SchedulerTest, SessionNameTakenFailsTheRunWithReason) {
   std::unique_ptr<Scheduler> scheduler = NewScheduler();
   v1::SchedulePlan plan;
