@@ -6,6 +6,7 @@
 // so "* * * * *" is due within about a second of real time.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <signal.h>
 
 #include <fstream>
 #include <string>
@@ -147,6 +148,21 @@ TEST_F(ScheduleTest, BadSchedulesAreRefusedNamingTheProblem) {
               HasSubstr("schedule.name"));
   // Nothing was stored.
   EXPECT_EQ(Sql("SELECT count(*) FROM schedules"), "0");
+}
+
+// systemd's ExecReload sends SIGHUP: the daemon re-reads its configuration
+// and keeps serving (it must not die of the signal).
+TEST_F(ScheduleTest, SighupReloadsAndKeepsServing) {
+  StartSim();
+  daemon_->Signal(SIGHUP);
+  bool logged = false;
+  for (int i = 0; i < 100 && !logged; ++i) {
+    logged = daemon_log().find("reload: log level info") != std::string::npos;
+    if (!logged) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  EXPECT_TRUE(logged) << daemon_log();
+  EXPECT_EQ(Cli({"status"}).exit_code, 0);
+  EXPECT_EQ(StopDaemon(), 0);
 }
 
 }  // namespace
