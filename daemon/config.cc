@@ -68,6 +68,10 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
   app.add_option("--resume-interrupted", config.resume_interrupted,
                  "Resume jobs a stop interrupted")
       ->capture_default_str();
+  app.add_option("--scheduler-clock-rate", config.scheduler_clock_rate,
+                 "Test only: scheduler clock speed relative to the wall clock")
+      ->check(CLI::Range(1.0, 100000.0))
+      ->capture_default_str();
   app.add_option("--home-position-mm", config.home_position_mm,
                  "Stage position of the left view")
       ->check(CLI::NonNegativeNumber)

@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
 // hdrstereod: parses the configuration, sets up logging, serves until
-// SIGINT or SIGTERM, then shuts down cleanly.
+// SIGINT or SIGTERM, then shuts down cleanly. SIGHUP (systemd's ExecReload)
+// re-reads the configuration: the log level takes effect at once; any other
+// changed option is reported and needs a restart.
 #include <signal.h>
 #include <spdlog/sinks/rotating_file_sink.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
@@ -60,6 +62,7 @@ int main(int argc, char** argv) {
   sigemptyset(&signals);
   sigaddset(&signals, SIGINT);
   sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGHUP);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
   if (!SetUpLogging(config)) return 1;
@@ -74,7 +77,26 @@ int main(int argc, char** argv) {
   }
 
   int signal_number = 0;
-  sigwait(&signals, &signal_number);
+  while (true) {
+    sigwait(&signals, &signal_number);
+    if (signal_number != SIGHUP) break;
+    absl::StatusOr<hdrstereo::daemon::ParsedArgs> reread =
+        hdrstereo::daemon::ParseArgs(argc, argv);
+    if (!reread.ok() ||
+        !std::holds_alternative<hdrstereo::daemon::Config>(*reread)) {
+      spdlog::error("reload: configuration refused, keeping the old one: {}",
+                    reread.ok() ? std::string("not a configuration")
+                                : std::string(reread.status().message()));
+      continue;
+    }
+    const auto& fresh = std::get<hdrstereo::daemon::Config>(*reread);
+    spdlog::default_logger()->set_level(
+        spdlog::level::from_str(fresh.log_level));
+    spdlog::info(
+        "reload: log level {}; other changed options take effect "
+        "at the next restart",
+        fresh.log_level);
+  }
   spdlog::info("received {}", strsignal(signal_number));
   (*server)->Shutdown();
   server->reset();

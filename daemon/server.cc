@@ -14,6 +14,23 @@
 #include "processing/io/atomic_file.h"
 
 namespace hdrstereo::daemon {
+namespace {
+
+// The scheduler's clock runs `scheduler_clock_rate` times as fast as the
+// wall clock from the daemon's start (1 = the wall clock; tests only).
+jobs::SchedulerOptions SchedulerOptionsFor(const Config& config) {
+  jobs::SchedulerOptions options;
+  if (config.scheduler_clock_rate != 1.0) {
+    const absl::Time start = absl::Now();
+    const double rate = config.scheduler_clock_rate;
+    options.clock = [start, rate] {
+      return start + (absl::Now() - start) * rate;
+    };
+  }
+  return options;
+}
+
+}  // namespace
 
 Server::Server(std::unique_ptr<store::Store> store,
                std::unique_ptr<Hardware> hardware, const Config& config)
@@ -33,7 +50,18 @@ Server::Server(std::unique_ptr<store::Store> store,
       server_service_(*store_, config.hardware, absl::Now()),
       sessions_service_(*store_),
       hardware_service_(*hardware_->rig),
-      jobs_service_(engine_, *hardware_->rig) {}
+      jobs_service_(engine_, *hardware_->rig),
+      scheduler_(
+          *store_,
+          [this](absl::string_view session,
+                 const v1::CapturePlan& plan) -> absl::StatusOr<int64_t> {
+            absl::StatusOr<store::JobRecord> job =
+                jobs::SubmitCapture(engine_, *hardware_->rig, session, plan);
+            if (!job.ok()) return job.status();
+            return job->id;
+          },
+          SchedulerOptionsFor(config)),
+      schedules_service_(scheduler_, *hardware_->rig) {}
 
 absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
   absl::StatusOr<std::unique_ptr<store::Store>> store =
@@ -47,6 +75,7 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
   std::unique_ptr<Server> server(
       new Server(*std::move(store), *std::move(hardware), config));
   if (absl::Status s = server->engine_.Start(); !s.ok()) return s;
+  if (absl::Status s = server->scheduler_.Start(); !s.ok()) return s;
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
@@ -83,6 +112,7 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
 }
 
 void Server::Shutdown() {
+  scheduler_.Stop();
   engine_.Shutdown();
   if (grpc_server_ == nullptr) return;
   spdlog::info("shutting down: finishing in-flight calls");

@@ -13,12 +13,13 @@
 #include "daemon/config.h"
 #include "daemon/hardware_setup.h"
 #include "daemon/jobs/job_engine.h"
+#include "daemon/jobs/scheduler.h"
 #include "daemon/rpc/hardware_service.h"
 #include "daemon/rpc/jobs_service.h"
+#include "daemon/rpc/schedules_service.h"
 #include "daemon/rpc/server_service.h"
 #include "daemon/rpc/sessions_service.h"
 #include "daemon/store/store.h"
-#include "hdrstereo/v1/schedules.grpc.pb.h"
 
 namespace hdrstereo::daemon {
 
@@ -49,9 +50,8 @@ class Server {
   rpc::SessionsService sessions_service_;
   rpc::HardwareService hardware_service_;
   rpc::JobsService jobs_service_;
-  // Defined in the wire contract; its handlers arrive with scheduling and
-  // answer UNIMPLEMENTED until then.
-  v1::Schedules::Service schedules_service_;
+  jobs::Scheduler scheduler_;
+  rpc::SchedulesService schedules_service_;
   std::unique_ptr<grpc::Server> grpc_server_;
   std::string address_;
 };

@@ -18,6 +18,8 @@ void AddHardwareCommands(CLI::App& app, const GlobalOptions& options,
                          int* exit_code);
 void AddJobCommands(CLI::App& app, const GlobalOptions& options,
                     int* exit_code);
+void AddScheduleCommands(CLI::App& app, const GlobalOptions& options,
+                         int* exit_code);
 void AddSessionCommands(CLI::App& app, const GlobalOptions& options,
                         int* exit_code);
 

@@ -393,4 +393,22 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context) {
   return absl::OkStatus();
 }
 
+absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
+                                               const hardware::Rig& rig,
+                                               absl::string_view session,
+                                               const v1::CapturePlan& plan) {
+  // Limits come from the stage; without one, say so before judging the plan.
+  absl::StatusOr<RigLimits> limits = LimitsOf(rig);
+  if (!limits.ok()) return limits.status();
+  absl::StatusOr<v1::CapturePlan> normal = NormalizePlan(plan, *limits);
+  if (!normal.ok()) return normal.status();
+  if (absl::Status s = CheckDevicesFor(*normal, rig); !s.ok()) return s;
+  const size_t frames = ExpandPlan(*normal, *limits, 0).size();
+  return engine.Submit(store::JobKind::kCapture, session,
+                       normal->SerializeAsString(),
+                       static_cast<int64_t>(frames),
+                       absl::StrCat("queued ", PlanKindName(*normal),
+                                    " capture of ", frames, " frames"));
+}
+
 }  // namespace hdrstereo::jobs

@@ -23,6 +23,14 @@ absl::StatusOr<RigLimits> LimitsOf(const hardware::Rig& rig);
 absl::Status CheckDevicesFor(const v1::CapturePlan& plan,
                              const hardware::Rig& rig);
 
+// Validates and normalises `plan` against the rig, checks its devices and
+// queues a capture job for `session`: what Jobs.SubmitCapture and the
+// scheduler both do.
+absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
+                                               const hardware::Rig& rig,
+                                               absl::string_view session,
+                                               const v1::CapturePlan& plan);
+
 // The job runner for capture jobs (JobKind::kCapture); the job's request is
 // a serialized, normalised v1::CapturePlan.
 absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context);

@@ -131,21 +131,8 @@ grpc::Status JobsService::SubmitCapture(grpc::ServerContext*,
     return ToGrpcStatus(s);
   }
   if (!request->has_plan()) return InvalidArgument("plan is required");
-  // Limits come from the stage; without one, say so before judging the plan.
-  absl::StatusOr<jobs::RigLimits> limits = jobs::LimitsOf(rig_);
-  if (!limits.ok()) return ToGrpcStatus(limits.status());
-  absl::StatusOr<v1::CapturePlan> plan =
-      jobs::NormalizePlan(request->plan(), *limits);
-  if (!plan.ok()) return ToGrpcStatus(plan.status());
-  if (absl::Status s = jobs::CheckDevicesFor(*plan, rig_); !s.ok()) {
-    return ToGrpcStatus(s);
-  }
-  const size_t frames = jobs::ExpandPlan(*plan, *limits, 0).size();
   return Reply(
-      engine_.Submit(store::JobKind::kCapture, request->session(),
-                     plan->SerializeAsString(), static_cast<int64_t>(frames),
-                     absl::StrCat("queued ", jobs::PlanKindName(*plan),
-                                  " capture of ", frames, " frames")),
+      jobs::SubmitCapture(engine_, rig_, request->session(), request->plan()),
       response);
 }
 

@@ -13,7 +13,7 @@ namespace {
 
 // Append only: a released migration is never edited. Times are Unix
 // milliseconds (UTC); lengths in millimetres; exposures in seconds.
-constexpr std::array<absl::string_view, 1> kMigrations = {
+constexpr std::array<absl::string_view, 2> kMigrations = {
     // 1: the tables of DESIGN.md.
     R"sql(
 CREATE TABLE rigs (
@@ -124,6 +124,25 @@ CREATE TABLE schedules (
   missed_run_policy TEXT NOT NULL DEFAULT 'run_once_on_start',
   create_time_ms INTEGER NOT NULL
 );
+)sql",
+    // 2: scheduled runs. `enable_time_ms` is when a schedule was (re)enabled:
+    // due times before it are not missed runs.
+    R"sql(
+ALTER TABLE schedules ADD COLUMN enable_time_ms INTEGER;
+CREATE TABLE schedule_runs (
+  id INTEGER PRIMARY KEY,
+  schedule_id INTEGER NOT NULL REFERENCES schedules(id) ON DELETE CASCADE,
+  due_time_ms INTEGER NOT NULL,
+  start_time_ms INTEGER,
+  end_time_ms INTEGER,
+  session TEXT NOT NULL DEFAULT '',
+  job_ids TEXT NOT NULL DEFAULT '',
+  outcome TEXT NOT NULL CHECK (outcome IN ('running', 'succeeded', 'failed',
+      'skipped')),
+  reason TEXT NOT NULL DEFAULT '',
+  UNIQUE (schedule_id, due_time_ms)
+);
+CREATE INDEX schedule_runs_by_outcome ON schedule_runs(outcome);
 )sql",
 };
 

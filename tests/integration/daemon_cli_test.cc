@@ -11,6 +11,7 @@
 #include <optional>
 
 #include "daemon/store/database.h"
+#include "daemon/store/schema.h"
 #include "tests/support/daemon_fixture.h"
 #include "tests/support/subprocess.h"
 #include "tests/support/temp_dir.h"
@@ -49,7 +50,7 @@ TEST_F(DaemonCliTest, StatusReportsServingAndVersions) {
   CommandResult json = Cli({"--json", "status"});
   ASSERT_EQ(json.exit_code, 0) << json.err;
   nlohmann::json info = nlohmann::json::parse(json.out);
-  EXPECT_EQ(info["schema_version"], 1);
+  EXPECT_EQ(info["schema_version"], store::LatestSchemaVersion());
   EXPECT_EQ(info["hardware_mode"], "sim");
   EXPECT_FALSE(info["version"].get<std::string>().empty());
   EXPECT_EQ(StopDaemon(), 0);

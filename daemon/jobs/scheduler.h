@@ -1,0 +1,116 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// The scheduler: at each due time of an enabled schedule it creates the
+// session named by the plan's pattern and submits the plan's captures, and
+// records the run (schedule_runs). Its clock is injectable, so tests run
+// days of schedule in milliseconds.
+//
+// Rules:
+//  - Due times come from CronSchedule (see cron.h for the DST rule). Due
+//    times before a schedule was created or (re)enabled never run.
+//  - A due time is on time when the scheduler sees it within `on_time_slack`.
+//    Later than that it was missed (hdrstereod was down or stalled): policy
+//    `skip` records it as skipped; `run-once-on-start` (the default) runs it
+//    once if it is less than `max_lateness` (12 h) late, else records it as
+//    skipped. Of several due times missed in a row only the newest is
+//    recorded (its reason counts the others).
+//  - Never two runs of one schedule at once: a due time that comes while the
+//    previous run's jobs are unfinished is recorded as skipped, with the
+//    reason.
+//  - A run is running until all its jobs are final (or interrupted and not
+//    resumed), then succeeded (all succeeded) or failed (with the first
+//    failure's reason).
+#ifndef HDRSTEREO_DAEMON_JOBS_SCHEDULER_H_
+#define HDRSTEREO_DAEMON_JOBS_SCHEDULER_H_
+
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "absl/time/time.h"
+#include "daemon/jobs/capture_plan.h"
+#include "daemon/jobs/cron.h"
+#include "daemon/store/schedule_repository.h"
+#include "hdrstereo/v1/schedules.pb.h"
+
+namespace hdrstereo::jobs {
+
+// Submits one capture job for `session`; returns its id.
+using CaptureSubmitter = std::function<absl::StatusOr<int64_t>(
+    absl::string_view session, const v1::CapturePlan& plan)>;
+
+struct SchedulerOptions {
+  std::function<absl::Time()> clock = [] { return absl::Now(); };
+  absl::Duration tick = absl::Milliseconds(500);  // real time between passes
+  absl::Duration on_time_slack = absl::Minutes(1);
+  absl::Duration max_lateness = absl::Hours(12);
+};
+
+// The session name for a run due at `due`: "{date}" -> YYYY-MM-DD and
+// "{time}" -> HHMM in `zone`; an empty pattern means "<schedule>-{date}-
+// {time}". INVALID_ARGUMENT for other placeholders or an invalid name.
+absl::StatusOr<std::string> ExpandSessionPattern(absl::string_view pattern,
+                                                 absl::string_view schedule,
+                                                 absl::Time due,
+                                                 absl::TimeZone zone);
+
+// Validates a schedule's plan at the edge: at least one capture, each
+// normalisable on the rig (errors name plans.captures[i]), a valid pattern,
+// and no processing steps (processing jobs do not exist yet).
+absl::Status ValidateSchedulePlan(const v1::SchedulePlan& plan,
+                                  absl::string_view schedule,
+                                  const RigLimits& limits);
+
+class Scheduler {
+ public:
+  Scheduler(store::Store& store, CaptureSubmitter submit,
+            SchedulerOptions options = {});
+  ~Scheduler();  // Stop()
+
+  // Settles runs a previous process left running, then ticks on a thread.
+  absl::Status Start();
+  void Stop();
+
+  // One pass at clock(): settles finished runs, then starts (or records as
+  // skipped) every due time that has come. Public for tests.
+  absl::Status Tick();
+  // Wakes the thread for a pass now (a schedule was added or enabled).
+  void Wake();
+
+  absl::Time Now() const { return options_.clock(); }
+  // The next due time after now (and after the newest recorded run);
+  // nullopt when disabled or never due.
+  std::optional<absl::Time> NextDue(const store::ScheduleRecord& schedule);
+
+  store::ScheduleRepository& repository() { return schedules_; }
+
+ private:
+  absl::Status SettleRunning();
+  absl::Status HandleSchedule(const store::ScheduleRecord& schedule,
+                              absl::Time now);
+  absl::Status Launch(const store::ScheduleRecord& schedule,
+                      const CronSchedule& cron, absl::Time due, absl::Time now,
+                      std::string note);
+
+  store::Store& store_;
+  store::ScheduleRepository schedules_;
+  CaptureSubmitter submit_;
+  const SchedulerOptions options_;
+
+  std::mutex tick_mutex_;  // one pass at a time
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  bool stopping_ = false;
+  bool wake_ = false;
+  std::thread thread_;
+};
+
+}  // namespace hdrstereo::jobs
+
+#endif  // HDRSTEREO_DAEMON_JOBS_SCHEDULER_H_
