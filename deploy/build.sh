@@ -16,7 +16,9 @@ fi
 build_dir=${1:-$default_dir}
 shift || true
 
-# ccache keeps rebuilds on 2 cores short.
+# ccache keeps rebuilds on 2 cores short, also across clones (paths are
+# hashed relative to the repository root).
 export CCACHE_DIR=${CCACHE_DIR:-$HOME/.cache/ccache}
+export CCACHE_BASEDIR=${CCACHE_BASEDIR:-$root}
 cmake -S "$root" -B "$build_dir" -G Ninja -DHDRSTEREO_SANITIZE=$sanitize "$@"
 cmake --build "$build_dir"
