@@ -12,6 +12,20 @@
 
 namespace hdrstereo::hardware {
 
+// INVALID_ARGUMENT unless `pattern` is 8-bit gray or BGR of exactly `size`.
+inline absl::Status ValidatePattern(const cv::Mat& pattern, cv::Size size) {
+  if (pattern.size() == size &&
+      (pattern.type() == CV_8UC1 || pattern.type() == CV_8UC3)) {
+    return absl::OkStatus();
+  }
+  return absl::InvalidArgumentError(
+      "pattern is " + std::to_string(pattern.cols) + "x" +
+      std::to_string(pattern.rows) + " of OpenCV type " +
+      std::to_string(pattern.type()) + "; the projector needs " +
+      std::to_string(size.width) + "x" + std::to_string(size.height) +
+      " 8-bit gray or BGR");
+}
+
 class Projector {
  public:
   virtual ~Projector() = default;

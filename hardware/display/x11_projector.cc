@@ -99,12 +99,8 @@ X11Projector::X11Projector(const X11ProjectorOptions& options, cv::Size size,
 X11Projector::~X11Projector() = default;
 
 absl::Status X11Projector::Show(const cv::Mat& pattern) {
-  if (pattern.size() != size_ ||
-      (pattern.type() != CV_8UC1 && pattern.type() != CV_8UC3)) {
-    return absl::InvalidArgumentError(absl::StrFormat(
-        "pattern is %dx%d of type %d; the projector needs %dx%d 8-bit gray or "
-        "BGR",
-        pattern.cols, pattern.rows, pattern.type(), size_.width, size_.height));
+  if (absl::Status s = hardware::ValidatePattern(pattern, size_); !s.ok()) {
+    return s;
   }
   // 24-bit TrueColor ZPixmaps are 32 bits per pixel, B G R X in memory on
   // little-endian servers (checked against the visual's masks below).

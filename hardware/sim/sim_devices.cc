@@ -133,12 +133,8 @@ absl::StatusOr<std::unique_ptr<SimProjector>> SimProjector::Create(
 }
 
 absl::Status SimProjector::Show(const cv::Mat& pattern) {
-  if (pattern.size() != size_ ||
-      (pattern.type() != CV_8UC1 && pattern.type() != CV_8UC3)) {
-    return absl::InvalidArgumentError(absl::StrFormat(
-        "pattern is %dx%d of type %d; the projector needs %dx%d 8-bit gray or "
-        "BGR",
-        pattern.cols, pattern.rows, pattern.type(), size_.width, size_.height));
+  if (absl::Status s = hardware::ValidatePattern(pattern, size_); !s.ok()) {
+    return s;
   }
   if (absl::Status s = world_.SetProjectorPattern(pattern); !s.ok()) return s;
   world_.SleepModelled(world_.timing().projector_settle_s);

@@ -27,20 +27,8 @@ namespace fs = std::filesystem;
 using ::hdrstereo::testing::CommandResult;
 using ::hdrstereo::testing::Process;
 using ::hdrstereo::testing::ReadFileOrDie;
+using ::hdrstereo::testing::SmallLabLamp;
 using ::testing::HasSubstr;
-
-// 240 x 180 camera (a fifth of the default, same field of view) and a
-// 128 x 96 projector: 7 + 7 Gray-code bits, 30 patterns per exposure.
-nlohmann::json SmallLabLamp() {
-  return {{"camera",
-           {{"width", 240},
-            {"height", 180},
-            {"fx", 320},
-            {"fy", 320},
-            {"cx", 119.5},
-            {"cy", 89.5}}},
-          {"projector", {{"width", 128}, {"height", 96}}}};
-}
 
 // Protobuf's JSON writes 64-bit integers as strings.
 int64_t JsonInt(const nlohmann::json& value) {

@@ -18,18 +18,8 @@
 namespace hdrstereo {
 namespace {
 
+using ::hdrstereo::testing::SmallLabLamp;
 using ::testing::HasSubstr;
-
-nlohmann::json SmallLabLamp() {
-  return {{"camera",
-           {{"width", 240},
-            {"height", 180},
-            {"fx", 320},
-            {"fy", 320},
-            {"cx", 119.5},
-            {"cy", 89.5}}},
-          {"projector", {{"width", 128}, {"height", 96}}}};
-}
 
 class ScheduleTest : public ::hdrstereo::testing::DaemonFixture {
  protected:

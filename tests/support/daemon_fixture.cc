@@ -13,6 +13,17 @@ namespace hdrstereo::testing {
 
 namespace fs = std::filesystem;
 
+nlohmann::json SmallLabLamp() {
+  return {{"camera",
+           {{"width", 240},
+            {"height", 180},
+            {"fx", 320},
+            {"fy", 320},
+            {"cx", 119.5},
+            {"cy", 89.5}}},
+          {"projector", {{"width", 128}, {"height", 96}}}};
+}
+
 void DaemonFixture::StartDaemon(const std::vector<std::string>& extra) {
   const fs::path ready = dir_ / "ready";
   fs::remove(ready);

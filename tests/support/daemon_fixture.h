@@ -19,6 +19,12 @@
 
 namespace hdrstereo::testing {
 
+// A JSON merge patch for WriteScene: the bundled lab-lamp at 240 x 180 (a
+// fifth of the default, same field of view) with a 128 x 96 projector (7 + 7
+// Gray-code bits, 30 patterns per exposure), so that captures in tests are
+// quick.
+nlohmann::json SmallLabLamp();
+
 class DaemonFixture : public ::testing::Test {
  protected:
   std::filesystem::path data_root() const { return dir_ / "data"; }

@@ -13,6 +13,7 @@
 #include "processing/io/hdr_formats.h"
 #include "processing/structured_light/capture_io.h"
 #include "processing/structured_light/decode.h"
+#include "tests/support/proc_tool.h"
 #include "tests/support/subprocess.h"
 #include "tests/support/temp_dir.h"
 #include "tests/unit/structured_light/sim_capture.h"
@@ -21,15 +22,9 @@ namespace hdrstereo::structured_light {
 namespace {
 
 using ::hdrstereo::testing::CommandResult;
+using ::hdrstereo::testing::Proc;
 using ::hdrstereo::testing::RunCommand;
 using ::hdrstereo::testing::TempDir;
-
-CommandResult Proc(std::vector<std::string> args) {
-  args.insert(args.begin(), HDRSTEREO_PROC);
-  absl::StatusOr<CommandResult> r = RunCommand(args);
-  EXPECT_TRUE(r.ok()) << r.status();
-  return r.ok() ? *r : CommandResult{};
-}
 
 // Writes a small shadowed-scene capture (160 x 120, one exposure) as
 // captures/<id>/<view>/structured_light/sl_<pattern>_exp_1-30s.png.

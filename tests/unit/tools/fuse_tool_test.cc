@@ -17,6 +17,7 @@
 #include "hardware/sim/sim_world.h"
 #include "hardware/sim/truth.h"
 #include "processing/io/hdr_formats.h"
+#include "tests/support/proc_tool.h"
 #include "tests/support/subprocess.h"
 #include "tests/support/temp_dir.h"
 
@@ -24,15 +25,9 @@ namespace hdrstereo {
 namespace {
 
 using ::hdrstereo::testing::CommandResult;
+using ::hdrstereo::testing::Proc;
 using ::hdrstereo::testing::RunCommand;
 using ::hdrstereo::testing::TempDir;
-
-CommandResult Proc(std::vector<std::string> args) {
-  args.insert(args.begin(), HDRSTEREO_PROC);
-  absl::StatusOr<CommandResult> r = RunCommand(args, absl::Seconds(300));
-  EXPECT_TRUE(r.ok()) << r.status();
-  return r.ok() ? *r : CommandResult{};
-}
 
 cv::Mat Truth() {
   cv::Mat d(24, 40, CV_32FC1);

@@ -3,6 +3,8 @@
 // The hdrstereo-proc executable end to end on synthetic data with known
 // truth: response + merge of a rendered exposure stack, calibrate + rectify
 // of rendered chessboard pairs, and its errors on bad input.
+#include "tests/support/proc_tool.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -25,15 +27,9 @@ namespace hdrstereo {
 namespace {
 
 using ::hdrstereo::testing::CommandResult;
+using ::hdrstereo::testing::Proc;
 using ::hdrstereo::testing::RunCommand;
 using ::hdrstereo::testing::TempDir;
-
-CommandResult Proc(std::vector<std::string> args) {
-  args.insert(args.begin(), HDRSTEREO_PROC);
-  absl::StatusOr<CommandResult> r = RunCommand(args);
-  EXPECT_TRUE(r.ok()) << r.status();
-  return r.ok() ? *r : CommandResult{};
-}
 
 void WriteStack(const std::filesystem::path& dir, cv::Mat& radiance) {
   std::filesystem::create_directories(dir);

@@ -12,6 +12,7 @@
 #include "hardware/sim/sim_world.h"
 #include "hardware/sim/truth.h"
 #include "processing/io/hdr_formats.h"
+#include "tests/support/proc_tool.h"
 #include "tests/support/subprocess.h"
 #include "tests/support/temp_dir.h"
 
@@ -19,15 +20,9 @@ namespace hdrstereo {
 namespace {
 
 using ::hdrstereo::testing::CommandResult;
+using ::hdrstereo::testing::Proc;
 using ::hdrstereo::testing::RunCommand;
 using ::hdrstereo::testing::TempDir;
-
-CommandResult Proc(std::vector<std::string> args) {
-  args.insert(args.begin(), HDRSTEREO_PROC);
-  absl::StatusOr<CommandResult> r = RunCommand(args);
-  EXPECT_TRUE(r.ok()) << r.status();
-  return r.ok() ? *r : CommandResult{};
-}
 
 // Renders a 160x120 `textured` pair (baseline 100 mm) with truth into dir.
 void WritePair(const TempDir& dir) {

@@ -10,6 +10,7 @@
 
 #include "processing/io/hdr_formats.h"
 #include "processing/tonemap/tonemap.h"
+#include "tests/support/proc_tool.h"
 #include "tests/support/subprocess.h"
 #include "tests/support/temp_dir.h"
 
@@ -17,15 +18,9 @@ namespace hdrstereo {
 namespace {
 
 using ::hdrstereo::testing::CommandResult;
+using ::hdrstereo::testing::Proc;
 using ::hdrstereo::testing::RunCommand;
 using ::hdrstereo::testing::TempDir;
-
-CommandResult Proc(std::vector<std::string> args) {
-  args.insert(args.begin(), HDRSTEREO_PROC);
-  absl::StatusOr<CommandResult> r = RunCommand(args, absl::Seconds(300));
-  EXPECT_TRUE(r.ok()) << r.status();
-  return r.ok() ? *r : CommandResult{};
-}
 
 // A horizontal log ramp from 1 to 8000 cd/m^2 with a coloured band.
 cv::Mat Ramp() {
