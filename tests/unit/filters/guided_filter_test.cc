@@ -9,6 +9,7 @@
 #include <opencv2/ximgproc/edge_filter.hpp>
 #include <vector>
 
+#include "tests/support/reference_guided_filter.h"
 #include "tests/unit/filters/test_images.h"
 
 namespace hdrstereo::filters {
@@ -59,61 +60,15 @@ INSTANTIATE_TEST_SUITE_P(GrayAndColour, GuidedVsOpenCv,
 // ximgproc's float implementation is off by up to 0.23 on this image
 // (measured), so the reference is a double-precision evaluation of He's
 // formulas (per-pixel 3x3 solve).
-cv::Mat DoubleBox(const cv::Mat& m, int r) {
-  cv::Mat o;
-  cv::boxFilter(m, o, CV_64F, cv::Size(2 * r + 1, 2 * r + 1), cv::Point(-1, -1),
-                true, cv::BORDER_REFLECT);
-  return o;
-}
-
-cv::Mat DoubleColourGuided(const cv::Mat& guide, const cv::Mat& src, int r,
-                           double eps) {
-  cv::Mat gd, sd;
-  guide.convertTo(gd, CV_64F);
-  src.convertTo(sd, CV_64F);
-  std::vector<cv::Mat> g;
-  cv::split(gd, g);
-  const cv::Mat mp = DoubleBox(sd, r);
-  cv::Mat mi[3], cov[3], var[3][3], a[3];
-  for (int c = 0; c < 3; ++c) {
-    mi[c] = DoubleBox(g[c], r);
-    cov[c] = DoubleBox(g[c].mul(sd), r) - mi[c].mul(mp);
-    a[c].create(guide.size(), CV_64F);
-  }
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) {
-      var[i][j] = DoubleBox(g[i].mul(g[j]), r) - mi[i].mul(mi[j]);
-    }
-  }
-  for (int y = 0; y < guide.rows; ++y) {
-    for (int x = 0; x < guide.cols; ++x) {
-      cv::Matx33d s;
-      cv::Vec3d c;
-      for (int i = 0; i < 3; ++i) {
-        c[i] = cov[i].at<double>(y, x);
-        for (int j = 0; j < 3; ++j) {
-          s(i, j) = var[i][j].at<double>(y, x) + (i == j ? eps : 0.0);
-        }
-      }
-      const cv::Vec3d av = s.solve(c, cv::DECOMP_LU);
-      for (int k = 0; k < 3; ++k) a[k].at<double>(y, x) = av[k];
-    }
-  }
-  cv::Mat b = mp.clone();
-  for (int c = 0; c < 3; ++c) b -= a[c].mul(mi[c]);
-  cv::Mat q = DoubleBox(b, r);
-  for (int c = 0; c < 3; ++c) q += DoubleBox(a[c], r).mul(g[c]);
-  cv::Mat qf;
-  q.convertTo(qf, CV_32F);
-  return qf;
-}
-
 TEST(GuidedFilter, ColourGuideThesisEpsMatchesDoublePrecision) {
   const cv::Mat guide = TestImage(256, 192, 3, 1);
   const cv::Mat src = TestImage(256, 192, 1, 2);
   absl::StatusOr<cv::Mat> ours = ApplyGuidedFilter(guide, src, {9, 1e-4, 1});
   ASSERT_TRUE(ours.ok());
-  EXPECT_LE(MaxAbsDiff(*ours, DoubleColourGuided(guide, src, 9, 1e-4)), 1e-4);
+  cv::Mat reference;
+  ::hdrstereo::testing::DoubleColourGuided(guide, src, 9, 1e-4)
+      .convertTo(reference, CV_32F);
+  EXPECT_LE(MaxAbsDiff(*ours, reference), 1e-4);
 }
 
 TEST(GuidedFilter, SelfGuidedMatchesReference) {

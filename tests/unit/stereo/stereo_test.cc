@@ -27,6 +27,7 @@
 #include "processing/hdr/response.h"
 #include "processing/hdr/stack.h"
 #include "processing/stereo/cost_volume_stereo.h"
+#include "tests/support/reference_guided_filter.h"
 
 namespace hdrstereo::stereo {
 namespace {
@@ -252,54 +253,6 @@ float PlainCost(const MatchingImages& m, const StereoOptions& o, View view,
          (1.0f - alpha) * std::min(gd, static_cast<float>(o.tau_gradient));
 }
 
-cv::Mat DoubleBox(const cv::Mat& m, int r) {
-  cv::Mat o;
-  cv::boxFilter(m, o, CV_64F, cv::Size(2 * r + 1, 2 * r + 1), cv::Point(-1, -1),
-                true, cv::BORDER_REFLECT);
-  return o;
-}
-
-// He et al.'s colour-guide filter in double precision (CV_64FC1 result).
-cv::Mat DoubleColourGuided(const cv::Mat& guide, const cv::Mat& src, int r,
-                           double eps) {
-  cv::Mat gd, sd;
-  guide.convertTo(gd, CV_64F);
-  src.convertTo(sd, CV_64F);
-  std::vector<cv::Mat> g;
-  cv::split(gd, g);
-  const cv::Mat mp = DoubleBox(sd, r);
-  cv::Mat mi[3], cov[3], var[3][3], a[3];
-  for (int c = 0; c < 3; ++c) {
-    mi[c] = DoubleBox(g[c], r);
-    cov[c] = DoubleBox(g[c].mul(sd), r) - mi[c].mul(mp);
-    a[c].create(guide.size(), CV_64F);
-  }
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) {
-      var[i][j] = DoubleBox(g[i].mul(g[j]), r) - mi[i].mul(mi[j]);
-    }
-  }
-  for (int y = 0; y < guide.rows; ++y) {
-    for (int x = 0; x < guide.cols; ++x) {
-      cv::Matx33d s;
-      cv::Vec3d c;
-      for (int i = 0; i < 3; ++i) {
-        c[i] = cov[i].at<double>(y, x);
-        for (int j = 0; j < 3; ++j) {
-          s(i, j) = var[i][j].at<double>(y, x) + (i == j ? eps : 0.0);
-        }
-      }
-      const cv::Vec3d av = s.solve(c, cv::DECOMP_LU);
-      for (int k = 0; k < 3; ++k) a[k].at<double>(y, x) = av[k];
-    }
-  }
-  cv::Mat b = mp.clone();
-  for (int c = 0; c < 3; ++c) b -= a[c].mul(mi[c]);
-  cv::Mat q = DoubleBox(b, r);
-  for (int c = 0; c < 3; ++c) q += DoubleBox(a[c], r).mul(g[c]);
-  return q;
-}
-
 // Argmin over the volume, the smaller disparity on ties.
 template <typename T>
 cv::Mat Argmin(const std::vector<cv::Mat>& volume, int dmin) {
@@ -339,7 +292,8 @@ Reference PlainReference(const MatchingImages& m, const StereoOptions& o,
         cost.at<float>(y, x) = PlainCost(m, o, view, d, y, x);
       }
     }
-    r.volume.push_back(DoubleColourGuided(guide, cost, o.radius, o.eps));
+    r.volume.push_back(
+        ::hdrstereo::testing::DoubleColourGuided(guide, cost, o.radius, o.eps));
     cv::Mat xf, of, od;
     cv::ximgproc::guidedFilter(guide, cost, xf, o.radius, o.eps, -1);
     xvol.push_back(xf);
