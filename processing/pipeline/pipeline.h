@@ -1,0 +1,150 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// The session pipeline: a small DAG of named steps that turns a captured
+// session into HDR images, tone-mapped pairs, disparity maps, their fusion,
+// the structured-light ground truth, metrics, a Middlebury-2014 export and
+// an HTML report.
+//
+//   decode -> rectify -> response -> hdr -> tonemap -> stereo -> fusion
+//   decode -> sl_groundtruth
+//   stereo, fusion, sl_groundtruth -> evaluate -> export, report
+//
+// The pipeline knows nothing of SQLite or RPC: the caller (the daemon's
+// processing job) says which frames exist, remembers what earlier runs
+// produced through RunStore, and watches through RunObserver. Every file is
+// written atomically under the session folder; nothing outside the steps
+// being recomputed is touched, and nothing already computed is deleted when
+// a step fails.
+#ifndef HDRSTEREO_PROCESSING_PIPELINE_PIPELINE_H_
+#define HDRSTEREO_PROCESSING_PIPELINE_PIPELINE_H_
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+
+namespace hdrstereo::pipeline {
+
+// Step names in topological order.
+const std::vector<std::string>& AllSteps();
+
+// The requested steps plus everything they need, in topological order.
+// Empty `requested` = every step. INVALID_ARGUMENT naming an unknown step
+// and listing the known ones.
+absl::StatusOr<std::vector<std::string>> ResolveSteps(
+    const std::vector<std::string>& requested);
+
+// One captured frame (the daemon's frame row).
+struct FrameInput {
+  std::string path;          // relative to the session folder
+  std::string capture_kind;  // "bracketed_stereo", "structured_light", ...
+  int64_t capture_id = 0;
+  // The folder below the view in the capture layout: "ambient", "stereo",
+  // "structured_light", "calibration".
+  std::string role;
+  int view_index = 0;  // 0 = left (the reference view), 1 = right
+  double exposure_s = 0;
+  std::string pattern;  // structured light: "col_b03", "white", ...; else ""
+  bool inverse = false;
+  std::string sha256;
+};
+
+struct SessionInput {
+  std::filesystem::path session_dir;  // absolute; every output goes below
+  std::string session_name;
+  std::vector<FrameInput> frames;  // in capture order
+  double baseline_mm = 0;          // of the stereo capture used
+  std::optional<std::pair<int, int>> projector_size;  // width, height
+  // Shown first in the report's capture summary, in this order (hardware,
+  // timings, ...).
+  std::vector<std::pair<std::string, std::string>> capture_summary;
+  // Exact truth written at capture time in simulation (relative paths;
+  // empty = none): left-view disparity PFM (+inf = no truth) and a PNG
+  // mask, 255 = visible in both views.
+  std::string sim_truth_disparity;
+  std::string sim_truth_nonoccluded;
+};
+
+struct Artifact {
+  std::string step;  // producing step
+  // "response", "hdr", "tonemapped", "disparity", "ground_truth",
+  // "metrics", "export", "report", ...
+  std::string kind;
+  std::string path;  // relative to the session folder
+  std::string params_json;
+  std::string sha256;
+  int64_t size_bytes = 0;
+};
+
+// One metrics row (thesis Table 5.2 for this session).
+struct Metric {
+  std::string method;        // "ldr", "reinhard", ..., "hdr", "fused", ...
+  std::string ground_truth;  // "structured_light" or "simulation"
+  double rmse = 0;
+  double mae = 0;
+  double bad_0_5 = 0;  // percent of scored pixels
+  double bad_1 = 0;
+  double bad_2 = 0;
+  double bad_4 = 0;
+  double coverage = 0;  // percent of ground-truth pixels with a disparity
+};
+
+// What the caller remembers between runs. Called from the thread that runs
+// Run(), one call at a time.
+class RunStore {
+ public:
+  virtual ~RunStore() = default;
+  // The artifacts recorded for `step` by an earlier run whose inputs and
+  // parameters hashed to `input_hash`; empty when there was none. The
+  // pipeline reuses them only if every file still exists with its sha256.
+  virtual std::vector<Artifact> Lookup(const std::string& step,
+                                       const std::string& input_hash) = 0;
+  // `step` finished (all its files are on disk): record its artifacts,
+  // replacing what was recorded for the step before.
+  virtual absl::Status Record(const std::string& step,
+                              const std::string& input_hash,
+                              const std::vector<Artifact>& artifacts) = 0;
+  // The evaluate step's rows, replacing the session's earlier rows.
+  virtual absl::Status RecordMetrics(const std::vector<Metric>& metrics) = 0;
+};
+
+class RunObserver {
+ public:
+  virtual ~RunObserver() = default;
+  // Between steps and inside long ones: non-OK (CANCELLED, ABORTED) stops
+  // the run, which returns that status.
+  virtual absl::Status Checkpoint() = 0;
+  // `done` of `total` units of work, `what` for people ("stereo: reinhard").
+  virtual void Progress(int64_t done, int64_t total, const std::string& what) = 0;
+  virtual void Info(const std::string& message) = 0;
+  virtual void Warn(const std::string& message) = 0;
+};
+
+struct RunOptions {
+  std::vector<std::string> steps;  // empty = all; dependencies are added
+  bool force = false;              // recompute even when unchanged
+  int threads = 2;                 // independent steps run in parallel
+};
+
+struct RunSummary {
+  std::vector<std::string> computed;  // steps recomputed, in order
+  std::vector<std::string> reused;    // steps whose artifacts were reused
+  std::vector<Metric> metrics;        // when evaluate ran or was reused
+  std::string report_path;            // relative; when report ran
+};
+
+// FAILED_PRECONDITION naming what is missing (no stereo frames, a
+// structured-light capture without some bit plane, ...), INVALID_ARGUMENT
+// for unknown steps; the status of the failing step otherwise.
+absl::StatusOr<RunSummary> Run(const SessionInput& input,
+                               const RunOptions& options, RunStore& store,
+                               RunObserver& observer);
+
+}  // namespace hdrstereo::pipeline
+
+#endif  // HDRSTEREO_PROCESSING_PIPELINE_PIPELINE_H_
