@@ -9,7 +9,6 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
-#include "processing/filters/guided_filter.h"
 #include "processing/hdr/merge.h"
 
 namespace hdrstereo::stereo {
@@ -122,13 +121,6 @@ cv::Mat GradientX(const cv::Mat& g) {
   return out;
 }
 
-// Per-thread state of the slice loop.
-struct ChunkState {
-  cv::Mat best, label, before, after;
-  cv::Mat cost, filtered, prev;
-  filters::GuidedFilterWorkspace ws;
-};
-
 // The given percentile of all channel values of both images (100 = max).
 double WhitePoint(const cv::Mat& a, const cv::Mat& b, double percentile) {
   double max_a = 0, max_b = 0;
@@ -151,6 +143,666 @@ double WhitePoint(const cv::Mat& a, const cv::Mat& b, double percentile) {
 
 int ThreadCount(const StereoOptions& o) {
   return o.threads > 0 ? o.threads : std::max(1, cv::getNumThreads());
+}
+
+absl::Status CheckMatchingImages(const MatchingImages& m,
+                                 const StereoOptions& o) {
+  if (m.left.empty() || m.left.size() != m.right.size() ||
+      m.left.type() != m.right.type() || m.left.depth() != CV_32F ||
+      m.left_grad.size() != m.left.size() ||
+      m.right_grad.size() != m.left.size() || m.left_grad.type() != CV_32FC1 ||
+      m.right_grad.type() != CV_32FC1) {
+    return absl::InvalidArgumentError("matching images missing or mismatched");
+  }
+  return CheckOptions(o, m.left.cols);
+}
+
+// ---------------------------------------------------------------------------
+// Fused slice kernel.
+//
+// For a strip of output rows and each disparity, rows stream through three
+// stages, each row computed once and kept in a small ring of 2r + 2 rows:
+//   cost row j:    p (Eq. 4.1/4.2, minus a constant centre) and I_c * p;
+//   stage-1 row i: vertical window sums of those (running sums, recomputed
+//                  from the ring every 2r + 1 rows so that float rounding
+//                  cannot drift), horizontal window sums, then the guided
+//                  filter's a = (Sigma + eps)^-1 cov(I, p) and b;
+//   output row y:  the same two box passes over a and b, q = mean(a) I +
+//                  mean(b), and the running WTA update.
+// Borders are reflected (BORDER_REFLECT, as cv::boxFilter in the guided
+// filter). The guide is centred (I - 0.5) and the cost by half its maximum:
+// the filter's output shifts by the cost centre only, and the smaller
+// magnitudes keep the float sums accurate. Nothing full-size is written per
+// slice; the working set of a strip stays in the caches.
+
+// Virtual row/column v -> real index, BORDER_REFLECT (tables for the few
+// virtual indices the kernel touches; tiny images reflect repeatedly).
+class ReflectTable {
+ public:
+  ReflectTable(int n, int margin) : margin_(margin) {
+    table_.resize(static_cast<size_t>(n + 2 * margin));
+    for (int v = -margin; v < n + margin; ++v) {
+      table_[static_cast<size_t>(v + margin)] =
+          cv::borderInterpolate(v, n, cv::BORDER_REFLECT);
+    }
+  }
+  int operator()(int v) const {
+    return table_[static_cast<size_t>(v + margin_)];
+  }
+  const int* data() const { return table_.data(); }
+
+ private:
+  int margin_;
+  std::vector<int> table_;
+};
+
+// One view's inputs as planes (structure of arrays), plus the guide
+// statistics that every slice reuses.
+struct ViewPlanes {
+  int w = 0, h = 0, nc = 0;
+  std::vector<cv::Mat> own, other;  // matching images, nc planes each
+  cv::Mat own_grad, other_grad;
+  std::vector<cv::Mat> guide;  // own - kGuideCentre
+  std::vector<cv::Mat> mean;   // box means of the guide planes
+  std::vector<cv::Mat>
+      inv;              // (Sigma + eps)^-1: 1 plane, or 6 (rr rg rb gg gb bb)
+  int shift_sign = -1;  // partner of x is x + shift_sign * d
+};
+
+constexpr float kGuideCentre = 0.5f;
+
+cv::Mat BoxMean(const cv::Mat& m, int r) {
+  cv::Mat out;
+  cv::boxFilter(m, out, CV_32F, cv::Size(2 * r + 1, 2 * r + 1),
+                cv::Point(-1, -1), /*normalize=*/true, cv::BORDER_REFLECT);
+  return out;
+}
+
+ViewPlanes MakeViewPlanes(const MatchingImages& m, const StereoOptions& o,
+                          View view) {
+  ViewPlanes v;
+  const bool left = view == View::kLeft;
+  const cv::Mat& own = left ? m.left : m.right;
+  v.w = own.cols;
+  v.h = own.rows;
+  v.nc = own.channels();
+  cv::split(own, v.own);
+  cv::split(left ? m.right : m.left, v.other);
+  v.own_grad = left ? m.left_grad : m.right_grad;
+  v.other_grad = left ? m.right_grad : m.left_grad;
+  v.shift_sign = left ? -1 : 1;
+  for (const cv::Mat& p : v.own) {
+    cv::Mat g;
+    cv::subtract(p, kGuideCentre, g);
+    v.guide.push_back(g);
+    v.mean.push_back(BoxMean(g, o.radius));
+  }
+  const float eps = static_cast<float>(o.eps);
+  const cv::Size sz(v.w, v.h);
+  if (v.nc == 1) {
+    const cv::Mat corr = BoxMean(v.guide[0].mul(v.guide[0]), o.radius);
+    v.inv.assign(1, cv::Mat(sz, CV_32FC1));
+    for (int y = 0; y < v.h; ++y) {
+      const float* mu = v.mean[0].ptr<float>(y);
+      const float* c = corr.ptr<float>(y);
+      float* out = v.inv[0].ptr<float>(y);
+      for (int x = 0; x < v.w; ++x)
+        out[x] = 1.0f / (c[x] - mu[x] * mu[x] + eps);
+    }
+    return v;
+  }
+  // Colour guide: covariance per pixel, inverted in closed form.
+  const int pairs[6][2] = {{0, 0}, {0, 1}, {0, 2}, {1, 1}, {1, 2}, {2, 2}};
+  cv::Mat corr[6];
+  for (int k = 0; k < 6; ++k) {
+    corr[k] = BoxMean(v.guide[static_cast<size_t>(pairs[k][0])].mul(
+                          v.guide[static_cast<size_t>(pairs[k][1])]),
+                      o.radius);
+  }
+  v.inv.resize(6);
+  for (cv::Mat& p : v.inv) p.create(sz, CV_32FC1);
+  for (int y = 0; y < v.h; ++y) {
+    const float* m0 = v.mean[0].ptr<float>(y);
+    const float* m1 = v.mean[1].ptr<float>(y);
+    const float* m2 = v.mean[2].ptr<float>(y);
+    const float* c[6];
+    float* out[6];
+    for (int k = 0; k < 6; ++k) {
+      c[k] = corr[k].ptr<float>(y);
+      out[k] = v.inv[static_cast<size_t>(k)].ptr<float>(y);
+    }
+    for (int x = 0; x < v.w; ++x) {
+      const float rr = c[0][x] - m0[x] * m0[x] + eps;
+      const float rg = c[1][x] - m0[x] * m1[x];
+      const float rb = c[2][x] - m0[x] * m2[x];
+      const float gg = c[3][x] - m1[x] * m1[x] + eps;
+      const float gb = c[4][x] - m1[x] * m2[x];
+      const float bb = c[5][x] - m2[x] * m2[x] + eps;
+      const float i_rr = gg * bb - gb * gb;
+      const float i_rg = gb * rb - rg * bb;
+      const float i_rb = rg * gb - gg * rb;
+      const float i_gg = rr * bb - rb * rb;
+      const float i_gb = rb * rg - rr * gb;
+      const float i_bb = rr * gg - rg * rg;
+      const float inv_det = 1.0f / (rr * i_rr + rg * i_rg + rb * i_rb);
+      out[0][x] = i_rr * inv_det;
+      out[1][x] = i_rg * inv_det;
+      out[2][x] = i_rb * inv_det;
+      out[3][x] = i_gg * inv_det;
+      out[4][x] = i_gb * inv_det;
+      out[5][x] = i_bb * inv_det;
+    }
+  }
+  return v;
+}
+
+struct CostParams {
+  float alpha, beta, t1, t2, inv_nc;
+};
+
+CostParams MakeCostParams(const StereoOptions& o, int nc) {
+  const float alpha = static_cast<float>(o.alpha);
+  return {alpha, 1.0f - alpha, static_cast<float>(o.tau_color),
+          static_cast<float>(o.tau_gradient), 1.0f / static_cast<float>(nc)};
+}
+
+// Half the largest cost: subtracted from every cost before filtering.
+float CostCentre(const CostParams& cp) {
+  return 0.5f * (cp.alpha * cp.t1 + cp.beta * cp.t2);
+}
+
+// One cost row (step 2): a/ga are the view's own planes, b/gb the other
+// view's; the partner of x is x + shift (kBorderValue outside the image).
+template <int NC>
+inline void CostRow(const float* const* a, const float* const* b,
+                    const float* ga, const float* gb, int w, int shift,
+                    const CostParams& cp, float* __restrict out) {
+  const int x0 = std::clamp(-shift, 0, w);
+  const int x1 = std::clamp(w - shift, 0, w);
+  auto border = [&](int x) {
+    float cd = 0;
+    for (int c = 0; c < NC; ++c) cd += std::abs(a[c][x] - kBorderValue);
+    if (NC == 3) cd *= cp.inv_nc;
+    const float gd = std::abs(ga[x] - kBorderValue);
+    out[x] = cp.alpha * std::min(cd, cp.t1) + cp.beta * std::min(gd, cp.t2);
+  };
+  for (int x = 0; x < x0; ++x) border(x);
+  for (int x = x1; x < w; ++x) border(x);
+  const float* __restrict gbs = gb + shift;
+  if constexpr (NC == 3) {
+    const float* __restrict a0 = a[0];
+    const float* __restrict a1 = a[1];
+    const float* __restrict a2 = a[2];
+    const float* __restrict b0 = b[0] + shift;
+    const float* __restrict b1 = b[1] + shift;
+    const float* __restrict b2 = b[2] + shift;
+#pragma GCC ivdep
+    for (int x = x0; x < x1; ++x) {
+      const float cd = (std::abs(a0[x] - b0[x]) + std::abs(a1[x] - b1[x]) +
+                        std::abs(a2[x] - b2[x])) *
+                       cp.inv_nc;
+      const float gd = std::abs(ga[x] - gbs[x]);
+      out[x] = cp.alpha * std::min(cd, cp.t1) + cp.beta * std::min(gd, cp.t2);
+    }
+  } else {
+    const float* __restrict a0 = a[0];
+    const float* __restrict b0 = b[0] + shift;
+#pragma GCC ivdep
+    for (int x = x0; x < x1; ++x) {
+      const float cd = std::abs(a0[x] - b0[x]);
+      const float gd = std::abs(ga[x] - gbs[x]);
+      out[x] = cp.alpha * std::min(cd, cp.t1) + cp.beta * std::min(gd, cp.t2);
+    }
+  }
+}
+
+// Horizontal window sums out[x] = sum of src[reflect(x + k)], k in [-r, r],
+// by doubling (sums of 1, 2, 4, ... neighbours combined along the binary
+// digits of 2r + 1): vectorisable, no running-sum drift, and every pixel
+// sums in the same order. pad, t0, t1: scratch of w + 2r floats.
+inline void HorizontalBox(const float* __restrict src, int w, int r,
+                          const int* __restrict pad_index,
+                          float* __restrict pad, float* __restrict t0,
+                          float* __restrict t1, float* __restrict out) {
+  const int n = w + 2 * r;
+  const int len = 2 * r + 1;
+  for (int i = 0; i < r && i < n; ++i) pad[i] = src[pad_index[i]];
+  if (w > 0) std::copy(src, src + w, pad + r);
+  for (int i = r + w; i < n; ++i) pad[i] = src[pad_index[i]];
+  const float* cur = pad;
+  float* bufs[2] = {t0, t1};
+  int which = 0;
+  int block = 1;
+  int offset = 0;
+  bool first = true;
+  while (true) {
+    if (len & block) {
+      const float* __restrict c = cur + offset;
+      if (first) {
+#pragma GCC ivdep
+        for (int x = 0; x < w; ++x) out[x] = c[x];
+        first = false;
+      } else {
+#pragma GCC ivdep
+        for (int x = 0; x < w; ++x) out[x] += c[x];
+      }
+      offset += block;
+    }
+    if (2 * block > len) break;
+    // next[i] = cur[i] + cur[i + block]: sums of 2 * block neighbours.
+    const int valid = n - 2 * block + 1;
+    float* __restrict next = bufs[which];
+    const float* __restrict lo = cur;
+    const float* __restrict hi = cur + block;
+#pragma GCC ivdep
+    for (int i = 0; i < valid; ++i) next[i] = lo[i] + hi[i];
+    cur = next;
+    which ^= 1;
+    block *= 2;
+  }
+}
+
+// Stage 1, colour guide: from the window sums of p and I_c p (sp, s0..s2)
+// the coefficients a = (Sigma + eps)^-1 cov(I, p) and b = mean(p) - a.mean(I).
+inline void Coefficients3(
+    const float* __restrict sp, const float* __restrict s0,
+    const float* __restrict s1, const float* __restrict s2,
+    const float* __restrict m0, const float* __restrict m1,
+    const float* __restrict m2, const float* __restrict rr,
+    const float* __restrict rg, const float* __restrict rb,
+    const float* __restrict gg, const float* __restrict gb,
+    const float* __restrict bb, float k, int w, float* __restrict a0,
+    float* __restrict a1, float* __restrict a2, float* __restrict b) {
+#pragma GCC ivdep
+  for (int x = 0; x < w; ++x) {
+    const float mp = sp[x] * k;
+    const float c0 = s0[x] * k - m0[x] * mp;
+    const float c1 = s1[x] * k - m1[x] * mp;
+    const float c2 = s2[x] * k - m2[x] * mp;
+    const float e0 = rr[x] * c0 + rg[x] * c1 + rb[x] * c2;
+    const float e1 = rg[x] * c0 + gg[x] * c1 + gb[x] * c2;
+    const float e2 = rb[x] * c0 + gb[x] * c1 + bb[x] * c2;
+    a0[x] = e0;
+    a1[x] = e1;
+    a2[x] = e2;
+    b[x] = mp - e0 * m0[x] - e1 * m1[x] - e2 * m2[x];
+  }
+}
+
+// Stage 1, grey guide.
+inline void Coefficients1(const float* __restrict sp,
+                          const float* __restrict s0,
+                          const float* __restrict m0,
+                          const float* __restrict inv, float k, int w,
+                          float* __restrict a0, float* __restrict b) {
+#pragma GCC ivdep
+  for (int x = 0; x < w; ++x) {
+    const float mp = sp[x] * k;
+    const float e0 = (s0[x] * k - m0[x] * mp) * inv[x];
+    a0[x] = e0;
+    b[x] = mp - e0 * m0[x];
+  }
+}
+
+// Stage 2: q = mean(a) . I + mean(b) from the window sums of a_c and b.
+template <int NC>
+inline float FilteredCost(const float* __restrict sa0,
+                          const float* __restrict sa1,
+                          const float* __restrict sa2,
+                          const float* __restrict sb,
+                          const float* __restrict g0,
+                          const float* __restrict g1,
+                          const float* __restrict g2, float k, int x) {
+  if constexpr (NC == 3) {
+    return (sa0[x] * g0[x] + sa1[x] * g1[x] + sa2[x] * g2[x] + sb[x]) * k;
+  } else {
+    return (sa0[x] * g0[x] + sb[x]) * k;
+  }
+}
+
+template <int NC>
+inline void FilteredRow(const float* __restrict sa0,
+                        const float* __restrict sa1,
+                        const float* __restrict sa2, const float* __restrict sb,
+                        const float* __restrict g0, const float* __restrict g1,
+                        const float* __restrict g2, float k, int w,
+                        float* __restrict q) {
+#pragma GCC ivdep
+  for (int x = 0; x < w; ++x) {
+    q[x] = FilteredCost<NC>(sa0, sa1, sa2, sb, g0, g1, g2, k, x);
+  }
+}
+
+// Stage 2 fused with the WTA update (strictly better wins: ties keep the
+// smaller disparity).
+template <int NC>
+inline void FilteredRowWta(
+    const float* __restrict sa0, const float* __restrict sa1,
+    const float* __restrict sa2, const float* __restrict sb,
+    const float* __restrict g0, const float* __restrict g1,
+    const float* __restrict g2, float k, float fd, bool first, int w,
+    float* __restrict best, float* __restrict label) {
+  if (first) {
+#pragma GCC ivdep
+    for (int x = 0; x < w; ++x) {
+      best[x] = FilteredCost<NC>(sa0, sa1, sa2, sb, g0, g1, g2, k, x);
+      label[x] = fd;
+    }
+    return;
+  }
+// (Written so that GCC 12 if-converts and vectorises it: one select and a
+// min; equal costs give the same best either way.)
+#pragma GCC ivdep
+  for (int x = 0; x < w; ++x) {
+    const float q = FilteredCost<NC>(sa0, sa1, sa2, sb, g0, g1, g2, k, x);
+    const float b = best[x];
+    label[x] = q < b ? fd : label[x];
+    best[x] = std::min(q, b);
+  }
+}
+
+// WTA update that also tracks the costs at label - 1 (before) and label + 1
+// (after); prev holds the costs at fd - 1.
+inline void SubpixelWta(const float* __restrict q, const float* __restrict prev,
+                        float fd, int w, float* __restrict best,
+                        float* __restrict label, float* __restrict before,
+                        float* __restrict after) {
+  const float fprev = fd - 1.0f;
+#pragma GCC ivdep
+  for (int x = 0; x < w; ++x) {
+    const float v = q[x];
+    const float b = best[x];
+    const float l = label[x];
+    const bool better = v < b;
+    const float af = l == fprev ? v : after[x];
+    best[x] = better ? v : b;
+    label[x] = better ? fd : l;
+    before[x] = better ? prev[x] : before[x];
+    after[x] = better ? kNaN : af;
+  }
+}
+
+// Where the WTA of one strip goes (rows of the full-size result).
+struct WtaTarget {
+  cv::Mat* best;    // CV_32FC1, centred filtered cost of the winner
+  cv::Mat* label;   // CV_32FC1
+  cv::Mat* before;  // CV_32FC1, cost at label - 1 (sub-pixel only)
+  cv::Mat* after;   // CV_32FC1, cost at label + 1 (sub-pixel only)
+};
+
+template <int NC>
+class SliceKernel {
+ public:
+  static constexpr int kQ = NC + 1;  // quantities per stage: p, I_c p / a_c, b
+
+  SliceKernel(const ViewPlanes& v, const StereoOptions& o)
+      : v_(v),
+        r_(o.radius),
+        ring_(2 * o.radius + 2),
+        rows_(v.h, 2 * o.radius + 2),
+        cols_(v.w, o.radius),
+        cp_(MakeCostParams(o, NC)),
+        cost_centre_(CostCentre(cp_)),
+        inv_area_(1.0f /
+                  static_cast<float>((2 * o.radius + 1) * (2 * o.radius + 1))) {
+    const size_t w = static_cast<size_t>(v.w);
+    const size_t padded = w + 2 * static_cast<size_t>(r_);
+    ring1_.assign(static_cast<size_t>(ring_ * kQ) * w, 0.0f);
+    ring2_.assign(static_cast<size_t>(ring_ * kQ) * w, 0.0f);
+    sum1_.assign(kQ * w, 0.0f);
+    sum2_.assign(kQ * w, 0.0f);
+    box_.assign(kQ * w, 0.0f);
+    q_row_.assign(w, 0.0f);
+    pad_.assign(3 * padded, 0.0f);
+  }
+
+  // Disparities [d0, d1] in order for output rows [y0, y1).
+  void Run(int y0, int y1, int d0, int d1, bool subpixel, const WtaTarget& t) {
+    if (subpixel) prev_rows_.assign(static_cast<size_t>((y1 - y0) * v_.w), 0);
+    for (int d = d0; d <= d1; ++d) {
+      shift_ = v_.shift_sign * d;
+      const int s0 = std::max(0, y0 - r_);
+      const int s1 = std::min(v_.h, y1 + r_);
+      int next_cost = std::max(0, s0 - r_);
+      int next_out = y0;
+      for (int i = s0; i < s1; ++i) {
+        const int need = std::min(v_.h - 1, i + r_);
+        while (next_cost <= need) ProduceCostRow(next_cost++);
+        Stage1Row(i, i == s0 || (i - s0) % (2 * r_ + 1) == 0);
+        while (next_out < y1 && std::min(v_.h - 1, next_out + r_) <= i) {
+          OutputRow(next_out, d, d0, subpixel,
+                    next_out == y0 || (next_out - y0) % (2 * r_ + 1) == 0, t,
+                    y0);
+          ++next_out;
+        }
+      }
+    }
+  }
+
+ private:
+  float* Ring(std::vector<float>& ring, int row, int q) {
+    return ring.data() + (static_cast<size_t>((row % ring_) * kQ + q)) *
+                             static_cast<size_t>(v_.w);
+  }
+
+  // p - centre and I_c (p - centre) of real row j.
+  void ProduceCostRow(int j) {
+    const float* a[NC];
+    const float* b[NC];
+    for (int c = 0; c < NC; ++c) {
+      a[c] = v_.own[static_cast<size_t>(c)].ptr<float>(j);
+      b[c] = v_.other[static_cast<size_t>(c)].ptr<float>(j);
+    }
+    float* __restrict p = Ring(ring1_, j, 0);
+    CostRow<NC>(a, b, v_.own_grad.ptr<float>(j), v_.other_grad.ptr<float>(j),
+                v_.w, shift_, cp_, p);
+    const float centre = cost_centre_;
+    const int w = v_.w;
+#pragma GCC ivdep
+    for (int x = 0; x < w; ++x) p[x] -= centre;
+    for (int c = 0; c < NC; ++c) {
+      const float* __restrict g =
+          v_.guide[static_cast<size_t>(c)].ptr<float>(j);
+      float* __restrict ip = Ring(ring1_, j, 1 + c);
+#pragma GCC ivdep
+      for (int x = 0; x < w; ++x) ip[x] = g[x] * p[x];
+    }
+  }
+
+  // Vertical window sums over virtual rows [i - r, i + r] of `ring` into
+  // `sum`: from scratch if `refresh`, else by moving the window of row i - 1.
+  void VerticalSums(std::vector<float>& ring, int i, bool refresh,
+                    std::vector<float>& sum) {
+    const int w = v_.w;
+    for (int q = 0; q < kQ; ++q) {
+      float* __restrict s = sum.data() + static_cast<size_t>(q * w);
+      if (refresh) {
+        const float* __restrict first = Ring(ring, rows_(i - r_), q);
+        std::copy(first, first + w, s);
+        for (int k = -r_ + 1; k <= r_; ++k) {
+          const float* __restrict row = Ring(ring, rows_(i + k), q);
+#pragma GCC ivdep
+          for (int x = 0; x < w; ++x) s[x] += row[x];
+        }
+      } else {
+        const float* __restrict add = Ring(ring, rows_(i + r_), q);
+        const float* __restrict sub = Ring(ring, rows_(i - r_ - 1), q);
+#pragma GCC ivdep
+        for (int x = 0; x < w; ++x) s[x] += add[x] - sub[x];
+      }
+    }
+  }
+
+  void HorizontalSums(const std::vector<float>& sum) {
+    const int w = v_.w;
+    const size_t padded = static_cast<size_t>(w + 2 * r_);
+    for (int q = 0; q < kQ; ++q) {
+      HorizontalBox(sum.data() + static_cast<size_t>(q * w), w, r_,
+                    cols_.data(), pad_.data(), pad_.data() + padded,
+                    pad_.data() + 2 * padded,
+                    box_.data() + static_cast<size_t>(q * w));
+    }
+  }
+
+  // Guided-filter coefficients a_c, b of real row i.
+  void Stage1Row(int i, bool refresh) {
+    VerticalSums(ring1_, i, refresh, sum1_);
+    HorizontalSums(sum1_);
+    const int w = v_.w;
+    const float* s = box_.data();
+    float* out[kQ];
+    for (int q = 0; q < kQ; ++q) out[q] = Ring(ring2_, i, q);
+    if constexpr (NC == 3) {
+      const std::vector<cv::Mat>& inv = v_.inv;
+      Coefficients3(s, s + w, s + 2 * w, s + 3 * w, v_.mean[0].ptr<float>(i),
+                    v_.mean[1].ptr<float>(i), v_.mean[2].ptr<float>(i),
+                    inv[0].ptr<float>(i), inv[1].ptr<float>(i),
+                    inv[2].ptr<float>(i), inv[3].ptr<float>(i),
+                    inv[4].ptr<float>(i), inv[5].ptr<float>(i), inv_area_, w,
+                    out[0], out[1], out[2], out[3]);
+    } else {
+      Coefficients1(s, s + w, v_.mean[0].ptr<float>(i), v_.inv[0].ptr<float>(i),
+                    inv_area_, w, out[0], out[1]);
+    }
+  }
+
+  // Filtered cost of output row y and the WTA update.
+  void OutputRow(int y, int d, int d0, bool subpixel, bool refresh,
+                 const WtaTarget& t, int y0) {
+    VerticalSums(ring2_, y, refresh, sum2_);
+    HorizontalSums(sum2_);
+    const int w = v_.w;
+    const float* s = box_.data();
+    const float* g0 = v_.guide[0].ptr<float>(y);
+    const float* g1 = NC == 3 ? v_.guide[NC - 2].ptr<float>(y) : nullptr;
+    const float* g2 = NC == 3 ? v_.guide[NC - 1].ptr<float>(y) : nullptr;
+    float* best = t.best->ptr<float>(y);
+    float* label = t.label->ptr<float>(y);
+    const float fd = static_cast<float>(d);
+    if (!subpixel) {
+      FilteredRowWta<NC>(s, s + w, s + 2 * w, s + NC * w, g0, g1, g2, inv_area_,
+                         fd, d == d0, w, best, label);
+      return;
+    }
+    float* q = q_row_.data();
+    FilteredRow<NC>(s, s + w, s + 2 * w, s + NC * w, g0, g1, g2, inv_area_, w,
+                    q);
+    float* prev = prev_rows_.data() + static_cast<size_t>((y - y0) * w);
+    float* before = t.before->ptr<float>(y);
+    float* after = t.after->ptr<float>(y);
+    if (d == d0) {
+      std::copy(q, q + w, best);
+      std::fill(label, label + w, fd);
+      std::fill(before, before + w, kNaN);
+      std::fill(after, after + w, kNaN);
+    } else {
+      SubpixelWta(q, prev, fd, w, best, label, before, after);
+    }
+    std::copy(q, q + w, prev);
+  }
+
+  const ViewPlanes& v_;
+  const int r_;
+  const int ring_;     // rows per ring: the window plus the row leaving it
+  ReflectTable rows_;  // virtual row -> real row
+  ReflectTable cols_;  // padded column -> real column (table from -r)
+  const CostParams cp_;
+  const float cost_centre_;
+  const float inv_area_;
+  int shift_ = 0;
+  std::vector<float> ring1_, ring2_;  // [row % ring][quantity][x]
+  std::vector<float> sum1_, sum2_;    // vertical sums [quantity][x]
+  std::vector<float> box_;            // window sums [quantity][x]
+  std::vector<float> q_row_;          // filtered cost of the current row
+  std::vector<float> prev_rows_;      // filtered cost at d - 1 (sub-pixel)
+  std::vector<float> pad_;
+};
+
+// A thread's share of RunKernel: strips range.start .. range.end - 1.
+struct StripJob {
+  const ViewPlanes* v;
+  const StereoOptions* o;
+  int strip;
+  cv::Range range;
+  int d0, d1;
+  bool subpixel;
+  const WtaTarget* target;
+};
+
+template <int NC>
+inline void RunStrips(const StripJob& job) {
+  SliceKernel<NC> kernel(*job.v, *job.o);
+  for (int s = job.range.start; s < job.range.end; ++s) {
+    kernel.Run(s * job.strip, std::min(job.v->h, (s + 1) * job.strip), job.d0,
+               job.d1, job.subpixel, *job.target);
+  }
+}
+
+// The kernel with everything inlined, built for AVX2 and for the baseline
+// ISA (picked at load time). No FMA: both versions round identically.
+__attribute__((flatten, target_clones("avx2", "default"))) void RunStrips3(
+    const StripJob& job) {
+  RunStrips<3>(job);
+}
+__attribute__((flatten, target_clones("avx2", "default"))) void RunStrips1(
+    const StripJob& job) {
+  RunStrips<1>(job);
+}
+
+struct KernelOutput {
+  cv::Mat best, label, before, after;  // CV_32FC1, full size
+  float cost_centre = 0;
+};
+
+// Steps 2-4 for disparities [d0, d1] of one view, rows split over threads
+// in strips; every pixel sees the disparities in order, so ties go to the
+// smaller one and the result does not depend on the thread count.
+template <int NC>
+void RunKernel(const ViewPlanes& v, const StereoOptions& o, int d0, int d1,
+               bool subpixel, KernelOutput& out) {
+  const cv::Size size(v.w, v.h);
+  out.best.create(size, CV_32FC1);
+  out.label.create(size, CV_32FC1);
+  if (subpixel) {
+    out.before.create(size, CV_32FC1);
+    out.after.create(size, CV_32FC1);
+  }
+  const WtaTarget target{&out.best, &out.label, &out.before, &out.after};
+  // Strips short enough that a strip's rows of the guide statistics and of
+  // the WTA state stay in the caches across all disparities; the halo of 2r
+  // rows per side is recomputed by each strip. The strip height does not
+  // depend on the thread count, so neither does the float rounding.
+  constexpr int kStripRows = 96;
+  const int strip = std::min(kStripRows, v.h);
+  const int strips = (v.h + strip - 1) / strip;
+  const int threads = std::min(ThreadCount(o), strips);
+  auto run = [&](const cv::Range& range) {
+    const StripJob job{&v, &o, strip, range, d0, d1, subpixel, &target};
+    if constexpr (NC == 3) {
+      RunStrips3(job);
+    } else {
+      RunStrips1(job);
+    }
+  };
+  out.cost_centre = CostCentre(MakeCostParams(o, NC));
+  if (threads == 1) {
+    run(cv::Range(0, strips));
+  } else {
+    cv::parallel_for_(cv::Range(0, strips), run, threads);
+  }
+}
+
+KernelOutput FilteredWta(const MatchingImages& images,
+                         const StereoOptions& options, View view, int d0,
+                         int d1, bool subpixel) {
+  const ViewPlanes v = MakeViewPlanes(images, options, view);
+  KernelOutput out;
+  if (v.nc == 3) {
+    RunKernel<3>(v, options, d0, d1, subpixel, out);
+  } else {
+    RunKernel<1>(v, options, d0, d1, subpixel, out);
+  }
+  return out;
 }
 
 }  // namespace
@@ -212,178 +864,68 @@ absl::StatusOr<MatchingImages> PrepareMatchingImages(
 void ComputeCostSlice(const MatchingImages& images,
                       const StereoOptions& options, View view, int d,
                       cv::Mat& cost) {
-  const cv::Mat& a = view == View::kLeft ? images.left : images.right;
-  const cv::Mat& b = view == View::kLeft ? images.right : images.left;
-  const cv::Mat& ga =
-      view == View::kLeft ? images.left_grad : images.right_grad;
-  const cv::Mat& gb =
-      view == View::kLeft ? images.right_grad : images.left_grad;
-  // Partner of x is x + shift.
-  const int shift = view == View::kLeft ? -d : d;
-  const int w = a.cols;
-  const int nc = a.channels();
-  const float alpha = static_cast<float>(options.alpha);
-  const float beta = 1.0f - alpha;
-  const float t1 = static_cast<float>(options.tau_color);
-  const float t2 = static_cast<float>(options.tau_gradient);
-  const float inv_nc = 1.0f / static_cast<float>(nc);
-  // Partner inside the image for x in [x0, x1).
-  const int x0 = std::clamp(-shift, 0, w);
-  const int x1 = std::clamp(w - shift, 0, w);
-  cost.create(a.size(), CV_32FC1);
-  for (int y = 0; y < a.rows; ++y) {
-    const float* pa = a.ptr<float>(y);
-    const float* pb = b.ptr<float>(y);
-    const float* pga = ga.ptr<float>(y);
-    const float* pgb = gb.ptr<float>(y);
-    float* out = cost.ptr<float>(y);
-    auto border = [&](int x) {
-      float cd = 0;
-      for (int c = 0; c < nc; ++c)
-        cd += std::abs(pa[x * nc + c] - kBorderValue);
-      const float gd = std::abs(pga[x] - kBorderValue);
-      out[x] = alpha * std::min(cd * inv_nc, t1) + beta * std::min(gd, t2);
-    };
-    for (int x = 0; x < x0; ++x) border(x);
-    for (int x = x1; x < w; ++x) border(x);
-    if (nc == 3) {
-      for (int x = x0; x < x1; ++x) {
-        const float* p = pa + 3 * x;
-        const float* q = pb + 3 * (x + shift);
-        const float cd = (std::abs(p[0] - q[0]) + std::abs(p[1] - q[1]) +
-                          std::abs(p[2] - q[2])) *
-                         inv_nc;
-        const float gd = std::abs(pga[x] - pgb[x + shift]);
-        out[x] = alpha * std::min(cd, t1) + beta * std::min(gd, t2);
-      }
-    } else {
-      for (int x = x0; x < x1; ++x) {
-        const float cd = std::abs(pa[x] - pb[x + shift]);
-        const float gd = std::abs(pga[x] - pgb[x + shift]);
-        out[x] = alpha * std::min(cd, t1) + beta * std::min(gd, t2);
-      }
+  const bool left = view == View::kLeft;
+  std::vector<cv::Mat> a, b;
+  cv::split(left ? images.left : images.right, a);
+  cv::split(left ? images.right : images.left, b);
+  const cv::Mat& ga = left ? images.left_grad : images.right_grad;
+  const cv::Mat& gb = left ? images.right_grad : images.left_grad;
+  const int nc = static_cast<int>(a.size());
+  const CostParams cp = MakeCostParams(options, nc);
+  const int shift = left ? -d : d;
+  cost.create(ga.size(), CV_32FC1);
+  for (int y = 0; y < cost.rows; ++y) {
+    const float* pa[3];
+    const float* pb[3];
+    for (int c = 0; c < nc; ++c) {
+      pa[c] = a[static_cast<size_t>(c)].ptr<float>(y);
+      pb[c] = b[static_cast<size_t>(c)].ptr<float>(y);
     }
+    if (nc == 3) {
+      CostRow<3>(pa, pb, ga.ptr<float>(y), gb.ptr<float>(y), cost.cols, shift,
+                 cp, cost.ptr<float>(y));
+    } else {
+      CostRow<1>(pa, pb, ga.ptr<float>(y), gb.ptr<float>(y), cost.cols, shift,
+                 cp, cost.ptr<float>(y));
+    }
+  }
+}
+
+absl::StatusOr<cv::Mat> ComputeFilteredCostSlice(const MatchingImages& images,
+                                                 const StereoOptions& options,
+                                                 View view, int d) {
+  if (absl::Status s = CheckMatchingImages(images, options); !s.ok()) return s;
+  try {
+    KernelOutput k = FilteredWta(images, options, view, d, d, false);
+    cv::Mat out;
+    cv::add(k.best, k.cost_centre, out);
+    return out;
+  } catch (const cv::Exception& e) {
+    return absl::InternalError(absl::StrCat("stereo: ", e.what()));
   }
 }
 
 absl::StatusOr<WtaResult> ComputeWta(const MatchingImages& images,
                                      const StereoOptions& options, View view) {
-  if (images.left.empty() || images.left.size() != images.right.size()) {
-    return absl::InvalidArgumentError("matching images missing or mismatched");
-  }
-  if (absl::Status s = CheckOptions(options, images.left.cols); !s.ok()) {
-    return s;
-  }
+  if (absl::Status s = CheckMatchingImages(images, options); !s.ok()) return s;
   try {
-    const cv::Mat& guide = view == View::kLeft ? images.left : images.right;
-    absl::StatusOr<filters::GuidedFilter> gf = filters::GuidedFilter::Create(
-        guide, filters::GuidedFilterOptions{options.radius, options.eps, 1});
-    if (!gf.ok()) return gf.status();
-    const int dmin = options.min_disparity;
-    const int dmax = options.max_disparity;
-    const int labels = dmax - dmin + 1;
-    const int chunks = std::min(ThreadCount(options), labels);
     const bool sub = options.subpixel;
-    const cv::Size size = guide.size();
-    const int n = size.area();
-    std::vector<ChunkState> states(static_cast<size_t>(chunks));
-    auto run_chunk = [&](int k) {
-      ChunkState& st = states[static_cast<size_t>(k)];
-      const int d0 =
-          dmin + static_cast<int>(static_cast<int64_t>(labels) * k / chunks);
-      const int d1 =
-          dmin +
-          static_cast<int>(static_cast<int64_t>(labels) * (k + 1) / chunks) - 1;
-      st.best.create(size, CV_32FC1);
-      st.best.setTo(std::numeric_limits<float>::infinity());
-      st.label.create(size, CV_32SC1);
-      st.label.setTo(d0);
-      if (sub) {
-        st.before.create(size, CV_32FC1);
-        st.after.create(size, CV_32FC1);
-        st.before.setTo(kNaN);
-        st.after.setTo(kNaN);
-      }
-      const int start = sub ? std::max(dmin, d0 - 1) : d0;
-      const int end = sub ? std::min(dmax, d1 + 1) : d1;
-      bool have_prev = false;
-      for (int d = start; d <= end; ++d) {
-        ComputeCostSlice(images, options, view, d, st.cost);
-        gf->FilterPlane(st.cost, st.filtered, &st.ws);
-        const float* q = st.filtered.ptr<float>();
-        float* best = st.best.ptr<float>();
-        int* label = st.label.ptr<int>();
-        if (sub) {
-          float* after = st.after.ptr<float>();
-          float* before = st.before.ptr<float>();
-          const float* prev = st.prev.empty() ? nullptr : st.prev.ptr<float>();
-          for (int i = 0; i < n; ++i) {
-            if (label[i] == d - 1 &&
-                best[i] < std::numeric_limits<float>::infinity()) {
-              after[i] = q[i];
-            }
-          }
-          if (d >= d0 && d <= d1) {
-            for (int i = 0; i < n; ++i) {
-              if (q[i] < best[i]) {
-                best[i] = q[i];
-                label[i] = d;
-                before[i] = have_prev ? prev[i] : kNaN;
-                after[i] = kNaN;
-              }
-            }
-          }
-          std::swap(st.prev, st.filtered);
-          have_prev = true;
-        } else {
-          for (int i = 0; i < n; ++i) {
-            const bool better = q[i] < best[i];
-            best[i] = better ? q[i] : best[i];
-            label[i] = better ? d : label[i];
-          }
-        }
-      }
-    };
-    if (chunks == 1) {
-      run_chunk(0);
-    } else {
-      cv::parallel_for_(
-          cv::Range(0, chunks),
-          [&](const cv::Range& r) {
-            for (int k = r.start; k < r.end; ++k) run_chunk(k);
-          },
-          chunks);
-    }
-    // Merge the chunks in disparity order (ties: the smaller disparity).
+    KernelOutput k = FilteredWta(images, options, view, options.min_disparity,
+                                 options.max_disparity, sub);
     WtaResult out;
-    ChunkState& first = states[0];
-    for (size_t k = 1; k < states.size(); ++k) {
-      const float* b = states[k].best.ptr<float>();
-      const int* l = states[k].label.ptr<int>();
-      float* fb = first.best.ptr<float>();
-      int* fl = first.label.ptr<int>();
-      for (int i = 0; i < n; ++i) {
-        if (b[i] < fb[i]) {
-          fb[i] = b[i];
-          fl[i] = l[i];
-          if (sub) {
-            first.before.ptr<float>()[i] = states[k].before.ptr<float>()[i];
-            first.after.ptr<float>()[i] = states[k].after.ptr<float>()[i];
-          }
-        }
-      }
-    }
-    first.label.convertTo(out.labels, CV_32F);
-    out.cost = first.best;
+    out.labels = k.label;
+    cv::add(k.best, k.cost_centre, out.cost);
     if (!sub) {
       out.disparity = out.labels;
       return out;
     }
+    // Parabola through the centred costs (the centre cancels).
     out.disparity = out.labels.clone();
+    const int n = static_cast<int>(out.disparity.total());
     float* disp = out.disparity.ptr<float>();
-    const float* c0 = first.best.ptr<float>();
-    const float* cm = first.before.ptr<float>();
-    const float* cp = first.after.ptr<float>();
+    const float* c0 = k.best.ptr<float>();
+    const float* cm = k.before.ptr<float>();
+    const float* cp = k.after.ptr<float>();
     for (int i = 0; i < n; ++i) {
       if (std::isnan(cm[i]) || std::isnan(cp[i])) continue;
       const float denom = cm[i] - 2.0f * c0[i] + cp[i];

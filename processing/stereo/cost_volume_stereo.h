@@ -17,13 +17,15 @@
 //      A pixel whose partner x - d falls outside the other image is
 //      compared against the constant 3/255 (Hosni's reference code).
 //   3. Aggregation: guided filter (colour guide = the view's own matching
-//      image, r = 9, eps = 1e-4); the guide statistics are computed once
-//      per view and reused for every slice (filters::GuidedFilter).
+//      image, r = 9, eps = 1e-4, BORDER_REFLECT box means); the guide
+//      statistics (means, covariance inverse) are computed once per view
+//      and reused for every slice.
 //   4. Winner-takes-all while iterating the slices: only the running best
 //      cost and label per pixel are kept (plus the neighbouring slices'
-//      costs for sub-pixel refinement), never the W x H x D volume. The
-//      slices are split into contiguous chunks, one per thread; ties go to
-//      the smaller disparity, as in a sequential scan.
+//      costs for sub-pixel refinement), never the W x H x D volume; ties go
+//      to the smaller disparity. Steps 2-4 are one fused kernel that streams
+//      row strips (split over threads) through cost, box filters and WTA
+//      without full-size temporaries per slice (see the .cc).
 //   5. Left-right check (both views computed): a left pixel is consistent
 //      when |dL(x) - dR(x - dL(x))| <= lr_tolerance.
 //   6. Inconsistent pixels get the lower of the nearest consistent
@@ -123,6 +125,12 @@ absl::StatusOr<MatchingImages> PrepareMatchingImages(
 void ComputeCostSlice(const MatchingImages& images,
                       const StereoOptions& options, View view, int d,
                       cv::Mat& cost);
+
+// The guided-filtered cost plane of disparity d for `view` (steps 2-3), as
+// the WTA of ComputeWta sees it (CV_32FC1). For tests and diagnostics.
+absl::StatusOr<cv::Mat> ComputeFilteredCostSlice(const MatchingImages& images,
+                                                 const StereoOptions& options,
+                                                 View view, int d);
 
 // Filtered-cost WTA of one view (steps 2-4, plus 8 if options.subpixel).
 absl::StatusOr<WtaResult> ComputeWta(const MatchingImages& images,

@@ -13,6 +13,7 @@
 #include <limits>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 #include <opencv2/ximgproc.hpp>
 #include <string>
 #include <vector>
@@ -22,7 +23,6 @@
 #include "hardware/sim/sim_world.h"
 #include "hardware/sim/truth.h"
 #include "processing/eval/disparity_eval.h"
-#include "processing/filters/guided_filter.h"
 #include "processing/hdr/merge.h"
 #include "processing/hdr/response.h"
 #include "processing/hdr/stack.h"
@@ -274,16 +274,15 @@ struct Reference {
   std::vector<cv::Mat> volume;  // CV_64FC1, one plane per disparity
   cv::Mat labels;               // CV_32FC1
   cv::Mat ximgproc_labels;      // CV_32FC1, ximgproc::guidedFilter per slice
-  double float_error = 0;       // max |FilterPlane - double| over the volume
+  // max |fast filtered cost - double| over the volume (the fast kernel's
+  // slices via ComputeFilteredCostSlice)
+  double float_error = 0;
 };
 
 Reference PlainReference(const MatchingImages& m, const StereoOptions& o,
                          View view) {
   Reference r;
   const cv::Mat& guide = view == View::kLeft ? m.left : m.right;
-  absl::StatusOr<filters::GuidedFilter> ours = filters::GuidedFilter::Create(
-      guide, filters::GuidedFilterOptions{o.radius, o.eps, 1});
-  EXPECT_TRUE(ours.ok());
   std::vector<cv::Mat> xvol;
   for (int d = o.min_disparity; d <= o.max_disparity; ++d) {
     cv::Mat cost(guide.size(), CV_32FC1);
@@ -294,11 +293,12 @@ Reference PlainReference(const MatchingImages& m, const StereoOptions& o,
     }
     r.volume.push_back(
         ::hdrstereo::testing::DoubleColourGuided(guide, cost, o.radius, o.eps));
-    cv::Mat xf, of, od;
+    cv::Mat xf, od;
     cv::ximgproc::guidedFilter(guide, cost, xf, o.radius, o.eps, -1);
     xvol.push_back(xf);
-    ours->FilterPlane(cost, of);
-    of.convertTo(od, CV_64F);
+    absl::StatusOr<cv::Mat> fast = ComputeFilteredCostSlice(m, o, view, d);
+    EXPECT_TRUE(fast.ok()) << fast.status();
+    fast->convertTo(od, CV_64F);
     r.float_error =
         std::max(r.float_error, cv::norm(od, r.volume.back(), cv::NORM_INF));
   }
@@ -392,6 +392,67 @@ TEST(StereoReference, ThreadCountDoesNotChangeTheResult) {
       ComputeDisparity(p.left[0], p.right[0], o);
   ASSERT_TRUE(one.ok() && four.ok());
   EXPECT_EQ(cv::norm(one->disparity, four->disparity, cv::NORM_INF), 0.0);
+}
+
+// He's filter with a grey guide in double precision (CV_64FC1).
+cv::Mat DoubleGreyGuided(const cv::Mat& guide, const cv::Mat& src, int r,
+                         double eps) {
+  cv::Mat g, p;
+  guide.convertTo(g, CV_64F);
+  src.convertTo(p, CV_64F);
+  using ::hdrstereo::testing::DoubleBox;
+  const cv::Mat mi = DoubleBox(g, r);
+  const cv::Mat mp = DoubleBox(p, r);
+  const cv::Mat cov = DoubleBox(g.mul(p), r) - mi.mul(mp);
+  const cv::Mat var = DoubleBox(g.mul(g), r) - mi.mul(mi);
+  const cv::Mat a = cov / (var + eps);
+  const cv::Mat b = mp - a.mul(mi);
+  return DoubleBox(a, r).mul(g) + DoubleBox(b, r);
+}
+
+// The fused kernel's filtered slices against the double-precision filter
+// where the reflected borders wrap more than once (images smaller than the
+// 19x19 window), at odd sizes, and with a grey (1-channel) guide. Bound: the
+// same 1e-5 as FastEqualsPlainReferenceExceptTies' float error.
+TEST(StereoReference, FilteredSlicesOnSmallAndGreyImages) {
+  cv::RNG rng(8);
+  for (const cv::Size size :
+       {cv::Size(7, 5), cv::Size(23, 17), cv::Size(41, 30)}) {
+    for (const int channels : {1, 3}) {
+      cv::Mat left(size, CV_8UC(channels)), right(size, CV_8UC(channels));
+      rng.fill(left, cv::RNG::UNIFORM, 0, 256);
+      // A shifted copy plus noise, so that costs vary below the truncation.
+      cv::Mat noise(size, CV_8UC(channels));
+      rng.fill(noise, cv::RNG::UNIFORM, 0, 4);
+      cv::Mat shifted;
+      cv::warpAffine(left, shifted, cv::Matx23d(1, 0, -2, 0, 1, 0), size,
+                     cv::INTER_NEAREST, cv::BORDER_REFLECT);
+      right = shifted + noise;
+      StereoOptions o;
+      o.min_disparity = -1;
+      o.max_disparity = std::min(4, size.width - 1);
+      absl::StatusOr<MatchingImages> m = PrepareMatchingImages(left, right, o);
+      ASSERT_TRUE(m.ok()) << m.status();
+      for (View view : {View::kLeft, View::kRight}) {
+        const cv::Mat& guide = view == View::kLeft ? m->left : m->right;
+        for (int d = o.min_disparity; d <= o.max_disparity; ++d) {
+          cv::Mat cost;
+          ComputeCostSlice(*m, o, view, d, cost);
+          const cv::Mat ref =
+              channels == 3 ? ::hdrstereo::testing::DoubleColourGuided(
+                                  guide, cost, o.radius, o.eps)
+                            : DoubleGreyGuided(guide, cost, o.radius, o.eps);
+          absl::StatusOr<cv::Mat> fast =
+              ComputeFilteredCostSlice(*m, o, view, d);
+          ASSERT_TRUE(fast.ok()) << fast.status();
+          cv::Mat fd;
+          fast->convertTo(fd, CV_64F);
+          EXPECT_LT(cv::norm(fd, ref, cv::NORM_INF), 1e-5)
+              << size << " channels " << channels << " d " << d;
+        }
+      }
+    }
+  }
 }
 
 // ---------------------------------------------------------------------------
