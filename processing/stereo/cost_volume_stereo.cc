@@ -160,20 +160,24 @@ absl::Status CheckMatchingImages(const MatchingImages& m,
 // ---------------------------------------------------------------------------
 // Fused slice kernel.
 //
-// For a strip of output rows and each disparity, rows stream through three
-// stages, each row computed once and kept in a small ring of 2r + 2 rows:
-//   cost row j:    p (Eq. 4.1/4.2, minus a constant centre) and I_c * p;
-//   stage-1 row i: vertical window sums of those (running sums, recomputed
-//                  from the ring every 2r + 1 rows so that float rounding
-//                  cannot drift), horizontal window sums, then the guided
-//                  filter's a = (Sigma + eps)^-1 cov(I, p) and b;
+// The image is cut into tiles (strips of rows x ranges of columns, each with
+// a halo of 2r); per tile, a block of disparities at a time, rows stream
+// through three stages, each row computed once per disparity and kept in a
+// ring of 2r + 2 rows:
+//   cost row j:    p (Eq. 4.1/4.2) minus a constant centre;
+//   stage-1 row i: vertical window sums of p and I_c p (running sums,
+//                  recomputed from the ring every kRefreshRows rows so that
+//                  float rounding cannot drift), horizontal window sums,
+//                  then the guided filter's a = (Sigma + eps)^-1 cov(I, p)
+//                  and b;
 //   output row y:  the same two box passes over a and b, q = mean(a) I +
 //                  mean(b), and the running WTA update.
 // Borders are reflected (BORDER_REFLECT, as cv::boxFilter in the guided
 // filter). The guide is centred (I - 0.5) and the cost by half its maximum:
 // the filter's output shifts by the cost centre only, and the smaller
 // magnitudes keep the float sums accurate. Nothing full-size is written per
-// slice; the working set of a strip stays in the caches.
+// slice; a tile's rings stay in L2 and each row of the guide statistics is
+// read once per block of disparities.
 
 // Virtual row/column v -> real index, BORDER_REFLECT (tables for the few
 // virtual indices the kernel touches; tiny images reflect repeatedly).
@@ -186,10 +190,10 @@ class ReflectTable {
           cv::borderInterpolate(v, n, cv::BORDER_REFLECT);
     }
   }
+  int size() const { return static_cast<int>(table_.size()) - 2 * margin_; }
   int operator()(int v) const {
     return table_[static_cast<size_t>(v + margin_)];
   }
-  const int* data() const { return table_.data(); }
 
  private:
   int margin_;
@@ -311,14 +315,17 @@ float CostCentre(const CostParams& cp) {
   return 0.5f * (cp.alpha * cp.t1 + cp.beta * cp.t2);
 }
 
-// One cost row (step 2): a/ga are the view's own planes, b/gb the other
-// view's; the partner of x is x + shift (kBorderValue outside the image).
+// w costs of one row (step 2): a/ga point into the view's own planes, b/gb
+// into the other view's (both at the same column); the partner of x is
+// x + shift, inside the image for partner offsets in [lo, hi), else
+// compared with kBorderValue.
 template <int NC>
-inline void CostRow(const float* const* a, const float* const* b,
-                    const float* ga, const float* gb, int w, int shift,
-                    const CostParams& cp, float* __restrict out) {
-  const int x0 = std::clamp(-shift, 0, w);
-  const int x1 = std::clamp(w - shift, 0, w);
+inline void CostRowRange(const float* const* a, const float* const* b,
+                         const float* ga, const float* gb, int w, int lo,
+                         int hi, int shift, const CostParams& cp,
+                         float* __restrict out) {
+  const int x0 = std::clamp(lo - shift, 0, w);
+  const int x1 = std::clamp(hi - shift, x0, w);
   auto border = [&](int x) {
     float cd = 0;
     for (int c = 0; c < NC; ++c) cd += std::abs(a[c][x] - kBorderValue);
@@ -356,19 +363,26 @@ inline void CostRow(const float* const* a, const float* const* b,
   }
 }
 
-// Horizontal window sums out[x] = sum of src[reflect(x + k)], k in [-r, r],
-// by doubling (sums of 1, 2, 4, ... neighbours combined along the binary
-// digits of 2r + 1): vectorisable, no running-sum drift, and every pixel
-// sums in the same order. pad, t0, t1: scratch of w + 2r floats.
-inline void HorizontalBox(const float* __restrict src, int w, int r,
-                          const int* __restrict pad_index,
+// Horizontal window sums over a column range: out[x] for image columns
+// [o0, o1) is the sum of src over columns reflect(o0 + x + k), k in [-r, r],
+// where src holds image columns [s0, ...) (all the reflected columns must be
+// there). Summed by doubling (sums of 1, 2, 4, ... neighbours combined along
+// the binary digits of 2r + 1): vectorisable, no running-sum drift, and
+// every column sums in the same order whatever the range, so tiles give
+// the same values as a full row. pad, t0, t1: scratch of o1 - o0 + 2r.
+inline void HorizontalBox(const float* __restrict src, int s0, int o0, int o1,
+                          int r, const ReflectTable& cols,
                           float* __restrict pad, float* __restrict t0,
                           float* __restrict t1, float* __restrict out) {
+  const int w = o1 - o0;
   const int n = w + 2 * r;
   const int len = 2 * r + 1;
-  for (int i = 0; i < r && i < n; ++i) pad[i] = src[pad_index[i]];
-  if (w > 0) std::copy(src, src + w, pad + r);
-  for (int i = r + w; i < n; ++i) pad[i] = src[pad_index[i]];
+  const int v0 = o0 - r;  // image column of pad[0]
+  const int inner0 = std::clamp(-v0, 0, n);
+  const int inner1 = std::clamp(cols.size() - v0, inner0, n);
+  for (int i = 0; i < inner0; ++i) pad[i] = src[cols(v0 + i) - s0];
+  std::copy(src + (v0 + inner0 - s0), src + (v0 + inner1 - s0), pad + inner0);
+  for (int i = inner1; i < n; ++i) pad[i] = src[cols(v0 + i) - s0];
   const float* cur = pad;
   float* bufs[2] = {t0, t1};
   int which = 0;
@@ -400,6 +414,27 @@ inline void HorizontalBox(const float* __restrict src, int w, int r,
     which ^= 1;
     block *= 2;
   }
+}
+
+// Row updates of the vertical window sums (restrict parameters so that GCC
+// vectorises them after inlining).
+inline void AddRow(const float* __restrict a, int w, float* __restrict s) {
+  for (int x = 0; x < w; ++x) s[x] += a[x];
+}
+inline void AddProductRow(const float* __restrict g, const float* __restrict p,
+                          int w, float* __restrict s) {
+  for (int x = 0; x < w; ++x) s[x] += g[x] * p[x];
+}
+inline void MoveWindow(const float* __restrict add, const float* __restrict sub,
+                       int w, float* __restrict s) {
+  for (int x = 0; x < w; ++x) s[x] += add[x] - sub[x];
+}
+inline void MoveProductWindow(const float* __restrict ga,
+                              const float* __restrict pa,
+                              const float* __restrict gs,
+                              const float* __restrict ps, int w,
+                              float* __restrict s) {
+  for (int x = 0; x < w; ++x) s[x] += ga[x] * pa[x] - gs[x] * ps[x];
 }
 
 // Stage 1, colour guide: from the window sums of p and I_c p (sp, s0..s2)
@@ -534,8 +569,15 @@ template <int NC>
 class SliceKernel {
  public:
   static constexpr int kQ = NC + 1;  // quantities per stage: p, I_c p / a_c, b
+  // Disparities processed together, row by row: each row of the guide
+  // statistics is read once per block instead of once per disparity.
+  static constexpr int kBlock = 4;
+  // The vertical running sums are recomputed from the ring every so many
+  // rows, which bounds their float drift (and the first row of a strip).
+  static constexpr int kRefreshRows = 32;
 
-  SliceKernel(const ViewPlanes& v, const StereoOptions& o)
+  // Tiles of at most max_cols output columns.
+  SliceKernel(const ViewPlanes& v, const StereoOptions& o, int max_cols)
       : v_(v),
         r_(o.radius),
         ring_(2 * o.radius + 2),
@@ -545,151 +587,202 @@ class SliceKernel {
         cost_centre_(CostCentre(cp_)),
         inv_area_(1.0f /
                   static_cast<float>((2 * o.radius + 1) * (2 * o.radius + 1))) {
-    const size_t w = static_cast<size_t>(v.w);
-    const size_t padded = w + 2 * static_cast<size_t>(r_);
-    ring1_.assign(static_cast<size_t>(ring_ * kQ) * w, 0.0f);
-    ring2_.assign(static_cast<size_t>(ring_ * kQ) * w, 0.0f);
-    sum1_.assign(kQ * w, 0.0f);
-    sum2_.assign(kQ * w, 0.0f);
-    box_.assign(kQ * w, 0.0f);
-    q_row_.assign(w, 0.0f);
+    const size_t w0 = static_cast<size_t>(std::min(v.w, max_cols + 4 * r_));
+    const size_t w1 = static_cast<size_t>(std::min(v.w, max_cols + 2 * r_));
+    const size_t padded = static_cast<size_t>(max_cols + 4 * r_);
+    const size_t slots = kBlock;
+    stride0_ = w0;
+    stride1_ = w1;
+    ring1_.assign(slots * static_cast<size_t>(ring_) * w0, 0.0f);
+    ring2_.assign(slots * static_cast<size_t>(ring_ * kQ) * w1, 0.0f);
+    sum1_.assign(slots * kQ * w0, 0.0f);
+    sum2_.assign(slots * kQ * w1, 0.0f);
+    box_.assign(kQ * w1, 0.0f);
+    q_row_.assign(w1, 0.0f);
     pad_.assign(3 * padded, 0.0f);
   }
 
-  // Disparities [d0, d1] in order for output rows [y0, y1).
-  void Run(int y0, int y1, int d0, int d1, bool subpixel, const WtaTarget& t) {
-    if (subpixel) prev_rows_.assign(static_cast<size_t>((y1 - y0) * v_.w), 0);
-    for (int d = d0; d <= d1; ++d) {
-      shift_ = v_.shift_sign * d;
-      const int s0 = std::max(0, y0 - r_);
-      const int s1 = std::min(v_.h, y1 + r_);
+  // Disparities [d0, d1] in order for output rows [y0, y1), columns
+  // [x0, x1).
+  void Run(int y0, int y1, int x0, int x1, int d0, int d1, bool subpixel,
+           const WtaTarget& t) {
+    ox0_ = x0;
+    ox1_ = x1;
+    sx0_ = std::max(0, x0 - r_);
+    sx1_ = std::min(v_.w, x1 + r_);
+    cx0_ = std::max(0, sx0_ - r_);
+    cx1_ = std::min(v_.w, sx1_ + r_);
+    if (subpixel) {
+      prev_rows_.assign(static_cast<size_t>((y1 - y0) * (x1 - x0)), 0);
+    }
+    const int s0 = std::max(0, y0 - r_);
+    const int s1 = std::min(v_.h, y1 + r_);
+    for (int db = d0; db <= d1; db += kBlock) {
+      const int slots = std::min(kBlock, d1 - db + 1);
       int next_cost = std::max(0, s0 - r_);
       int next_out = y0;
       for (int i = s0; i < s1; ++i) {
         const int need = std::min(v_.h - 1, i + r_);
-        while (next_cost <= need) ProduceCostRow(next_cost++);
-        Stage1Row(i, i == s0 || (i - s0) % (2 * r_ + 1) == 0);
-        while (next_out < y1 && std::min(v_.h - 1, next_out + r_) <= i) {
-          OutputRow(next_out, d, d0, subpixel,
-                    next_out == y0 || (next_out - y0) % (2 * r_ + 1) == 0, t,
-                    y0);
-          ++next_out;
+        for (; next_cost <= need; ++next_cost) {
+          for (int k = 0; k < slots; ++k) ProduceCostRow(k, db + k, next_cost);
+        }
+        const bool refresh1 = (i - s0) % kRefreshRows == 0;
+        for (int k = 0; k < slots; ++k) Stage1Row(k, i, refresh1);
+        for (; next_out < y1 && std::min(v_.h - 1, next_out + r_) <= i;
+             ++next_out) {
+          const bool refresh2 = (next_out - y0) % kRefreshRows == 0;
+          for (int k = 0; k < slots; ++k) {
+            OutputRow(k, next_out, db + k, d0, subpixel, refresh2, t, y0);
+          }
         }
       }
     }
   }
 
  private:
-  float* Ring(std::vector<float>& ring, int row, int q) {
-    return ring.data() + (static_cast<size_t>((row % ring_) * kQ + q)) *
-                             static_cast<size_t>(v_.w);
+  // Cost row j of slot k (row j % ring of its ring, columns from cx0_).
+  float* Ring1(int k, int j) {
+    return ring1_.data() +
+           static_cast<size_t>(k * ring_ + j % ring_) * stride0_;
+  }
+  // Quantity q of stage-1 row i of slot k (columns from sx0_).
+  float* Ring2(int k, int i, int q) {
+    return ring2_.data() +
+           static_cast<size_t>((k * ring_ + i % ring_) * kQ + q) * stride1_;
+  }
+  float* Sum1(int k, int q) {
+    return sum1_.data() + static_cast<size_t>(k * kQ + q) * stride0_;
+  }
+  float* Sum2(int k, int q) {
+    return sum2_.data() + static_cast<size_t>(k * kQ + q) * stride1_;
+  }
+  const float* Guide(int c, int row, int col) const {
+    return v_.guide[static_cast<size_t>(c)].ptr<float>(row) + col;
   }
 
-  // p - centre and I_c (p - centre) of real row j.
-  void ProduceCostRow(int j) {
+  // Cost minus the centre, real row j, disparity d, columns [cx0_, cx1_).
+  void ProduceCostRow(int k, int d, int j) {
     const float* a[NC];
     const float* b[NC];
     for (int c = 0; c < NC; ++c) {
-      a[c] = v_.own[static_cast<size_t>(c)].ptr<float>(j);
-      b[c] = v_.other[static_cast<size_t>(c)].ptr<float>(j);
+      a[c] = v_.own[static_cast<size_t>(c)].ptr<float>(j) + cx0_;
+      b[c] = v_.other[static_cast<size_t>(c)].ptr<float>(j) + cx0_;
     }
-    float* __restrict p = Ring(ring1_, j, 0);
-    CostRow<NC>(a, b, v_.own_grad.ptr<float>(j), v_.other_grad.ptr<float>(j),
-                v_.w, shift_, cp_, p);
+    // Partner columns, relative to cx0_: [-cx0_, w - cx0_).
+    float* __restrict p = Ring1(k, j);
+    CostRowRange<NC>(a, b, v_.own_grad.ptr<float>(j) + cx0_,
+                     v_.other_grad.ptr<float>(j) + cx0_, cx1_ - cx0_, -cx0_,
+                     v_.w - cx0_, v_.shift_sign * d, cp_, p);
     const float centre = cost_centre_;
-    const int w = v_.w;
+    const int w = cx1_ - cx0_;
 #pragma GCC ivdep
     for (int x = 0; x < w; ++x) p[x] -= centre;
-    for (int c = 0; c < NC; ++c) {
-      const float* __restrict g =
-          v_.guide[static_cast<size_t>(c)].ptr<float>(j);
-      float* __restrict ip = Ring(ring1_, j, 1 + c);
-#pragma GCC ivdep
-      for (int x = 0; x < w; ++x) ip[x] = g[x] * p[x];
-    }
   }
 
-  // Vertical window sums over virtual rows [i - r, i + r] of `ring` into
-  // `sum`: from scratch if `refresh`, else by moving the window of row i - 1.
-  void VerticalSums(std::vector<float>& ring, int i, bool refresh,
-                    std::vector<float>& sum) {
-    const int w = v_.w;
+  // Vertical window sums of p and I_c p over virtual rows [i - r, i + r]:
+  // from scratch if `refresh`, else by moving the window of row i - 1. The
+  // products are formed on the fly (the same rounding as stored ones).
+  void Stage1Sums(int k, int i, bool refresh) {
+    const int w = cx1_ - cx0_;
     for (int q = 0; q < kQ; ++q) {
-      float* __restrict s = sum.data() + static_cast<size_t>(q * w);
+      float* __restrict s = Sum1(k, q);
       if (refresh) {
-        const float* __restrict first = Ring(ring, rows_(i - r_), q);
-        std::copy(first, first + w, s);
-        for (int k = -r_ + 1; k <= r_; ++k) {
-          const float* __restrict row = Ring(ring, rows_(i + k), q);
-#pragma GCC ivdep
-          for (int x = 0; x < w; ++x) s[x] += row[x];
+        std::fill(s, s + w, 0.0f);
+        for (int t = -r_; t <= r_; ++t) {
+          const int row = rows_(i + t);
+          const float* __restrict p = Ring1(k, row);
+          if (q == 0) {
+            AddRow(p, w, s);
+          } else {
+            AddProductRow(Guide(q - 1, row, cx0_), p, w, s);
+          }
         }
       } else {
-        const float* __restrict add = Ring(ring, rows_(i + r_), q);
-        const float* __restrict sub = Ring(ring, rows_(i - r_ - 1), q);
-#pragma GCC ivdep
-        for (int x = 0; x < w; ++x) s[x] += add[x] - sub[x];
+        const int add_row = rows_(i + r_);
+        const int sub_row = rows_(i - r_ - 1);
+        const float* __restrict pa = Ring1(k, add_row);
+        const float* __restrict ps = Ring1(k, sub_row);
+        if (q == 0) {
+          MoveWindow(pa, ps, w, s);
+        } else {
+          MoveProductWindow(Guide(q - 1, add_row, cx0_), pa,
+                            Guide(q - 1, sub_row, cx0_), ps, w, s);
+        }
       }
     }
   }
 
-  void HorizontalSums(const std::vector<float>& sum) {
-    const int w = v_.w;
-    const size_t padded = static_cast<size_t>(w + 2 * r_);
-    for (int q = 0; q < kQ; ++q) {
-      HorizontalBox(sum.data() + static_cast<size_t>(q * w), w, r_,
-                    cols_.data(), pad_.data(), pad_.data() + padded,
-                    pad_.data() + 2 * padded,
-                    box_.data() + static_cast<size_t>(q * w));
-    }
-  }
-
-  // Guided-filter coefficients a_c, b of real row i.
-  void Stage1Row(int i, bool refresh) {
-    VerticalSums(ring1_, i, refresh, sum1_);
-    HorizontalSums(sum1_);
-    const int w = v_.w;
+  // Guided-filter coefficients a_c, b of real row i, columns [sx0_, sx1_).
+  void Stage1Row(int k, int i, bool refresh) {
+    Stage1Sums(k, i, refresh);
+    const int w = sx1_ - sx0_;
+    for (int q = 0; q < kQ; ++q) HBox(Sum1(k, q), cx0_, sx0_, sx1_, q);
     const float* s = box_.data();
     float* out[kQ];
-    for (int q = 0; q < kQ; ++q) out[q] = Ring(ring2_, i, q);
+    for (int q = 0; q < kQ; ++q) out[q] = Ring2(k, i, q);
+    const size_t st = stride1_;
+    const int c = sx0_;
     if constexpr (NC == 3) {
       const std::vector<cv::Mat>& inv = v_.inv;
-      Coefficients3(s, s + w, s + 2 * w, s + 3 * w, v_.mean[0].ptr<float>(i),
-                    v_.mean[1].ptr<float>(i), v_.mean[2].ptr<float>(i),
-                    inv[0].ptr<float>(i), inv[1].ptr<float>(i),
-                    inv[2].ptr<float>(i), inv[3].ptr<float>(i),
-                    inv[4].ptr<float>(i), inv[5].ptr<float>(i), inv_area_, w,
-                    out[0], out[1], out[2], out[3]);
+      const std::vector<cv::Mat>& mean = v_.mean;
+      Coefficients3(s, s + st, s + 2 * st, s + 3 * st,
+                    mean[0].ptr<float>(i) + c, mean[1].ptr<float>(i) + c,
+                    mean[2].ptr<float>(i) + c, inv[0].ptr<float>(i) + c,
+                    inv[1].ptr<float>(i) + c, inv[2].ptr<float>(i) + c,
+                    inv[3].ptr<float>(i) + c, inv[4].ptr<float>(i) + c,
+                    inv[5].ptr<float>(i) + c, inv_area_, w, out[0], out[1],
+                    out[2], out[3]);
     } else {
-      Coefficients1(s, s + w, v_.mean[0].ptr<float>(i), v_.inv[0].ptr<float>(i),
-                    inv_area_, w, out[0], out[1]);
+      Coefficients1(s, s + st, v_.mean[0].ptr<float>(i) + c,
+                    v_.inv[0].ptr<float>(i) + c, inv_area_, w, out[0], out[1]);
     }
   }
 
-  // Filtered cost of output row y and the WTA update.
-  void OutputRow(int y, int d, int d0, bool subpixel, bool refresh,
+  // Horizontal window sums of quantity q (src from column s0) into box_.
+  void HBox(const float* src, int s0, int o0, int o1, int q) {
+    const size_t padded = static_cast<size_t>(o1 - o0 + 2 * r_);
+    HorizontalBox(src, s0, o0, o1, r_, cols_, pad_.data(), pad_.data() + padded,
+                  pad_.data() + 2 * padded,
+                  box_.data() + static_cast<size_t>(q) * stride1_);
+  }
+
+  // Filtered cost of output row y, disparity d, and the WTA update.
+  void OutputRow(int k, int y, int d, int d0, bool subpixel, bool refresh,
                  const WtaTarget& t, int y0) {
-    VerticalSums(ring2_, y, refresh, sum2_);
-    HorizontalSums(sum2_);
-    const int w = v_.w;
+    const int ws = sx1_ - sx0_;
+    for (int q = 0; q < kQ; ++q) {
+      float* __restrict s = Sum2(k, q);
+      if (refresh) {
+        std::fill(s, s + ws, 0.0f);
+        for (int tt = -r_; tt <= r_; ++tt) {
+          AddRow(Ring2(k, rows_(y + tt), q), ws, s);
+        }
+      } else {
+        MoveWindow(Ring2(k, rows_(y + r_), q), Ring2(k, rows_(y - r_ - 1), q),
+                   ws, s);
+      }
+      HBox(s, sx0_, ox0_, ox1_, q);
+    }
+    const int w = ox1_ - ox0_;
+    const size_t st = stride1_;
     const float* s = box_.data();
-    const float* g0 = v_.guide[0].ptr<float>(y);
-    const float* g1 = NC == 3 ? v_.guide[NC - 2].ptr<float>(y) : nullptr;
-    const float* g2 = NC == 3 ? v_.guide[NC - 1].ptr<float>(y) : nullptr;
-    float* best = t.best->ptr<float>(y);
-    float* label = t.label->ptr<float>(y);
+    const float* g0 = Guide(0, y, ox0_);
+    const float* g1 = NC == 3 ? Guide(NC - 2, y, ox0_) : nullptr;
+    const float* g2 = NC == 3 ? Guide(NC - 1, y, ox0_) : nullptr;
+    float* best = t.best->ptr<float>(y) + ox0_;
+    float* label = t.label->ptr<float>(y) + ox0_;
     const float fd = static_cast<float>(d);
     if (!subpixel) {
-      FilteredRowWta<NC>(s, s + w, s + 2 * w, s + NC * w, g0, g1, g2, inv_area_,
-                         fd, d == d0, w, best, label);
+      FilteredRowWta<NC>(s, s + st, s + 2 * st, s + NC * st, g0, g1, g2,
+                         inv_area_, fd, d == d0, w, best, label);
       return;
     }
     float* q = q_row_.data();
-    FilteredRow<NC>(s, s + w, s + 2 * w, s + NC * w, g0, g1, g2, inv_area_, w,
-                    q);
+    FilteredRow<NC>(s, s + st, s + 2 * st, s + NC * st, g0, g1, g2, inv_area_,
+                    w, q);
     float* prev = prev_rows_.data() + static_cast<size_t>((y - y0) * w);
-    float* before = t.before->ptr<float>(y);
-    float* after = t.after->ptr<float>(y);
+    float* before = t.before->ptr<float>(y) + ox0_;
+    float* after = t.after->ptr<float>(y) + ox0_;
     if (d == d0) {
       std::copy(q, q + w, best);
       std::fill(label, label + w, fd);
@@ -705,24 +798,27 @@ class SliceKernel {
   const int r_;
   const int ring_;     // rows per ring: the window plus the row leaving it
   ReflectTable rows_;  // virtual row -> real row
-  ReflectTable cols_;  // padded column -> real column (table from -r)
+  ReflectTable cols_;  // virtual column -> real column
   const CostParams cp_;
   const float cost_centre_;
   const float inv_area_;
-  int shift_ = 0;
-  std::vector<float> ring1_, ring2_;  // [row % ring][quantity][x]
-  std::vector<float> sum1_, sum2_;    // vertical sums [quantity][x]
+  // Column ranges of the current tile: output, stage 1, cost.
+  int ox0_ = 0, ox1_ = 0, sx0_ = 0, sx1_ = 0, cx0_ = 0, cx1_ = 0;
+  size_t stride0_ = 0, stride1_ = 0;  // row lengths of cost / stage-1 data
+  std::vector<float> ring1_;          // [slot][row % ring][x]: p - centre
+  std::vector<float> ring2_;          // [slot][row % ring][quantity][x]
+  std::vector<float> sum1_, sum2_;    // vertical sums [slot][quantity][x]
   std::vector<float> box_;            // window sums [quantity][x]
   std::vector<float> q_row_;          // filtered cost of the current row
   std::vector<float> prev_rows_;      // filtered cost at d - 1 (sub-pixel)
   std::vector<float> pad_;
 };
 
-// A thread's share of RunKernel: strips range.start .. range.end - 1.
-struct StripJob {
+// A thread's share of RunKernel: tiles range.start .. range.end - 1.
+struct TileJob {
   const ViewPlanes* v;
   const StereoOptions* o;
-  int strip;
+  int strip_rows, tile_cols, tiles_per_row;
   cv::Range range;
   int d0, d1;
   bool subpixel;
@@ -730,23 +826,27 @@ struct StripJob {
 };
 
 template <int NC>
-inline void RunStrips(const StripJob& job) {
-  SliceKernel<NC> kernel(*job.v, *job.o);
-  for (int s = job.range.start; s < job.range.end; ++s) {
-    kernel.Run(s * job.strip, std::min(job.v->h, (s + 1) * job.strip), job.d0,
-               job.d1, job.subpixel, *job.target);
+inline void RunTiles(const TileJob& job) {
+  SliceKernel<NC> kernel(*job.v, *job.o, job.tile_cols);
+  for (int t = job.range.start; t < job.range.end; ++t) {
+    const int ty = t / job.tiles_per_row;
+    const int tx = t % job.tiles_per_row;
+    kernel.Run(ty * job.strip_rows,
+               std::min(job.v->h, (ty + 1) * job.strip_rows),
+               tx * job.tile_cols, std::min(job.v->w, (tx + 1) * job.tile_cols),
+               job.d0, job.d1, job.subpixel, *job.target);
   }
 }
 
 // The kernel with everything inlined, built for AVX2 and for the baseline
 // ISA (picked at load time). No FMA: both versions round identically.
-__attribute__((flatten, target_clones("avx2", "default"))) void RunStrips3(
-    const StripJob& job) {
-  RunStrips<3>(job);
+__attribute__((flatten, target_clones("avx2", "default"))) void RunTiles3(
+    const TileJob& job) {
+  RunTiles<3>(job);
 }
-__attribute__((flatten, target_clones("avx2", "default"))) void RunStrips1(
-    const StripJob& job) {
-  RunStrips<1>(job);
+__attribute__((flatten, target_clones("avx2", "default"))) void RunTiles1(
+    const TileJob& job) {
+  RunTiles<1>(job);
 }
 
 struct KernelOutput {
@@ -754,9 +854,10 @@ struct KernelOutput {
   float cost_centre = 0;
 };
 
-// Steps 2-4 for disparities [d0, d1] of one view, rows split over threads
-// in strips; every pixel sees the disparities in order, so ties go to the
-// smaller one and the result does not depend on the thread count.
+// Steps 2-4 for disparities [d0, d1] of one view, the image split into
+// tiles (row strips x column ranges) shared out over threads; every pixel
+// sees the disparities in order, so ties go to the smaller one, and the
+// tiling does not depend on the thread count, so neither does the rounding.
 template <int NC>
 void RunKernel(const ViewPlanes& v, const StereoOptions& o, int d0, int d1,
                bool subpixel, KernelOutput& out) {
@@ -768,27 +869,29 @@ void RunKernel(const ViewPlanes& v, const StereoOptions& o, int d0, int d1,
     out.after.create(size, CV_32FC1);
   }
   const WtaTarget target{&out.best, &out.label, &out.before, &out.after};
-  // Strips short enough that a strip's rows of the guide statistics and of
-  // the WTA state stay in the caches across all disparities; the halo of 2r
-  // rows per side is recomputed by each strip. The strip height does not
-  // depend on the thread count, so neither does the float rounding.
+  // Tiles small enough that the rings of a block of disparities stay in L2;
+  // each tile recomputes a halo of 2r rows and columns per side.
   constexpr int kStripRows = 96;
+  constexpr int kTileCols = 256;
   const int strip = std::min(kStripRows, v.h);
-  const int strips = (v.h + strip - 1) / strip;
-  const int threads = std::min(ThreadCount(o), strips);
+  const int tile = std::min(kTileCols, v.w);
+  const int per_row = (v.w + tile - 1) / tile;
+  const int tiles = per_row * ((v.h + strip - 1) / strip);
+  const int threads = std::min(ThreadCount(o), tiles);
   auto run = [&](const cv::Range& range) {
-    const StripJob job{&v, &o, strip, range, d0, d1, subpixel, &target};
+    const TileJob job{&v,    &o, strip, tile,     per_row,
+                      range, d0, d1,    subpixel, &target};
     if constexpr (NC == 3) {
-      RunStrips3(job);
+      RunTiles3(job);
     } else {
-      RunStrips1(job);
+      RunTiles1(job);
     }
   };
   out.cost_centre = CostCentre(MakeCostParams(o, NC));
   if (threads == 1) {
-    run(cv::Range(0, strips));
+    run(cv::Range(0, tiles));
   } else {
-    cv::parallel_for_(cv::Range(0, strips), run, threads);
+    cv::parallel_for_(cv::Range(0, tiles), run, threads);
   }
 }
 
@@ -882,11 +985,11 @@ void ComputeCostSlice(const MatchingImages& images,
       pb[c] = b[static_cast<size_t>(c)].ptr<float>(y);
     }
     if (nc == 3) {
-      CostRow<3>(pa, pb, ga.ptr<float>(y), gb.ptr<float>(y), cost.cols, shift,
-                 cp, cost.ptr<float>(y));
+      CostRowRange<3>(pa, pb, ga.ptr<float>(y), gb.ptr<float>(y), cost.cols, 0,
+                      cost.cols, shift, cp, cost.ptr<float>(y));
     } else {
-      CostRow<1>(pa, pb, ga.ptr<float>(y), gb.ptr<float>(y), cost.cols, shift,
-                 cp, cost.ptr<float>(y));
+      CostRowRange<1>(pa, pb, ga.ptr<float>(y), gb.ptr<float>(y), cost.cols, 0,
+                      cost.cols, shift, cp, cost.ptr<float>(y));
     }
   }
 }

@@ -143,6 +143,7 @@ int main(int argc, char** argv) {
   if (const char* t = std::getenv("HDRSTEREO_BENCH_THREADS")) {
     cv::setNumThreads(std::atoi(t));
   }
+  Pair();  // rendered once here, not inside the first timed iteration
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   benchmark::RunSpecifiedBenchmarks();
