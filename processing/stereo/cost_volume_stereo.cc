@@ -363,56 +363,84 @@ inline void CostRowRange(const float* const* a, const float* const* b,
   }
 }
 
+// out[x] (+)= sum over j < digit of t[x + j * block], x in [0, w).
+inline void AddBlocks(const float* __restrict t, int block, int digit, int w,
+                      bool first, float* __restrict out) {
+  const float* __restrict t1 = t + block;
+  const float* __restrict t2 = t + 2 * block;
+  if (first) {
+    if (digit == 1) {
+      for (int x = 0; x < w; ++x) out[x] = t[x];
+    } else if (digit == 2) {
+      for (int x = 0; x < w; ++x) out[x] = t[x] + t1[x];
+    } else {
+      for (int x = 0; x < w; ++x) out[x] = t[x] + t1[x] + t2[x];
+    }
+  } else {
+    if (digit == 1) {
+      for (int x = 0; x < w; ++x) out[x] += t[x];
+    } else if (digit == 2) {
+      for (int x = 0; x < w; ++x) out[x] += t[x] + t1[x];
+    } else {
+      for (int x = 0; x < w; ++x) out[x] += t[x] + t1[x] + t2[x];
+    }
+  }
+}
+
+// next[i] = sum of 4 consecutive blocks of t, pairwise (the same values as
+// two doubling steps).
+inline void QuadrupleBlocks(const float* __restrict t, int block, int n,
+                            float* __restrict next) {
+  const float* __restrict t1 = t + block;
+  const float* __restrict t2 = t + 2 * block;
+  const float* __restrict t3 = t + 3 * block;
+  for (int i = 0; i < n; ++i) next[i] = (t[i] + t1[i]) + (t2[i] + t3[i]);
+}
+
 // Horizontal window sums over a column range: out[x] for image columns
 // [o0, o1) is the sum of src over columns reflect(o0 + x + k), k in [-r, r],
 // where src holds image columns [s0, ...) (all the reflected columns must be
-// there). Summed by doubling (sums of 1, 2, 4, ... neighbours combined along
-// the binary digits of 2r + 1): vectorisable, no running-sum drift, and
-// every column sums in the same order whatever the range, so tiles give
-// the same values as a full row. pad, t0, t1: scratch of o1 - o0 + 2r.
-inline void HorizontalBox(const float* __restrict src, int s0, int o0, int o1,
-                          int r, const ReflectTable& cols,
-                          float* __restrict pad, float* __restrict t0,
-                          float* __restrict t1, float* __restrict out) {
+// there). Summed along the base-4 digits of 2r + 1 from sums of 1, 4, 16,
+// ... neighbours (19 = 3 x 1 + 1 x 16: 4 passes): vectorisable, no
+// running-sum drift, and every column sums in the same order whatever the
+// range, so tiles give the same values as a full row. pad, t0, t1: scratch
+// of o1 - o0 + 2r floats (pad only used next to the image borders).
+inline void HorizontalBox(const float* src, int s0, int o0, int o1, int r,
+                          const ReflectTable& cols, float* pad, float* t0,
+                          float* t1, float* out) {
   const int w = o1 - o0;
   const int n = w + 2 * r;
-  const int len = 2 * r + 1;
-  const int v0 = o0 - r;  // image column of pad[0]
-  const int inner0 = std::clamp(-v0, 0, n);
-  const int inner1 = std::clamp(cols.size() - v0, inner0, n);
-  for (int i = 0; i < inner0; ++i) pad[i] = src[cols(v0 + i) - s0];
-  std::copy(src + (v0 + inner0 - s0), src + (v0 + inner1 - s0), pad + inner0);
-  for (int i = inner1; i < n; ++i) pad[i] = src[cols(v0 + i) - s0];
-  const float* cur = pad;
+  const int v0 = o0 - r;  // image column of element 0
+  const float* cur = src + (v0 - s0);
+  if (v0 < 0 || v0 + n > cols.size()) {
+    const int inner0 = std::clamp(-v0, 0, n);
+    const int inner1 = std::clamp(cols.size() - v0, inner0, n);
+    for (int i = 0; i < inner0; ++i) pad[i] = src[cols(v0 + i) - s0];
+    std::copy(src + (v0 + inner0 - s0), src + (v0 + inner1 - s0), pad + inner0);
+    for (int i = inner1; i < n; ++i) pad[i] = src[cols(v0 + i) - s0];
+    cur = pad;
+  }
   float* bufs[2] = {t0, t1};
   int which = 0;
+  int rest = 2 * r + 1;
   int block = 1;
   int offset = 0;
   bool first = true;
   while (true) {
-    if (len & block) {
-      const float* __restrict c = cur + offset;
-      if (first) {
-#pragma GCC ivdep
-        for (int x = 0; x < w; ++x) out[x] = c[x];
-        first = false;
-      } else {
-#pragma GCC ivdep
-        for (int x = 0; x < w; ++x) out[x] += c[x];
-      }
-      offset += block;
+    const int digit = rest % 4;
+    if (digit > 0) {
+      AddBlocks(cur + offset, block, digit, w, first, out);
+      first = false;
+      offset += digit * block;
     }
-    if (2 * block > len) break;
-    // next[i] = cur[i] + cur[i + block]: sums of 2 * block neighbours.
-    const int valid = n - 2 * block + 1;
-    float* __restrict next = bufs[which];
-    const float* __restrict lo = cur;
-    const float* __restrict hi = cur + block;
-#pragma GCC ivdep
-    for (int i = 0; i < valid; ++i) next[i] = lo[i] + hi[i];
-    cur = next;
+    rest /= 4;
+    if (rest == 0) break;
+    // Sums of 4 * block neighbours, for the columns still needed.
+    const int valid = n - 4 * block + 1;
+    QuadrupleBlocks(cur, block, valid, bufs[which]);
+    cur = bufs[which];
     which ^= 1;
-    block *= 2;
+    block *= 4;
   }
 }
 
@@ -574,7 +602,7 @@ class SliceKernel {
   static constexpr int kBlock = 4;
   // The vertical running sums are recomputed from the ring every so many
   // rows, which bounds their float drift (and the first row of a strip).
-  static constexpr int kRefreshRows = 32;
+  static constexpr int kRefreshRows = 64;
 
   // Tiles of at most max_cols output columns.
   SliceKernel(const ViewPlanes& v, const StereoOptions& o, int max_cols)
