@@ -1159,7 +1159,12 @@ cv::Mat WeightedMedian(const cv::Mat& disparity, const cv::Mat& valid,
       l[x] = std::clamp(static_cast<int>(std::lround(v)) - dmin, 0, labels - 1);
     }
   }
+  // Four interleaved histograms (neighbour x mod 4): consecutive neighbours
+  // mostly share a label, and one histogram would chain every addition
+  // through the same memory location.
+  constexpr int kCopies = 4;
   cv::parallel_for_(cv::Range(0, h), [&](const cv::Range& rows) {
+    std::vector<float> hists(static_cast<size_t>(kCopies * labels));
     std::vector<float> hist(static_cast<size_t>(labels));
     for (int y = rows.start; y < rows.end; ++y) {
       const uint8_t* v = valid.ptr<uint8_t>(y);
@@ -1167,8 +1172,7 @@ cv::Mat WeightedMedian(const cv::Mat& disparity, const cv::Mat& valid,
       float* o = out.ptr<float>(y);
       for (int x = 0; x < w; ++x) {
         if (v[x]) continue;
-        std::fill(hist.begin(), hist.end(), 0.0f);
-        float total = 0;
+        std::fill(hists.begin(), hists.end(), 0.0f);
         const float* ci = gi + x * nc;
         for (int yy = std::max(0, y - radius);
              yy <= std::min(h - 1, y + radius); ++yy) {
@@ -1187,9 +1191,17 @@ cv::Mat WeightedMedian(const cv::Mat& disparity, const cv::Mat& valid,
             }
             const int bin = std::min(kLut, static_cast<int>(dist2 * lut_scale));
             const float wgt = sw[xx - x] * colour[static_cast<size_t>(bin)];
-            hist[static_cast<size_t>(lj[xx])] += wgt;
-            total += wgt;
+            hists[static_cast<size_t>((xx % kCopies) * labels + lj[xx])] += wgt;
           }
+        }
+        float total = 0;
+        for (int l = 0; l < labels; ++l) {
+          float sum = 0;
+          for (int k = 0; k < kCopies; ++k) {
+            sum += hists[static_cast<size_t>(k * labels + l)];
+          }
+          hist[static_cast<size_t>(l)] = sum;
+          total += sum;
         }
         if (!(total > 0)) continue;
         float acc = 0;
