@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
@@ -1317,7 +1318,9 @@ absl::Status Runner::Preflight(const std::vector<std::string>& steps) {
       if (absl::Status s = exists(f.path, "structured-light frame"); !s.ok()) {
         return s;
       }
-      const std::string id = absl::StrCat(f.pattern, f.inverse ? "_inv" : "");
+      const bool has_inv = absl::EndsWith(f.pattern, "_inv");
+      const std::string id =
+          absl::StrCat(f.pattern, f.inverse && !has_inv ? "_inv" : "");
       present[f.view_index][ExposureTag(f.exposure_s)].insert(id);
       int bit = 0;
       if (std::sscanf(f.pattern.c_str(), "col_b%d", &bit) == 1) {

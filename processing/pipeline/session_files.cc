@@ -119,7 +119,31 @@ Metric MetricFromJson(const json& j) {
 
 }  // namespace
 
+namespace {
+absl::StatusOr<SessionInput> DiscoverSessionOrThrow(
+    const fs::path& session_dir);
+}  // namespace
+
 absl::StatusOr<SessionInput> DiscoverSession(const fs::path& session_dir) {
+  try {
+    return DiscoverSessionOrThrow(session_dir);
+  } catch (const fs::filesystem_error& e) {
+    return absl::InternalError(
+        absl::StrCat("discovering ", session_dir.string(), ": ", e.what()));
+  }
+}
+
+absl::StatusOr<JsonRunStore> JsonRunStore::Open(fs::path path) {
+  try {
+    return OpenOrThrow(std::move(path));
+  } catch (const json::exception& e) {
+    return absl::DataLossError(absl::StrCat("pipeline state file: ", e.what()));
+  }
+}
+
+namespace {
+absl::StatusOr<SessionInput> DiscoverSessionOrThrow(
+    const fs::path& session_dir) {
   std::error_code ec;
   if (!fs::is_directory(session_dir, ec)) {
     return absl::NotFoundError(
@@ -199,7 +223,9 @@ absl::StatusOr<SessionInput> DiscoverSession(const fs::path& session_dir) {
   return in;
 }
 
-absl::StatusOr<JsonRunStore> JsonRunStore::Open(fs::path path) {
+}  // namespace
+
+absl::StatusOr<JsonRunStore> JsonRunStore::OpenOrThrow(fs::path path) {
   JsonRunStore store(std::move(path));
   std::error_code ec;
   if (!fs::exists(store.path_, ec)) return store;
@@ -277,7 +303,11 @@ absl::StatusOr<std::vector<Metric>> MetricsFromJson(const std::string& text) {
     return absl::DataLossError("metrics.json: not a metrics file");
   }
   std::vector<Metric> out;
-  for (const json& m : j["metrics"]) out.push_back(MetricFromJson(m));
+  try {
+    for (const json& m : j["metrics"]) out.push_back(MetricFromJson(m));
+  } catch (const json::exception& e) {
+    return absl::DataLossError(absl::StrCat("metrics.json: ", e.what()));
+  }
   return out;
 }
 

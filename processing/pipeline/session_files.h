@@ -51,6 +51,7 @@ class JsonRunStore : public RunStore {
 
  private:
   explicit JsonRunStore(std::filesystem::path path) : path_(std::move(path)) {}
+  static absl::StatusOr<JsonRunStore> OpenOrThrow(std::filesystem::path path);
   absl::Status Save() const;
 
   std::filesystem::path path_;

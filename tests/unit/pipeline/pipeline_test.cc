@@ -398,6 +398,22 @@ void ForceRecomputesEverything() {
   EXPECT_EQ(s->computed, (std::vector<std::string>{
                              "decode", "rectify", "sl_groundtruth", "export"}));
   EXPECT_TRUE(s->reused.empty());
+  // Everything again on one thread: the same bytes as the first run's two
+  // threads (outputs do not depend on the thread split).
+  o.steps.clear();
+  o.threads = 1;
+  s = pipeline::Run(Discover(c->dir), o, c->store, rec);
+  ASSERT_TRUE(s.ok()) << s.status();
+  EXPECT_EQ(s->computed, AllSteps());
+  for (const auto& [step, entry] : Shared().store.steps) {
+    EXPECT_EQ(c->store.steps.at(step).first, entry.first) << step;
+    ASSERT_EQ(c->store.steps.at(step).second.size(), entry.second.size());
+    for (size_t i = 0; i < entry.second.size(); ++i) {
+      EXPECT_EQ(c->store.steps.at(step).second[i].sha256,
+                entry.second[i].sha256)
+          << entry.second[i].path;
+    }
+  }
 }
 
 void NoFramesIsFailedPrecondition() {
