@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <iostream>
 #include <limits>
 #include <map>
 #include <memory>
@@ -318,6 +319,7 @@ void MetricsAgainstSimulatorAndStructuredLight() {
       EXPECT_GT(row->coverage, 90.0) << gt << " " << m;
     }
   }
+  std::cout << FormatMetrics(p.summary.metrics);
   const Metric* fused = Find(p.summary.metrics, "simulation", "fused");
   const Metric* ldr = Find(p.summary.metrics, "simulation", "ldr");
   ASSERT_NE(fused, nullptr);
