@@ -11,6 +11,8 @@
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "daemon/jobs/capture_job.h"
+#include "daemon/jobs/processing_job.h"
+#include "hardware/sim/truth.h"
 #include "processing/io/atomic_file.h"
 
 namespace hdrstereo::daemon {
@@ -30,6 +32,37 @@ jobs::SchedulerOptions SchedulerOptionsFor(const Config& config) {
   return options;
 }
 
+// In simulation a finished stereo capture gets the world's exact truth.
+jobs::TruthWriter TruthWriterFor(const sim::SimWorld* world) {
+  if (world == nullptr) return nullptr;
+  return [world](double left_mm, double baseline_mm,
+                 const std::filesystem::path& dir) -> absl::Status {
+    absl::StatusOr<sim::StereoTruth> truth = world->Truth(left_mm, baseline_mm);
+    if (!truth.ok()) return truth.status();
+    return sim::WriteStereoTruth(*truth, dir);
+  };
+}
+
+jobs::ProcessingEnvironment ProcessingEnvironmentFor(const Config& config) {
+  jobs::ProcessingEnvironment environment;
+  environment.threads = config.processing_threads;
+  if (config.hardware == "sim") {
+    environment.summary.emplace_back(
+        "hardware", absl::StrCat("simulated (scene ", config.sim_scene,
+                                 "), Zaber stage emulated on a pty"));
+  } else {
+    environment.summary.emplace_back(
+        "hardware",
+        absl::StrCat(
+            "camera ",
+            config.camera_model.empty() ? "(first found)" : config.camera_model,
+            ", Zaber stage on ", config.stage_port, ", projector on ",
+            config.projector_display.empty() ? "$DISPLAY"
+                                             : config.projector_display));
+  }
+  return environment;
+}
+
 }  // namespace
 
 Server::Server(std::unique_ptr<store::Store> store,
@@ -38,12 +71,14 @@ Server::Server(std::unique_ptr<store::Store> store,
       hardware_(std::move(hardware)),
       engine_(
           *store_,
-          [rig = hardware_->rig.get()](jobs::JobContext& context) {
-            return jobs::RunCaptureJob(*rig, context);
+          [rig = hardware_->rig.get(),
+           truth = TruthWriterFor(hardware_->world.get())](
+              jobs::JobContext& context) {
+            return jobs::RunCaptureJob(*rig, context, truth);
           },
-          [](jobs::JobContext&) {
-            return absl::UnimplementedError(
-                "processing jobs are not implemented yet");
+          [rig = hardware_->rig.get(), environment = ProcessingEnvironmentFor(
+                                           config)](jobs::JobContext& context) {
+            return jobs::RunProcessingJob(*rig, environment, context);
           },
           {.processing_threads = config.processing_threads,
            .resume_interrupted = config.resume_interrupted}),
@@ -57,6 +92,17 @@ Server::Server(std::unique_ptr<store::Store> store,
                  const v1::CapturePlan& plan) -> absl::StatusOr<int64_t> {
             absl::StatusOr<store::JobRecord> job =
                 jobs::SubmitCapture(engine_, *hardware_->rig, session, plan);
+            if (!job.ok()) return job.status();
+            return job->id;
+          },
+          [this](absl::string_view session,
+                 const std::vector<std::string>& steps)
+              -> absl::StatusOr<int64_t> {
+            v1::SubmitProcessingRequest request;
+            request.set_session(std::string(session));
+            for (const std::string& step : steps) request.add_steps(step);
+            absl::StatusOr<store::JobRecord> job =
+                jobs::SubmitProcessing(engine_, *hardware_->rig, request);
             if (!job.ok()) return job.status();
             return job->id;
           },

@@ -2,8 +2,10 @@
 # The main job on the embedded defaults: builds, starts hdrstereod with
 # simulated hardware (the lab-lamp scene) and a local data root, creates a
 # session, runs a bracketed stereo capture (the thesis' 8 exposures, 150 mm)
-# and a structured-light capture with live progress, and stops the daemon
-# cleanly.
+# and a structured-light capture with live progress, processes the session
+# (HDR, seven tone-mapped pairs, stereo, fusion, structured-light ground
+# truth, metrics, Middlebury export, HTML report), prints the metrics table
+# and the report's path, and stops the daemon cleanly.
 # Usage: deploy/demo.sh [DATA_ROOT]   (default: ./demo-data)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -35,8 +37,10 @@ echo "== hdrstereo capture stereo $session --watch"
 "$cli" capture stereo "$session" --watch
 echo "== hdrstereo capture sl $session --watch"
 "$cli" capture sl "$session" --watch
-echo "== hdrstereo session list"
-"$cli" session list
+echo "== hdrstereo process $session --watch"
+"$cli" process "$session" --watch
+echo "== hdrstereo report $session"
+"$cli" report "$session"
 echo "== hdrstereo jobs list"
 "$cli" jobs list
 
@@ -44,4 +48,4 @@ echo "== stopping hdrstereod"
 kill -TERM $daemon
 wait $daemon
 trap - EXIT
-echo "== done: frames are under $data_root/sessions/$session, the database is $data_root/hdrstereo.db"
+echo "== done: the session (frames, Middlebury export, report/index.html) is $data_root/sessions/$session; the database is $data_root/hdrstereo.db"

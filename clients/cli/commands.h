@@ -20,8 +20,14 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
                     int* exit_code);
 void AddScheduleCommands(CLI::App& app, const GlobalOptions& options,
                          int* exit_code);
+void AddProcessingCommands(CLI::App& app, const GlobalOptions& options,
+                           int* exit_code);
 void AddSessionCommands(CLI::App& app, const GlobalOptions& options,
                         int* exit_code);
+
+// Follows a job's events until it ends (a progress bar on a terminal, one
+// line per event otherwise); the exit code says how it ended.
+int WatchJob(const Client& client, int64_t job_id);
 
 }  // namespace hdrstereo::cli
 

@@ -59,7 +59,9 @@ void StopWatching(int) {
   _exit(130);
 }
 
-int Watch(const Client& client, int64_t job_id) {
+}  // namespace
+
+int WatchJob(const Client& client, int64_t job_id) {
   signal(SIGINT, StopWatching);
   const bool tty = isatty(STDOUT_FILENO);
   grpc::ClientContext context;  // no deadline: captures take long
@@ -89,7 +91,7 @@ int Watch(const Client& client, int64_t job_id) {
       constexpr int kWidth = 30;
       const int filled = static_cast<int>(kWidth * done / total);
       std::cout << absl::StrFormat(
-                       "\r[%s%s] %d/%d %3.0f%% %5.2f fr/s ETA %s  %-40.40s",
+                       "\r[%s%s] %d/%d %3.0f%% %5.2f/s ETA %s  %-40.40s",
                        std::string(filled, '#'),
                        std::string(kWidth - filled, '-'), done, total,
                        100.0 * done / total, rate,
@@ -116,6 +118,8 @@ int Watch(const Client& client, int64_t job_id) {
   return last_state == v1::JOB_STATE_SUCCEEDED ? kExitOk : kExitError;
 }
 
+namespace {
+
 int Submit(const Client& client, const v1::SubmitCaptureRequest& request,
            bool watch) {
   v1::Job job;
@@ -129,7 +133,7 @@ int Submit(const Client& client, const v1::SubmitCaptureRequest& request,
     std::cout << "job " << job.id() << " queued: " << job.progress().total()
               << " frames in session " << job.session() << "\n";
   }
-  return watch ? Watch(client, job.id()) : kExitOk;
+  return watch ? WatchJob(client, job.id()) : kExitOk;
 }
 
 }  // namespace
@@ -291,7 +295,7 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
   });
   job_command(
       "watch", "Follow a job until it ends (Ctrl-C stops watching)",
-      [](const Client& client, int64_t id) { return Watch(client, id); });
+      [](const Client& client, int64_t id) { return WatchJob(client, id); });
   job_command("pause", "Pause after the current frame",
               [](const Client& client, int64_t id) {
                 v1::PauseJobRequest request;

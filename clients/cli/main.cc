@@ -81,6 +81,7 @@ int main(int argc, char** argv) {
   AddSessionCommands(app, options, &exit_code);
   AddHardwareCommands(app, options, &exit_code);
   AddJobCommands(app, options, &exit_code);
+  AddProcessingCommands(app, options, &exit_code);
   AddScheduleCommands(app, options, &exit_code);
   try {
     app.parse(argc, argv);

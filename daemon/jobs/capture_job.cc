@@ -207,7 +207,8 @@ absl::Status CheckDevicesFor(const v1::CapturePlan& plan,
   return absl::OkStatus();
 }
 
-absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context) {
+absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
+                           const TruthWriter& write_truth) {
   const store::JobRecord& job = context.job();
   v1::CapturePlan plan;
   if (!plan.ParseFromString(job.request)) {
@@ -390,6 +391,19 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context) {
     }
   }
   std::move(safe).Cancel();
+  if (write_truth && plan.has_bracketed_stereo()) {
+    const double left_mm = specs.front().stage_position_mm;
+    const double baseline_mm = plan.bracketed_stereo().baseline_mm();
+    if (absl::Status s = write_truth(
+            left_mm, baseline_mm,
+            session_dir / "captures" / std::to_string(capture->id) / "truth");
+        !s.ok()) {
+      return absl::Status(
+          s.code(),
+          absl::StrCat("writing the simulator's truth: ", s.message()));
+    }
+    context.Info("wrote the simulator's exact truth (disparity, radiance)");
+  }
   return absl::OkStatus();
 }
 

@@ -7,6 +7,9 @@
 #ifndef HDRSTEREO_DAEMON_JOBS_CAPTURE_JOB_H_
 #define HDRSTEREO_DAEMON_JOBS_CAPTURE_JOB_H_
 
+#include <filesystem>
+#include <functional>
+
 #include "absl/status/status.h"
 #include "daemon/jobs/capture_plan.h"
 #include "daemon/jobs/job_engine.h"
@@ -31,9 +34,16 @@ absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
                                                absl::string_view session,
                                                const v1::CapturePlan& plan);
 
+// Writes the exact truth of a stereo pair taken at `left_mm` and
+// `left_mm + baseline_mm` into `dir` (simulation only).
+using TruthWriter = std::function<absl::Status(
+    double left_mm, double baseline_mm, const std::filesystem::path& dir)>;
+
 // The job runner for capture jobs (JobKind::kCapture); the job's request is
-// a serialized, normalised v1::CapturePlan.
-absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context);
+// a serialized, normalised v1::CapturePlan. With `write_truth`, a finished
+// bracketed-stereo capture also gets its truth in captures/<id>/truth/.
+absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
+                           const TruthWriter& write_truth = nullptr);
 
 }  // namespace hdrstereo::jobs
 

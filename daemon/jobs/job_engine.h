@@ -95,6 +95,7 @@ class JobEngine {
   bool stopping();
 
   store::JobRepository& repository() { return jobs_; }
+  store::Store& store() { return store_; }
 
  private:
   friend class JobContext;

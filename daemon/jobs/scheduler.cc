@@ -12,6 +12,7 @@
 #include "daemon/store/job_repository.h"
 #include "daemon/store/names.h"
 #include "daemon/store/session_repository.h"
+#include "processing/pipeline/pipeline.h"
 
 namespace hdrstereo::jobs {
 namespace {
@@ -69,10 +70,12 @@ absl::Status ValidateSchedulePlan(const v1::SchedulePlan& plan,
     }
   }
   if (!plan.processing_steps().empty()) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "plan.processing_steps (\"", plan.processing_steps(0),
-        "\"...): processing is not available yet (processing jobs are not "
-        "implemented); leave processing_steps empty"));
+    if (absl::StatusOr<std::vector<std::string>> steps = pipeline::ResolveSteps(
+            {plan.processing_steps().begin(), plan.processing_steps().end()});
+        !steps.ok()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("plan.processing_steps: ", steps.status().message()));
+    }
   }
   return ExpandSessionPattern(plan.session_pattern(), schedule,
                               absl::UnixEpoch(), absl::UTCTimeZone())
@@ -80,10 +83,12 @@ absl::Status ValidateSchedulePlan(const v1::SchedulePlan& plan,
 }
 
 Scheduler::Scheduler(store::Store& store, CaptureSubmitter submit,
+                     ProcessingSubmitter submit_processing,
                      SchedulerOptions options)
     : store_(store),
       schedules_(store),
       submit_(std::move(submit)),
+      submit_processing_(std::move(submit_processing)),
       options_(std::move(options)) {}
 
 Scheduler::~Scheduler() { Stop(); }
@@ -332,6 +337,17 @@ absl::Status Scheduler::Launch(const store::ScheduleRecord& schedule,
       return fail(absl::Status(
           job.status().code(),
           absl::StrCat("capture ", i, ": ", job.status().message())));
+    }
+    run.job_ids.push_back(*job);
+  }
+  if (!plan.processing_steps().empty() && submit_processing_) {
+    absl::StatusOr<int64_t> job = submit_processing_(
+        *session,
+        {plan.processing_steps().begin(), plan.processing_steps().end()});
+    if (!job.ok()) {
+      return fail(
+          absl::Status(job.status().code(),
+                       absl::StrCat("processing: ", job.status().message())));
     }
     run.job_ids.push_back(*job);
   }

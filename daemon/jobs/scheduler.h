@@ -45,6 +45,12 @@ namespace hdrstereo::jobs {
 using CaptureSubmitter = std::function<absl::StatusOr<int64_t>(
     absl::string_view session, const v1::CapturePlan& plan)>;
 
+// Submits one processing job for `session` (steps as in
+// SubmitProcessingRequest); returns its id. The job waits for the captures
+// submitted before it.
+using ProcessingSubmitter = std::function<absl::StatusOr<int64_t>(
+    absl::string_view session, const std::vector<std::string>& steps)>;
+
 struct SchedulerOptions {
   std::function<absl::Time()> clock = [] { return absl::Now(); };
   absl::Duration tick = absl::Milliseconds(500);  // real time between passes
@@ -62,14 +68,16 @@ absl::StatusOr<std::string> ExpandSessionPattern(absl::string_view pattern,
 
 // Validates a schedule's plan at the edge: at least one capture, each
 // normalisable on the rig (errors name plans.captures[i]), a valid pattern,
-// and no processing steps (processing jobs do not exist yet).
+// and known processing steps.
 absl::Status ValidateSchedulePlan(const v1::SchedulePlan& plan,
                                   absl::string_view schedule,
                                   const RigLimits& limits);
 
 class Scheduler {
  public:
+  // Without `submit_processing`, plans' processing steps are not run.
   Scheduler(store::Store& store, CaptureSubmitter submit,
+            ProcessingSubmitter submit_processing,
             SchedulerOptions options = {});
   ~Scheduler();  // Stop()
 
@@ -101,6 +109,7 @@ class Scheduler {
   store::Store& store_;
   store::ScheduleRepository schedules_;
   CaptureSubmitter submit_;
+  ProcessingSubmitter submit_processing_;
   const SchedulerOptions options_;
 
   std::mutex tick_mutex_;  // one pass at a time

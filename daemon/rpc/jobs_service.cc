@@ -8,6 +8,7 @@
 #include "absl/time/clock.h"
 #include "daemon/jobs/capture_job.h"
 #include "daemon/jobs/capture_plan.h"
+#include "daemon/jobs/processing_job.h"
 #include "daemon/rpc/pagination.h"
 #include "daemon/rpc/status.h"
 #include "daemon/store/names.h"
@@ -109,6 +110,9 @@ void ToProto(const store::JobEventRecord& event, v1::JobEvent* out) {
   out->set_message(event.message);
 }
 
+// More than every step named a few times is not a request a person made.
+constexpr int kMaxSteps = 64;
+
 grpc::Status CheckJobId(int64_t id) {
   if (id <= 0) return InvalidArgument("job_id must be a positive job id");
   return grpc::Status::OK;
@@ -134,6 +138,21 @@ grpc::Status JobsService::SubmitCapture(grpc::ServerContext*,
   return Reply(
       jobs::SubmitCapture(engine_, rig_, request->session(), request->plan()),
       response);
+}
+
+grpc::Status JobsService::SubmitProcessing(
+    grpc::ServerContext*, const v1::SubmitProcessingRequest* request,
+    v1::Job* response) {
+  if (absl::Status s = store::ValidateName(request->session(), "session");
+      !s.ok()) {
+    return ToGrpcStatus(s);
+  }
+  if (request->steps_size() > kMaxSteps) {
+    return InvalidArgument(absl::StrCat("steps has ", request->steps_size(),
+                                        " entries; at most ", kMaxSteps,
+                                        " are allowed"));
+  }
+  return Reply(jobs::SubmitProcessing(engine_, rig_, *request), response);
 }
 
 grpc::Status JobsService::Get(grpc::ServerContext*,

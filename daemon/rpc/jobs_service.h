@@ -8,8 +8,7 @@
 
 namespace hdrstereo::rpc {
 
-// Jobs: submit captures, follow and steer jobs. SubmitProcessing answers
-// UNIMPLEMENTED until the processing pipeline exists.
+// Jobs: submit captures and processing, follow and steer jobs.
 class JobsService final : public v1::Jobs::Service {
  public:
   JobsService(jobs::JobEngine& engine, hardware::Rig& rig)
@@ -18,6 +17,9 @@ class JobsService final : public v1::Jobs::Service {
   grpc::Status SubmitCapture(grpc::ServerContext* context,
                              const v1::SubmitCaptureRequest* request,
                              v1::Job* response) override;
+  grpc::Status SubmitProcessing(grpc::ServerContext* context,
+                                const v1::SubmitProcessingRequest* request,
+                                v1::Job* response) override;
   grpc::Status Get(grpc::ServerContext* context,
                    const v1::GetJobRequest* request,
                    v1::Job* response) override;

@@ -4,12 +4,16 @@
 #include <google/protobuf/util/time_util.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
 #include <map>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "daemon/rpc/pagination.h"
 #include "daemon/rpc/status.h"
+#include "daemon/store/artifact_repository.h"
 #include "daemon/store/frame_repository.h"
 #include "daemon/store/names.h"
 
@@ -74,6 +78,145 @@ grpc::Status SessionsService::Delete(grpc::ServerContext*,
                deleted->frames, deleted->artifacts);
   response->set_frames_deleted(deleted->frames);
   response->set_artifacts_deleted(deleted->artifacts);
+  return grpc::Status::OK;
+}
+
+grpc::Status SessionsService::ListArtifacts(
+    grpc::ServerContext*, const v1::ListArtifactsRequest* request,
+    v1::ListArtifactsResponse* response) {
+  if (absl::Status s = store::ValidateName(request->session(), "session");
+      !s.ok()) {
+    return ToGrpcStatus(s);
+  }
+  if (request->kind().size() > 64) {
+    return InvalidArgument("kind is longer than 64 bytes");
+  }
+  absl::StatusOr<Page> page = ParsePage(request->page());
+  if (!page.ok()) return ToGrpcStatus(page.status());
+  int64_t after = 0;
+  if (!page->after.empty() && !absl::SimpleAtoi(page->after, &after)) {
+    return InvalidArgument("page.page_token was not issued by this server");
+  }
+  absl::StatusOr<std::vector<store::ArtifactRecord>> artifacts =
+      store::ArtifactRepository(store_).List(
+          request->session(), request->kind(), after, page->size + 1);
+  if (!artifacts.ok()) return ToGrpcStatus(artifacts.status());
+  if (static_cast<int>(artifacts->size()) > page->size) {
+    artifacts->pop_back();
+    response->set_next_page_token(
+        EncodePageToken(absl::StrCat(artifacts->back().id)));
+  }
+  for (const store::ArtifactRecord& a : *artifacts) {
+    v1::Artifact* out = response->add_artifacts();
+    out->set_id(a.id);
+    out->set_kind(a.kind);
+    out->set_path(a.path);
+    out->set_params_json(a.params_json);
+    out->set_sha256(a.sha256);
+    out->set_size_bytes(a.size_bytes);
+    out->set_job_id(a.job_id);
+    *out->mutable_create_time() =
+        google::protobuf::util::TimeUtil::MillisecondsToTimestamp(
+            a.create_time_ms);
+  }
+  return grpc::Status::OK;
+}
+
+grpc::Status SessionsService::DownloadArtifact(
+    grpc::ServerContext* context, const v1::DownloadArtifactRequest* request,
+    grpc::ServerWriter<v1::ArtifactChunk>* writer) {
+  if (absl::Status s = store::ValidateName(request->session(), "session");
+      !s.ok()) {
+    return ToGrpcStatus(s);
+  }
+  if (request->artifact_id() <= 0) {
+    return InvalidArgument("artifact_id must be a positive artifact id");
+  }
+  if (request->offset_bytes() < 0) {
+    return InvalidArgument("offset_bytes must not be negative");
+  }
+  absl::StatusOr<store::ArtifactRecord> artifact =
+      store::ArtifactRepository(store_).Get(request->session(),
+                                            request->artifact_id());
+  if (!artifact.ok()) return ToGrpcStatus(artifact.status());
+  if (request->offset_bytes() > artifact->size_bytes) {
+    return grpc::Status(grpc::StatusCode::OUT_OF_RANGE,
+                        absl::StrCat("offset_bytes ", request->offset_bytes(),
+                                     " is beyond the end of ", artifact->path,
+                                     " (", artifact->size_bytes, " bytes)"));
+  }
+  const std::filesystem::path path =
+      store_.files().SessionDir(request->session()) / artifact->path;
+  std::ifstream in(path, std::ios::binary);
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (!in || ec) {
+    return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION,
+                        absl::StrCat(artifact->path,
+                                     " is missing on disk; process the "
+                                     "session again to recreate it"));
+  }
+  if (static_cast<int64_t>(size) != artifact->size_bytes) {
+    return grpc::Status(
+        grpc::StatusCode::DATA_LOSS,
+        absl::StrCat(artifact->path, " has ", size, " bytes on disk but ",
+                     artifact->size_bytes,
+                     " were recorded; process the session again"));
+  }
+  // Chunks well under gRPC's default 4 MiB message limit.
+  constexpr int64_t kChunkBytes = 1 << 20;
+  std::string buffer(kChunkBytes, '\0');
+  int64_t offset = request->offset_bytes();
+  in.seekg(offset);
+  do {
+    if (context->IsCancelled()) {
+      return grpc::Status(grpc::StatusCode::CANCELLED, "download cancelled");
+    }
+    const int64_t want = std::min(kChunkBytes, artifact->size_bytes - offset);
+    in.read(buffer.data(), want);
+    if (in.gcount() != want) {
+      return grpc::Status(grpc::StatusCode::DATA_LOSS,
+                          absl::StrCat("cannot read ", artifact->path));
+    }
+    v1::ArtifactChunk chunk;
+    chunk.set_offset_bytes(offset);
+    chunk.set_data(buffer.data(), want);
+    chunk.set_total_size_bytes(artifact->size_bytes);
+    chunk.set_sha256(artifact->sha256);
+    if (!writer->Write(chunk)) {
+      return grpc::Status(grpc::StatusCode::CANCELLED, "the client went away");
+    }
+    offset += want;
+  } while (offset < artifact->size_bytes);
+  return grpc::Status::OK;
+}
+
+grpc::Status SessionsService::ListMetrics(grpc::ServerContext*,
+                                          const v1::ListMetricsRequest* request,
+                                          v1::ListMetricsResponse* response) {
+  if (absl::Status s = store::ValidateName(request->session(), "session");
+      !s.ok()) {
+    return ToGrpcStatus(s);
+  }
+  absl::StatusOr<store::SessionRecord> session =
+      sessions_.Get(request->session());
+  if (!session.ok()) return ToGrpcStatus(session.status());
+  absl::StatusOr<std::vector<store::MetricRecord>> metrics =
+      store::ArtifactRepository(store_).Metrics(session->id);
+  if (!metrics.ok()) return ToGrpcStatus(metrics.status());
+  for (const store::MetricRecord& m : *metrics) {
+    v1::Metric* out = response->add_metrics();
+    out->set_method(m.method);
+    out->set_ground_truth(m.ground_truth);
+    out->set_rmse_px(m.rmse);
+    out->set_mae_px(m.mae);
+    out->set_bad_0_5(m.bad_0_5);
+    out->set_bad_1(m.bad_1);
+    out->set_bad_2(m.bad_2);
+    out->set_bad_4(m.bad_4);
+    out->set_coverage(m.coverage);
+    out->set_job_id(m.job_id);
+  }
   return grpc::Status::OK;
 }
 

@@ -26,6 +26,15 @@ class SessionsService final : public v1::Sessions::Service {
   grpc::Status Delete(grpc::ServerContext* context,
                       const v1::DeleteSessionRequest* request,
                       v1::DeleteSessionResponse* response) override;
+  grpc::Status ListArtifacts(grpc::ServerContext* context,
+                             const v1::ListArtifactsRequest* request,
+                             v1::ListArtifactsResponse* response) override;
+  grpc::Status DownloadArtifact(
+      grpc::ServerContext* context, const v1::DownloadArtifactRequest* request,
+      grpc::ServerWriter<v1::ArtifactChunk>* writer) override;
+  grpc::Status ListMetrics(grpc::ServerContext* context,
+                           const v1::ListMetricsRequest* request,
+                           v1::ListMetricsResponse* response) override;
   grpc::Status ListFrames(grpc::ServerContext* context,
                           const v1::ListFramesRequest* request,
                           v1::ListFramesResponse* response) override;

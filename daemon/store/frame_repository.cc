@@ -151,6 +151,37 @@ absl::StatusOr<std::vector<FrameRecord>> FrameRepository::FramesOfSession(
   return ReadAll(*stmt);
 }
 
+absl::StatusOr<std::vector<CaptureRecord>> FrameRepository::CapturesOfSession(
+    absl::string_view session) {
+  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::StatusOr<Statement> stmt = store_.db().Prepare(R"sql(
+SELECT s.id, c.id, c.session_id, coalesce(c.job_id, 0), c.kind, c.plan
+FROM sessions s LEFT JOIN captures c ON c.session_id = s.id
+WHERE s.name = ?1 ORDER BY c.id
+)sql");
+  if (!stmt.ok()) return stmt.status();
+  stmt->Bind(1, session);
+  std::vector<CaptureRecord> out;
+  bool found = false;
+  while (true) {
+    absl::StatusOr<bool> row = stmt->Step();
+    if (!row.ok()) return row.status();
+    if (!*row) break;
+    found = true;
+    if (stmt->ColumnIsNull(1)) continue;  // a session without captures
+    out.push_back(CaptureRecord{.id = stmt->ColumnInt(1),
+                                .session_id = stmt->ColumnInt(2),
+                                .job_id = stmt->ColumnInt(3),
+                                .kind = stmt->ColumnText(4),
+                                .plan = stmt->ColumnText(5)});
+  }
+  if (!found) {
+    return absl::NotFoundError(
+        absl::StrCat("no session named \"", session, "\""));
+  }
+  return out;
+}
+
 absl::Status FrameRepository::InsertLocked(const FrameRecord& f) {
   absl::StatusOr<Statement> insert = store_.db().Prepare(R"sql(
 INSERT INTO frames (capture_id, sequence, view_index, stage_position_mm,

@@ -52,6 +52,10 @@ class FrameRepository {
                                               absl::string_view kind,
                                               absl::string_view plan);
   absl::StatusOr<std::vector<FrameRecord>> FramesOfCapture(int64_t capture_id);
+  // The captures of a session ordered by id. NOT_FOUND for an unknown
+  // session.
+  absl::StatusOr<std::vector<CaptureRecord>> CapturesOfSession(
+      absl::string_view session);
   // Frames of a session (optionally one capture), ordered by id, after
   // `after_id`, at most `limit`. NOT_FOUND for an unknown session.
   absl::StatusOr<std::vector<FrameRecord>> FramesOfSession(

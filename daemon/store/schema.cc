@@ -13,7 +13,7 @@ namespace {
 
 // Append only: a released migration is never edited. Times are Unix
 // milliseconds (UTC); lengths in millimetres; exposures in seconds.
-constexpr std::array<absl::string_view, 2> kMigrations = {
+constexpr std::array<absl::string_view, 3> kMigrations = {
     // 1: the tables of DESIGN.md.
     R"sql(
 CREATE TABLE rigs (
@@ -143,6 +143,14 @@ CREATE TABLE schedule_runs (
   UNIQUE (schedule_id, due_time_ms)
 );
 CREATE INDEX schedule_runs_by_outcome ON schedule_runs(outcome);
+)sql",
+    // 3: processing. An artifact names the pipeline step that wrote it and
+    // the hash of that step's inputs and parameters (params_hash), so an
+    // unchanged step is not recomputed.
+    R"sql(
+ALTER TABLE artifacts ADD COLUMN step TEXT NOT NULL DEFAULT '';
+CREATE INDEX artifacts_by_step ON artifacts(session_id, step);
+CREATE INDEX metrics_by_session ON metrics(session_id);
 )sql",
 };
 

@@ -6,8 +6,11 @@
 // an HTML report.
 //
 //   decode -> rectify -> response -> hdr -> tonemap -> stereo -> fusion
-//   decode -> sl_groundtruth
-//   stereo, fusion, sl_groundtruth -> evaluate -> export, report
+//   sl_groundtruth (reads its frames itself) -> stereo, fusion (disparity
+//     range), evaluate, export
+//   stereo, fusion, sl_groundtruth -> evaluate -> report
+//   rectify, sl_groundtruth -> export (Middlebury 2014 layout)
+// (StepDependencies() has the exact edges; docs/pipeline.md the files.)
 //
 // The pipeline knows nothing of SQLite or RPC: the caller (the daemon's
 // processing job) says which frames exist, remembers what earlier runs
@@ -39,6 +42,9 @@ const std::vector<std::string>& AllSteps();
 absl::StatusOr<std::vector<std::string>> ResolveSteps(
     const std::vector<std::string>& requested);
 
+// The steps `step` reads outputs of (empty for an unknown step).
+const std::vector<std::string>& StepDependencies(const std::string& step);
+
 // One captured frame (the daemon's frame row).
 struct FrameInput {
   std::string path;          // relative to the session folder
@@ -68,6 +74,13 @@ struct SessionInput {
   // mask, 255 = visible in both views.
   std::string sim_truth_disparity;
   std::string sim_truth_nonoccluded;
+  // Rectified pinhole intrinsics of the stereo views in pixels, for the
+  // export's calib.txt; when unset the calib.txt beside the simulator truth
+  // is used, else a nominal camera (see docs/pipeline.md).
+  struct Intrinsics {
+    double fx = 0, fy = 0, cx = 0, cy = 0;
+  };
+  std::optional<Intrinsics> intrinsics;
 };
 
 struct Artifact {
@@ -94,8 +107,8 @@ struct Metric {
   double coverage = 0;  // percent of ground-truth pixels with a disparity
 };
 
-// What the caller remembers between runs. Called from the thread that runs
-// Run(), one call at a time.
+// What the caller remembers between runs. Calls are serialised by the
+// pipeline (one at a time), possibly from worker threads.
 class RunStore {
  public:
   virtual ~RunStore() = default;
@@ -113,6 +126,8 @@ class RunStore {
   virtual absl::Status RecordMetrics(const std::vector<Metric>& metrics) = 0;
 };
 
+// Calls are serialised by the pipeline (one at a time), possibly from worker
+// threads.
 class RunObserver {
  public:
   virtual ~RunObserver() = default;
@@ -120,7 +135,8 @@ class RunObserver {
   // the run, which returns that status.
   virtual absl::Status Checkpoint() = 0;
   // `done` of `total` units of work, `what` for people ("stereo: reinhard").
-  virtual void Progress(int64_t done, int64_t total, const std::string& what) = 0;
+  virtual void Progress(int64_t done, int64_t total,
+                        const std::string& what) = 0;
   virtual void Info(const std::string& message) = 0;
   virtual void Warn(const std::string& message) = 0;
 };

@@ -111,8 +111,8 @@ TEST_F(ScheduleTest, BadSchedulesAreRefusedNamingTheProblem) {
        "plan.captures[0]"},
       {{"--cron", "0 2 * * *", "--plan",
         WritePlan(R"({"sessionPattern": "n-{date}", "captures": [)"
-                  R"({"bracketedStereo": {}}], "processingSteps": ["hdr"]})")},
-       "processing is not available yet"},
+                  R"({"bracketedStereo": {}}], "processingSteps": ["hdrr"]})")},
+       "plan.processing_steps: unknown step \"hdrr\""},
       {{"--cron", "0 2 * * *", "--plan",
         WritePlan(R"({"sessionPattern": "n-{week}", "captures": [)"
                   R"({"bracketedStereo": {}}]})")},

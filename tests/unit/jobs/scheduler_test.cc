@@ -63,16 +63,27 @@ class SchedulerTest : public ::testing::Test {
           if (!job.ok()) return job.status();
           return job->id;
         },
+        [this](absl::string_view session,
+               const std::vector<std::string>&) -> absl::StatusOr<int64_t> {
+          absl::StatusOr<store::JobRecord> job = jobs_->Create(
+              store::JobKind::kProcessing, session, "", 1, "queued");
+          if (!job.ok()) return job.status();
+          return job->id;
+        },
         options);
   }
 
   void AddSchedule(
       Scheduler& scheduler, const std::string& name, const std::string& cron,
       const std::string& zone,
-      store::MissedRunPolicy policy = store::MissedRunPolicy::kRunOnceOnStart) {
+      store::MissedRunPolicy policy = store::MissedRunPolicy::kRunOnceOnStart,
+      const std::vector<std::string>& processing_steps = {}) {
     v1::SchedulePlan plan;
     plan.set_session_pattern(name + "-{date}-{time}");
     plan.add_captures()->mutable_bracketed_stereo();
+    for (const std::string& step : processing_steps) {
+      plan.add_processing_steps(step);
+    }
     store::ScheduleRecord record;
     record.name = name;
     record.cron = cron;
@@ -198,6 +209,34 @@ TEST_F(SchedulerTest, FailedJobFailsTheRun) {
   runs = Runs(*scheduler, "once");
   EXPECT_EQ(runs[0].outcome, store::RunOutcome::kFailed);
   EXPECT_THAT(runs[0].reason, HasSubstr("camera disconnected"));
+}
+
+TEST_F(SchedulerTest, ProcessingStepsQueueAProcessingJobAfterTheCaptures) {
+  std::unique_ptr<Scheduler> scheduler = NewScheduler();
+  AddSchedule(*scheduler, "processed", "0 13 * * *", "UTC",
+              store::MissedRunPolicy::kRunOnceOnStart, {"evaluate"});
+  RunUntil(*scheduler, Utc("2026-03-23 13:05"), /*finish=*/false);
+  std::vector<store::ScheduleRunRecord> runs = Runs(*scheduler, "processed");
+  ASSERT_EQ(runs.size(), 1u);
+  ASSERT_EQ(runs[0].job_ids.size(), 2u);
+  absl::StatusOr<store::JobRecord> capture = jobs_->Get(runs[0].job_ids[0]);
+  absl::StatusOr<store::JobRecord> processing = jobs_->Get(runs[0].job_ids[1]);
+  ASSERT_TRUE(capture.ok() && processing.ok());
+  EXPECT_EQ(capture->kind, store::JobKind::kCapture);
+  EXPECT_EQ(processing->kind, store::JobKind::kProcessing);
+  EXPECT_EQ(processing->session, runs[0].session);
+  // The run lasts until the processing job ends too.
+  ASSERT_TRUE(
+      jobs_->SetState(capture->id, store::JobState::kRunning, "run").ok());
+  ASSERT_TRUE(
+      jobs_->SetState(capture->id, store::JobState::kSucceeded, "done").ok());
+  ASSERT_TRUE(scheduler->Tick().ok());
+  EXPECT_EQ(Runs(*scheduler, "processed")[0].outcome,
+            store::RunOutcome::kRunning);
+  FinishJobs();
+  ASSERT_TRUE(scheduler->Tick().ok());
+  EXPECT_EQ(Runs(*scheduler, "processed")[0].outcome,
+            store::RunOutcome::kSucceeded);
 }
 
 TEST_F(SchedulerTest, InterruptedJobNotResumedEndsTheRun) {

@@ -1,0 +1,343 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// `hdrstereo process|metrics|artifacts|download|report`: start a session's
+// processing, read its evaluation, list and fetch what it produced.
+#include <openssl/evp.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_split.h"
+#include "clients/cli/commands.h"
+#include "clients/cli/output.h"
+#include "hdrstereo/v1/jobs.grpc.pb.h"
+#include "hdrstereo/v1/sessions.grpc.pb.h"
+
+namespace hdrstereo::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+int PrintMetrics(const Client& client, const std::string& session) {
+  v1::ListMetricsRequest request;
+  request.set_session(session);
+  v1::ListMetricsResponse response;
+  grpc::Status status =
+      v1::Sessions::NewStub(client.channel())
+          ->ListMetrics(client.NewContext().get(), request, &response);
+  return Finish(
+      client, status, response, [&session](const v1::ListMetricsResponse& r) {
+        if (r.metrics().empty()) {
+          std::cout << "no metrics for session " << session
+                    << " (process it first; metrics need a "
+                       "ground truth)\n";
+          return;
+        }
+        Table table({"GROUND TRUTH", "METHOD", "RMSE", "MAE", "BAD>0.5",
+                     "BAD>1", "BAD>2", "BAD>4", "COVERAGE"});
+        for (const v1::Metric& m : r.metrics()) {
+          table.AddRow({m.ground_truth(), m.method(),
+                        absl::StrFormat("%.3f", m.rmse_px()),
+                        absl::StrFormat("%.3f", m.mae_px()),
+                        absl::StrFormat("%.1f%%", m.bad_0_5()),
+                        absl::StrFormat("%.1f%%", m.bad_1()),
+                        absl::StrFormat("%.1f%%", m.bad_2()),
+                        absl::StrFormat("%.1f%%", m.bad_4()),
+                        absl::StrFormat("%.1f%%", m.coverage())});
+        }
+        table.Print(std::cout);
+      });
+}
+
+int RunProcess(const Client& client, const std::string& session,
+               const std::string& steps, bool force, bool watch) {
+  v1::SubmitProcessingRequest request;
+  request.set_session(session);
+  for (absl::string_view step :
+       absl::StrSplit(steps, ',', absl::SkipWhitespace())) {
+    request.add_steps(std::string(step));
+  }
+  request.set_force(force);
+  v1::Job job;
+  grpc::Status status =
+      v1::Jobs::NewStub(client.channel())
+          ->SubmitProcessing(client.NewContext().get(), request, &job);
+  if (!status.ok()) return client.Fail(status);
+  if (client.options().json) {
+    PrintJson(std::cout, job);
+  } else {
+    std::cout << "job " << job.id() << " queued: processing session "
+              << job.session() << " (" << job.progress().total() << " steps)\n";
+  }
+  if (!watch) return kExitOk;
+  const int rc = WatchJob(client, job.id());
+  if (rc != kExitOk || client.options().json) return rc;
+  return PrintMetrics(client, session);
+}
+
+grpc::Status ListAll(const Client& client, const std::string& session,
+                     const std::string& kind, std::vector<v1::Artifact>* out) {
+  auto stub = v1::Sessions::NewStub(client.channel());
+  v1::ListArtifactsRequest request;
+  request.set_session(session);
+  request.set_kind(kind);
+  do {
+    v1::ListArtifactsResponse page;
+    grpc::Status status =
+        stub->ListArtifacts(client.NewContext().get(), request, &page);
+    if (!status.ok()) return status;
+    out->insert(out->end(), page.artifacts().begin(), page.artifacts().end());
+    request.mutable_page()->set_page_token(page.next_page_token());
+  } while (!request.page().page_token().empty());
+  return grpc::Status::OK;
+}
+
+int RunArtifacts(const Client& client, const std::string& session,
+                 const std::string& kind) {
+  std::vector<v1::Artifact> artifacts;
+  if (grpc::Status s = ListAll(client, session, kind, &artifacts); !s.ok()) {
+    return client.Fail(s);
+  }
+  v1::ListArtifactsResponse all;
+  for (const v1::Artifact& a : artifacts) *all.add_artifacts() = a;
+  return Finish(client, grpc::Status::OK, all,
+                [](const v1::ListArtifactsResponse& r) {
+                  if (r.artifacts().empty()) {
+                    std::cout << "no artifacts\n";
+                    return;
+                  }
+                  Table table({"ID", "KIND", "SIZE", "JOB", "PATH"});
+                  for (const v1::Artifact& a : r.artifacts()) {
+                    table.AddRow({absl::StrCat(a.id()), a.kind(),
+                                  absl::StrCat(a.size_bytes()),
+                                  absl::StrCat(a.job_id()), a.path()});
+                  }
+                  table.Print(std::cout);
+                });
+}
+
+std::string Sha256OfFile(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::unique_ptr<EVP_MD_CTX, decltype(&EVP_MD_CTX_free)> ctx(EVP_MD_CTX_new(),
+                                                              EVP_MD_CTX_free);
+  EVP_DigestInit_ex(ctx.get(), EVP_sha256(), nullptr);
+  std::vector<char> buffer(1 << 16);
+  while (in.read(buffer.data(), buffer.size()) || in.gcount() > 0) {
+    EVP_DigestUpdate(ctx.get(), buffer.data(), in.gcount());
+  }
+  unsigned char digest[EVP_MAX_MD_SIZE];
+  unsigned int length = 0;
+  EVP_DigestFinal_ex(ctx.get(), digest, &length);
+  std::string hex;
+  for (unsigned int i = 0; i < length; ++i) {
+    absl::StrAppendFormat(&hex, "%02x", digest[i]);
+  }
+  return hex;
+}
+
+// Fetches one artifact to `to/<path>`. An interrupted download leaves
+// `<file>.part`, which the next call continues from its size; the file gets
+// its name only once its sha256 matches the server's.
+grpc::Status Download(const Client& client, const std::string& session,
+                      const v1::Artifact& artifact, const fs::path& to) {
+  const fs::path target = to / artifact.path();
+  if (fs::exists(target) && Sha256OfFile(target) == artifact.sha256()) {
+    return grpc::Status::OK;  // already here
+  }
+  std::error_code ec;
+  fs::create_directories(target.parent_path(), ec);
+  const fs::path part = fs::path(target.string() + ".part");
+  int64_t offset =
+      fs::exists(part) ? static_cast<int64_t>(fs::file_size(part)) : 0;
+  if (offset > artifact.size_bytes()) {
+    fs::remove(part, ec);
+    offset = 0;
+  }
+  std::ofstream out(part, std::ios::binary | std::ios::app);
+  if (!out) {
+    return grpc::Status(grpc::StatusCode::UNKNOWN,
+                        absl::StrCat("cannot write ", part.string()));
+  }
+  grpc::ClientContext context;  // no deadline: files can be large
+  v1::DownloadArtifactRequest request;
+  request.set_session(session);
+  request.set_artifact_id(artifact.id());
+  request.set_offset_bytes(offset);
+  auto reader = v1::Sessions::NewStub(client.channel())
+                    ->DownloadArtifact(&context, request);
+  v1::ArtifactChunk chunk;
+  while (reader->Read(&chunk)) {
+    if (chunk.offset_bytes() != offset) {
+      context.TryCancel();
+      return grpc::Status(grpc::StatusCode::DATA_LOSS,
+                          absl::StrCat(artifact.path(), ": expected bytes at ",
+                                       offset, ", got ", chunk.offset_bytes()));
+    }
+    out.write(chunk.data().data(),
+              static_cast<std::streamsize>(chunk.data().size()));
+    offset += static_cast<int64_t>(chunk.data().size());
+  }
+  grpc::Status status = reader->Finish();
+  out.close();
+  if (!status.ok()) return status;
+  if (!out) {
+    return grpc::Status(grpc::StatusCode::UNKNOWN,
+                        absl::StrCat("cannot write ", part.string()));
+  }
+  if (Sha256OfFile(part) != artifact.sha256()) {
+    fs::remove(part, ec);
+    return grpc::Status(grpc::StatusCode::DATA_LOSS,
+                        absl::StrCat(artifact.path(),
+                                     ": sha256 does not match the server's; "
+                                     "download it again"));
+  }
+  fs::rename(part, target, ec);
+  if (ec) {
+    return grpc::Status(
+        grpc::StatusCode::UNKNOWN,
+        absl::StrCat("cannot rename ", part.string(), ": ", ec.message()));
+  }
+  return grpc::Status::OK;
+}
+
+int RunDownload(const Client& client, const std::string& session,
+                const std::string& kind, const fs::path& to) {
+  std::vector<v1::Artifact> artifacts;
+  if (grpc::Status s =
+          ListAll(client, session, kind == "all" ? "" : kind, &artifacts);
+      !s.ok()) {
+    return client.Fail(s);
+  }
+  if (artifacts.empty()) {
+    std::cerr << "hdrstereo: session " << session << " has no "
+              << (kind == "all" ? "" : kind + " ")
+              << "artifacts; process it first\n";
+    return kExitNotFound;
+  }
+  int64_t bytes = 0;
+  for (const v1::Artifact& a : artifacts) {
+    if (grpc::Status s = Download(client, session, a, to); !s.ok()) {
+      return client.Fail(s);
+    }
+    bytes += a.size_bytes();
+  }
+  std::cout << absl::StrFormat("downloaded %d artifacts (%d bytes) to %s\n",
+                               artifacts.size(), bytes, to.string());
+  return kExitOk;
+}
+
+int RunReport(const Client& client, const std::string& session, bool open) {
+  std::vector<v1::Artifact> reports;
+  if (grpc::Status s = ListAll(client, session, "report", &reports); !s.ok()) {
+    return client.Fail(s);
+  }
+  const v1::Artifact* page = nullptr;
+  for (const v1::Artifact& a : reports) {
+    if (fs::path(a.path()).filename() == "index.html") page = &a;
+  }
+  if (page == nullptr) {
+    std::cerr << "hdrstereo: session " << session
+              << " has no report yet; run: hdrstereo process " << session
+              << " --steps report\n";
+    return kExitNotFound;
+  }
+  v1::GetSessionRequest request;
+  request.set_name(session);
+  v1::Session info;
+  grpc::Status status = v1::Sessions::NewStub(client.channel())
+                            ->Get(client.NewContext().get(), request, &info);
+  if (!status.ok()) return client.Fail(status);
+  const fs::path path = fs::path(info.path()) / page->path();
+  std::cout << path.string() << "\n";
+  if (!fs::exists(path)) {
+    std::cerr << "hdrstereo: the report is on the server's disk; fetch it "
+                 "with: hdrstereo download "
+              << session << " --kind report --to DIR\n";
+    return kExitOk;
+  }
+  std::cout << "file://" << path.string() << "\n";
+  if (open && std::getenv("DISPLAY") != nullptr) {
+    const std::string command =
+        absl::StrCat("xdg-open 'file://", path.string(), "' >/dev/null 2>&1 &");
+    if (std::system(command.c_str()) != 0) {
+      std::cerr << "hdrstereo: could not start a browser (xdg-open)\n";
+    }
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+void AddProcessingCommands(CLI::App& app, const GlobalOptions& options,
+                           int* exit_code) {
+  struct Args {
+    std::string session;
+    std::string steps;
+    bool force = false;
+    bool watch = false;
+    std::string kind;
+    std::string to;
+    bool open = false;
+  };
+  auto args = std::make_shared<Args>();
+
+  CLI::App* process = app.add_subcommand(
+      "process",
+      "Process a session: HDR, tone mapping, stereo, fusion, "
+      "ground truth, metrics, export and report");
+  process->add_option("SESSION", args->session)->required();
+  process->add_option("--steps", args->steps,
+                      "Comma-separated steps (default: all); the steps they "
+                      "need are added");
+  process->add_flag("--force", args->force, "Recompute even what is unchanged");
+  process->add_flag("--watch", args->watch,
+                    "Follow the job, then print the metrics");
+  process->callback([&options, exit_code, args] {
+    *exit_code = RunProcess(Client(options), args->session, args->steps,
+                            args->force, args->watch);
+  });
+
+  CLI::App* metrics =
+      app.add_subcommand("metrics", "Print a session's evaluation table");
+  metrics->add_option("SESSION", args->session)->required();
+  metrics->callback([&options, exit_code, args] {
+    *exit_code = PrintMetrics(Client(options), args->session);
+  });
+
+  CLI::App* artifacts =
+      app.add_subcommand("artifacts", "List what processing produced");
+  artifacts->add_option("SESSION", args->session)->required();
+  artifacts->add_option("--kind", args->kind, "Only this kind");
+  artifacts->callback([&options, exit_code, args] {
+    *exit_code = RunArtifacts(Client(options), args->session, args->kind);
+  });
+
+  CLI::App* download = app.add_subcommand(
+      "download", "Fetch artifacts (resumable, sha256-checked)");
+  download->add_option("SESSION", args->session)->required();
+  download->add_option("--kind", args->kind,
+                       "report, disparity, ... or all (default)");
+  download->add_option("--to", args->to, "Local folder")->required();
+  download->callback([&options, exit_code, args] {
+    *exit_code = RunDownload(Client(options), args->session,
+                             args->kind.empty() ? "all" : args->kind, args->to);
+  });
+
+  CLI::App* report =
+      app.add_subcommand("report", "Print where a session's report is");
+  report->add_option("SESSION", args->session)->required();
+  report->add_flag("--open", args->open,
+                   "Also open it in a browser when there is a display");
+  report->callback([&options, exit_code, args] {
+    *exit_code = RunReport(Client(options), args->session, args->open);
+  });
+}
+
+}  // namespace hdrstereo::cli

@@ -1,0 +1,425 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "daemon/jobs/processing_job.h"
+
+#include <chrono>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <set>
+#include <thread>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
+#include "daemon/jobs/capture_plan.h"
+#include "daemon/store/artifact_repository.h"
+#include "daemon/store/frame_repository.h"
+#include "daemon/store/job_repository.h"
+#include "processing/pipeline/pipeline.h"
+
+namespace hdrstereo::jobs {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr absl::string_view kStereoKind = "bracketed_stereo";
+constexpr absl::string_view kStructuredLightKind = "structured_light";
+
+// A capture with the frames its plan expects and those recorded.
+struct CaptureState {
+  store::CaptureRecord capture;
+  v1::CapturePlan plan;
+  std::vector<store::FrameRecord> frames;
+  std::vector<std::string> missing;  // relative stems, in capture order
+};
+
+// The frames a plan expects depend only on the projector's size (the
+// number of Gray-code bits), which is the rig's.
+RigLimits FrameLimits(const hardware::Rig& rig) {
+  RigLimits limits;
+  if (rig.projector() != nullptr) {
+    limits.projector_size = rig.projector()->resolution();
+  }
+  return limits;
+}
+
+absl::StatusOr<std::vector<CaptureState>> ReadCaptures(
+    store::Store& store, const hardware::Rig& rig, absl::string_view session) {
+  store::FrameRepository repository(store);
+  absl::StatusOr<std::vector<store::CaptureRecord>> captures =
+      repository.CapturesOfSession(session);
+  if (!captures.ok()) return captures.status();
+  std::vector<CaptureState> out;
+  for (const store::CaptureRecord& capture : *captures) {
+    CaptureState state;
+    state.capture = capture;
+    if (!state.plan.ParseFromString(capture.plan)) {
+      return absl::DataLossError(
+          absl::StrCat("the plan of capture ", capture.id, " cannot be read"));
+    }
+    absl::StatusOr<std::vector<store::FrameRecord>> frames =
+        repository.FramesOfCapture(capture.id);
+    if (!frames.ok()) return frames.status();
+    state.frames = *std::move(frames);
+    std::set<int> recorded;
+    for (const store::FrameRecord& f : state.frames) {
+      recorded.insert(f.sequence);
+    }
+    for (const FrameSpec& spec :
+         ExpandPlan(state.plan, FrameLimits(rig), capture.id)) {
+      if (!recorded.contains(spec.sequence)) {
+        state.missing.push_back(spec.relative_stem);
+      }
+    }
+    out.push_back(std::move(state));
+  }
+  return out;
+}
+
+// The latest complete capture of `kind`; FAILED_PRECONDITION naming what is
+// missing when there is none.
+absl::StatusOr<const CaptureState*> LatestComplete(
+    const std::vector<CaptureState>& captures, absl::string_view kind,
+    absl::string_view session, absl::string_view what) {
+  const CaptureState* incomplete = nullptr;
+  for (auto it = captures.rbegin(); it != captures.rend(); ++it) {
+    if (it->capture.kind != kind) continue;
+    if (it->missing.empty()) return &*it;
+    if (incomplete == nullptr) incomplete = &*it;
+  }
+  if (incomplete == nullptr) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("session \"", session, "\" has no ", what,
+                     " capture to process; capture one first"));
+  }
+  return absl::FailedPreconditionError(absl::StrFormat(
+      "%s capture %d of session \"%s\" is incomplete: %d of %d frames are "
+      "missing (first: %s); resubmit the capture to take them",
+      what, incomplete->capture.id, session, incomplete->missing.size(),
+      incomplete->missing.size() + incomplete->frames.size(),
+      incomplete->missing.front()));
+}
+
+struct Inputs {
+  const CaptureState* stereo = nullptr;
+  const CaptureState* structured_light = nullptr;  // may stay null
+};
+
+// What the pipeline will read, checked against the steps it will run.
+absl::StatusOr<Inputs> ChooseInputs(const std::vector<CaptureState>& captures,
+                                    absl::string_view session,
+                                    const std::vector<std::string>& steps) {
+  Inputs inputs;
+  absl::StatusOr<const CaptureState*> stereo =
+      LatestComplete(captures, kStereoKind, session, "bracketed-stereo");
+  if (!stereo.ok()) return stereo.status();
+  inputs.stereo = *stereo;
+  const bool wants_sl =
+      std::find(steps.begin(), steps.end(), "sl_groundtruth") != steps.end();
+  const bool has_sl = std::any_of(
+      captures.begin(), captures.end(),
+      [](const auto& c) { return c.capture.kind == kStructuredLightKind; });
+  if (wants_sl && has_sl) {
+    absl::StatusOr<const CaptureState*> sl = LatestComplete(
+        captures, kStructuredLightKind, session, "structured-light");
+    if (!sl.ok()) return sl.status();
+    inputs.structured_light = *sl;
+  }
+  return inputs;
+}
+
+// Capture jobs of the session that are still to run or running, submitted
+// before `before_id` (0 = any).
+absl::StatusOr<std::vector<int64_t>> PendingCaptures(store::Store& store,
+                                                     absl::string_view session,
+                                                     int64_t before_id) {
+  store::JobRepository jobs(store);
+  absl::StatusOr<std::vector<store::JobRecord>> pending =
+      jobs.List({.session = std::string(session),
+                 .states = {store::JobState::kQueued, store::JobState::kRunning,
+                            store::JobState::kPaused},
+                 .after_id = 0,
+                 .limit = 1000});
+  if (!pending.ok()) return pending.status();
+  std::vector<int64_t> out;
+  for (const store::JobRecord& job : *pending) {
+    if (job.kind == store::JobKind::kCapture &&
+        (before_id == 0 || job.id < before_id)) {
+      out.push_back(job.id);
+    }
+  }
+  return out;
+}
+
+// "captures/<id>/<view>/<role>/<file>" -> role.
+std::string RoleOf(const std::string& path) {
+  std::vector<std::string> parts = absl::StrSplit(path, '/');
+  return parts.size() >= 5 ? parts[3] : "";
+}
+
+pipeline::FrameInput ToFrameInput(const store::FrameRecord& f) {
+  return pipeline::FrameInput{.path = f.path,
+                              .capture_kind = f.capture_kind,
+                              .capture_id = f.capture_id,
+                              .role = RoleOf(f.path),
+                              .view_index = f.view_index,
+                              .exposure_s = f.exposure_s,
+                              .pattern = f.pattern,
+                              .inverse = f.inverse,
+                              .sha256 = f.sha256};
+}
+
+class StoreAdapter : public pipeline::RunStore {
+ public:
+  StoreAdapter(store::Store& store, int64_t session_id, int64_t job_id)
+      : artifacts_(store), session_id_(session_id), job_id_(job_id) {}
+
+  std::vector<pipeline::Artifact> Lookup(
+      const std::string& step, const std::string& input_hash) override {
+    absl::StatusOr<std::vector<store::ArtifactRecord>> rows =
+        artifacts_.ForStep(session_id_, step, input_hash);
+    std::vector<pipeline::Artifact> out;
+    if (!rows.ok()) return out;  // recomputing is always safe
+    for (const store::ArtifactRecord& r : *rows) {
+      out.push_back({.step = r.step,
+                     .kind = r.kind,
+                     .path = r.path,
+                     .params_json = r.params_json,
+                     .sha256 = r.sha256,
+                     .size_bytes = r.size_bytes});
+    }
+    return out;
+  }
+
+  absl::Status Record(
+      const std::string& step, const std::string& input_hash,
+      const std::vector<pipeline::Artifact>& artifacts) override {
+    std::vector<store::ArtifactRecord> rows;
+    for (const pipeline::Artifact& a : artifacts) {
+      rows.push_back({.id = 0,
+                      .job_id = job_id_,
+                      .step = step,
+                      .kind = a.kind,
+                      .path = a.path,
+                      .params_json = a.params_json,
+                      .params_hash = input_hash,
+                      .sha256 = a.sha256,
+                      .size_bytes = a.size_bytes,
+                      .create_time_ms = 0});
+    }
+    return artifacts_.ReplaceStep(session_id_, job_id_, step, rows);
+  }
+
+  absl::Status RecordMetrics(
+      const std::vector<pipeline::Metric>& metrics) override {
+    std::vector<store::MetricRecord> rows;
+    for (const pipeline::Metric& m : metrics) {
+      rows.push_back({.method = m.method,
+                      .ground_truth = m.ground_truth,
+                      .rmse = m.rmse,
+                      .mae = m.mae,
+                      .bad_0_5 = m.bad_0_5,
+                      .bad_1 = m.bad_1,
+                      .bad_2 = m.bad_2,
+                      .bad_4 = m.bad_4,
+                      .coverage = m.coverage,
+                      .job_id = job_id_});
+    }
+    return artifacts_.ReplaceMetrics(session_id_, job_id_, rows);
+  }
+
+ private:
+  store::ArtifactRepository artifacts_;
+  const int64_t session_id_;
+  const int64_t job_id_;
+};
+
+class JobObserver : public pipeline::RunObserver {
+ public:
+  explicit JobObserver(JobContext& context) : context_(context) {}
+  absl::Status Checkpoint() override { return context_.Checkpoint(); }
+  void Progress(int64_t done, int64_t total, const std::string& what) override {
+    // Progress is for people; a failure to record it must not fail the job.
+    context_.Progress(done, total, what).IgnoreError();
+  }
+  void Info(const std::string& message) override { context_.Info(message); }
+  void Warn(const std::string& message) override { context_.Warn(message); }
+
+ private:
+  JobContext& context_;
+};
+
+std::string ExposureList(const CaptureState& capture) {
+  std::set<double> exposures;
+  for (const store::FrameRecord& f : capture.frames) {
+    if (RoleOf(f.path) == "stereo") exposures.insert(f.exposure_s);
+  }
+  std::vector<std::string> tags;
+  for (auto it = exposures.rbegin(); it != exposures.rend(); ++it) {
+    tags.push_back(ExposureTag(*it));
+  }
+  return absl::StrJoin(tags, ", ");
+}
+
+}  // namespace
+
+absl::StatusOr<store::JobRecord> SubmitProcessing(
+    JobEngine& engine, const hardware::Rig& rig,
+    const v1::SubmitProcessingRequest& request) {
+  std::vector<std::string> requested(request.steps().begin(),
+                                     request.steps().end());
+  absl::StatusOr<std::vector<std::string>> steps =
+      pipeline::ResolveSteps(requested);
+  if (!steps.ok()) return steps.status();
+  store::Store& store = engine.store();
+  absl::StatusOr<std::vector<CaptureState>> captures =
+      ReadCaptures(store, rig, request.session());
+  if (!captures.ok()) return captures.status();
+  absl::StatusOr<std::vector<int64_t>> pending =
+      PendingCaptures(store, request.session(), 0);
+  if (!pending.ok()) return pending.status();
+  // With captures still to come, the job checks its inputs when it starts.
+  if (pending->empty()) {
+    if (absl::StatusOr<Inputs> inputs =
+            ChooseInputs(*captures, request.session(), *steps);
+        !inputs.ok()) {
+      return inputs.status();
+    }
+  }
+  return engine.Submit(
+      store::JobKind::kProcessing, request.session(),
+      request.SerializeAsString(), static_cast<int64_t>(steps->size()),
+      absl::StrCat("queued processing: ", absl::StrJoin(*steps, ", "),
+                   request.force() ? " (forced)" : "",
+                   pending->empty()
+                       ? ""
+                       : absl::StrCat(" after capture job(s) ",
+                                      absl::StrJoin(*pending, ", "))));
+}
+
+absl::Status RunProcessingJob(const hardware::Rig& rig,
+                              const ProcessingEnvironment& environment,
+                              JobContext& context) {
+  const store::JobRecord& job = context.job();
+  v1::SubmitProcessingRequest request;
+  if (!request.ParseFromString(job.request)) {
+    return absl::DataLossError("the job's processing request cannot be read");
+  }
+  store::Store& store = context.store();
+
+  // Captures submitted before this job are its input: wait for them.
+  for (int64_t waited = 0;; ++waited) {
+    absl::StatusOr<std::vector<int64_t>> pending =
+        PendingCaptures(store, job.session, job.id);
+    if (!pending.ok()) return pending.status();
+    if (pending->empty()) break;
+    if (waited == 0) {
+      if (absl::Status s =
+              context.Progress(0, job.progress_total,
+                               absl::StrCat("waiting for capture job(s) ",
+                                            absl::StrJoin(*pending, ", ")));
+          !s.ok()) {
+        return s;
+      }
+    }
+    if (absl::Status s = context.Checkpoint(); !s.ok()) return s;
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+
+  pipeline::RunOptions options{
+      .steps = {request.steps().begin(), request.steps().end()},
+      .force = request.force(),
+      .threads = environment.threads};
+  absl::StatusOr<std::vector<std::string>> steps =
+      pipeline::ResolveSteps(options.steps);
+  if (!steps.ok()) return steps.status();
+  absl::StatusOr<std::vector<CaptureState>> captures =
+      ReadCaptures(store, rig, job.session);
+  if (!captures.ok()) return captures.status();
+  absl::StatusOr<Inputs> inputs = ChooseInputs(*captures, job.session, *steps);
+  if (!inputs.ok()) return inputs.status();
+
+  pipeline::SessionInput input;
+  input.session_dir = store.files().SessionDir(job.session);
+  input.session_name = job.session;
+  for (const CaptureState* capture :
+       {inputs->stereo, inputs->structured_light}) {
+    if (capture == nullptr) continue;
+    for (const store::FrameRecord& f : capture->frames) {
+      input.frames.push_back(ToFrameInput(f));
+    }
+  }
+  const v1::BracketedStereoPlan& stereo_plan =
+      inputs->stereo->plan.bracketed_stereo();
+  input.baseline_mm = stereo_plan.baseline_mm();
+  if (const hardware::Projector* projector = rig.projector();
+      projector != nullptr) {
+    input.projector_size = std::make_pair(projector->resolution().width,
+                                          projector->resolution().height);
+  }
+  const std::string truth_dir =
+      absl::StrCat("captures/", inputs->stereo->capture.id, "/truth/");
+  std::error_code ec;
+  if (fs::exists(input.session_dir / truth_dir / "disp0.pfm", ec)) {
+    input.sim_truth_disparity = truth_dir + "disp0.pfm";
+    input.sim_truth_nonoccluded = truth_dir + "nonocc0.png";
+  }
+  input.capture_summary = environment.summary;
+  input.capture_summary.emplace_back(
+      "stereo capture",
+      absl::StrFormat("capture %d (job %d): %d frames, %d views, baseline "
+                      "%.1f mm",
+                      inputs->stereo->capture.id,
+                      inputs->stereo->capture.job_id,
+                      inputs->stereo->frames.size(),
+                      stereo_plan.views() > 0 ? stereo_plan.views() : 2,
+                      stereo_plan.baseline_mm()));
+  input.capture_summary.emplace_back("exposures",
+                                     ExposureList(*inputs->stereo));
+  if (inputs->structured_light != nullptr) {
+    input.capture_summary.emplace_back(
+        "structured-light capture",
+        absl::StrFormat("capture %d (job %d): %d frames",
+                        inputs->structured_light->capture.id,
+                        inputs->structured_light->capture.job_id,
+                        inputs->structured_light->frames.size()));
+  } else {
+    input.capture_summary.emplace_back("structured-light capture", "none");
+  }
+  for (const CaptureState* capture :
+       {inputs->stereo, inputs->structured_light}) {
+    if (capture == nullptr || capture->capture.job_id == 0) continue;
+    absl::StatusOr<store::JobRecord> capture_job =
+        store::JobRepository(store).Get(capture->capture.job_id);
+    if (capture_job.ok() && capture_job->start_time_ms &&
+        capture_job->end_time_ms) {
+      input.capture_summary.emplace_back(
+          absl::StrCat("capture job ", capture_job->id, " time"),
+          absl::StrFormat("%.1f s", (*capture_job->end_time_ms -
+                                     *capture_job->start_time_ms) /
+                                        1000.0));
+    }
+  }
+
+  StoreAdapter adapter(store, job.session_id, job.id);
+  JobObserver observer(context);
+  absl::StatusOr<pipeline::RunSummary> summary =
+      pipeline::Run(input, options, adapter, observer);
+  if (!summary.ok()) return summary.status();
+  context.Info(absl::StrCat(
+      "computed: ",
+      summary->computed.empty() ? "nothing"
+                                : absl::StrJoin(summary->computed, ", "),
+      "; reused: ",
+      summary->reused.empty() ? "nothing"
+                              : absl::StrJoin(summary->reused, ", ")));
+  if (!summary->report_path.empty()) {
+    context.Info(absl::StrCat(
+        "report: ", (input.session_dir / summary->report_path).string()));
+  }
+  const auto total = static_cast<int64_t>(steps->size());
+  return context.Progress(total, total, "done");
+}
+
+}  // namespace hdrstereo::jobs

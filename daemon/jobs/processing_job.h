@@ -1,0 +1,46 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// Processing jobs: run the session pipeline (processing/pipeline) on what a
+// session's captures recorded, record every output file as an artifact and
+// the evaluation as metrics rows. The job's request is a serialized
+// v1::SubmitProcessingRequest.
+#ifndef HDRSTEREO_DAEMON_JOBS_PROCESSING_JOB_H_
+#define HDRSTEREO_DAEMON_JOBS_PROCESSING_JOB_H_
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "daemon/jobs/job_engine.h"
+#include "hardware/rig.h"
+#include "hdrstereo/v1/jobs.pb.h"
+
+namespace hdrstereo::jobs {
+
+struct ProcessingEnvironment {
+  int threads = 2;  // for the pipeline's independent steps
+  // Shown in the report's capture summary ("hardware", "simulated: ...").
+  std::vector<std::pair<std::string, std::string>> summary;
+};
+
+// Validates `request` (session name, step names) and queues a processing
+// job. INVALID_ARGUMENT for an unknown step (listing the known ones),
+// NOT_FOUND for an unknown session, FAILED_PRECONDITION when the session
+// has nothing to process: no stereo capture, or only incomplete ones (the
+// error names the capture and its first missing frame). Captures of the
+// session still queued or running count as future input: the job waits for
+// them when it starts.
+absl::StatusOr<store::JobRecord> SubmitProcessing(
+    JobEngine& engine, const hardware::Rig& rig,
+    const v1::SubmitProcessingRequest& request);
+
+// The job runner for processing jobs (JobKind::kProcessing).
+absl::Status RunProcessingJob(const hardware::Rig& rig,
+                              const ProcessingEnvironment& environment,
+                              JobContext& context);
+
+}  // namespace hdrstereo::jobs
+
+#endif  // HDRSTEREO_DAEMON_JOBS_PROCESSING_JOB_H_

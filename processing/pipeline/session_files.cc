@@ -1,0 +1,336 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "processing/pipeline/session_files.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <system_error>
+#include <tuple>
+#include <utility>
+#include <vector>
+
+#include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
+#include "absl/strings/strip.h"
+#include "processing/io/atomic_file.h"
+#include "processing/io/image.h"
+#include "processing/structured_light/capture_io.h"
+
+namespace hdrstereo::pipeline {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+int ViewIndex(const std::string& name) {
+  if (name == "left" || name == "view0") return 0;
+  if (name == "right" || name == "view1") return 1;
+  return -1;
+}
+
+// "exp_1-30s" or "..._exp_1-30s" -> seconds (0 when absent).
+double ExposureOf(const std::string& stem) {
+  const size_t at = stem.rfind("exp_");
+  if (at == std::string::npos) return 0;
+  return structured_light::ParseExposureTag(stem.substr(at + 4)).value_or(0);
+}
+
+// "sl_col_b03_inv_exp_1-30s" -> pattern "col_b03", inverse.
+void PatternOf(const std::string& stem, FrameInput* f) {
+  if (!absl::StartsWith(stem, "sl_")) return;
+  std::string id = stem.substr(3);
+  const size_t at = id.rfind("_exp_");
+  if (at != std::string::npos) id = id.substr(0, at);
+  if (absl::EndsWith(id, "_inv")) {
+    f->inverse = true;
+    id = id.substr(0, id.size() - 4);
+  }
+  f->pattern = id;
+}
+
+// Middlebury calib.txt: "cam0=[fx 0 cx; 0 fy cy; 0 0 1]", "baseline=...".
+void ReadCalib(const fs::path& path, SessionInput* in) {
+  absl::StatusOr<std::string> text = io::ReadFileBytes(path);
+  if (!text.ok()) return;
+  for (absl::string_view line : absl::StrSplit(*text, '\n')) {
+    if (absl::ConsumePrefix(&line, "baseline=")) {
+      double b = 0;
+      if (absl::SimpleAtod(line, &b) && in->baseline_mm <= 0) {
+        in->baseline_mm = b;
+      }
+    } else if (absl::ConsumePrefix(&line, "cam0=")) {
+      std::string m(line);
+      for (char& c : m) {
+        if (c == '[' || c == ']' || c == ';') c = ' ';
+      }
+      std::istringstream s(m);
+      double v[9] = {};
+      for (double& x : v) s >> x;
+      if (s && v[0] > 0 && !in->intrinsics) {
+        in->intrinsics = SessionInput::Intrinsics{v[0], v[4], v[2], v[5]};
+      }
+    }
+  }
+}
+
+json ArtifactToJson(const Artifact& a) {
+  return json{{"step", a.step},     {"kind", a.kind},
+              {"path", a.path},     {"params", a.params_json},
+              {"sha256", a.sha256}, {"size_bytes", a.size_bytes}};
+}
+
+Artifact ArtifactFromJson(const json& j) {
+  Artifact a;
+  a.step = j.value("step", "");
+  a.kind = j.value("kind", "");
+  a.path = j.value("path", "");
+  a.params_json = j.value("params", "");
+  a.sha256 = j.value("sha256", "");
+  a.size_bytes = j.value("size_bytes", int64_t{0});
+  return a;
+}
+
+json MetricToJson(const Metric& m) {
+  return json{{"method", m.method},    {"ground_truth", m.ground_truth},
+              {"rmse", m.rmse},        {"mae", m.mae},
+              {"bad_0_5", m.bad_0_5},  {"bad_1", m.bad_1},
+              {"bad_2", m.bad_2},      {"bad_4", m.bad_4},
+              {"coverage", m.coverage}};
+}
+
+Metric MetricFromJson(const json& j) {
+  Metric m;
+  m.method = j.value("method", "");
+  m.ground_truth = j.value("ground_truth", "");
+  m.rmse = j.value("rmse", 0.0);
+  m.mae = j.value("mae", 0.0);
+  m.bad_0_5 = j.value("bad_0_5", 0.0);
+  m.bad_1 = j.value("bad_1", 0.0);
+  m.bad_2 = j.value("bad_2", 0.0);
+  m.bad_4 = j.value("bad_4", 0.0);
+  m.coverage = j.value("coverage", 0.0);
+  return m;
+}
+
+}  // namespace
+
+namespace {
+absl::StatusOr<SessionInput> DiscoverSessionOrThrow(
+    const fs::path& session_dir);
+}  // namespace
+
+absl::StatusOr<SessionInput> DiscoverSession(const fs::path& session_dir) {
+  try {
+    return DiscoverSessionOrThrow(session_dir);
+  } catch (const fs::filesystem_error& e) {
+    return absl::InternalError(
+        absl::StrCat("discovering ", session_dir.string(), ": ", e.what()));
+  }
+}
+
+absl::StatusOr<JsonRunStore> JsonRunStore::Open(fs::path path) {
+  try {
+    return OpenOrThrow(std::move(path));
+  } catch (const json::exception& e) {
+    return absl::DataLossError(absl::StrCat("pipeline state file: ", e.what()));
+  }
+}
+
+namespace {
+absl::StatusOr<SessionInput> DiscoverSessionOrThrow(
+    const fs::path& session_dir) {
+  std::error_code ec;
+  if (!fs::is_directory(session_dir, ec)) {
+    return absl::NotFoundError(
+        absl::StrCat(session_dir.string(), ": not a session folder"));
+  }
+  SessionInput in;
+  in.session_dir = fs::absolute(session_dir);
+  in.session_name = in.session_dir.filename().string();
+  const fs::path captures = in.session_dir / "captures";
+  std::vector<std::tuple<int64_t, int, std::string, std::string, FrameInput>>
+      found;
+  int64_t latest_stereo = -1;
+  if (fs::is_directory(captures, ec)) {
+    for (const fs::directory_entry& cap : fs::directory_iterator(captures)) {
+      int64_t id = 0;
+      if (!cap.is_directory() ||
+          !absl::SimpleAtoi(cap.path().filename().string(), &id)) {
+        continue;
+      }
+      for (const fs::directory_entry& view : fs::directory_iterator(cap)) {
+        const int v = ViewIndex(view.path().filename().string());
+        if (!view.is_directory() || v < 0) continue;
+        for (const fs::directory_entry& role : fs::directory_iterator(view)) {
+          if (!role.is_directory()) continue;
+          const std::string r = role.path().filename().string();
+          std::string kind;
+          if (r == "stereo" || r == "ambient") {
+            kind = "bracketed_stereo";
+          } else if (r == "structured_light") {
+            kind = "structured_light";
+          } else if (r == "calibration") {
+            kind = "calibration";
+          } else {
+            continue;
+          }
+          for (const fs::directory_entry& file : fs::directory_iterator(role)) {
+            const std::string name = file.path().filename().string();
+            if (!file.is_regular_file() ||
+                absl::StrContains(name, io::kTempFileMarker)) {
+              continue;
+            }
+            FrameInput f;
+            f.path = fs::relative(file.path(), in.session_dir).generic_string();
+            f.capture_kind = kind;
+            f.capture_id = id;
+            f.role = r;
+            f.view_index = v;
+            const std::string stem = file.path().stem().string();
+            f.exposure_s = ExposureOf(stem);
+            PatternOf(stem, &f);
+            if (r == "stereo") latest_stereo = std::max(latest_stereo, id);
+            found.emplace_back(id, v, r, name, std::move(f));
+          }
+        }
+      }
+    }
+  }
+  std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) {
+    return std::tie(std::get<0>(a), std::get<1>(a), std::get<2>(a),
+                    std::get<3>(a)) < std::tie(std::get<0>(b), std::get<1>(b),
+                                               std::get<2>(b), std::get<3>(b));
+  });
+  for (auto& t : found) in.frames.push_back(std::move(std::get<4>(t)));
+  if (latest_stereo >= 0) {
+    const fs::path truth = captures / std::to_string(latest_stereo) / "truth";
+    if (fs::exists(truth / "disp0.pfm", ec)) {
+      in.sim_truth_disparity =
+          fs::relative(truth / "disp0.pfm", in.session_dir).generic_string();
+      if (fs::exists(truth / "nonocc0.png", ec)) {
+        in.sim_truth_nonoccluded =
+            fs::relative(truth / "nonocc0.png", in.session_dir)
+                .generic_string();
+      }
+      ReadCalib(truth / "calib.txt", &in);
+    }
+  }
+  return in;
+}
+
+}  // namespace
+
+absl::StatusOr<JsonRunStore> JsonRunStore::OpenOrThrow(fs::path path) {
+  JsonRunStore store(std::move(path));
+  std::error_code ec;
+  if (!fs::exists(store.path_, ec)) return store;
+  absl::StatusOr<std::string> text = io::ReadFileBytes(store.path_);
+  if (!text.ok()) return text.status();
+  const json j = json::parse(*text, nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded() || !j.is_object()) {
+    return absl::DataLossError(
+        absl::StrCat(store.path_.string(), ": not a pipeline state file"));
+  }
+  if (j.contains("steps") && j["steps"].is_object()) {
+    for (const auto& [step, entry] : j["steps"].items()) {
+      std::vector<Artifact> artifacts;
+      if (entry.contains("artifacts") && entry["artifacts"].is_array()) {
+        for (const json& a : entry["artifacts"]) {
+          artifacts.push_back(ArtifactFromJson(a));
+        }
+      }
+      store.steps_[step] = {entry.value("input_hash", ""),
+                            std::move(artifacts)};
+    }
+  }
+  if (j.contains("metrics") && j["metrics"].is_array()) {
+    for (const json& m : j["metrics"]) {
+      store.metrics_.push_back(MetricFromJson(m));
+    }
+  }
+  return store;
+}
+
+std::vector<Artifact> JsonRunStore::Lookup(const std::string& step,
+                                           const std::string& input_hash) {
+  auto it = steps_.find(step);
+  if (it == steps_.end() || it->second.first != input_hash) return {};
+  return it->second.second;
+}
+
+absl::Status JsonRunStore::Record(const std::string& step,
+                                  const std::string& input_hash,
+                                  const std::vector<Artifact>& artifacts) {
+  steps_[step] = {input_hash, artifacts};
+  return Save();
+}
+
+absl::Status JsonRunStore::RecordMetrics(const std::vector<Metric>& metrics) {
+  metrics_ = metrics;
+  return Save();
+}
+
+absl::Status JsonRunStore::Save() const {
+  json steps = json::object();
+  for (const auto& [step, entry] : steps_) {
+    json artifacts = json::array();
+    for (const Artifact& a : entry.second) {
+      artifacts.push_back(ArtifactToJson(a));
+    }
+    steps[step] = json{{"input_hash", entry.first}, {"artifacts", artifacts}};
+  }
+  json metrics = json::array();
+  for (const Metric& m : metrics_) metrics.push_back(MetricToJson(m));
+  const json j{{"steps", steps}, {"metrics", metrics}};
+  return io::WriteFileAtomically(path_, j.dump(2) + "\n");
+}
+
+std::string MetricsToJson(const std::vector<Metric>& metrics) {
+  json rows = json::array();
+  for (const Metric& m : metrics) rows.push_back(MetricToJson(m));
+  return json{{"metrics", rows}}.dump(2) + "\n";
+}
+
+absl::StatusOr<std::vector<Metric>> MetricsFromJson(const std::string& text) {
+  const json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded() || !j.is_object() || !j.contains("metrics") ||
+      !j["metrics"].is_array()) {
+    return absl::DataLossError("metrics.json: not a metrics file");
+  }
+  std::vector<Metric> out;
+  try {
+    for (const json& m : j["metrics"]) out.push_back(MetricFromJson(m));
+  } catch (const json::exception& e) {
+    return absl::DataLossError(absl::StrCat("metrics.json: ", e.what()));
+  }
+  return out;
+}
+
+std::string FormatMetrics(const std::vector<Metric>& metrics) {
+  std::vector<Metric> sorted = metrics;
+  std::stable_sort(sorted.begin(), sorted.end(),
+                   [](const Metric& a, const Metric& b) {
+                     return std::tie(a.ground_truth, a.rmse) <
+                            std::tie(b.ground_truth, b.rmse);
+                   });
+  std::string out =
+      "| ground truth | method | RMSE | MAE | bad-0.5 % | bad-1 % | bad-2 % | "
+      "bad-4 % | coverage % |\n|---|---|---:|---:|---:|---:|---:|---:|---:|\n";
+  char buf[256];
+  for (const Metric& m : sorted) {
+    std::snprintf(buf, sizeof(buf),
+                  "| %s | %s | %.3f | %.3f | %.1f | %.1f | %.1f | %.1f | "
+                  "%.1f |\n",
+                  m.ground_truth.c_str(), m.method.c_str(), m.rmse, m.mae,
+                  m.bad_0_5, m.bad_1, m.bad_2, m.bad_4, m.coverage);
+    out += buf;
+  }
+  return out;
+}
+
+}  // namespace hdrstereo::pipeline

@@ -1,0 +1,73 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// The pipeline without a daemon (hdrstereo-proc pipeline): a session's
+// frames found from the capture layout on disk, and a RunStore kept in a
+// JSON file in the session folder.
+#ifndef HDRSTEREO_PROCESSING_PIPELINE_SESSION_FILES_H_
+#define HDRSTEREO_PROCESSING_PIPELINE_SESSION_FILES_H_
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "processing/pipeline/pipeline.h"
+
+namespace hdrstereo::pipeline {
+
+// Walks `captures/<id>/<view>/<role>/<file>` (daemon/jobs/capture_plan.cc):
+//   role stereo, ambient  -> capture_kind "bracketed_stereo", exp_<tag>.*
+//   structured_light      -> "structured_light",
+//                            sl_<pattern>[_inv]_exp_<tag>.*
+//   calibration           -> "calibration", pose_NN.*
+// views "left"/"view0" = 0, "right"/"view1" = 1. Frames are ordered by
+// capture id, view, role and file name; sha256 is left empty. When
+// `captures/<latest stereo capture>/truth/disp0.pfm` exists (the
+// simulator's exact truth) it becomes sim_truth_disparity (with
+// nonocc0.png), and its calib.txt gives baseline_mm and the intrinsics.
+// session_name is the folder's name. NOT_FOUND when `session_dir` is not
+// a folder; a session without captures gives no frames (not an error).
+absl::StatusOr<SessionInput> DiscoverSession(
+    const std::filesystem::path& session_dir);
+
+// A RunStore in one JSON file, rewritten atomically on every change:
+//   {"steps": {"<step>": {"input_hash": "...", "artifacts": [...]}},
+//    "metrics": [...]}
+class JsonRunStore : public RunStore {
+ public:
+  // Reads `path` if it exists (a missing file is an empty store).
+  static absl::StatusOr<JsonRunStore> Open(std::filesystem::path path);
+
+  std::vector<Artifact> Lookup(const std::string& step,
+                               const std::string& input_hash) override;
+  absl::Status Record(const std::string& step, const std::string& input_hash,
+                      const std::vector<Artifact>& artifacts) override;
+  absl::Status RecordMetrics(const std::vector<Metric>& metrics) override;
+
+  const std::vector<Metric>& metrics() const { return metrics_; }
+
+ private:
+  explicit JsonRunStore(std::filesystem::path path) : path_(std::move(path)) {}
+  static absl::StatusOr<JsonRunStore> OpenOrThrow(std::filesystem::path path);
+  absl::Status Save() const;
+
+  std::filesystem::path path_;
+  std::map<std::string, std::pair<std::string, std::vector<Artifact>>> steps_;
+  std::vector<Metric> metrics_;
+};
+
+// metrics.json as the evaluate step writes it: {"metrics": [{"method": ...,
+// "ground_truth": ..., "rmse": ..., "mae": ..., "bad_0_5": ..., "bad_1": ...,
+// "bad_2": ..., "bad_4": ..., "coverage": ...}, ...]} (stable formatting).
+std::string MetricsToJson(const std::vector<Metric>& metrics);
+absl::StatusOr<std::vector<Metric>> MetricsFromJson(const std::string& text);
+
+// The metrics as a Markdown table sorted by ground truth, then RMSE.
+std::string FormatMetrics(const std::vector<Metric>& metrics);
+
+}  // namespace hdrstereo::pipeline
+
+#endif  // HDRSTEREO_PROCESSING_PIPELINE_SESSION_FILES_H_

@@ -1,0 +1,242 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// Processing jobs end to end: the real daemon with simulated hardware, real
+// SQLite, gRPC and CLI. A session is captured (bracketed stereo and
+// structured light of the bundled lab-lamp scene at a small size), processed
+// by the pipeline, and what it produced is checked against the database, the
+// files and the simulator's exact truth.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <map>
+#include <set>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
+#include "processing/io/sha256.h"
+#include "tests/support/daemon_fixture.h"
+
+namespace hdrstereo {
+namespace {
+
+namespace fs = std::filesystem;
+using ::hdrstereo::testing::CommandResult;
+using ::hdrstereo::testing::SmallLabLamp;
+using ::testing::HasSubstr;
+using ::testing::Not;
+
+int64_t JsonInt(const nlohmann::json& value) {
+  if (value.is_string()) return std::stoll(value.get<std::string>());
+  return value.is_number() ? value.get<int64_t>() : 0;
+}
+
+class ProcessingTest : public ::hdrstereo::testing::DaemonFixture {
+ protected:
+  void StartSim(nlohmann::json patch = SmallLabLamp()) {
+    StartDaemon({"--sim-scene", WriteScene("lab-lamp", patch).string()});
+  }
+
+  void Capture(const std::string& session, const std::string& kind) {
+    CommandResult r = Cli({"capture", kind, session, "--watch"});
+    ASSERT_EQ(r.exit_code, 0) << r.out;
+  }
+
+  fs::path SessionDir(const std::string& session) const {
+    return data_root() / "sessions" / session;
+  }
+
+  // Runs `process` and returns the job's "computed: ...; reused: ..." line.
+  std::string Process(const std::string& session,
+                      std::vector<std::string> extra = {}) {
+    std::vector<std::string> args = {"process", session};
+    args.insert(args.end(), extra.begin(), extra.end());
+    nlohmann::json job = CliJson(args);
+    const int64_t id = JsonInt(job["id"]);
+    EXPECT_GT(id, 0) << job;
+    EXPECT_TRUE(WaitForJobState(id, "succeeded")) << daemon_log();
+    return Sql(absl::StrCat("SELECT message FROM job_events WHERE job_id = ",
+                            id, " AND message LIKE 'computed:%'"));
+  }
+
+  std::map<std::string, double> Rmse(const std::string& session,
+                                     const std::string& ground_truth) {
+    std::map<std::string, double> out;
+    const std::string rows = Sql(absl::StrCat(
+        "SELECT group_concat(m.method || '=' || m.rmse, ';') FROM metrics m "
+        "JOIN sessions s ON s.id = m.session_id WHERE s.name = '",
+        session, "' AND m.ground_truth = '", ground_truth, "'"));
+    for (absl::string_view row : absl::StrSplit(rows, ';', absl::SkipEmpty())) {
+      std::pair<std::string, std::string> kv = absl::StrSplit(row, '=');
+      out[kv.first] = std::stod(kv.second);
+    }
+    return out;
+  }
+};
+
+TEST_F(ProcessingTest, CaptureProcessArtifactsMetricsAndReuse) {
+  StartSim();
+  ASSERT_EQ(Cli({"session", "create", "p"}).exit_code, 0);
+  Capture("p", "stereo");
+  Capture("p", "sl");
+  EXPECT_TRUE(fs::exists(SessionDir("p") / "captures/1/truth/disp0.pfm"))
+      << "a simulated stereo capture carries its exact truth";
+
+  CommandResult run = Cli({"process", "p", "--watch"});
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err << daemon_log();
+  EXPECT_THAT(run.out, HasSubstr("METHOD")) << "the metrics table is printed";
+
+  // Every artifact row names an existing file with its sha256; the kinds the
+  // pipeline promises are there.
+  nlohmann::json artifacts = CliJson({"artifacts", "p"});
+  ASSERT_TRUE(artifacts.contains("artifacts")) << artifacts;
+  std::set<std::string> kinds;
+  std::set<std::string> paths;
+  for (const nlohmann::json& a : artifacts["artifacts"]) {
+    const fs::path file = SessionDir("p") / a["path"].get<std::string>();
+    absl::StatusOr<std::string> sha = io::Sha256HexOfFile(file);
+    ASSERT_TRUE(sha.ok()) << file << " is missing";
+    EXPECT_EQ(*sha, a["sha256"].get<std::string>()) << file;
+    kinds.insert(a["kind"].get<std::string>());
+    paths.insert(a["path"].get<std::string>());
+  }
+  EXPECT_EQ(Sql("SELECT count(*) FROM artifacts"),
+            std::to_string(artifacts["artifacts"].size()));
+  for (const char* kind : {"hdr", "tonemapped", "disparity", "report"}) {
+    EXPECT_TRUE(kinds.contains(kind)) << "no artifact of kind " << kind;
+  }
+  for (const char* path : {"im0.png", "im1.png", "disp0GT.pfm", "mask0nocc.png",
+                           "calib.txt", "report/index.html"}) {
+    EXPECT_TRUE(paths.contains(path)) << path << " is not an artifact";
+  }
+
+  // Metrics against both truths; the thesis' claim on the exact truth.
+  std::map<std::string, double> sim = Rmse("p", "simulation");
+  ASSERT_TRUE(sim.contains("ldr") && sim.contains("fused"))
+      << Sql("SELECT method, ground_truth, rmse FROM metrics");
+  EXPECT_LT(sim["fused"], sim["ldr"]);
+  EXPECT_FALSE(Rmse("p", "structured_light").empty());
+  CommandResult metrics = Cli({"metrics", "p"});
+  EXPECT_EQ(metrics.exit_code, 0);
+  EXPECT_THAT(metrics.out, HasSubstr("fused"));
+
+  CommandResult report = Cli({"report", "p", "--open"});
+  EXPECT_EQ(report.exit_code, 0) << report.out;
+  EXPECT_THAT(report.out, HasSubstr("file://"));
+  EXPECT_THAT(report.out, HasSubstr("report/index.html"));
+
+  // Unchanged inputs: nothing is recomputed, no file is rewritten.
+  const std::string kTimes =
+      "SELECT group_concat(t) FROM (SELECT create_time_ms t FROM artifacts "
+      "ORDER BY id)";
+  const std::string times = Sql(kTimes);
+  EXPECT_THAT(Process("p"), HasSubstr("computed: nothing"));
+  EXPECT_EQ(Sql(kTimes), times);
+
+  // A deleted file: only its step runs again (its output is the same, so
+  // what depends on it is reused).
+  const std::string tonemapped =
+      Sql("SELECT path FROM artifacts WHERE step = 'tonemap' LIMIT 1");
+  ASSERT_FALSE(tonemapped.empty());
+  fs::remove(SessionDir("p") / tonemapped);
+  const std::string again = Process("p");
+  const std::string computed = again.substr(0, again.find(';'));
+  EXPECT_THAT(computed, HasSubstr("tonemap")) << again;
+  for (const char* step : {"decode", "hdr", "sl_groundtruth", "stereo"}) {
+    EXPECT_THAT(computed, Not(HasSubstr(step)))
+        << step << " was recomputed: " << again;
+  }
+  EXPECT_TRUE(fs::exists(SessionDir("p") / tonemapped));
+
+  // --force recomputes every step.
+  EXPECT_THAT(Process("p", {"--force"}), HasSubstr("reused: nothing"));
+}
+
+TEST_F(ProcessingTest, DownloadIsResumableAndChecked) {
+  StartSim();
+  ASSERT_EQ(Cli({"session", "create", "d"}).exit_code, 0);
+  Capture("d", "stereo");
+  ASSERT_EQ(Cli({"process", "d", "--steps", "hdr", "--watch"}).exit_code, 0)
+      << daemon_log();
+  nlohmann::json listed = CliJson({"artifacts", "d", "--kind", "hdr"});
+  ASSERT_FALSE(listed["artifacts"].empty()) << listed;
+  const nlohmann::json& artifact = listed["artifacts"][0];
+  const std::string path = artifact["path"].get<std::string>();
+  const std::string bytes =
+      ::hdrstereo::testing::ReadFileOrDie(SessionDir("d") / path);
+  ASSERT_GT(bytes.size(), 16u);
+
+  // An interrupted download (half the bytes in .part) is continued.
+  const fs::path to = dir_ / "download";
+  fs::create_directories((to / path).parent_path());
+  {
+    std::ofstream part(to / (path + ".part"), std::ios::binary);
+    part << bytes.substr(0, bytes.size() / 2);
+  }
+  CommandResult fetched =
+      Cli({"download", "d", "--kind", "hdr", "--to", to.string()});
+  ASSERT_EQ(fetched.exit_code, 0) << fetched.out;
+  EXPECT_EQ(::hdrstereo::testing::ReadFileOrDie(to / path), bytes);
+  EXPECT_FALSE(fs::exists(to / (path + ".part")));
+
+  // A .part that does not match the server's file is caught by the sha256.
+  fs::remove(to / path);
+  {
+    std::ofstream part(to / (path + ".part"), std::ios::binary);
+    part << std::string(bytes.size() / 2, 'x');
+  }
+  CommandResult bad =
+      Cli({"download", "d", "--kind", "hdr", "--to", to.string()});
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_THAT(bad.err, HasSubstr("sha256"));
+  EXPECT_FALSE(fs::exists(to / path));
+  EXPECT_EQ(
+      Cli({"download", "d", "--kind", "hdr", "--to", to.string()}).exit_code,
+      0);
+  EXPECT_EQ(::hdrstereo::testing::ReadFileOrDie(to / path), bytes);
+}
+
+TEST_F(ProcessingTest, BadRequestsNameWhatIsMissingAndDeleteNothing) {
+  const std::string kArtifactRows =
+      "SELECT group_concat(r) FROM (SELECT path || ':' || sha256 r FROM "
+      "artifacts ORDER BY id)";
+  nlohmann::json patch = SmallLabLamp();
+  // The stereo capture takes 17 frames; the structured-light one fails at
+  // its 8th.
+  patch["faults"] = {{"camera", {{"timeout", {{"calls", {25}}}}}}};
+  StartSim(patch);
+  ASSERT_EQ(Cli({"session", "create", "empty"}).exit_code, 0);
+  CommandResult nothing = Cli({"process", "empty"});
+  EXPECT_EQ(nothing.exit_code, 1);
+  EXPECT_THAT(nothing.err, HasSubstr("no bracketed-stereo capture"));
+
+  CommandResult unknown = Cli({"process", "empty", "--steps", "hdr,fuzion"});
+  EXPECT_EQ(unknown.exit_code, 2);
+  EXPECT_THAT(unknown.err, HasSubstr("fuzion"));
+  EXPECT_EQ(Cli({"process", "nosuch"}).exit_code, 4);
+  EXPECT_EQ(Sql("SELECT count(*) FROM jobs"), "0") << "nothing was queued";
+
+  ASSERT_EQ(Cli({"session", "create", "s"}).exit_code, 0);
+  Capture("s", "stereo");
+  ASSERT_EQ(Cli({"process", "s", "--steps", "hdr", "--watch"}).exit_code, 0);
+  const std::string hdr_rows = Sql(kArtifactRows);
+  ASSERT_FALSE(hdr_rows.empty());
+  EXPECT_NE(Cli({"capture", "sl", "s", "--watch"}).exit_code, 0)
+      << "the injected camera timeout fails the structured-light capture";
+
+  CommandResult incomplete = Cli({"process", "s"});
+  EXPECT_EQ(incomplete.exit_code, 1);
+  EXPECT_THAT(incomplete.err, HasSubstr("structured-light capture 2"));
+  EXPECT_THAT(incomplete.err, HasSubstr("incomplete"));
+  EXPECT_THAT(incomplete.err, HasSubstr("structured_light/sl_"));
+  // Steps that do not need it still run; nothing computed was deleted.
+  EXPECT_EQ(Sql(kArtifactRows), hdr_rows);
+  for (absl::string_view row :
+       absl::StrSplit(hdr_rows, ',', absl::SkipEmpty())) {
+    std::pair<std::string, std::string> kv = absl::StrSplit(row, ':');
+    EXPECT_TRUE(fs::exists(SessionDir("s") / kv.first)) << kv.first;
+  }
+}
+
+}  // namespace
+}  // namespace hdrstereo
