@@ -16,6 +16,7 @@
 #include "absl/strings/str_split.h"
 #include "processing/io/sha256.h"
 #include "tests/support/daemon_fixture.h"
+#include "tests/support/subprocess.h"
 
 namespace hdrstereo {
 namespace {
@@ -124,6 +125,26 @@ TEST_F(ProcessingTest, CaptureProcessArtifactsMetricsAndReuse) {
   EXPECT_EQ(report.exit_code, 0) << report.out;
   EXPECT_THAT(report.out, HasSubstr("file://"));
   EXPECT_THAT(report.out, HasSubstr("report/index.html"));
+  // The daemon's report renders in headless Chromium with every image.
+  ASSERT_TRUE(fs::exists("/usr/bin/chromium"))
+      << "chromium missing: run deploy/setup-deps.sh";
+  absl::StatusOr<CommandResult> dom = ::hdrstereo::testing::RunCommand(
+      {"/usr/bin/chromium", "--headless", "--no-sandbox", "--disable-gpu",
+       "--disable-dev-shm-usage", "--no-first-run",
+       absl::StrCat("--user-data-dir=", (dir_ / "chromium").string()),
+       "--virtual-time-budget=10000", "--dump-dom",
+       absl::StrCat("file://",
+                    (SessionDir("p") / "report/index.html").string())},
+      absl::Seconds(120));
+  ASSERT_TRUE(dom.ok()) << dom.status();
+  const size_t loaded = dom->out.find("data-images-loaded=\"");
+  ASSERT_NE(loaded, std::string::npos) << dom->err;
+  const std::string counts = dom->out.substr(
+      loaded + 20, dom->out.find('"', loaded + 20) - loaded - 20);
+  const std::pair<std::string, std::string> ratio = absl::StrSplit(counts, '/');
+  EXPECT_EQ(ratio.first, ratio.second) << "images that did not load";
+  EXPECT_GT(std::stoi(ratio.second), 20);
+  EXPECT_THAT(dom->out, HasSubstr("<table id=\"metrics\">"));
 
   // Unchanged inputs: nothing is recomputed, no file is rewritten.
   const std::string kTimes =

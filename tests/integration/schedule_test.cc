@@ -9,6 +9,7 @@
 #include <signal.h>
 
 #include <fstream>
+#include <set>
 #include <string>
 #include <thread>
 
@@ -40,7 +41,8 @@ class ScheduleTest : public ::hdrstereo::testing::DaemonFixture {
 
 constexpr char kPlan[] = R"({
   "sessionPattern": "e2e-{date}-{time}",
-  "captures": [{"bracketedStereo": {"exposuresS": [0.01, 0.004]}}]
+  "captures": [{"bracketedStereo": {"exposuresS": [0.01, 0.004]}}],
+  "processingSteps": ["hdr"]
 })";
 
 TEST_F(ScheduleTest, ScheduleDueNowCapturesTheSession) {
@@ -68,7 +70,12 @@ TEST_F(ScheduleTest, ScheduleDueNowCapturesTheSession) {
 
   const std::string session = succeeded["session"];
   EXPECT_THAT(session, ::testing::StartsWith("e2e-"));
-  ASSERT_EQ(succeeded["job_ids"].size(), 1u);
+  // The capture, then the processing job that waited for it.
+  ASSERT_EQ(succeeded["job_ids"].size(), 2u);
+  EXPECT_EQ(
+      CliJson({"jobs", "show", succeeded["job_ids"][1].get<std::string>()})
+          .value("kind", ""),
+      "JOB_KIND_PROCESSING");
   // The session holds the capture: one ambient frame + 2 views x 2
   // exposures.
   EXPECT_EQ(Sql("SELECT count(*) FROM frames f JOIN captures c ON "
@@ -79,6 +86,15 @@ TEST_F(ScheduleTest, ScheduleDueNowCapturesTheSession) {
   nlohmann::json shown = CliJson({"session", "show", session});
   EXPECT_EQ(shown.value("frame_count", 0), 5);
   EXPECT_THAT(shown.value("note", ""), HasSubstr("scheduled by e2e"));
+  // ... and what processing made of it: the HDR radiance of both views.
+  nlohmann::json hdr = CliJson({"artifacts", session, "--kind", "hdr"});
+  std::set<std::string> paths;
+  for (const nlohmann::json& a :
+       hdr.value("artifacts", nlohmann::json::array())) {
+    paths.insert(a.value("path", ""));
+  }
+  EXPECT_TRUE(paths.contains("hdr/im0.pfm") && paths.contains("hdr/im1.pfm"))
+      << hdr;
 
   // `schedule list` shows it disabled; runs are listed; delete removes it.
   testing::CommandResult list = Cli({"schedule", "list"});
