@@ -44,9 +44,13 @@
 // whose data increase D_p(alpha) - D_p(f_p) exceeds the largest smoothness
 // saving sum_q w_pq * rho_max cannot switch in any optimal move (they are
 // dominated), so they are not put in the graph: this is exact and keeps the
-// graphs small. With the Potts models, an expansion is also skipped when no
-// pixel that could switch to alpha, nor a neighbour of one, has changed since
-// alpha's last expansion: that move would be rejected (exact as well).
+// graphs small. With the Potts models the saving only counts edges to
+// neighbours that are at alpha or may switch, and an expansion is skipped
+// when no pixel that could switch to alpha, nor a neighbour of one, has
+// changed since alpha's last expansion (that move would be rejected). All
+// of this is exact: max-flow returns the smallest optimal set of switching
+// pixels, which none of it changes, so the labelling is the same as with
+// full graphs.
 //
 // The fusion-move variant (`candidate_labels_only`) lets a pixel switch to
 // alpha only when alpha is within `candidate_label_radius` of one of its
