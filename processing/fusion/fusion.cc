@@ -428,6 +428,308 @@ std::vector<int32_t> WinnerTakesAll(const MrfProblem& pr) {
   return labels;
 }
 
+namespace {
+
+// A pixel's four edge weights, 0 where the neighbour is outside the image, so
+// the inner loops need neither coordinates nor bounds checks.
+struct Neighbours {
+  int32_t left = 0, right = 0, up = 0, down = 0;
+};
+
+template <bool kPotts>
+inline int32_t RhoOf(const MrfProblem& pr, int32_t a, int32_t b) {
+  if constexpr (kPotts) {
+    return a != b ? 1 : 0;
+  } else {
+    return Rho(pr, a, b);
+  }
+}
+
+// For each label, the pixels that may take it in an optimal move, ascending.
+// A pixel can only switch to alpha when D_p(alpha) - D_p(f_p) <= bound_p; as
+// D_p(f_p) >= min_l D_p(l), the pixels with D_p(alpha) <= min_l D_p(l) +
+// bound_p are a static superset. Scanned in blocks whose any-hit test
+// vectorises: most blocks of most labels have no such pixel.
+std::vector<std::vector<int>> ReachableByLabel(
+    const MrfProblem& pr, const std::vector<int32_t>& bound, bool prune) {
+  const int n = pr.width * pr.height;
+  const size_t nz = static_cast<size_t>(n);
+  // Loops in fixed blocks of kBlock pixels (plus a scalar tail) so that -O2
+  // vectorises them.
+  constexpr int kBlock = 64;
+  std::vector<uint16_t> thr(nz, std::numeric_limits<uint16_t>::max());
+  if (prune) {
+    std::vector<uint16_t> dmin(nz, std::numeric_limits<uint16_t>::max());
+    for (int l = 0; l < pr.num_labels; ++l) {
+      const uint16_t* row = pr.data.data() + static_cast<size_t>(l) * nz;
+      uint16_t* dm = dmin.data();
+      size_t p0 = 0;
+      for (; p0 + kBlock <= nz; p0 += kBlock) {
+        uint16_t block[kBlock];
+        for (int j = 0; j < kBlock; ++j) {
+          block[j] = std::min(dm[p0 + static_cast<size_t>(j)],
+                              row[p0 + static_cast<size_t>(j)]);
+        }
+        std::copy_n(block, kBlock, dm + p0);
+      }
+      for (; p0 < nz; ++p0) dm[p0] = std::min(dm[p0], row[p0]);
+    }
+    for (size_t p = 0; p < nz; ++p) {
+      thr[p] = static_cast<uint16_t>(std::min<int32_t>(
+          dmin[p] + bound[p], std::numeric_limits<uint16_t>::max()));
+    }
+  }
+  std::vector<std::vector<int>> reach(static_cast<size_t>(pr.num_labels));
+  for (int l = 0; l < pr.num_labels; ++l) {
+    const uint16_t* row = pr.data.data() + static_cast<size_t>(l) * nz;
+    const uint8_t* ok = pr.allowed.empty()
+                            ? nullptr
+                            : pr.allowed.data() + static_cast<size_t>(l) * nz;
+    std::vector<int>& list = reach[static_cast<size_t>(l)];
+    auto collect = [&](int p0, int p1) {
+      for (int p = p0; p < p1; ++p) {
+        if (row[p] <= thr[static_cast<size_t>(p)] &&
+            (ok == nullptr || ok[p] != 0)) {
+          list.push_back(p);
+        }
+      }
+    };
+    int p0 = 0;
+    for (; p0 + kBlock <= n; p0 += kBlock) {
+      int hit = 0;
+      for (int j = 0; j < kBlock; ++j) {
+        hit |= row[p0 + j] <= thr[static_cast<size_t>(p0 + j)] ? 1 : 0;
+      }
+      if (hit != 0) collect(p0, p0 + kBlock);
+    }
+    collect(p0, n);
+  }
+  return reach;
+}
+
+template <bool kPotts>
+SolverStats Expand(const MrfProblem& pr, std::vector<int32_t>& labels,
+                   int max_cycles, bool prune) {
+  const int n = pr.width * pr.height;
+  const int w = pr.width;
+  const size_t nz = static_cast<size_t>(n);
+  const Clock::time_point t_start = Clock::now();
+  SolverStats stats;
+  std::vector<Neighbours> nb(nz);
+  std::vector<int32_t> cur(nz);
+  // Largest saving a pixel can get from its edges by switching.
+  std::vector<int32_t> bound(nz);
+  const int32_t rho_max = RhoMax(pr);
+  for (int p = 0; p < n; ++p) {
+    const size_t pz = static_cast<size_t>(p);
+    const int x = p % w;
+    Neighbours& e = nb[pz];
+    if (x > 0) e.left = pr.right[pz - 1];
+    if (x + 1 < w) e.right = pr.right[pz];
+    if (p >= w) e.up = pr.down[pz - static_cast<size_t>(w)];
+    if (p + w < n) e.down = pr.down[pz];
+    bound[pz] = (e.left + e.right + e.up + e.down) * rho_max;
+    cur[pz] = pr.data[static_cast<size_t>(labels[pz]) * nz + pz];
+  }
+  const std::vector<std::vector<int>> reach =
+      ReachableByLabel(pr, bound, prune);
+  stats.index_seconds = Seconds(t_start, Clock::now());
+  stats.build_seconds += stats.index_seconds;
+
+  std::vector<int> node(nz, -1);
+  std::vector<int> free_px;
+  free_px.reserve(nz);
+  // Per graph node: the unary difference E(alpha) - E(keep) added by the
+  // edges to earlier nodes (nodes are in ascending pixel order, so a node's
+  // backward edges are all added before it is reached).
+  std::vector<int32_t> from_earlier(nz);
+  std::vector<uint8_t> moved(nz, 0);
+  std::vector<int> changed;
+  changed.reserve(nz);
+  // Expansion skipping (Potts, with pruning): an expansion on alpha from a
+  // labelling that is optimal among its own alpha-expansions cannot lower
+  // the energy, and after alpha's last expansion the labelling is. A later
+  // move changes the energy of alpha's moves only through pixels in
+  // reach[alpha] or their neighbours; when none has changed (stamp <= the
+  // tick of alpha's last expansion), the expansion would be rejected, so it
+  // is skipped. Needs exact cuts: not for the truncated quadratic moves.
+  const bool skip = kPotts && prune;
+  std::vector<int64_t> stamp(nz, 0);
+  std::vector<int64_t> last_run(static_cast<size_t>(pr.num_labels), -1);
+  int64_t tick = 0;
+  Graph graph(n, 2 * n, &MaxflowError);
+
+  int64_t energy = Energy(pr, labels);
+  stats.energy_before = energy;
+  for (int cycle = 0; cycle < max_cycles; ++cycle) {
+    ++stats.cycles;
+    bool improved = false;
+    for (int32_t alpha = 0; alpha < pr.num_labels; ++alpha) {
+      const Clock::time_point t0 = Clock::now();
+      const uint16_t* da = pr.data.data() + static_cast<size_t>(alpha) * nz;
+      const int64_t since = last_run[static_cast<size_t>(alpha)];
+      bool dirty = !skip;
+      free_px.clear();
+      for (int p : reach[static_cast<size_t>(alpha)]) {
+        const size_t pz = static_cast<size_t>(p);
+        dirty |= stamp[pz] > since;
+        if (labels[pz] == alpha) continue;
+        if (prune && da[p] - cur[pz] > bound[pz]) {
+          continue;  // dominated: stays in every optimal move
+        }
+        node[pz] = static_cast<int>(free_px.size());
+        free_px.push_back(p);
+      }
+      if constexpr (kPotts) {
+        if (prune) {
+          // Potts: an edge saves w_pq only if q ends at alpha, i.e. q is at
+          // alpha or may switch (still listed). A pixel whose data increase
+          // exceeds those edges' weights is dominated too; dropping it keeps
+          // the list a superset of the switchers, so one in-place pass is
+          // exact.
+          size_t kept = 0;
+          for (int p : free_px) {
+            const size_t pz = static_cast<size_t>(p);
+            const int32_t excess = da[p] - cur[pz];
+            if (excess > 0) {
+              const Neighbours& e = nb[pz];
+              auto at_alpha = [&](int q) {
+                const size_t qz = static_cast<size_t>(q);
+                return labels[qz] == alpha || node[qz] >= 0;
+              };
+              int32_t saving = 0;
+              if (e.left != 0 && at_alpha(p - 1)) saving += e.left;
+              if (e.right != 0 && at_alpha(p + 1)) saving += e.right;
+              if (e.up != 0 && at_alpha(p - w)) saving += e.up;
+              if (e.down != 0 && at_alpha(p + w)) saving += e.down;
+              if (excess > saving) {
+                node[pz] = -1;
+                continue;
+              }
+            }
+            free_px[kept++] = p;
+          }
+          free_px.resize(kept);
+          for (size_t i = 0; i < kept; ++i) {
+            node[static_cast<size_t>(free_px[i])] = static_cast<int>(i);
+          }
+        }
+      }
+      if (free_px.empty() || !dirty) {
+        for (int p : free_px) node[static_cast<size_t>(p)] = -1;
+        if (!free_px.empty()) ++stats.skipped;
+        stats.build_seconds += Seconds(t0, Clock::now());
+        continue;
+      }
+      const int m = static_cast<int>(free_px.size());
+      graph.reset();
+      graph.add_node(m);
+      std::fill_n(from_earlier.begin(), m, 0);
+      for (int i = 0; i < m; ++i) {
+        const int p = free_px[static_cast<size_t>(i)];
+        const size_t pz = static_cast<size_t>(p);
+        const int32_t fp = labels[pz];
+        // E(alpha) - E(keep) of this node's unary terms.
+        int32_t d = da[p] - cur[pz] + from_earlier[static_cast<size_t>(i)];
+        auto edge = [&](int q, int32_t wpq, bool forward) {
+          if (wpq == 0) return;
+          const size_t qz = static_cast<size_t>(q);
+          const int nq = node[qz];
+          const int32_t fq = labels[qz];
+          if (nq < 0) {
+            d += wpq *
+                 (RhoOf<kPotts>(pr, alpha, fq) - RhoOf<kPotts>(pr, fp, fq));
+          } else if (forward) {
+            const int32_t a = wpq * RhoOf<kPotts>(pr, fp, fq);
+            const int32_t b = wpq * RhoOf<kPotts>(pr, fp, alpha);
+            const int32_t c = wpq * RhoOf<kPotts>(pr, alpha, fq);
+            // E = A + (C - A) x_p + (D - C) x_q + (B + C - A - D)(1-x_p)x_q,
+            // D = 0.
+            d += c - a;
+            from_earlier[static_cast<size_t>(nq)] -= c;
+            const int32_t cap = std::max(b + c - a, 0);
+            if (cap > 0) graph.add_edge(i, nq, cap, 0);
+          }
+        };
+        const Neighbours& e = nb[pz];
+        edge(p + 1, e.right, true);
+        edge(p - 1, e.left, false);
+        edge(p + w, e.down, true);
+        edge(p - w, e.up, false);
+        // x = 1 (switch to alpha) <=> SINK; cap_source is paid in SINK.
+        if (d > 0) {
+          graph.add_tweights(i, d, 0);
+        } else {
+          graph.add_tweights(i, 0, -d);
+        }
+      }
+      const Clock::time_point t1 = Clock::now();
+      graph.maxflow();
+      const Clock::time_point t2 = Clock::now();
+      stats.build_seconds += Seconds(t0, t1);
+      stats.maxflow_seconds += Seconds(t1, t2);
+      ++stats.expansions;
+      stats.graph_nodes += m;
+
+      changed.clear();
+      for (int i = 0; i < m; ++i) {
+        if (graph.what_segment(i) == Graph::SINK) {
+          const int p = free_px[static_cast<size_t>(i)];
+          changed.push_back(p);
+          moved[static_cast<size_t>(p)] = 1;
+        }
+      }
+      // Exact energy change of the move.
+      int64_t delta = 0;
+      for (int p : changed) {
+        const size_t pz = static_cast<size_t>(p);
+        delta += static_cast<int64_t>(da[p]) - cur[pz];
+        const int32_t fp = labels[pz];
+        auto pair = [&](int q, int32_t wpq) {
+          if (wpq == 0) return;
+          const size_t qz = static_cast<size_t>(q);
+          if (moved[qz] && q < p) return;  // counted from q
+          const int32_t fq_new = moved[qz] ? alpha : labels[qz];
+          delta +=
+              static_cast<int64_t>(wpq) * (RhoOf<kPotts>(pr, alpha, fq_new) -
+                                           RhoOf<kPotts>(pr, fp, labels[qz]));
+        };
+        const Neighbours& e = nb[pz];
+        pair(p + 1, e.right);
+        pair(p - 1, e.left);
+        pair(p + w, e.down);
+        pair(p - w, e.up);
+      }
+      if (delta < 0) {
+        ++tick;
+        for (int p : changed) {
+          const size_t pz = static_cast<size_t>(p);
+          labels[pz] = alpha;
+          cur[pz] = da[p];
+          const Neighbours& e = nb[pz];
+          stamp[pz] = tick;
+          if (e.right != 0) stamp[pz + 1] = tick;
+          if (e.left != 0) stamp[pz - 1] = tick;
+          if (e.down != 0) stamp[pz + static_cast<size_t>(w)] = tick;
+          if (e.up != 0) stamp[pz - static_cast<size_t>(w)] = tick;
+        }
+        energy += delta;
+        improved = true;
+        ++stats.accepted;
+      }
+      last_run[static_cast<size_t>(alpha)] = tick;
+      for (int p : changed) moved[static_cast<size_t>(p)] = 0;
+      for (int p : free_px) node[static_cast<size_t>(p)] = -1;
+    }
+    if (!improved) break;
+  }
+  stats.energy_after = energy;
+  stats.total_seconds = Seconds(t_start, Clock::now());
+  return stats;
+}
+
+}  // namespace
+
 absl::StatusOr<SolverStats> AlphaExpansion(const MrfProblem& pr,
                                            std::vector<int32_t>* labels_ptr,
                                            int max_cycles,
@@ -442,209 +744,19 @@ absl::StatusOr<SolverStats> AlphaExpansion(const MrfProblem& pr,
   if (n64 > std::numeric_limits<int>::max() / 4) {
     return absl::InvalidArgumentError("fusion: image too large");
   }
-  std::vector<int32_t>& labels = *labels_ptr;
-  for (int32_t l : labels) {
+  for (int32_t l : *labels_ptr) {
     if (l < 0 || l >= pr.num_labels) {
       return absl::InvalidArgumentError(absl::StrCat(
           "fusion: initial label ", l, " out of [0, ", pr.num_labels, ")"));
     }
   }
-  const int n = static_cast<int>(n64);
-  const int w = pr.width;
-  const Clock::time_point t_start = Clock::now();
-  SolverStats stats;
   try {
-    std::vector<int32_t> cur(static_cast<size_t>(n));
-    for (int p = 0; p < n; ++p) {
-      cur[static_cast<size_t>(p)] =
-          pr.data[static_cast<size_t>(labels[static_cast<size_t>(p)]) *
-                      static_cast<size_t>(n) +
-                  static_cast<size_t>(p)];
-    }
-    // Largest saving a pixel can get from its edges by switching.
-    std::vector<int64_t> bound(static_cast<size_t>(n), 0);
-    const int64_t rho_max = RhoMax(pr);
-    for (int p = 0; p < n; ++p) {
-      const int x = p % w;
-      int64_t b = 0;
-      if (x + 1 < w) b += pr.right[static_cast<size_t>(p)];
-      if (x > 0) b += pr.right[static_cast<size_t>(p - 1)];
-      if (p + w < n) b += pr.down[static_cast<size_t>(p)];
-      if (p - w >= 0) b += pr.down[static_cast<size_t>(p - w)];
-      bound[static_cast<size_t>(p)] = b * rho_max;
-    }
-    // A pixel can only switch to alpha in an optimal move when
-    // D_p(alpha) - D_p(f_p) <= bound_p; as D_p(f_p) >= min_l D_p(l), the
-    // pixels with D_p(alpha) - min_l D_p(l) <= bound_p are a static superset,
-    // listed once per label so an expansion scans only its list.
-    std::vector<int32_t> dmin(static_cast<size_t>(n),
-                              std::numeric_limits<int32_t>::max());
-    for (int l = 0; l < pr.num_labels; ++l) {
-      const uint16_t* row =
-          pr.data.data() + static_cast<size_t>(l) * static_cast<size_t>(n);
-      for (int p = 0; p < n; ++p) {
-        dmin[static_cast<size_t>(p)] =
-            std::min<int32_t>(dmin[static_cast<size_t>(p)], row[p]);
-      }
-    }
-    std::vector<std::vector<int>> reach(static_cast<size_t>(pr.num_labels));
-    for (int l = 0; l < pr.num_labels; ++l) {
-      const uint16_t* row =
-          pr.data.data() + static_cast<size_t>(l) * static_cast<size_t>(n);
-      const uint8_t* ok = pr.allowed.empty()
-                              ? nullptr
-                              : pr.allowed.data() + static_cast<size_t>(l) *
-                                                        static_cast<size_t>(n);
-      std::vector<int>& list = reach[static_cast<size_t>(l)];
-      for (int p = 0; p < n; ++p) {
-        if (ok != nullptr && ok[p] == 0) continue;
-        if (!prune_dominated || row[p] - dmin[static_cast<size_t>(p)] <=
-                                    bound[static_cast<size_t>(p)]) {
-          list.push_back(p);
-        }
-      }
-    }
-    stats.build_seconds += Seconds(t_start, Clock::now());
-    std::vector<int> node(static_cast<size_t>(n), -1);
-    std::vector<int> free_px;
-    free_px.reserve(static_cast<size_t>(n));
-    std::vector<int64_t> e0(static_cast<size_t>(n)), e1(static_cast<size_t>(n));
-    std::vector<uint8_t> moved(static_cast<size_t>(n), 0);
-    std::vector<int> changed;
-    changed.reserve(static_cast<size_t>(n));
-    Graph graph(n, 2 * n, &MaxflowError);
-
-    int64_t energy = Energy(pr, labels);
-    stats.energy_before = energy;
-    for (int cycle = 0; cycle < max_cycles; ++cycle) {
-      ++stats.cycles;
-      bool improved = false;
-      for (int32_t alpha = 0; alpha < pr.num_labels; ++alpha) {
-        const Clock::time_point t0 = Clock::now();
-        const uint16_t* da = pr.data.data() + static_cast<size_t>(alpha) *
-                                                  static_cast<size_t>(n);
-        free_px.clear();
-        for (int p : reach[static_cast<size_t>(alpha)]) {
-          if (labels[static_cast<size_t>(p)] == alpha) continue;
-          if (prune_dominated && da[p] - cur[static_cast<size_t>(p)] >
-                                     bound[static_cast<size_t>(p)]) {
-            continue;  // dominated: stays in every optimal move
-          }
-          node[static_cast<size_t>(p)] = static_cast<int>(free_px.size());
-          free_px.push_back(p);
-        }
-        if (free_px.empty()) {
-          stats.build_seconds += Seconds(t0, Clock::now());
-          continue;
-        }
-        const int m = static_cast<int>(free_px.size());
-        graph.reset();
-        graph.add_node(m);
-        for (int i = 0; i < m; ++i) {
-          const int p = free_px[static_cast<size_t>(i)];
-          e0[static_cast<size_t>(i)] = cur[static_cast<size_t>(p)];
-          e1[static_cast<size_t>(i)] = da[p];
-        }
-        for (int i = 0; i < m; ++i) {
-          const int p = free_px[static_cast<size_t>(i)];
-          const int32_t fp = labels[static_cast<size_t>(p)];
-          const int x = p % w;
-          auto edge = [&](int q, int32_t wpq, bool forward) {
-            if (wpq == 0) return;
-            const int nq = node[static_cast<size_t>(q)];
-            const int32_t fq = labels[static_cast<size_t>(q)];
-            if (nq < 0) {
-              e0[static_cast<size_t>(i)] +=
-                  static_cast<int64_t>(wpq) * Rho(pr, fp, fq);
-              e1[static_cast<size_t>(i)] +=
-                  static_cast<int64_t>(wpq) * Rho(pr, alpha, fq);
-            } else if (forward) {
-              const int64_t a = static_cast<int64_t>(wpq) * Rho(pr, fp, fq);
-              const int64_t b = static_cast<int64_t>(wpq) * Rho(pr, fp, alpha);
-              const int64_t c = static_cast<int64_t>(wpq) * Rho(pr, alpha, fq);
-              // E = A + (C - A) x_p + (D - C) x_q + (B + C - A - D)(1-x_p)x_q,
-              // D = 0.
-              e1[static_cast<size_t>(i)] += c - a;
-              e1[static_cast<size_t>(nq)] -= c;
-              const int64_t cap = std::max<int64_t>(b + c - a, 0);
-              if (cap > 0) graph.add_edge(i, nq, static_cast<int>(cap), 0);
-            }
-          };
-          if (x + 1 < w) edge(p + 1, pr.right[static_cast<size_t>(p)], true);
-          if (x > 0) edge(p - 1, pr.right[static_cast<size_t>(p - 1)], false);
-          if (p + w < n) edge(p + w, pr.down[static_cast<size_t>(p)], true);
-          if (p - w >= 0) {
-            edge(p - w, pr.down[static_cast<size_t>(p - w)], false);
-          }
-        }
-        for (int i = 0; i < m; ++i) {
-          // x = 1 (switch to alpha) <=> SINK; cap_source is paid in SINK.
-          const int64_t d =
-              e1[static_cast<size_t>(i)] - e0[static_cast<size_t>(i)];
-          if (d > 0) {
-            graph.add_tweights(i, static_cast<int>(d), 0);
-          } else {
-            graph.add_tweights(i, 0, static_cast<int>(-d));
-          }
-        }
-        const Clock::time_point t1 = Clock::now();
-        graph.maxflow();
-        const Clock::time_point t2 = Clock::now();
-        stats.build_seconds += Seconds(t0, t1);
-        stats.maxflow_seconds += Seconds(t1, t2);
-        ++stats.expansions;
-        stats.graph_nodes += m;
-
-        changed.clear();
-        for (int i = 0; i < m; ++i) {
-          if (graph.what_segment(i) == Graph::SINK) {
-            const int p = free_px[static_cast<size_t>(i)];
-            changed.push_back(p);
-            moved[static_cast<size_t>(p)] = 1;
-          }
-        }
-        // Exact energy change of the move.
-        int64_t delta = 0;
-        auto new_label = [&](int q) {
-          return moved[static_cast<size_t>(q)] ? alpha
-                                               : labels[static_cast<size_t>(q)];
-        };
-        for (int p : changed) {
-          delta += static_cast<int64_t>(da[p]) - cur[static_cast<size_t>(p)];
-          const int32_t fp = labels[static_cast<size_t>(p)];
-          const int x = p % w;
-          auto pair = [&](int q, int32_t wpq) {
-            if (wpq == 0) return;
-            if (moved[static_cast<size_t>(q)] && q < p) return;  // counted
-            delta += static_cast<int64_t>(wpq) *
-                     (Rho(pr, alpha, new_label(q)) -
-                      Rho(pr, fp, labels[static_cast<size_t>(q)]));
-          };
-          if (x + 1 < w) pair(p + 1, pr.right[static_cast<size_t>(p)]);
-          if (x > 0) pair(p - 1, pr.right[static_cast<size_t>(p - 1)]);
-          if (p + w < n) pair(p + w, pr.down[static_cast<size_t>(p)]);
-          if (p - w >= 0) pair(p - w, pr.down[static_cast<size_t>(p - w)]);
-        }
-        if (delta < 0) {
-          for (int p : changed) {
-            labels[static_cast<size_t>(p)] = alpha;
-            cur[static_cast<size_t>(p)] = da[p];
-          }
-          energy += delta;
-          improved = true;
-          ++stats.accepted;
-        }
-        for (int p : changed) moved[static_cast<size_t>(p)] = 0;
-        for (int p : free_px) node[static_cast<size_t>(p)] = -1;
-      }
-      if (!improved) break;
-    }
-    stats.energy_after = energy;
+    return pr.potts
+               ? Expand<true>(pr, *labels_ptr, max_cycles, prune_dominated)
+               : Expand<false>(pr, *labels_ptr, max_cycles, prune_dominated);
   } catch (const std::bad_alloc&) {
     return absl::ResourceExhaustedError("fusion: out of memory in max-flow");
   }
-  stats.total_seconds = Seconds(t_start, Clock::now());
-  return stats;
 }
 
 absl::StatusOr<FusionResult> FuseAlphaExpansion(

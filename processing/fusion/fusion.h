@@ -44,7 +44,13 @@
 // whose data increase D_p(alpha) - D_p(f_p) exceeds the largest smoothness
 // saving sum_q w_pq * rho_max cannot switch in any optimal move (they are
 // dominated), so they are not put in the graph: this is exact and keeps the
-// graphs small.
+// graphs small. With the Potts models the saving only counts edges to
+// neighbours that are at alpha or may switch, and an expansion is skipped
+// when no pixel that could switch to alpha, nor a neighbour of one, has
+// changed since alpha's last expansion (that move would be rejected). All
+// of this is exact: max-flow returns the smallest optimal set of switching
+// pixels, which none of it changes, so the labelling is the same as with
+// full graphs.
 //
 // The fusion-move variant (`candidate_labels_only`) lets a pixel switch to
 // alpha only when alpha is within `candidate_label_radius` of one of its
@@ -82,8 +88,9 @@ struct FusionParams {
   double quadratic_c = 50.0;       // Eq. 5.6, on [0, 1] grey
   int quadratic_truncation = 4;    // rho cap for kQuadratic
   int max_cycles = 20;
-  // Leave dominated pixels out of the expansion graphs (exact; see above).
-  // false builds the full graph of every pixel not at alpha (for comparison).
+  // Leave dominated pixels out of the expansion graphs and skip expansions
+  // that cannot change anything (both exact; see above). false builds the
+  // full graph of every pixel not at alpha in every expansion (comparison).
   bool prune_dominated = true;
   bool candidate_labels_only = false;  // fusion-move variant
   int candidate_label_radius = 1;
@@ -111,10 +118,12 @@ struct SolverStats {
   int64_t energy_after = 0;
   int cycles = 0;
   int expansions = 0;        // max-flow calls
+  int skipped = 0;           // expansions proven unable to change anything
   int accepted = 0;          // moves that lowered the energy
   int64_t graph_nodes = 0;   // summed over expansions
   double setup_seconds = 0;  // data term + WTA (FuseAlphaExpansion only)
   double build_seconds = 0;  // graph construction (incl. pruning scan)
+  double index_seconds = 0;  // of build_seconds: per-label pixel lists, once
   double maxflow_seconds = 0;
   double total_seconds = 0;
 };

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <limits>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <vector>
 
@@ -86,6 +87,9 @@ TEST(AlphaExpansion, PruningDoesNotChangeTheResult) {
     absl::StatusOr<SolverStats> b = AlphaExpansion(pr, &full, 20, false);
     ASSERT_TRUE(a.ok() && b.ok());
     EXPECT_EQ(a->energy_after, b->energy_after) << "instance " << t;
+    // Potts moves are exact cuts and max-flow returns the smallest set of
+    // switching pixels among the optimal moves, which the pruning keeps.
+    EXPECT_EQ(pruned, full) << "instance " << t;
     EXPECT_LE(a->graph_nodes, b->graph_nodes);
   }
 }
@@ -232,6 +236,48 @@ TEST(Fuse, OneCorruptedCandidateAmongSeven) {
   absl::StatusOr<cv::Mat> mean = FuseMean(cands, kMaxDisp);
   ASSERT_TRUE(mean.ok());
   EXPECT_GT(cv::norm(*mean, truth, cv::NORM_INF), 1.0);
+}
+
+// The fusion MRF of candidates with wrong regions, where most pixels are
+// dominated for most labels: pruning, the neighbour-aware Potts bound and
+// skipped expansions leave the labelling unchanged and the graphs smaller.
+TEST(Fuse, PruningKeepsTheLabellingOfACandidateProblem) {
+  const cv::Mat truth = Truth();
+  std::mt19937 rng(5);
+  std::normal_distribution<float> noise(0.0f, 0.4f);
+  std::uniform_real_distribution<float> any(0.0f, kMaxDisp);
+  std::uniform_int_distribution<int> px(0, kW - 1), py(0, kH - 1);
+  std::vector<cv::Mat> cands;
+  for (int k = 0; k < 5; ++k) {
+    cv::Mat c = truth.clone();
+    for (float& v : cv::Mat_<float>(c)) v += noise(rng);
+    for (int b = 0; b < 4; ++b) {
+      cv::circle(c, cv::Point(px(rng), py(rng)), 5, cv::Scalar(any(rng)),
+                 cv::FILLED);
+    }
+    cands.push_back(c);
+  }
+  for (SmoothnessModel s :
+       {SmoothnessModel::kPottsLinear, SmoothnessModel::kQuadratic}) {
+    FusionParams p = Params();
+    p.smoothness = s;
+    absl::StatusOr<MrfProblem> pr = BuildProblem(cands, Guide(), p);
+    ASSERT_TRUE(pr.ok()) << pr.status();
+    std::vector<int32_t> pruned = WinnerTakesAll(*pr);
+    std::vector<int32_t> full = pruned;
+    absl::StatusOr<SolverStats> a = AlphaExpansion(*pr, &pruned, 20, true);
+    absl::StatusOr<SolverStats> b = AlphaExpansion(*pr, &full, 20, false);
+    ASSERT_TRUE(a.ok() && b.ok());
+    EXPECT_LT(a->energy_after, a->energy_before);
+    EXPECT_EQ(a->energy_after, b->energy_after);
+    EXPECT_EQ(a->energy_after, Energy(*pr, pruned));
+    EXPECT_LE(a->graph_nodes, b->graph_nodes);
+    if (s == SmoothnessModel::kPottsLinear) {
+      EXPECT_EQ(pruned, full);
+      EXPECT_LT(a->graph_nodes, b->graph_nodes / 4)
+          << a->graph_nodes << " vs " << b->graph_nodes;
+    }
+  }
 }
 
 TEST(Fuse, InvalidCandidatesContributeNothing) {

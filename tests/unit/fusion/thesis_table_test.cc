@@ -70,11 +70,12 @@ TEST(ThesisTable, FusionBeatsLdrTmosMeanAndMedian) {
   RecordProperty("ldr_rmse", std::to_string(ldr));
   RecordProperty("median_rmse", std::to_string(MeanRmse(results, "median")));
 
-  // What the simulated data supports (measured at 256 px, 2026-11-23:
-  // fused-7 RMSE 1.44 / bad-1px 12.7 %, LDR 2.16 / 25.3 %, mean 2.13 /
-  // 37.9 %, median 1.48 / 16.4 %, the seven TMOs 1.35 .. 5.69):
-  // fusion clearly beats LDR matching and the mean, beats the median on
-  // bad pixels, and beats the average single TMO and most of them.
+  // What the simulated data supports (measured at 256 px, 2026-11-23 and
+  // 2026-12-01: fused-7 RMSE 1.44 / bad-1px 12.7 %, LDR 2.16 / 25.3 %,
+  // mean 2.13 / 37.9 %, median 1.48 / 16.4 %, the seven TMOs 1.35 .. 5.69,
+  // the closest beaten one He (guided) at 1.62): fusion clearly beats LDR
+  // matching and the mean, beats the median on bad pixels, and beats the
+  // average single TMO and five of the seven.
   EXPECT_LT(fused7, 0.8 * ldr);
   EXPECT_LT(fused7_bad, MeanBad1(results, "LDR") / 1.5);
   EXPECT_LT(fused7, 0.8 * MeanRmse(results, "mean"));
@@ -88,9 +89,11 @@ TEST(ThesisTable, FusionBeatsLdrTmosMeanAndMedian) {
     if (fused7 < rmse) ++beaten;
   }
   EXPECT_LT(fused7, tmo_sum / 7);
-  EXPECT_GE(beaten, 4);
+  EXPECT_GE(beaten, 5);
   // Not supported here (docs/results.md): the thesis' factor of three over
-  // LDR (fused-7 <= LDR / 3) and fused-7 better than every single TMO
+  // LDR (fused-7 <= LDR / 3 = 1.01 at 320 px, where picking the best
+  // candidate per pixel with the truth gives 0.74: the candidates share
+  // their errors in the shadows) and fused-7 better than every single TMO
   // (Drago and Reinhard match better on their own).
 }
 
