@@ -1239,7 +1239,8 @@ absl::Status Runner::Preflight(const std::vector<std::string>& steps) {
       sel_.sl.push_back(f);
       if (sel_.sl_view_folder[v].empty()) {
         // captures/<id>/<view>/structured_light/<file>
-        auto it = fs::path(f.path).begin();
+        const fs::path path(f.path);
+        auto it = path.begin();
         std::advance(it, 2);
         sel_.sl_view_folder[v] = it->string();
       }
