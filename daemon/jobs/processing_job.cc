@@ -17,6 +17,7 @@
 #include "daemon/store/frame_repository.h"
 #include "daemon/store/job_repository.h"
 #include "processing/pipeline/pipeline.h"
+#include "processing/pipeline/session_files.h"
 
 namespace hdrstereo::jobs {
 namespace {
@@ -364,6 +365,8 @@ absl::Status RunProcessingJob(const hardware::Rig& rig,
   if (fs::exists(input.session_dir / truth_dir / "disp0.pfm", ec)) {
     input.sim_truth_disparity = truth_dir + "disp0.pfm";
     input.sim_truth_nonoccluded = truth_dir + "nonocc0.png";
+    // The simulated camera's intrinsics, for the export's calib.txt.
+    pipeline::ReadCalib(input.session_dir / truth_dir / "calib.txt", &input);
   }
   input.capture_summary = environment.summary;
   input.capture_summary.emplace_back(

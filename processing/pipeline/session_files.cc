@@ -53,31 +53,6 @@ void PatternOf(const std::string& stem, FrameInput* f) {
   f->pattern = id;
 }
 
-// Middlebury calib.txt: "cam0=[fx 0 cx; 0 fy cy; 0 0 1]", "baseline=...".
-void ReadCalib(const fs::path& path, SessionInput* in) {
-  absl::StatusOr<std::string> text = io::ReadFileBytes(path);
-  if (!text.ok()) return;
-  for (absl::string_view line : absl::StrSplit(*text, '\n')) {
-    if (absl::ConsumePrefix(&line, "baseline=")) {
-      double b = 0;
-      if (absl::SimpleAtod(line, &b) && in->baseline_mm <= 0) {
-        in->baseline_mm = b;
-      }
-    } else if (absl::ConsumePrefix(&line, "cam0=")) {
-      std::string m(line);
-      for (char& c : m) {
-        if (c == '[' || c == ']' || c == ';') c = ' ';
-      }
-      std::istringstream s(m);
-      double v[9] = {};
-      for (double& x : v) s >> x;
-      if (s && v[0] > 0 && !in->intrinsics) {
-        in->intrinsics = SessionInput::Intrinsics{v[0], v[4], v[2], v[5]};
-      }
-    }
-  }
-}
-
 json ArtifactToJson(const Artifact& a) {
   return json{{"step", a.step},     {"kind", a.kind},
               {"path", a.path},     {"params", a.params_json},
@@ -331,6 +306,30 @@ std::string FormatMetrics(const std::vector<Metric>& metrics) {
     out += buf;
   }
   return out;
+}
+
+void ReadCalib(const fs::path& path, SessionInput* in) {
+  absl::StatusOr<std::string> text = io::ReadFileBytes(path);
+  if (!text.ok()) return;
+  for (absl::string_view line : absl::StrSplit(*text, '\n')) {
+    if (absl::ConsumePrefix(&line, "baseline=")) {
+      double b = 0;
+      if (absl::SimpleAtod(line, &b) && in->baseline_mm <= 0) {
+        in->baseline_mm = b;
+      }
+    } else if (absl::ConsumePrefix(&line, "cam0=")) {
+      std::string m(line);
+      for (char& c : m) {
+        if (c == '[' || c == ']' || c == ';') c = ' ';
+      }
+      std::istringstream s(m);
+      double v[9] = {};
+      for (double& x : v) s >> x;
+      if (s && v[0] > 0 && !in->intrinsics) {
+        in->intrinsics = SessionInput::Intrinsics{v[0], v[4], v[2], v[5]};
+      }
+    }
+  }
 }
 
 }  // namespace hdrstereo::pipeline
