@@ -111,6 +111,8 @@ fi
 
 # 5. udev rules: the stage symlink, and libgphoto2's camera rules when its
 #    generator is installed.
+# (The folders may be missing on a machine without udev or systemd yet.)
+install -d -m 0755 "$udev_dir"
 install -m 0644 "$root/deploy/udev/60-hdrstereo-stage.rules" "$udev_dir/"
 generator=$(find /usr/lib -path '*libgphoto2/print-camera-list' -type f \
               2>/dev/null | head -n 1)
@@ -125,6 +127,7 @@ udevadm control --reload 2>/dev/null || true
 udevadm trigger 2>/dev/null || true
 
 # 6. The unit.
+install -d -m 0755 "$(dirname "$unit")"
 install -m 0644 "$root/deploy/systemd/hdrstereod.service" "$unit"
 if have_systemd; then
   systemctl daemon-reload
