@@ -86,16 +86,6 @@ std::string ViewName(int view_index, int views) {
   return absl::StrCat("view", view_index);
 }
 
-std::string ExposureTag(double seconds) {
-  if (seconds < 0.4) {
-    const double denominator = 1.0 / seconds;
-    if (std::abs(denominator - std::round(denominator)) < 1e-6 * denominator) {
-      return absl::StrFormat("1-%.0fs", denominator);
-    }
-  }
-  return absl::StrReplaceAll(absl::StrFormat("%gs", seconds), {{"+", ""}});
-}
-
 std::string PlanKindName(const v1::CapturePlan& plan) {
   switch (plan.plan_case()) {
     case v1::CapturePlan::kBracketedStereo:

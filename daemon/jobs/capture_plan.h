@@ -14,6 +14,7 @@
 
 #include "absl/status/statusor.h"
 #include "hdrstereo/v1/jobs.pb.h"
+#include "processing/structured_light/capture_io.h"
 #include "processing/structured_light/gray_code.h"
 
 namespace hdrstereo::jobs {
@@ -58,8 +59,7 @@ std::vector<FrameSpec> ExpandPlan(const v1::CapturePlan& plan,
 
 // "left"/"right" for a pair, "view0".. otherwise.
 std::string ViewName(int view_index, int views);
-// "1-125s" for 1/125 s, "0.5s", "2s": file-name-safe exposure.
-std::string ExposureTag(double seconds);
+using structured_light::ExposureTag;
 // "bracketed_stereo", "structured_light" or "calibration".
 std::string PlanKindName(const v1::CapturePlan& plan);
 

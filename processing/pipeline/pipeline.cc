@@ -27,7 +27,6 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
-#include "absl/strings/str_replace.h"
 #include "processing/calib/stereo_calibration.h"
 #include "processing/eval/disparity_eval.h"
 #include "processing/fusion/fusion.h"
@@ -49,6 +48,7 @@
 
 namespace hdrstereo::pipeline {
 namespace fs = std::filesystem;
+using structured_light::ExposureTag;
 
 namespace {
 
@@ -87,17 +87,6 @@ const std::vector<StepDef>& Defs() {
 }
 
 std::string ViewName(int v) { return v == 0 ? "left" : "right"; }
-
-// As daemon/jobs/capture_plan.cc names exposures: "1-125s", "0.5s".
-std::string ExposureTag(double seconds) {
-  if (seconds < 0.4) {
-    const double denominator = 1.0 / seconds;
-    if (std::abs(denominator - std::round(denominator)) < 1e-6 * denominator) {
-      return absl::StrFormat("1-%.0fs", denominator);
-    }
-  }
-  return absl::StrReplaceAll(absl::StrFormat("%gs", seconds), {{"+", ""}});
-}
 
 std::vector<std::string> OperatorNames() {
   std::vector<std::string> out;
@@ -228,6 +217,12 @@ class Runner {
   absl::Status Write(StepIo& io, const std::string& kind,
                      const std::string& rel, const cv::Mat& image,
                      const std::string& params = "");
+  // Creates the folder, writes `rel` with `write` (atomically) and adds it
+  // to the step's outputs.
+  absl::Status WriteOutput(
+      StepIo& io, const std::string& kind, const std::string& rel,
+      const std::string& params,
+      const std::function<absl::Status(const fs::path&)>& write);
   absl::Status WriteText(StepIo& io, const std::string& kind,
                          const std::string& rel, const std::string& text);
   absl::Status CopyFile(StepIo& io, const std::string& kind,
@@ -308,26 +303,23 @@ absl::Status Runner::ParallelFor(int n, const std::string& step,
 absl::Status Runner::Write(StepIo& io, const std::string& kind,
                            const std::string& rel, const cv::Mat& image,
                            const std::string& params) {
-  const fs::path path = dir_ / rel;
-  std::error_code ec;
-  fs::create_directories(path.parent_path(), ec);
-  if (ec) {
-    return absl::InternalError(
-        absl::StrCat(path.parent_path().string(), ": ", ec.message()));
-  }
-  if (absl::Status s = io::WriteImage(path, image); !s.ok()) return s;
-  Artifact a;
-  a.step = io.step;
-  a.kind = kind;
-  a.path = rel;
-  a.params_json = params.empty() ? io.params : params;
-  io.outputs.push_back(std::move(a));
-  return absl::OkStatus();
+  return WriteOutput(io, kind, rel, params, [&](const fs::path& path) {
+    return io::WriteImage(path, image);
+  });
 }
 
 absl::Status Runner::WriteText(StepIo& io, const std::string& kind,
                                const std::string& rel,
                                const std::string& text) {
+  return WriteOutput(io, kind, rel, "", [&](const fs::path& path) {
+    return io::WriteFileAtomically(path, text);
+  });
+}
+
+absl::Status Runner::WriteOutput(
+    StepIo& io, const std::string& kind, const std::string& rel,
+    const std::string& params,
+    const std::function<absl::Status(const fs::path&)>& write) {
   const fs::path path = dir_ / rel;
   std::error_code ec;
   fs::create_directories(path.parent_path(), ec);
@@ -335,12 +327,12 @@ absl::Status Runner::WriteText(StepIo& io, const std::string& kind,
     return absl::InternalError(
         absl::StrCat(path.parent_path().string(), ": ", ec.message()));
   }
-  if (absl::Status s = io::WriteFileAtomically(path, text); !s.ok()) return s;
+  if (absl::Status s = write(path); !s.ok()) return s;
   Artifact a;
   a.step = io.step;
   a.kind = kind;
   a.path = rel;
-  a.params_json = io.params;
+  a.params_json = params.empty() ? io.params : params;
   io.outputs.push_back(std::move(a));
   return absl::OkStatus();
 }

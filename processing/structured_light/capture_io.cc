@@ -14,6 +14,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_replace.h"
 #include "processing/io/image.h"
 #include "processing/structured_light/gray_code.h"
 
@@ -62,6 +63,16 @@ bool ParseFrameName(const std::string& stem, std::string* id, std::string* tag,
 }
 
 }  // namespace
+
+std::string ExposureTag(double seconds) {
+  if (seconds < 0.4) {
+    const double denominator = 1.0 / seconds;
+    if (std::abs(denominator - std::round(denominator)) < 1e-6 * denominator) {
+      return absl::StrFormat("1-%.0fs", denominator);
+    }
+  }
+  return absl::StrReplaceAll(absl::StrFormat("%gs", seconds), {{"+", ""}});
+}
 
 std::optional<double> ParseExposureTag(const std::string& tag) {
   if (!absl::EndsWith(tag, "s") || tag.size() < 2) return std::nullopt;

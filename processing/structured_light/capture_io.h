@@ -29,6 +29,10 @@ absl::StatusOr<ViewFrames> LoadCaptureView(
     const std::filesystem::path& capture_dir, const std::string& view,
     std::optional<cv::Size> projector_size = std::nullopt);
 
+// "1-125s" for 1/125 s, "0.5s", "2s": the file-name-safe exposure tag of
+// the capture layout.
+std::string ExposureTag(double seconds);
+
 // Exposure time of a tag ("1-30s" -> 1/30, "0.5s" -> 0.5); nullopt when it
 // is not one.
 std::optional<double> ParseExposureTag(const std::string& tag);
