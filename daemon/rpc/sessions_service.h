@@ -7,8 +7,8 @@
 
 namespace hdrstereo::rpc {
 
-// Sessions.Create/Get/List/Delete/ListFrames. ListArtifacts and
-// DownloadArtifact answer UNIMPLEMENTED until processing jobs exist.
+// Sessions: create, read and delete sessions; list their frames, the
+// artifacts and metrics processing recorded; stream an artifact's bytes.
 class SessionsService final : public v1::Sessions::Service {
  public:
   explicit SessionsService(store::Store& store)
