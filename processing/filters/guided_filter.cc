@@ -128,37 +128,16 @@ void GuidedFilter::Init(const cv::Mat& guide_float) {
   inv_.assign(6, cv::Mat());
   for (cv::Mat& m : inv_) m.create(sz, CV_32FC1);
   ForRows(sz.height, [&](int y) {
-    const float* m0 = mean_guide_[0].ptr<float>(y);
-    const float* m1 = mean_guide_[1].ptr<float>(y);
-    const float* m2 = mean_guide_[2].ptr<float>(y);
+    const float* m[3] = {mean_guide_[0].ptr<float>(y),
+                         mean_guide_[1].ptr<float>(y),
+                         mean_guide_[2].ptr<float>(y)};
     const float* v[6];
     float* o[6];
     for (int k = 0; k < 6; ++k) {
       v[k] = var[k].ptr<float>(y);
       o[k] = inv_[k].ptr<float>(y);
     }
-    for (int x = 0; x < sz.width; ++x) {
-      const float rr = v[0][x] - m0[x] * m0[x] + eps;
-      const float rg = v[1][x] - m0[x] * m1[x];
-      const float rb = v[2][x] - m0[x] * m2[x];
-      const float gg = v[3][x] - m1[x] * m1[x] + eps;
-      const float gb = v[4][x] - m1[x] * m2[x];
-      const float bb = v[5][x] - m2[x] * m2[x] + eps;
-      const float i_rr = gg * bb - gb * gb;
-      const float i_rg = gb * rb - rg * bb;
-      const float i_rb = rg * gb - gg * rb;
-      const float i_gg = rr * bb - rb * rb;
-      const float i_gb = rb * rg - rr * gb;
-      const float i_bb = rr * gg - rg * rg;
-      const float det = rr * i_rr + rg * i_rg + rb * i_rb;
-      const float inv_det = 1.0f / det;
-      o[0][x] = i_rr * inv_det;
-      o[1][x] = i_rg * inv_det;
-      o[2][x] = i_rb * inv_det;
-      o[3][x] = i_gg * inv_det;
-      o[4][x] = i_gb * inv_det;
-      o[5][x] = i_bb * inv_det;
-    }
+    InvertGuideCovarianceRow(m, v, eps, sz.width, o);
   });
 }
 
@@ -296,6 +275,35 @@ absl::StatusOr<cv::Mat> ApplyGuidedFilter(const cv::Mat& guide,
   absl::StatusOr<GuidedFilter> f = GuidedFilter::Create(guide, options);
   if (!f.ok()) return f.status();
   return f->Filter(src);
+}
+
+void InvertGuideCovarianceRow(const float* const mean[3],
+                              const float* const corr[6], float eps, int width,
+                              float* const inv[6]) {
+  const float* m0 = mean[0];
+  const float* m1 = mean[1];
+  const float* m2 = mean[2];
+  for (int x = 0; x < width; ++x) {
+    const float rr = corr[0][x] - m0[x] * m0[x] + eps;
+    const float rg = corr[1][x] - m0[x] * m1[x];
+    const float rb = corr[2][x] - m0[x] * m2[x];
+    const float gg = corr[3][x] - m1[x] * m1[x] + eps;
+    const float gb = corr[4][x] - m1[x] * m2[x];
+    const float bb = corr[5][x] - m2[x] * m2[x] + eps;
+    const float i_rr = gg * bb - gb * gb;
+    const float i_rg = gb * rb - rg * bb;
+    const float i_rb = rg * gb - gg * rb;
+    const float i_gg = rr * bb - rb * rb;
+    const float i_gb = rb * rg - rr * gb;
+    const float i_bb = rr * gg - rg * rg;
+    const float inv_det = 1.0f / (rr * i_rr + rg * i_rg + rb * i_rb);
+    inv[0][x] = i_rr * inv_det;
+    inv[1][x] = i_rg * inv_det;
+    inv[2][x] = i_rb * inv_det;
+    inv[3][x] = i_gg * inv_det;
+    inv[4][x] = i_gb * inv_det;
+    inv[5][x] = i_bb * inv_det;
+  }
 }
 
 }  // namespace hdrstereo::filters

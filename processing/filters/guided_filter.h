@@ -79,6 +79,14 @@ class GuidedFilter {
   std::vector<cv::Mat> inv_;
 };
 
+// One row of the per-pixel inverse of (Sigma + eps I) for a 3-channel
+// guide, in closed form: `mean` are the box means of the guide's channels,
+// `corr` the box means of their products and `inv` the symmetric inverse,
+// both in the order rr, rg, rb, gg, gb, bb.
+void InvertGuideCovarianceRow(const float* const mean[3],
+                              const float* const corr[6], float eps, int width,
+                              float* const inv[6]);
+
 // One-shot convenience: GuidedFilter::Create(guide, options)->Filter(src).
 absl::StatusOr<cv::Mat> ApplyGuidedFilter(
     const cv::Mat& guide, const cv::Mat& src,

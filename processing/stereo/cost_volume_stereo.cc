@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "processing/filters/guided_filter.h"
 #include "processing/hdr/merge.h"
 
 namespace hdrstereo::stereo {
@@ -266,36 +267,15 @@ ViewPlanes MakeViewPlanes(const MatchingImages& m, const StereoOptions& o,
   v.inv.resize(6);
   for (cv::Mat& p : v.inv) p.create(sz, CV_32FC1);
   for (int y = 0; y < v.h; ++y) {
-    const float* m0 = v.mean[0].ptr<float>(y);
-    const float* m1 = v.mean[1].ptr<float>(y);
-    const float* m2 = v.mean[2].ptr<float>(y);
+    const float* m[3] = {v.mean[0].ptr<float>(y), v.mean[1].ptr<float>(y),
+                         v.mean[2].ptr<float>(y)};
     const float* c[6];
     float* out[6];
     for (int k = 0; k < 6; ++k) {
       c[k] = corr[k].ptr<float>(y);
       out[k] = v.inv[static_cast<size_t>(k)].ptr<float>(y);
     }
-    for (int x = 0; x < v.w; ++x) {
-      const float rr = c[0][x] - m0[x] * m0[x] + eps;
-      const float rg = c[1][x] - m0[x] * m1[x];
-      const float rb = c[2][x] - m0[x] * m2[x];
-      const float gg = c[3][x] - m1[x] * m1[x] + eps;
-      const float gb = c[4][x] - m1[x] * m2[x];
-      const float bb = c[5][x] - m2[x] * m2[x] + eps;
-      const float i_rr = gg * bb - gb * gb;
-      const float i_rg = gb * rb - rg * bb;
-      const float i_rb = rg * gb - gg * rb;
-      const float i_gg = rr * bb - rb * rb;
-      const float i_gb = rb * rg - rr * gb;
-      const float i_bb = rr * gg - rg * rg;
-      const float inv_det = 1.0f / (rr * i_rr + rg * i_rg + rb * i_rb);
-      out[0][x] = i_rr * inv_det;
-      out[1][x] = i_rg * inv_det;
-      out[2][x] = i_rb * inv_det;
-      out[3][x] = i_gg * inv_det;
-      out[4][x] = i_gb * inv_det;
-      out[5][x] = i_bb * inv_det;
-    }
+    filters::InvertGuideCovarianceRow(m, c, eps, v.w, out);
   }
   return v;
 }
