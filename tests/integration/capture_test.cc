@@ -25,16 +25,11 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::hdrstereo::testing::CommandResult;
+using ::hdrstereo::testing::JsonInt;
 using ::hdrstereo::testing::Process;
 using ::hdrstereo::testing::ReadFileOrDie;
 using ::hdrstereo::testing::SmallLabLamp;
 using ::testing::HasSubstr;
-
-// Protobuf's JSON writes 64-bit integers as strings.
-int64_t JsonInt(const nlohmann::json& value) {
-  if (value.is_string()) return std::stoll(value.get<std::string>());
-  return value.is_number() ? value.get<int64_t>() : 0;
-}
 
 class CaptureTest : public ::hdrstereo::testing::DaemonFixture {
  protected:

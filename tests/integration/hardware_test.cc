@@ -47,12 +47,10 @@ nlohmann::json SmallCamera() {
             {"cy", 119.5}}}};
 }
 
-// Protobuf's JSON writes int64 as a string.
 int64_t IdOf(const nlohmann::json& job) {
   EXPECT_TRUE(job.contains("id")) << job.dump();
   if (!job.contains("id")) return -1;
-  if (job["id"].is_string()) return std::stoll(job["id"].get<std::string>());
-  return job["id"].get<int64_t>();
+  return ::hdrstereo::testing::JsonInt(job["id"]);
 }
 
 class HardwareTest : public ::hdrstereo::testing::DaemonFixture {

@@ -23,14 +23,10 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::hdrstereo::testing::CommandResult;
+using ::hdrstereo::testing::JsonInt;
 using ::hdrstereo::testing::SmallLabLamp;
 using ::testing::HasSubstr;
 using ::testing::Not;
-
-int64_t JsonInt(const nlohmann::json& value) {
-  if (value.is_string()) return std::stoll(value.get<std::string>());
-  return value.is_number() ? value.get<int64_t>() : 0;
-}
 
 class ProcessingTest : public ::hdrstereo::testing::DaemonFixture {
  protected:

@@ -13,6 +13,11 @@ namespace hdrstereo::testing {
 
 namespace fs = std::filesystem;
 
+int64_t JsonInt(const nlohmann::json& value) {
+  if (value.is_string()) return std::stoll(value.get<std::string>());
+  return value.is_number() ? value.get<int64_t>() : 0;
+}
+
 nlohmann::json SmallLabLamp() {
   return {{"camera",
            {{"width", 240},

@@ -25,6 +25,10 @@ namespace hdrstereo::testing {
 // quick.
 nlohmann::json SmallLabLamp();
 
+// A 64-bit integer from the CLI's --json output (protobuf's JSON writes
+// int64 as a string); 0 when it is neither a string nor a number.
+int64_t JsonInt(const nlohmann::json& value);
+
 class DaemonFixture : public ::testing::Test {
  protected:
   std::filesystem::path data_root() const { return dir_ / "data"; }
