@@ -2,8 +2,14 @@
 #include "processing/stereo/cost_volume_stereo.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
 #include <limits>
+#include <memory>
+#include <new>
 #include <opencv2/imgproc.hpp>
 #include <utility>
 #include <vector>
@@ -159,26 +165,74 @@ absl::Status CheckMatchingImages(const MatchingImages& m,
 }
 
 // ---------------------------------------------------------------------------
-// Fused slice kernel.
+// Fused block kernel.
 //
-// The image is cut into tiles (strips of rows x ranges of columns, each with
-// a halo of 2r); per tile, a block of disparities at a time, rows stream
-// through three stages, each row computed once per disparity and kept in a
-// ring of 2r + 2 rows:
+// Disparities are processed eight at a time, one per SIMD lane: every
+// quantity of the filter is a vector of eight disparities at one pixel, the
+// guide's values are broadcast to it, and every step, the horizontal window
+// sums included, is lane-wise arithmetic (only the WTA compares lanes). The
+// image is cut into tiles (strips of rows x ranges of columns, each with a halo
+// of 2r); per tile and block of disparities, rows stream through three stages,
+// each kept in a ring of 2r + 2 rows:
 //   cost row j:    p (Eq. 4.1/4.2) minus a constant centre;
 //   stage-1 row i: vertical window sums of p and I_c p (running sums,
 //                  recomputed from the ring every kRefreshRows rows so that
-//                  float rounding cannot drift), horizontal window sums,
-//                  then the guided filter's a = (Sigma + eps)^-1 cov(I, p)
-//                  and b;
+//                  float rounding cannot drift), horizontal running sums
+//                  (recomputed every kRefreshCols columns), then the guided
+//                  filter's a = (Sigma + eps)^-1 cov(I, p) and b;
 //   output row y:  the same two box passes over a and b, q = mean(a) I +
-//                  mean(b), and the running WTA update.
+//                  mean(b), and the WTA update.
 // Borders are reflected (BORDER_REFLECT, as cv::boxFilter in the guided
 // filter). The guide is centred (I - 0.5) and the cost by half its maximum:
 // the filter's output shifts by the cost centre only, and the smaller
-// magnitudes keep the float sums accurate. Nothing full-size is written per
-// slice; a tile's rings stay in L2 and each row of the guide statistics is
-// read once per block of disparities.
+// magnitudes keep the float sums accurate. The other view is stored padded
+// with the border value (and mirrored for the left view), so that the eight
+// partners of a pixel are one contiguous load. Nothing full-size is written
+// per disparity.
+
+// Eight floats, one per disparity of a block (GCC vector extension: AVX2 in
+// the avx2 clone, two SSE registers in the baseline one).
+typedef float V8 __attribute__((vector_size(32)));
+typedef int32_t I8 __attribute__((vector_size(32)));
+constexpr int kLanes = 8;
+
+// Zeroed storage for V8 values, 32-byte aligned: the file is compiled
+// without AVX, so GCC gives V8 only 16-byte alignment (and std::vector
+// allocates accordingly), but the AVX2 clone's aligned moves need 32.
+class V8Buffer {
+ public:
+  void Reset(size_t n) {
+    const size_t bytes = std::max<size_t>(n, 1) * sizeof(V8);
+    data_.reset(static_cast<V8*>(std::aligned_alloc(32, bytes)));
+    if (data_ == nullptr) throw std::bad_alloc();
+    std::memset(static_cast<void*>(data_.get()), 0, bytes);
+  }
+  V8* data() const { return data_.get(); }
+
+ private:
+  struct Free {
+    void operator()(V8* p) const { std::free(p); }
+  };
+  std::unique_ptr<V8, Free> data_;
+};
+
+inline V8 Splat(float s) { return V8{} + s; }
+inline V8 Load(const float* p) {
+  V8 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+inline V8 Abs(V8 v) {
+  return std::bit_cast<V8>(std::bit_cast<I8>(v) & 0x7fffffff);
+}
+// std::min(a, t): t only if strictly smaller.
+inline V8 Min(V8 a, V8 t) { return t < a ? t : a; }
+// The smallest of the 8 lanes, in every lane.
+inline V8 LaneMin(V8 v) {
+  v = Min(v, __builtin_shuffle(v, I8{4, 5, 6, 7, 0, 1, 2, 3}));
+  v = Min(v, __builtin_shuffle(v, I8{2, 3, 0, 1, 6, 7, 4, 5}));
+  return Min(v, __builtin_shuffle(v, I8{1, 0, 3, 2, 5, 4, 7, 6}));
+}
 
 // Virtual row/column v -> real index, BORDER_REFLECT (tables for the few
 // virtual indices the kernel touches; tiny images reflect repeatedly).
@@ -191,7 +245,6 @@ class ReflectTable {
           cv::borderInterpolate(v, n, cv::BORDER_REFLECT);
     }
   }
-  int size() const { return static_cast<int>(table_.size()) - 2 * margin_; }
   int operator()(int v) const {
     return table_[static_cast<size_t>(v + margin_)];
   }
@@ -202,16 +255,26 @@ class ReflectTable {
 };
 
 // One view's inputs as planes (structure of arrays), plus the guide
-// statistics that every slice reuses.
+// statistics that every disparity reuses.
 struct ViewPlanes {
   int w = 0, h = 0, nc = 0;
-  std::vector<cv::Mat> own, other;  // matching images, nc planes each
-  cv::Mat own_grad, other_grad;
+  std::vector<cv::Mat> own;  // matching image, nc planes
+  cv::Mat own_grad;
+  // The other view with `pad` border values on each side, mirrored for the
+  // left view, so that the partners of x at disparities db .. db + 7 are
+  // the 8 floats from column PartnerBase(x, db).
+  std::vector<cv::Mat> partner;
+  cv::Mat partner_grad;
+  int pad = 0;
+  bool left = true;
   std::vector<cv::Mat> guide;  // own - kGuideCentre
   std::vector<cv::Mat> mean;   // box means of the guide planes
   std::vector<cv::Mat>
-      inv;              // (Sigma + eps)^-1: 1 plane, or 6 (rr rg rb gg gb bb)
-  int shift_sign = -1;  // partner of x is x + shift_sign * d
+      inv;  // (Sigma + eps)^-1: 1 plane, or 6 (rr rg rb gg gb bb)
+
+  int PartnerBase(int x, int db) const {
+    return left ? w + pad - 1 - x + db : pad + x + db;
+  }
 };
 
 constexpr float kGuideCentre = 0.5f;
@@ -223,19 +286,34 @@ cv::Mat BoxMean(const cv::Mat& m, int r) {
   return out;
 }
 
+cv::Mat PaddedPartner(const cv::Mat& plane, int pad, bool mirror) {
+  cv::Mat out;
+  cv::copyMakeBorder(plane, out, 0, 0, pad, pad, cv::BORDER_CONSTANT,
+                     cv::Scalar(kBorderValue));
+  if (mirror) cv::flip(out, out, 1);
+  return out;
+}
+
+// Planes for matching `view` at disparities [d0, d1].
 ViewPlanes MakeViewPlanes(const MatchingImages& m, const StereoOptions& o,
-                          View view) {
+                          View view, int d0, int d1) {
   ViewPlanes v;
-  const bool left = view == View::kLeft;
-  const cv::Mat& own = left ? m.left : m.right;
+  v.left = view == View::kLeft;
+  const cv::Mat& own = v.left ? m.left : m.right;
   v.w = own.cols;
   v.h = own.rows;
   v.nc = own.channels();
   cv::split(own, v.own);
-  cv::split(left ? m.right : m.left, v.other);
-  v.own_grad = left ? m.left_grad : m.right_grad;
-  v.other_grad = left ? m.right_grad : m.left_grad;
-  v.shift_sign = left ? -1 : 1;
+  v.own_grad = v.left ? m.left_grad : m.right_grad;
+  // Lanes run up to 7 past the block's first disparity.
+  v.pad = std::max(std::abs(d0), std::abs(d1)) + kLanes;
+  std::vector<cv::Mat> other;
+  cv::split(v.left ? m.right : m.left, other);
+  for (const cv::Mat& p : other) {
+    v.partner.push_back(PaddedPartner(p, v.pad, v.left));
+  }
+  v.partner_grad =
+      PaddedPartner(v.left ? m.right_grad : m.left_grad, v.pad, v.left);
   for (const cv::Mat& p : v.own) {
     cv::Mat g;
     cv::subtract(p, kGuideCentre, g);
@@ -267,15 +345,15 @@ ViewPlanes MakeViewPlanes(const MatchingImages& m, const StereoOptions& o,
   v.inv.resize(6);
   for (cv::Mat& p : v.inv) p.create(sz, CV_32FC1);
   for (int y = 0; y < v.h; ++y) {
-    const float* m[3] = {v.mean[0].ptr<float>(y), v.mean[1].ptr<float>(y),
-                         v.mean[2].ptr<float>(y)};
+    const float* mu[3] = {v.mean[0].ptr<float>(y), v.mean[1].ptr<float>(y),
+                          v.mean[2].ptr<float>(y)};
     const float* c[6];
     float* out[6];
     for (int k = 0; k < 6; ++k) {
       c[k] = corr[k].ptr<float>(y);
       out[k] = v.inv[static_cast<size_t>(k)].ptr<float>(y);
     }
-    filters::InvertGuideCovarianceRow(m, c, eps, v.w, out);
+    filters::InvertGuideCovarianceRow(mu, c, eps, v.w, out);
   }
   return v;
 }
@@ -343,275 +421,51 @@ inline void CostRowRange(const float* const* a, const float* const* b,
   }
 }
 
-// out[x] (+)= sum over j < digit of t[x + j * block], x in [0, w).
-inline void AddBlocks(const float* __restrict t, int block, int digit, int w,
-                      bool first, float* __restrict out) {
-  const float* __restrict t1 = t + block;
-  const float* __restrict t2 = t + 2 * block;
-  if (first) {
-    if (digit == 1) {
-      for (int x = 0; x < w; ++x) out[x] = t[x];
-    } else if (digit == 2) {
-      for (int x = 0; x < w; ++x) out[x] = t[x] + t1[x];
-    } else {
-      for (int x = 0; x < w; ++x) out[x] = t[x] + t1[x] + t2[x];
-    }
-  } else {
-    if (digit == 1) {
-      for (int x = 0; x < w; ++x) out[x] += t[x];
-    } else if (digit == 2) {
-      for (int x = 0; x < w; ++x) out[x] += t[x] + t1[x];
-    } else {
-      for (int x = 0; x < w; ++x) out[x] += t[x] + t1[x] + t2[x];
-    }
-  }
-}
-
-// next[i] = sum of 4 consecutive blocks of t, pairwise (the same values as
-// two doubling steps).
-inline void QuadrupleBlocks(const float* __restrict t, int block, int n,
-                            float* __restrict next) {
-  const float* __restrict t1 = t + block;
-  const float* __restrict t2 = t + 2 * block;
-  const float* __restrict t3 = t + 3 * block;
-  for (int i = 0; i < n; ++i) next[i] = (t[i] + t1[i]) + (t2[i] + t3[i]);
-}
-
-// Horizontal window sums over a column range: out[x] for image columns
-// [o0, o1) is the sum of src over columns reflect(o0 + x + k), k in [-r, r],
-// where src holds image columns [s0, ...) (all the reflected columns must be
-// there). Summed along the base-4 digits of 2r + 1 from sums of 1, 4, 16,
-// ... neighbours (19 = 3 x 1 + 1 x 16: 4 passes): vectorisable, no
-// running-sum drift, and every column sums in the same order whatever the
-// range, so tiles give the same values as a full row. pad, t0, t1: scratch
-// of o1 - o0 + 2r floats (pad only used next to the image borders).
-inline void HorizontalBox(const float* src, int s0, int o0, int o1, int r,
-                          const ReflectTable& cols, float* pad, float* t0,
-                          float* t1, float* out) {
-  const int w = o1 - o0;
-  const int n = w + 2 * r;
-  const int v0 = o0 - r;  // image column of element 0
-  const float* cur = src + (v0 - s0);
-  if (v0 < 0 || v0 + n > cols.size()) {
-    const int inner0 = std::clamp(-v0, 0, n);
-    const int inner1 = std::clamp(cols.size() - v0, inner0, n);
-    for (int i = 0; i < inner0; ++i) pad[i] = src[cols(v0 + i) - s0];
-    std::copy(src + (v0 + inner0 - s0), src + (v0 + inner1 - s0), pad + inner0);
-    for (int i = inner1; i < n; ++i) pad[i] = src[cols(v0 + i) - s0];
-    cur = pad;
-  }
-  float* bufs[2] = {t0, t1};
-  int which = 0;
-  int rest = 2 * r + 1;
-  int block = 1;
-  int offset = 0;
-  bool first = true;
-  while (true) {
-    const int digit = rest % 4;
-    if (digit > 0) {
-      AddBlocks(cur + offset, block, digit, w, first, out);
-      first = false;
-      offset += digit * block;
-    }
-    rest /= 4;
-    if (rest == 0) break;
-    // Sums of 4 * block neighbours, for the columns still needed.
-    const int valid = n - 4 * block + 1;
-    QuadrupleBlocks(cur, block, valid, bufs[which]);
-    cur = bufs[which];
-    which ^= 1;
-    block *= 4;
-  }
-}
-
-// Row updates of the vertical window sums (restrict parameters so that GCC
-// vectorises them after inlining).
-inline void AddRow(const float* __restrict a, int w, float* __restrict s) {
-  for (int x = 0; x < w; ++x) s[x] += a[x];
-}
-inline void AddProductRow(const float* __restrict g, const float* __restrict p,
-                          int w, float* __restrict s) {
-  for (int x = 0; x < w; ++x) s[x] += g[x] * p[x];
-}
-inline void MoveWindow(const float* __restrict add, const float* __restrict sub,
-                       int w, float* __restrict s) {
-  for (int x = 0; x < w; ++x) s[x] += add[x] - sub[x];
-}
-inline void MoveProductWindow(const float* __restrict ga,
-                              const float* __restrict pa,
-                              const float* __restrict gs,
-                              const float* __restrict ps, int w,
-                              float* __restrict s) {
-  for (int x = 0; x < w; ++x) s[x] += ga[x] * pa[x] - gs[x] * ps[x];
-}
-
-// Stage 1, colour guide: from the window sums of p and I_c p (sp, s0..s2)
-// the coefficients a = (Sigma + eps)^-1 cov(I, p) and b = mean(p) - a.mean(I).
-inline void Coefficients3(
-    const float* __restrict sp, const float* __restrict s0,
-    const float* __restrict s1, const float* __restrict s2,
-    const float* __restrict m0, const float* __restrict m1,
-    const float* __restrict m2, const float* __restrict rr,
-    const float* __restrict rg, const float* __restrict rb,
-    const float* __restrict gg, const float* __restrict gb,
-    const float* __restrict bb, float k, int w, float* __restrict a0,
-    float* __restrict a1, float* __restrict a2, float* __restrict b) {
-#pragma GCC ivdep
-  for (int x = 0; x < w; ++x) {
-    const float mp = sp[x] * k;
-    const float c0 = s0[x] * k - m0[x] * mp;
-    const float c1 = s1[x] * k - m1[x] * mp;
-    const float c2 = s2[x] * k - m2[x] * mp;
-    const float e0 = rr[x] * c0 + rg[x] * c1 + rb[x] * c2;
-    const float e1 = rg[x] * c0 + gg[x] * c1 + gb[x] * c2;
-    const float e2 = rb[x] * c0 + gb[x] * c1 + bb[x] * c2;
-    a0[x] = e0;
-    a1[x] = e1;
-    a2[x] = e2;
-    b[x] = mp - e0 * m0[x] - e1 * m1[x] - e2 * m2[x];
-  }
-}
-
-// Stage 1, grey guide.
-inline void Coefficients1(const float* __restrict sp,
-                          const float* __restrict s0,
-                          const float* __restrict m0,
-                          const float* __restrict inv, float k, int w,
-                          float* __restrict a0, float* __restrict b) {
-#pragma GCC ivdep
-  for (int x = 0; x < w; ++x) {
-    const float mp = sp[x] * k;
-    const float e0 = (s0[x] * k - m0[x] * mp) * inv[x];
-    a0[x] = e0;
-    b[x] = mp - e0 * m0[x];
-  }
-}
-
-// Stage 2: q = mean(a) . I + mean(b) from the window sums of a_c and b.
-template <int NC>
-inline float FilteredCost(const float* __restrict sa0,
-                          const float* __restrict sa1,
-                          const float* __restrict sa2,
-                          const float* __restrict sb,
-                          const float* __restrict g0,
-                          const float* __restrict g1,
-                          const float* __restrict g2, float k, int x) {
-  if constexpr (NC == 3) {
-    return (sa0[x] * g0[x] + sa1[x] * g1[x] + sa2[x] * g2[x] + sb[x]) * k;
-  } else {
-    return (sa0[x] * g0[x] + sb[x]) * k;
-  }
-}
-
-template <int NC>
-inline void FilteredRow(const float* __restrict sa0,
-                        const float* __restrict sa1,
-                        const float* __restrict sa2, const float* __restrict sb,
-                        const float* __restrict g0, const float* __restrict g1,
-                        const float* __restrict g2, float k, int w,
-                        float* __restrict q) {
-#pragma GCC ivdep
-  for (int x = 0; x < w; ++x) {
-    q[x] = FilteredCost<NC>(sa0, sa1, sa2, sb, g0, g1, g2, k, x);
-  }
-}
-
-// Stage 2 fused with the WTA update (strictly better wins: ties keep the
-// smaller disparity).
-template <int NC>
-inline void FilteredRowWta(
-    const float* __restrict sa0, const float* __restrict sa1,
-    const float* __restrict sa2, const float* __restrict sb,
-    const float* __restrict g0, const float* __restrict g1,
-    const float* __restrict g2, float k, float fd, bool first, int w,
-    float* __restrict best, float* __restrict label) {
-  if (first) {
-#pragma GCC ivdep
-    for (int x = 0; x < w; ++x) {
-      best[x] = FilteredCost<NC>(sa0, sa1, sa2, sb, g0, g1, g2, k, x);
-      label[x] = fd;
-    }
-    return;
-  }
-// (Written so that GCC 12 if-converts and vectorises it: one select and a
-// min; equal costs give the same best either way.)
-#pragma GCC ivdep
-  for (int x = 0; x < w; ++x) {
-    const float q = FilteredCost<NC>(sa0, sa1, sa2, sb, g0, g1, g2, k, x);
-    const float b = best[x];
-    label[x] = q < b ? fd : label[x];
-    best[x] = std::min(q, b);
-  }
-}
-
-// WTA update that also tracks the costs at label - 1 (before) and label + 1
-// (after); prev holds the costs at fd - 1.
-inline void SubpixelWta(const float* __restrict q, const float* __restrict prev,
-                        float fd, int w, float* __restrict best,
-                        float* __restrict label, float* __restrict before,
-                        float* __restrict after) {
-  const float fprev = fd - 1.0f;
-#pragma GCC ivdep
-  for (int x = 0; x < w; ++x) {
-    const float v = q[x];
-    const float b = best[x];
-    const float l = label[x];
-    const bool better = v < b;
-    const float af = l == fprev ? v : after[x];
-    best[x] = better ? v : b;
-    label[x] = better ? fd : l;
-    before[x] = better ? prev[x] : before[x];
-    after[x] = better ? kNaN : af;
-  }
-}
-
-// Where the WTA of one strip goes (rows of the full-size result).
+// Where the WTA of one view goes (full-size CV_32FC1).
 struct WtaTarget {
-  cv::Mat* best;    // CV_32FC1, centred filtered cost of the winner
-  cv::Mat* label;   // CV_32FC1
-  cv::Mat* before;  // CV_32FC1, cost at label - 1 (sub-pixel only)
-  cv::Mat* after;   // CV_32FC1, cost at label + 1 (sub-pixel only)
+  cv::Mat* best;    // centred filtered cost of the winner
+  cv::Mat* label;   // the winner's disparity
+  cv::Mat* before;  // cost at label - 1, NaN if none (sub-pixel only)
+  cv::Mat* after;   // cost at label + 1, NaN if none (sub-pixel only)
 };
 
 template <int NC>
-class SliceKernel {
+class BlockKernel {
  public:
   static constexpr int kQ = NC + 1;  // quantities per stage: p, I_c p / a_c, b
-  // Disparities processed together, row by row: each row of the guide
-  // statistics is read once per block instead of once per disparity.
-  static constexpr int kBlock = 4;
-  // The vertical running sums are recomputed from the ring every so many
-  // rows, which bounds their float drift (and the first row of a strip).
+  // Vertical and horizontal running sums are recomputed from scratch every
+  // so many rows and columns, which bounds their float drift.
   static constexpr int kRefreshRows = 64;
+  static constexpr int kRefreshCols = 32;
 
-  // Tiles of at most max_cols output columns.
-  SliceKernel(const ViewPlanes& v, const StereoOptions& o, int max_cols)
+  // Tiles of at most max_rows x max_cols output pixels.
+  BlockKernel(const ViewPlanes& v, const StereoOptions& o, int max_rows,
+              int max_cols)
       : v_(v),
         r_(o.radius),
         ring_(2 * o.radius + 2),
         rows_(v.h, 2 * o.radius + 2),
-        cols_(v.w, o.radius),
+        cols_(v.w, 2 * o.radius + 2),
         cp_(MakeCostParams(o, NC)),
         cost_centre_(CostCentre(cp_)),
         inv_area_(1.0f /
                   static_cast<float>((2 * o.radius + 1) * (2 * o.radius + 1))) {
-    const size_t w0 = static_cast<size_t>(std::min(v.w, max_cols + 4 * r_));
-    const size_t w1 = static_cast<size_t>(std::min(v.w, max_cols + 2 * r_));
-    const size_t padded = static_cast<size_t>(max_cols + 4 * r_);
-    const size_t slots = kBlock;
-    stride0_ = w0;
-    stride1_ = w1;
-    ring1_.assign(slots * static_cast<size_t>(ring_) * w0, 0.0f);
-    ring2_.assign(slots * static_cast<size_t>(ring_ * kQ) * w1, 0.0f);
-    sum1_.assign(slots * kQ * w0, 0.0f);
-    sum2_.assign(slots * kQ * w1, 0.0f);
-    box_.assign(kQ * w1, 0.0f);
-    q_row_.assign(w1, 0.0f);
-    pad_.assign(3 * padded, 0.0f);
+    const size_t wc = static_cast<size_t>(std::min(v.w, max_cols + 4 * r_));
+    const size_t ws = static_cast<size_t>(std::min(v.w, max_cols + 2 * r_));
+    const size_t ring = static_cast<size_t>(ring_);
+    ring1_stride_ = wc;
+    ring2_stride_ = ws * kQ;
+    ring1_.Reset(ring * wc);
+    sum1_.Reset(wc * kQ);
+    ring2_.Reset(ring * ws * kQ);
+    sum2_.Reset(ws * kQ);
+    col1_.resize(ws + static_cast<size_t>(2 * r_));
+    col2_.resize(static_cast<size_t>(max_cols + 2 * r_));
+    prev_last_.resize(static_cast<size_t>(max_rows) *
+                      static_cast<size_t>(max_cols));
   }
 
-  // Disparities [d0, d1] in order for output rows [y0, y1), columns
-  // [x0, x1).
+  // Disparities [d0, d1] for output rows [y0, y1), columns [x0, x1).
   void Run(int y0, int y1, int x0, int x1, int d0, int d1, bool subpixel,
            const WtaTarget& t) {
     ox0_ = x0;
@@ -620,186 +474,226 @@ class SliceKernel {
     sx1_ = std::min(v_.w, x1 + r_);
     cx0_ = std::max(0, sx0_ - r_);
     cx1_ = std::min(v_.w, sx1_ + r_);
-    if (subpixel) {
-      prev_rows_.assign(static_cast<size_t>((y1 - y0) * (x1 - x0)), 0);
+    // Virtual columns of the two horizontal windows -> buffer columns.
+    for (int c = sx0_ - r_; c < sx1_ + r_; ++c) {
+      col1_[static_cast<size_t>(c - sx0_ + r_)] = cols_(c) - cx0_;
+    }
+    for (int c = ox0_ - r_; c < ox1_ + r_; ++c) {
+      col2_[static_cast<size_t>(c - ox0_ + r_)] = cols_(c) - sx0_;
     }
     const int s0 = std::max(0, y0 - r_);
     const int s1 = std::min(v_.h, y1 + r_);
-    for (int db = d0; db <= d1; db += kBlock) {
-      const int slots = std::min(kBlock, d1 - db + 1);
+    for (int db = d0; db <= d1; db += kLanes) {
+      const int lanes = std::min(kLanes, d1 - db + 1);
       int next_cost = std::max(0, s0 - r_);
       int next_out = y0;
       for (int i = s0; i < s1; ++i) {
-        const int need = std::min(v_.h - 1, i + r_);
-        for (; next_cost <= need; ++next_cost) {
-          for (int k = 0; k < slots; ++k) ProduceCostRow(k, db + k, next_cost);
+        for (const int need = std::min(v_.h - 1, i + r_); next_cost <= need;
+             ++next_cost) {
+          CostRow(db, next_cost);
         }
-        const bool refresh1 = (i - s0) % kRefreshRows == 0;
-        for (int k = 0; k < slots; ++k) Stage1Row(k, i, refresh1);
+        Stage1Row(i, (i - s0) % kRefreshRows == 0);
         for (; next_out < y1 && std::min(v_.h - 1, next_out + r_) <= i;
              ++next_out) {
-          const bool refresh2 = (next_out - y0) % kRefreshRows == 0;
-          for (int k = 0; k < slots; ++k) {
-            OutputRow(k, next_out, db + k, d0, subpixel, refresh2, t, y0);
-          }
+          const bool refresh = (next_out - y0) % kRefreshRows == 0;
+          OutputRow(next_out, y0, db, db == d0, lanes, subpixel, refresh, t);
         }
       }
     }
   }
 
  private:
-  // Cost row j of slot k (row j % ring of its ring, columns from cx0_).
-  float* Ring1(int k, int j) {
-    return ring1_.data() +
-           static_cast<size_t>(k * ring_ + j % ring_) * stride0_;
+  // Cost row j (real row; ring slot j % ring), columns from cx0_.
+  V8* Ring1(int j) {
+    return ring1_.data() + static_cast<size_t>(j % ring_) * ring1_stride_;
   }
-  // Quantity q of stage-1 row i of slot k (columns from sx0_).
-  float* Ring2(int k, int i, int q) {
-    return ring2_.data() +
-           static_cast<size_t>((k * ring_ + i % ring_) * kQ + q) * stride1_;
+  // Stage-1 row i: [column from sx0_][quantity].
+  V8* Ring2(int i) {
+    return ring2_.data() + static_cast<size_t>(i % ring_) * ring2_stride_;
   }
-  float* Sum1(int k, int q) {
-    return sum1_.data() + static_cast<size_t>(k * kQ + q) * stride0_;
-  }
-  float* Sum2(int k, int q) {
-    return sum2_.data() + static_cast<size_t>(k * kQ + q) * stride1_;
-  }
-  const float* Guide(int c, int row, int col) const {
-    return v_.guide[static_cast<size_t>(c)].ptr<float>(row) + col;
+  const float* Guide(int c, int row) const {
+    return v_.guide[static_cast<size_t>(c)].ptr<float>(row);
   }
 
-  // Cost minus the centre, real row j, disparity d, columns [cx0_, cx1_).
-  void ProduceCostRow(int k, int d, int j) {
-    const float* a[NC];
-    const float* b[NC];
+  // Cost minus the centre at real row j, disparities db .. db + 7, columns
+  // [cx0_, cx1_); the same arithmetic as CostRowRange.
+  void CostRow(int db, int j) {
+    const float* own[NC];
+    const float* par[NC];
     for (int c = 0; c < NC; ++c) {
-      a[c] = v_.own[static_cast<size_t>(c)].ptr<float>(j) + cx0_;
-      b[c] = v_.other[static_cast<size_t>(c)].ptr<float>(j) + cx0_;
+      own[c] = v_.own[static_cast<size_t>(c)].ptr<float>(j);
+      par[c] = v_.partner[static_cast<size_t>(c)].ptr<float>(j);
     }
-    // Partner columns, relative to cx0_: [-cx0_, w - cx0_).
-    float* __restrict p = Ring1(k, j);
-    CostRowRange<NC>(a, b, v_.own_grad.ptr<float>(j) + cx0_,
-                     v_.other_grad.ptr<float>(j) + cx0_, cx1_ - cx0_, -cx0_,
-                     v_.w - cx0_, v_.shift_sign * d, cp_, p);
-    const float centre = cost_centre_;
-    const int w = cx1_ - cx0_;
-#pragma GCC ivdep
-    for (int x = 0; x < w; ++x) p[x] -= centre;
+    const float* ga = v_.own_grad.ptr<float>(j);
+    const float* gb = v_.partner_grad.ptr<float>(j);
+    const V8 alpha = Splat(cp_.alpha), beta = Splat(cp_.beta);
+    const V8 t1 = Splat(cp_.t1), t2 = Splat(cp_.t2);
+    const V8 centre = Splat(cost_centre_);
+    V8* __restrict out = Ring1(j) - cx0_;
+    for (int x = cx0_; x < cx1_; ++x) {
+      const int px = v_.PartnerBase(x, db);
+      V8 cd = Abs(Splat(own[0][x]) - Load(par[0] + px));
+      if constexpr (NC == 3) {
+        cd = (cd + Abs(Splat(own[1][x]) - Load(par[1] + px)) +
+              Abs(Splat(own[2][x]) - Load(par[2] + px))) *
+             cp_.inv_nc;
+      }
+      const V8 gd = Abs(Splat(ga[x]) - Load(gb + px));
+      out[x] = (alpha * Min(cd, t1) + beta * Min(gd, t2)) - centre;
+    }
   }
 
-  // Vertical window sums of p and I_c p over virtual rows [i - r, i + r]:
-  // from scratch if `refresh`, else by moving the window of row i - 1. The
-  // products are formed on the fly (the same rounding as stored ones).
-  void Stage1Sums(int k, int i, bool refresh) {
-    const int w = cx1_ - cx0_;
-    for (int q = 0; q < kQ; ++q) {
-      float* __restrict s = Sum1(k, q);
-      if (refresh) {
-        std::fill(s, s + w, 0.0f);
-        for (int t = -r_; t <= r_; ++t) {
-          const int row = rows_(i + t);
-          const float* __restrict p = Ring1(k, row);
-          if (q == 0) {
-            AddRow(p, w, s);
-          } else {
-            AddProductRow(Guide(q - 1, row, cx0_), p, w, s);
-          }
-        }
-      } else {
-        const int add_row = rows_(i + r_);
-        const int sub_row = rows_(i - r_ - 1);
-        const float* __restrict pa = Ring1(k, add_row);
-        const float* __restrict ps = Ring1(k, sub_row);
-        if (q == 0) {
-          MoveWindow(pa, ps, w, s);
-        } else {
-          MoveProductWindow(Guide(q - 1, add_row, cx0_), pa,
-                            Guide(q - 1, sub_row, cx0_), ps, w, s);
+  // Guided-filter coefficients a_c, b of real row i, columns [sx0_, sx1_),
+  // into Ring2(i).
+  void Stage1Row(int i, bool refresh) {
+    const int wc = cx1_ - cx0_;
+    V8* __restrict s = sum1_.data();
+    // Vertical window sums of p and I_c p over virtual rows [i - r, i + r]:
+    // from scratch if `refresh`, else by moving the window of row i - 1.
+    if (refresh) {
+      std::fill(s, s + wc * kQ, V8{});
+      for (int t = -r_; t <= r_; ++t) {
+        const int row = rows_(i + t);
+        const V8* __restrict p = Ring1(row);
+        const float* g[NC];
+        for (int c = 0; c < NC; ++c) g[c] = Guide(c, row) + cx0_;
+        for (int x = 0; x < wc; ++x) {
+          V8* sx = s + x * kQ;
+          sx[0] += p[x];
+          for (int c = 0; c < NC; ++c) sx[c + 1] += Splat(g[c][x]) * p[x];
         }
       }
-    }
-  }
-
-  // Guided-filter coefficients a_c, b of real row i, columns [sx0_, sx1_).
-  void Stage1Row(int k, int i, bool refresh) {
-    Stage1Sums(k, i, refresh);
-    const int w = sx1_ - sx0_;
-    for (int q = 0; q < kQ; ++q) HBox(Sum1(k, q), cx0_, sx0_, sx1_, q);
-    const float* s = box_.data();
-    float* out[kQ];
-    for (int q = 0; q < kQ; ++q) out[q] = Ring2(k, i, q);
-    const size_t st = stride1_;
-    const int c = sx0_;
-    if constexpr (NC == 3) {
-      const std::vector<cv::Mat>& inv = v_.inv;
-      const std::vector<cv::Mat>& mean = v_.mean;
-      Coefficients3(s, s + st, s + 2 * st, s + 3 * st,
-                    mean[0].ptr<float>(i) + c, mean[1].ptr<float>(i) + c,
-                    mean[2].ptr<float>(i) + c, inv[0].ptr<float>(i) + c,
-                    inv[1].ptr<float>(i) + c, inv[2].ptr<float>(i) + c,
-                    inv[3].ptr<float>(i) + c, inv[4].ptr<float>(i) + c,
-                    inv[5].ptr<float>(i) + c, inv_area_, w, out[0], out[1],
-                    out[2], out[3]);
     } else {
-      Coefficients1(s, s + st, v_.mean[0].ptr<float>(i) + c,
-                    v_.inv[0].ptr<float>(i) + c, inv_area_, w, out[0], out[1]);
-    }
-  }
-
-  // Horizontal window sums of quantity q (src from column s0) into box_.
-  void HBox(const float* src, int s0, int o0, int o1, int q) {
-    const size_t padded = static_cast<size_t>(o1 - o0 + 2 * r_);
-    HorizontalBox(src, s0, o0, o1, r_, cols_, pad_.data(), pad_.data() + padded,
-                  pad_.data() + 2 * padded,
-                  box_.data() + static_cast<size_t>(q) * stride1_);
-  }
-
-  // Filtered cost of output row y, disparity d, and the WTA update.
-  void OutputRow(int k, int y, int d, int d0, bool subpixel, bool refresh,
-                 const WtaTarget& t, int y0) {
-    const int ws = sx1_ - sx0_;
-    for (int q = 0; q < kQ; ++q) {
-      float* __restrict s = Sum2(k, q);
-      if (refresh) {
-        std::fill(s, s + ws, 0.0f);
-        for (int tt = -r_; tt <= r_; ++tt) {
-          AddRow(Ring2(k, rows_(y + tt), q), ws, s);
-        }
-      } else {
-        MoveWindow(Ring2(k, rows_(y + r_), q), Ring2(k, rows_(y - r_ - 1), q),
-                   ws, s);
+      const int add = rows_(i + r_);
+      const int sub = rows_(i - r_ - 1);
+      const V8* __restrict pa = Ring1(add);
+      const V8* __restrict ps = Ring1(sub);
+      const float* ga[NC];
+      const float* gs[NC];
+      for (int c = 0; c < NC; ++c) {
+        ga[c] = Guide(c, add) + cx0_;
+        gs[c] = Guide(c, sub) + cx0_;
       }
-      HBox(s, sx0_, ox0_, ox1_, q);
+      for (int x = 0; x < wc; ++x) {
+        V8* sx = s + x * kQ;
+        sx[0] += pa[x] - ps[x];
+        for (int c = 0; c < NC; ++c) {
+          sx[c + 1] += Splat(ga[c][x]) * pa[x] - Splat(gs[c][x]) * ps[x];
+        }
+      }
     }
-    const int w = ox1_ - ox0_;
-    const size_t st = stride1_;
-    const float* s = box_.data();
-    const float* g0 = Guide(0, y, ox0_);
-    const float* g1 = NC == 3 ? Guide(NC - 2, y, ox0_) : nullptr;
-    const float* g2 = NC == 3 ? Guide(NC - 1, y, ox0_) : nullptr;
-    float* best = t.best->ptr<float>(y) + ox0_;
-    float* label = t.label->ptr<float>(y) + ox0_;
-    const float fd = static_cast<float>(d);
-    if (!subpixel) {
-      FilteredRowWta<NC>(s, s + st, s + 2 * st, s + NC * st, g0, g1, g2,
-                         inv_area_, fd, d == d0, w, best, label);
+    // Horizontal window sums, then a and b.
+    const int ws = sx1_ - sx0_;
+    const float k = inv_area_;
+    const float* m[NC];
+    for (int c = 0; c < NC; ++c) {
+      m[c] = v_.mean[static_cast<size_t>(c)].ptr<float>(i) + sx0_;
+    }
+    const float* inv[NC == 3 ? 6 : 1];
+    for (int c = 0; c < (NC == 3 ? 6 : 1); ++c) {
+      inv[c] = v_.inv[static_cast<size_t>(c)].ptr<float>(i) + sx0_;
+    }
+    V8* __restrict out = Ring2(i);
+    V8 h[kQ] = {};
+    for (int x = 0; x < ws; ++x) {
+      HorizontalStep(s, col1_.data(), x, h);
+      V8* o = out + x * kQ;
+      const V8 mp = h[0] * k;
+      if constexpr (NC == 3) {
+        const V8 c0 = h[1] * k - m[0][x] * mp;
+        const V8 c1 = h[2] * k - m[1][x] * mp;
+        const V8 c2 = h[3] * k - m[2][x] * mp;
+        const V8 e0 = inv[0][x] * c0 + inv[1][x] * c1 + inv[2][x] * c2;
+        const V8 e1 = inv[1][x] * c0 + inv[3][x] * c1 + inv[4][x] * c2;
+        const V8 e2 = inv[2][x] * c0 + inv[4][x] * c1 + inv[5][x] * c2;
+        o[0] = e0;
+        o[1] = e1;
+        o[2] = e2;
+        o[3] = mp - e0 * m[0][x] - e1 * m[1][x] - e2 * m[2][x];
+      } else {
+        const V8 e0 = (h[1] * k - m[0][x] * mp) * inv[0][x];
+        o[0] = e0;
+        o[1] = mp - e0 * m[0][x];
+      }
+    }
+  }
+
+  // h = window sums at output column x of rows src[col[x .. x + 2r]]
+  // (kQ quantities each): from scratch every kRefreshCols columns, else by
+  // moving the window of column x - 1.
+  void HorizontalStep(const V8* __restrict src, const int* col, int x,
+                      V8* h) const {
+    if (x % kRefreshCols == 0) {
+      for (int q = 0; q < kQ; ++q) h[q] = V8{};
+      for (int k = 0; k <= 2 * r_; ++k) {
+        const V8* sk = src + col[x + k] * kQ;
+        for (int q = 0; q < kQ; ++q) h[q] += sk[q];
+      }
       return;
     }
-    float* q = q_row_.data();
-    FilteredRow<NC>(s, s + st, s + 2 * st, s + NC * st, g0, g1, g2, inv_area_,
-                    w, q);
-    float* prev = prev_rows_.data() + static_cast<size_t>((y - y0) * w);
-    float* before = t.before->ptr<float>(y) + ox0_;
-    float* after = t.after->ptr<float>(y) + ox0_;
-    if (d == d0) {
-      std::copy(q, q + w, best);
-      std::fill(label, label + w, fd);
-      std::fill(before, before + w, kNaN);
-      std::fill(after, after + w, kNaN);
+    const V8* sa = src + col[x + 2 * r_] * kQ;
+    const V8* ss = src + col[x - 1] * kQ;
+    for (int q = 0; q < kQ; ++q) h[q] += sa[q] - ss[q];
+  }
+
+  // Filtered costs of output row y at disparities db .. db + lanes - 1 and
+  // the WTA update (strictly better wins: ties keep the smaller disparity).
+  void OutputRow(int y, int y0, int db, bool first, int lanes, bool subpixel,
+                 bool refresh, const WtaTarget& t) {
+    const int n = (sx1_ - sx0_) * kQ;
+    V8* __restrict s = sum2_.data();
+    if (refresh) {
+      std::fill(s, s + n, V8{});
+      for (int tt = -r_; tt <= r_; ++tt) {
+        const V8* __restrict a = Ring2(rows_(y + tt));
+        for (int x = 0; x < n; ++x) s[x] += a[x];
+      }
     } else {
-      SubpixelWta(q, prev, fd, w, best, label, before, after);
+      const V8* __restrict a = Ring2(rows_(y + r_));
+      const V8* __restrict b = Ring2(rows_(y - r_ - 1));
+      for (int x = 0; x < n; ++x) s[x] += a[x] - b[x];
     }
-    std::copy(q, q + w, prev);
+    const int w = ox1_ - ox0_;
+    const float* g[NC];
+    for (int c = 0; c < NC; ++c) g[c] = Guide(c, y) + ox0_;
+    float* best = t.best->ptr<float>(y) + ox0_;
+    float* label = t.label->ptr<float>(y) + ox0_;
+    float* before = subpixel ? t.before->ptr<float>(y) + ox0_ : nullptr;
+    float* after = subpixel ? t.after->ptr<float>(y) + ox0_ : nullptr;
+    float* prev = prev_last_.data() + static_cast<size_t>((y - y0) * w);
+    const float k = inv_area_;
+    // Lanes past the last disparity never win.
+    const I8 in_range = I8{0, 1, 2, 3, 4, 5, 6, 7} < lanes;
+    const V8 inf = Splat(std::numeric_limits<float>::infinity());
+    V8 h[kQ] = {};
+    for (int x = 0; x < w; ++x) {
+      HorizontalStep(s, col2_.data(), x, h);
+      V8 q;
+      if constexpr (NC == 3) {
+        q = (h[0] * g[0][x] + h[1] * g[1][x] + h[2] * g[2][x] + h[3]) * k;
+      } else {
+        q = (h[0] * g[0][x] + h[1]) * k;
+      }
+      const float m = LaneMin(lanes == kLanes ? q : (in_range ? q : inf))[0];
+      const bool better = first || m < best[x];
+      float qs[kLanes];
+      std::memcpy(qs, &q, sizeof qs);
+      int win = 0;
+      if (better) {
+        while (qs[win] != m) ++win;  // the first lane holding the minimum
+        best[x] = m;
+        label[x] = static_cast<float>(db + win);
+      }
+      if (!subpixel) continue;
+      // The previous block's winner at its last lane gets its right
+      // neighbour only now.
+      if (!better && label[x] == static_cast<float>(db - 1)) after[x] = qs[0];
+      if (better) {
+        before[x] = win > 0 ? qs[win - 1] : first ? kNaN : prev[x];
+        after[x] = win + 1 < lanes ? qs[win + 1] : kNaN;
+      }
+      prev[x] = qs[lanes - 1];
+    }
   }
 
   const ViewPlanes& v_;
@@ -812,14 +706,13 @@ class SliceKernel {
   const float inv_area_;
   // Column ranges of the current tile: output, stage 1, cost.
   int ox0_ = 0, ox1_ = 0, sx0_ = 0, sx1_ = 0, cx0_ = 0, cx1_ = 0;
-  size_t stride0_ = 0, stride1_ = 0;  // row lengths of cost / stage-1 data
-  std::vector<float> ring1_;          // [slot][row % ring][x]: p - centre
-  std::vector<float> ring2_;          // [slot][row % ring][quantity][x]
-  std::vector<float> sum1_, sum2_;    // vertical sums [slot][quantity][x]
-  std::vector<float> box_;            // window sums [quantity][x]
-  std::vector<float> q_row_;          // filtered cost of the current row
-  std::vector<float> prev_rows_;      // filtered cost at d - 1 (sub-pixel)
-  std::vector<float> pad_;
+  size_t ring1_stride_ = 0, ring2_stride_ = 0;
+  V8Buffer ring1_;                // [row % ring][x]: p - centre
+  V8Buffer ring2_;                // [row % ring][x][quantity]: a_c, b
+  V8Buffer sum1_;                 // vertical window sums [x][quantity], stage 1
+  V8Buffer sum2_;                 // the same, stage 2
+  std::vector<int> col1_, col2_;  // horizontal window columns
+  std::vector<float> prev_last_;  // cost at the previous block's last lane
 };
 
 // A thread's share of RunKernel: tiles range.start .. range.end - 1.
@@ -835,7 +728,7 @@ struct TileJob {
 
 template <int NC>
 inline void RunTiles(const TileJob& job) {
-  SliceKernel<NC> kernel(*job.v, *job.o, job.tile_cols);
+  BlockKernel<NC> kernel(*job.v, *job.o, job.strip_rows, job.tile_cols);
   for (int t = job.range.start; t < job.range.end; ++t) {
     const int ty = t / job.tiles_per_row;
     const int tx = t % job.tiles_per_row;
@@ -877,10 +770,11 @@ void RunKernel(const ViewPlanes& v, const StereoOptions& o, int d0, int d1,
     out.after.create(size, CV_32FC1);
   }
   const WtaTarget target{&out.best, &out.label, &out.before, &out.after};
-  // Tiles small enough that the rings of a block of disparities stay in L2;
-  // each tile recomputes a halo of 2r rows and columns per side.
-  constexpr int kStripRows = 96;
-  constexpr int kTileCols = 256;
+  // Each tile recomputes a halo of 2r rows and columns per side. Wide, low
+  // tiles measured fastest at 1280x960 (docs/benchmarks.md): narrower ones
+  // keep the rings in L2 but recompute more halo.
+  constexpr int kStripRows = 64;
+  constexpr int kTileCols = 640;
   const int strip = std::min(kStripRows, v.h);
   const int tile = std::min(kTileCols, v.w);
   const int per_row = (v.w + tile - 1) / tile;
@@ -906,7 +800,7 @@ void RunKernel(const ViewPlanes& v, const StereoOptions& o, int d0, int d1,
 KernelOutput FilteredWta(const MatchingImages& images,
                          const StereoOptions& options, View view, int d0,
                          int d1, bool subpixel) {
-  const ViewPlanes v = MakeViewPlanes(images, options, view);
+  const ViewPlanes v = MakeViewPlanes(images, options, view, d0, d1);
   KernelOutput out;
   if (v.nc == 3) {
     RunKernel<3>(v, options, d0, d1, subpixel, out);
@@ -1100,6 +994,29 @@ void FillScanlines(cv::Mat& disparity, const cv::Mat& valid, float fallback) {
   }
 }
 
+// Colour-weight table bins of n neighbours (planes p*) seen from colour c:
+// the squared distance, summed over the channels in order, times
+// lut_scale, capped at kLut.
+constexpr int kLut = 4096;
+void ColourBins3(const float* c, const float* __restrict p0,
+                 const float* __restrict p1, const float* __restrict p2, int n,
+                 float lut_scale, int* __restrict bins) {
+  for (int i = 0; i < n; ++i) {
+    const float t0 = c[0] - p0[i];
+    const float t1 = c[1] - p1[i];
+    const float t2 = c[2] - p2[i];
+    const float dist2 = t0 * t0 + t1 * t1 + t2 * t2;
+    bins[i] = std::min(kLut, static_cast<int>(dist2 * lut_scale));
+  }
+}
+void ColourBins1(float c, const float* __restrict p0, int n, float lut_scale,
+                 int* __restrict bins) {
+  for (int i = 0; i < n; ++i) {
+    const float t = c - p0[i];
+    bins[i] = std::min(kLut, static_cast<int>(t * t * lut_scale));
+  }
+}
+
 cv::Mat WeightedMedian(const cv::Mat& disparity, const cv::Mat& valid,
                        const cv::Mat& guide, int dmin, int dmax, int radius,
                        double sigma_s, double sigma_c) {
@@ -1116,7 +1033,6 @@ cv::Mat WeightedMedian(const cv::Mat& disparity, const cv::Mat& valid,
   }
   // exp(-dist2 / sigma_c^2) tabulated up to dist2 = 20 sigma_c^2 (weight
   // e^-20 beyond, taken as 0).
-  constexpr int kLut = 4096;
   const double max_dist2 = 20.0 * sigma_c * sigma_c;
   const float lut_scale = static_cast<float>(kLut / max_dist2);
   std::vector<float> colour(kLut + 1);
@@ -1143,7 +1059,11 @@ cv::Mat WeightedMedian(const cv::Mat& disparity, const cv::Mat& valid,
   // mostly share a label, and one histogram would chain every addition
   // through the same memory location.
   constexpr int kCopies = 4;
+  // Planar guide, so that the colour distances of a window row vectorise.
+  std::vector<cv::Mat> planes;
+  cv::split(guide, planes);
   cv::parallel_for_(cv::Range(0, h), [&](const cv::Range& rows) {
+    std::vector<int> bins(static_cast<size_t>(side));
     std::vector<float> hists(static_cast<size_t>(kCopies * labels));
     std::vector<float> hist(static_cast<size_t>(labels));
     for (int y = rows.start; y < rows.end; ++y) {
@@ -1154,23 +1074,28 @@ cv::Mat WeightedMedian(const cv::Mat& disparity, const cv::Mat& valid,
         if (v[x]) continue;
         std::fill(hists.begin(), hists.end(), 0.0f);
         const float* ci = gi + x * nc;
+        const int xa = std::max(0, x - radius);
+        const int n = std::min(w - 1, x + radius) - xa + 1;
         for (int yy = std::max(0, y - radius);
              yy <= std::min(h - 1, y + radius); ++yy) {
-          const float* gj = guide.ptr<float>(yy);
+          if (nc == 3) {
+            ColourBins3(ci, planes[0].ptr<float>(yy) + xa,
+                        planes[1].ptr<float>(yy) + xa,
+                        planes[2].ptr<float>(yy) + xa, n, lut_scale,
+                        bins.data());
+          } else {
+            ColourBins1(ci[0], planes[0].ptr<float>(yy) + xa, n, lut_scale,
+                        bins.data());
+          }
           const int* lj = label_img.ptr<int>(yy);
           const float* sw =
               spatial.data() +
               static_cast<size_t>((yy - y + radius) * side + radius);
-          for (int xx = std::max(0, x - radius);
-               xx <= std::min(w - 1, x + radius); ++xx) {
-            const float* cj = gj + xx * nc;
-            float dist2 = 0;
-            for (int c = 0; c < nc; ++c) {
-              const float t = ci[c] - cj[c];
-              dist2 += t * t;
-            }
-            const int bin = std::min(kLut, static_cast<int>(dist2 * lut_scale));
-            const float wgt = sw[xx - x] * colour[static_cast<size_t>(bin)];
+          for (int i = 0; i < n; ++i) {
+            const int xx = xa + i;
+            const float wgt =
+                sw[xx - x] *
+                colour[static_cast<size_t>(bins[static_cast<size_t>(i)])];
             hists[static_cast<size_t>((xx % kCopies) * labels + lj[xx])] += wgt;
           }
         }
