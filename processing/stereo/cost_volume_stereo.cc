@@ -2,6 +2,7 @@
 #include "processing/stereo/cost_volume_stereo.h"
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -715,12 +716,13 @@ class BlockKernel {
   std::vector<float> prev_last_;  // cost at the previous block's last lane
 };
 
-// A thread's share of RunKernel: tiles range.start .. range.end - 1.
+// The tiles of RunKernel; each thread takes the next one left (so a thread
+// slowed by other work on its core does less of them).
 struct TileJob {
   const ViewPlanes* v;
   const StereoOptions* o;
-  int strip_rows, tile_cols, tiles_per_row;
-  cv::Range range;
+  int strip_rows, tile_cols, tiles_per_row, tiles;
+  std::atomic<int>* next;
   int d0, d1;
   bool subpixel;
   const WtaTarget* target;
@@ -729,7 +731,8 @@ struct TileJob {
 template <int NC>
 inline void RunTiles(const TileJob& job) {
   BlockKernel<NC> kernel(*job.v, *job.o, job.strip_rows, job.tile_cols);
-  for (int t = job.range.start; t < job.range.end; ++t) {
+  for (int t = job.next->fetch_add(1); t < job.tiles;
+       t = job.next->fetch_add(1)) {
     const int ty = t / job.tiles_per_row;
     const int tx = t % job.tiles_per_row;
     kernel.Run(ty * job.strip_rows,
@@ -780,9 +783,10 @@ void RunKernel(const ViewPlanes& v, const StereoOptions& o, int d0, int d1,
   const int per_row = (v.w + tile - 1) / tile;
   const int tiles = per_row * ((v.h + strip - 1) / strip);
   const int threads = std::min(ThreadCount(o), tiles);
-  auto run = [&](const cv::Range& range) {
-    const TileJob job{&v,    &o, strip, tile,     per_row,
-                      range, d0, d1,    subpixel, &target};
+  std::atomic<int> next{0};
+  auto run = [&](const cv::Range&) {
+    const TileJob job{&v,    &o, strip, tile,     per_row, tiles,
+                      &next, d0, d1,    subpixel, &target};
     if constexpr (NC == 3) {
       RunTiles3(job);
     } else {
@@ -791,9 +795,9 @@ void RunKernel(const ViewPlanes& v, const StereoOptions& o, int d0, int d1,
   };
   out.cost_centre = CostCentre(MakeCostParams(o, NC));
   if (threads == 1) {
-    run(cv::Range(0, tiles));
+    run(cv::Range(0, 1));
   } else {
-    cv::parallel_for_(cv::Range(0, tiles), run, threads);
+    cv::parallel_for_(cv::Range(0, threads), run, threads);
   }
 }
 
