@@ -98,7 +98,8 @@ struct FusionParams {
 
 // The integer MRF the solver works on. Edge weights: right[p] is the edge
 // (p, p + 1) (0 in the last column), down[p] the edge (p, p + width) (0 in the
-// last row). data is label-major: data[l * width * height + p].
+// last row). The data term is given densely, label-major (data[l * width *
+// height + p]), or sparsely (far / near_begin / near below), or both.
 struct MrfProblem {
   int width = 0;
   int height = 0;
@@ -111,6 +112,21 @@ struct MrfProblem {
   // Optional per-pixel allowed labels (fusion-move variant): when not empty,
   // allowed[l * N + p] != 0 iff pixel p may take label l.
   std::vector<uint8_t> allowed;
+  // The data term, sparsely (BuildProblem gives only this; when it is empty
+  // the solver derives it from `data`): for pixel p, near[near_begin[p] ..
+  // near_begin[p + 1]) lists by ascending label every label whose cost is
+  // below far[p], with that cost; every other label costs exactly far[p].
+  // Fusion costs are the sum of each candidate's bounded cost, so only the
+  // labels near some candidate are listed: the solver finds a pixel's cheap
+  // labels without reading num_labels costs, and the dense volume is not
+  // needed.
+  struct NearCost {
+    uint16_t label = 0;
+    uint16_t cost = 0;
+  };
+  std::vector<uint16_t> far;
+  std::vector<int64_t> near_begin;  // width * height + 1 offsets
+  std::vector<NearCost> near;
 };
 
 struct SolverStats {
@@ -122,9 +138,11 @@ struct SolverStats {
   int accepted = 0;          // moves that lowered the energy
   int64_t graph_nodes = 0;   // summed over expansions
   double setup_seconds = 0;  // data term + WTA (FuseAlphaExpansion only)
-  double build_seconds = 0;  // graph construction (incl. pruning scan)
-  double index_seconds = 0;  // of build_seconds: per-label pixel lists, once
-  double maxflow_seconds = 0;
+  // Everything of AlphaExpansion but max-flow: per-pixel state, per-label
+  // lists, pruning scans, graph construction, move bookkeeping.
+  double build_seconds = 0;
+  double index_seconds = 0;    // of build_seconds: the lists etc., made once
+  double maxflow_seconds = 0;  // inside maxflow::Graph::maxflow()
   double total_seconds = 0;
 };
 
