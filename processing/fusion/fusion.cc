@@ -205,87 +205,70 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
   }
   pr.far.resize(static_cast<size_t>(n));
   pr.near_begin.assign(static_cast<size_t>(n + 1), 0);
-  // Row by row into a small label x width buffer (cache friendly), rows in
-  // parallel; the labels below the pixel's constant go to one vector per
-  // row, then into the sparse data term.
+  // Pixel by pixel, rows in parallel: a candidate lowers the constant only
+  // in its window, so only the windows' labels are computed (in a small
+  // per-pixel buffer); those below the constant go to one vector per row,
+  // then into the sparse data term.
   const int width = pr.width;
   std::vector<std::vector<MrfProblem::NearCost>> row_near(
       static_cast<size_t>(pr.height));
   std::atomic<bool> failed{false};
   cv::parallel_for_(cv::Range(0, pr.height), [&](const cv::Range& rows) {
     try {
-      std::vector<int32_t> buf(static_cast<size_t>(num_labels) *
-                               static_cast<size_t>(width));
-      std::vector<int32_t> base(static_cast<size_t>(width));
+      std::vector<int32_t> cost(static_cast<size_t>(num_labels));
       std::vector<std::pair<int, int>> spans;
       spans.reserve(static_cast<size_t>(num_k));
       for (int y = rows.start; y < rows.end; ++y) {
         const int64_t row0 = static_cast<int64_t>(y) * width;
-        for (int x = 0; x < width; ++x) {
+        std::vector<MrfProblem::NearCost>& out =
+            row_near[static_cast<size_t>(y)];
+        for (int64_t p = row0; p < row0 + width; ++p) {
           int32_t b = 0;
+          spans.clear();
           for (int k = 0; k < num_k; ++k) {
-            if (!Valid(cand[static_cast<size_t>(k)][row0 + x],
-                       params.max_disp)) {
-              continue;
-            }
-            b += Round(params.data_scale * confidence(k, row0 + x) * cost_max);
+            const float z = cand[static_cast<size_t>(k)][p];
+            if (!Valid(z, params.max_disp)) continue;
+            b += Round(params.data_scale * confidence(k, p) * cost_max);
+            const int centre = static_cast<int>(z + 0.5f);
+            spans.emplace_back(std::max(0, centre - window - 1),
+                               std::min(num_labels - 1, centre + window + 1));
           }
-          base[static_cast<size_t>(x)] = b;
-        }
-        for (int l = 0; l < num_labels; ++l) {
-          std::copy(base.begin(), base.end(),
-                    buf.begin() + static_cast<int64_t>(l) * width);
-        }
-        for (int x = 0; x < width; ++x) {
+          for (const auto& [lo, hi] : spans) {
+            std::fill(cost.begin() + lo, cost.begin() + hi + 1, b);
+          }
           for (int k = 0; k < num_k; ++k) {
-            const float z = cand[static_cast<size_t>(k)][row0 + x];
+            const float z = cand[static_cast<size_t>(k)][p];
             if (!Valid(z, params.max_disp)) continue;
             const int centre = static_cast<int>(z + 0.5f);
             const int lo = std::max(0, centre - window - 1);
             const int hi = std::min(num_labels - 1, centre + window + 1);
-            int32_t* cell = buf.data() + x;
             if (confidences.empty()) {
               for (int l = lo; l <= hi; ++l) {
                 const size_t i = std::min(
                     static_cast<size_t>(
                         std::abs(static_cast<float>(l) - z) * kLutStep + 0.5f),
                     saving.size() - 1);
-                cell[static_cast<int64_t>(l) * width] -= saving[i];
+                cost[static_cast<size_t>(l)] -= saving[i];
               }
             } else {
-              const double scale = params.data_scale * confidence(k, row0 + x);
+              const double scale = params.data_scale * confidence(k, p);
               const int32_t full = Round(scale * cost_max);
               for (int l = lo; l <= hi; ++l) {
                 const size_t i = std::min(
                     static_cast<size_t>(
                         std::abs(static_cast<float>(l) - z) * kLutStep + 0.5f),
                     lut.size() - 1);
-                cell[static_cast<int64_t>(l) * width] -=
-                    full - Round(scale * lut[i]);
+                cost[static_cast<size_t>(l)] -= full - Round(scale * lut[i]);
               }
             }
           }
-        }
-        // Only the candidates' windows can be below the constant: visit
-        // their union once, by ascending label.
-        std::vector<MrfProblem::NearCost>& out =
-            row_near[static_cast<size_t>(y)];
-        for (int x = 0; x < width; ++x) {
-          spans.clear();
-          for (int k = 0; k < num_k; ++k) {
-            const float z = cand[static_cast<size_t>(k)][row0 + x];
-            if (!Valid(z, params.max_disp)) continue;
-            const int centre = static_cast<int>(z + 0.5f);
-            spans.emplace_back(std::max(0, centre - window - 1),
-                               std::min(num_labels - 1, centre + window + 1));
-          }
+          // The windows' union, once, by ascending label.
           std::sort(spans.begin(), spans.end());
-          const int32_t b = base[static_cast<size_t>(x)];
           const size_t first = out.size();
           int next = 0;  // labels below `next` are done
           for (const auto& [lo, hi] : spans) {
             for (int l = std::max(lo, next); l <= hi; ++l) {
-              const int32_t c = buf[static_cast<size_t>(l) * width + x];
+              const int32_t c = cost[static_cast<size_t>(l)];
               if (c < b) {
                 out.push_back(
                     {static_cast<uint16_t>(l), static_cast<uint16_t>(c)});
@@ -293,8 +276,8 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
             }
             next = std::max(next, hi + 1);
           }
-          pr.far[static_cast<size_t>(row0 + x)] = static_cast<uint16_t>(b);
-          pr.near_begin[static_cast<size_t>(row0 + x + 1)] =
+          pr.far[static_cast<size_t>(p)] = static_cast<uint16_t>(b);
+          pr.near_begin[static_cast<size_t>(p + 1)] =
               static_cast<int64_t>(out.size() - first);
         }
       }
