@@ -78,6 +78,40 @@ absl::Status CheckCandidates(const std::vector<cv::Mat>& candidates,
   return absl::OkStatus();
 }
 
+// MATLAB's edge(I) with its defaults, per channel of an 8-bit image, ORed
+// (Appendix A compute_color_edge): Sobel gradients / 8, b = gx^2 + gy^2,
+// cut-off 4 * mean(b); a pixel is an edge where b exceeds the cut-off and is
+// a local maximum across its stronger gradient direction (thinning).
+cv::Mat EdgeMask(const cv::Mat& image8) {
+  std::vector<cv::Mat> channels;
+  cv::split(image8, channels);
+  cv::Mat mask = cv::Mat::zeros(image8.size(), CV_8UC1);
+  const int w = image8.cols, h = image8.rows;
+  for (const cv::Mat& c : channels) {
+    cv::Mat f, gx, gy;
+    c.convertTo(f, CV_32F, 1.0 / 255.0);
+    cv::Sobel(f, gx, CV_32F, 1, 0, 3, 1.0 / 8.0, 0, cv::BORDER_REPLICATE);
+    cv::Sobel(f, gy, CV_32F, 0, 1, 3, 1.0 / 8.0, 0, cv::BORDER_REPLICATE);
+    const cv::Mat b = gx.mul(gx) + gy.mul(gy);
+    const float cutoff = static_cast<float>(4.0 * cv::mean(b)[0]);
+    auto at = [&](int y, int x) {
+      return (x < 0 || x >= w || y < 0 || y >= h) ? 0.0f : b.at<float>(y, x);
+    };
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        const float v = b.at<float>(y, x);
+        if (!(v > cutoff)) continue;
+        const float ax = std::abs(gx.at<float>(y, x));
+        const float ay = std::abs(gy.at<float>(y, x));
+        const bool across_x = ax >= ay && at(y, x - 1) <= v && v > at(y, x + 1);
+        const bool across_y = ay >= ax && at(y - 1, x) <= v && v > at(y + 1, x);
+        if (across_x || across_y) mask.at<uchar>(y, x) = 1;
+      }
+    }
+  }
+  return mask;
+}
+
 absl::StatusOr<cv::Mat> GuideGrey8(const cv::Mat& guide, cv::Size size) {
   if (guide.empty() || guide.size() != size) {
     return absl::InvalidArgumentError(
@@ -122,11 +156,12 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
       !(params.lambda >= 0) || !(params.lambda <= 1e4) ||
       !(params.linear_model_thr <= 1e4) || !(params.data_truncation > 0) ||
       params.quadratic_truncation < 1 || !(params.linear_model_thr >= 1) ||
-      params.candidate_label_radius < 0) {
+      params.candidate_label_radius < 0 || !(params.edge_weight >= 0) ||
+      !(params.edge_weight <= 1)) {
     return absl::InvalidArgumentError(
         "fusion: sigma, data_scale, data_truncation must be > 0, lambda in "
         "[0, 1e4], linear_model_thr in [1, 1e4], quadratic_truncation >= 1, "
-        "candidate_label_radius >= 0");
+        "candidate_label_radius >= 0, edge_weight in [0, 1]");
   }
   const int num_k = static_cast<int>(candidates.size());
   const double per_candidate_max =
@@ -305,7 +340,14 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
   pr.down.assign(static_cast<size_t>(n), 0);
   pr.potts = params.smoothness != SmoothnessModel::kQuadratic;
   pr.truncation = pr.potts ? 1 : params.quadratic_truncation;
-  auto weight = [&](int a, int b) -> int32_t {
+  cv::Mat edges;
+  if (params.edge_weight < 1) {
+    cv::Mat guide8 = guide;
+    if (guide.depth() == CV_32F) guide.convertTo(guide8, CV_8U, 255.0);
+    edges = EdgeMask(guide8);
+  }
+  // The pair's weight; q is its right / lower pixel.
+  auto weight = [&](int a, int b, int64_t q) -> int32_t {
     double g = std::abs(a - b);
     double w = 0;
     switch (params.smoothness) {
@@ -325,6 +367,7 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
         break;
       }
     }
+    if (!edges.empty() && edges.ptr<uchar>()[q] != 0) w *= params.edge_weight;
     return static_cast<int32_t>(std::lround(params.lambda * w));
   };
   const uchar* img = grey->ptr<uchar>();
@@ -332,10 +375,11 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
     for (int x = 0; x < pr.width; ++x) {
       const int64_t p = static_cast<int64_t>(y) * pr.width + x;
       if (x + 1 < pr.width) {
-        pr.right[static_cast<size_t>(p)] = weight(img[p], img[p + 1]);
+        pr.right[static_cast<size_t>(p)] = weight(img[p], img[p + 1], p + 1);
       }
       if (y + 1 < pr.height) {
-        pr.down[static_cast<size_t>(p)] = weight(img[p], img[p + pr.width]);
+        pr.down[static_cast<size_t>(p)] =
+            weight(img[p], img[p + pr.width], p + pr.width);
       }
     }
   }

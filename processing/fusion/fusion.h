@@ -30,6 +30,7 @@
 //       rho = [f_p != f_q];
 //   kPotts:          w = lambda * linear_model_thr, rho = [f_p != f_q];
 //   kPottsStaticCue: w = lambda * ((g <= static_cue) + 1), rho = Potts;
+//   (times edge_weight where the pair's right / lower pixel is a guide edge)
 //   kQuadratic (Eqs. 5.5-5.7): w = lambda * linear_model_thr * exp(-c g^2)
 //       with g on [0, 1] grey, rho = min((f_p - f_q)^2, quadratic_truncation).
 //       (4-neighbours here; the thesis' Eq. 5.5 uses 8).
@@ -87,6 +88,11 @@ struct FusionParams {
   double static_cue = 8.0;         // Appendix A sCue
   double quadratic_c = 50.0;       // Eq. 5.6, on [0, 1] grey
   int quadratic_truncation = 4;    // rho cap for kQuadratic
+  // Appendix A `useEdge`: the weight of a pair whose right / lower pixel is
+  // an edge pixel of the guide (MATLAB edge(): Sobel, threshold 4 x the mean
+  // squared gradient, thinned; any colour channel) is multiplied by this.
+  // Appendix A uses eps (~0); 1 leaves the weights as they are.
+  double edge_weight = 1.0;
   int max_cycles = 20;
   // Leave dominated pixels out of the expansion graphs and skip expansions
   // that cannot change anything (both exact; see above). false builds the

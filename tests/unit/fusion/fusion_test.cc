@@ -372,6 +372,34 @@ TEST(Fuse, PruningKeepsTheLabellingOfACandidateProblem) {
   }
 }
 
+// Appendix A useEdge: pairs whose right / lower pixel is a guide edge lose
+// their smoothness weight; elsewhere the weights are unchanged.
+TEST(Fuse, EdgeWeightCutsPairsAtGuideEdges) {
+  cv::Mat guide(kH, kW, CV_8UC1, cv::Scalar(40));
+  guide.colRange(24, kW).setTo(cv::Scalar(200));
+  const std::vector<cv::Mat> cands(3, Truth());
+  FusionParams p = Params();
+  absl::StatusOr<MrfProblem> plain = BuildProblem(cands, guide, p);
+  p.edge_weight = 0;
+  absl::StatusOr<MrfProblem> cut = BuildProblem(cands, guide, p);
+  ASSERT_TRUE(plain.ok() && cut.ok());
+  for (int y = 0; y + 1 < kH; ++y) {
+    const size_t row = static_cast<size_t>(y * kW);
+    // The step lies between x = 23 and 24; the thinned edge is x = 24.
+    EXPECT_EQ(plain->right[row + 23], 1);  // max(40 - 160, 1)
+    EXPECT_EQ(cut->right[row + 23], 0);
+    EXPECT_EQ(plain->down[row + 24], 40);
+    EXPECT_EQ(cut->down[row + 24], 0);
+    for (int x : {10, 23, 25, 40}) {
+      EXPECT_EQ(cut->down[row + static_cast<size_t>(x)], 40) << x;
+      EXPECT_EQ(cut->right[row + static_cast<size_t>(x) + 1],
+                plain->right[row + static_cast<size_t>(x) + 1]);
+    }
+  }
+  p.edge_weight = 1.5;
+  EXPECT_FALSE(BuildProblem(cands, guide, p).ok());
+}
+
 TEST(Fuse, InvalidCandidatesContributeNothing) {
   const cv::Mat truth = Truth();
   std::vector<cv::Mat> cands(5, truth);
