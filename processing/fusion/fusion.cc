@@ -672,26 +672,18 @@ struct Entry {
 // D_p(l), so a scan reads the list and the pixel's state only.
 class Lists {
  public:
-  // st: the pixel states (index = pixel) with label, cur and bound set.
-  Lists(const MrfProblem& pr, const SparseView& v, PixelState* st)
-      : pr_(pr), v_(v), by_label_(static_cast<size_t>(pr.num_labels)) {
-    const size_t nz = static_cast<size_t>(pr.width) * pr.height;
-    // Counted first, so that every list is allocated once.
-    std::vector<size_t> count(static_cast<size_t>(pr.num_labels), 0);
-    for (size_t p = 0; p < nz; ++p) {
-      st[p].reach = st[p].cur + st[p].bound;
-      for (int64_t i = v_.begin[p]; i < v_.begin[p + 1]; ++i) {
-        count[v_.near[i].label] += v_.near[i].cost <= st[p].reach ? 1 : 0;
-      }
-    }
-    for (size_t l = 0; l < count.size(); ++l) by_label_[l].reserve(count[l]);
-    for (size_t p = 0; p < nz; ++p) {
-      const int32_t reach = st[p].reach;
-      if (v_.far[p] <= reach) everywhere_.push_back(static_cast<int>(p));
-      for (int64_t i = v_.begin[p]; i < v_.begin[p + 1]; ++i) {
-        const MrfProblem::NearCost& e = v_.near[i];
-        if (e.cost <= reach) Add(e.label, static_cast<int>(p), e.cost);
-      }
+  Lists(const MrfProblem& pr, const SparseView& v)
+      : pr_(pr), v_(v), by_label_(static_cast<size_t>(pr.num_labels)) {}
+
+  // Lists pixel p (state s, with cur and bound set), pixels in ascending
+  // order.
+  void Init(int p, PixelState& s) {
+    const size_t pz = static_cast<size_t>(p);
+    s.reach = s.cur + s.bound;
+    if (v_.far[pz] <= s.reach) everywhere_.push_back(p);
+    for (int64_t i = v_.begin[pz]; i < v_.begin[pz + 1]; ++i) {
+      const MrfProblem::NearCost& e = v_.near[i];
+      if (e.cost <= s.reach) Add(e.label, p, e.cost);
     }
   }
 
@@ -744,39 +736,36 @@ SolverStats Expand(const MrfProblem& pr, std::vector<int32_t>& labels,
   std::vector<PixelState> state(nz + 2 * static_cast<size_t>(w));
   PixelState* const st = state.data() + w;
   const int32_t rho_max = RhoMax(pr);
+  // Without pruning every pixel is scanned in every expansion: no lists, but
+  // the dense volume.
+  std::optional<Lists> lists;
+  if (prune) lists.emplace(pr, view);
+  int64_t energy = 0;
   for (int p = 0; p < n; ++p) {
     const size_t pz = static_cast<size_t>(p);
     PixelState& s = st[p];
     s.label = labels[pz];
     if ((p + 1) % w != 0) s.right = pr.right[pz];
     if (p + w < n) s.down = pr.down[pz];
+    s.bound = (st[p - 1].right + s.right + st[p - w].down + s.down) * rho_max;
     s.cur = view.far[pz];
     for (int64_t i = view.begin[pz]; i < view.begin[pz + 1]; ++i) {
       if (view.near[i].label == s.label) s.cur = view.near[i].cost;
     }
-  }
-  int64_t energy = 0;
-  for (int p = 0; p < n; ++p) {
-    PixelState& s = st[p];
-    s.bound = (st[p - 1].right + s.right + st[p - w].down + s.down) * rho_max;
     energy += s.cur;
     if (s.right != 0) {
       energy += static_cast<int64_t>(s.right) *
-                RhoOf<kPotts>(pr, s.label, st[p + 1].label);
+                RhoOf<kPotts>(pr, s.label, labels[pz + 1]);
     }
     if (s.down != 0) {
       energy += static_cast<int64_t>(s.down) *
-                RhoOf<kPotts>(pr, s.label, st[p + w].label);
+                RhoOf<kPotts>(pr, s.label, labels[pz + static_cast<size_t>(w)]);
     }
+    if (lists) lists->Init(p, s);
   }
-  // Without pruning every pixel is scanned in every expansion: no lists, but
-  // the dense volume.
-  std::optional<Lists> lists;
   std::vector<uint16_t> dense_store;
   const uint16_t* dense = pr.data.data();
-  if (prune) {
-    lists.emplace(pr, view, st);
-  } else if (pr.data.empty()) {
+  if (!prune && pr.data.empty()) {
     dense_store.resize(nz * static_cast<size_t>(pr.num_labels));
     for (int l = 0; l < pr.num_labels; ++l) {
       std::copy_n(view.far, nz,
@@ -795,7 +784,7 @@ SolverStats Expand(const MrfProblem& pr, std::vector<int32_t>& labels,
 
   std::vector<Entry> free_px;
   free_px.reserve(nz);
-  // Per graph node: E(alpha) - E(keep) of its unary terms.
+  // Per graph node: terminal weights from edges added before it (below).
   std::vector<int32_t> unary(nz);
   std::vector<int> changed;
   changed.reserve(nz);
@@ -888,14 +877,15 @@ SolverStats Expand(const MrfProblem& pr, std::vector<int32_t>& labels,
       const int m = static_cast<int>(free_px.size());
       graph.reset();
       graph.add_node(m);
+      // unary[i]: what node i's terminal weights get from edges added before
+      // it is reached (a node reached already gets them directly).
+      std::fill_n(unary.begin(), m, 0);
       for (int i = 0; i < m; ++i) {
         const Entry& f = free_px[static_cast<size_t>(i)];
-        unary[static_cast<size_t>(i)] = f.d - st[f.p].cur;
-      }
-      for (int i = 0; i < m; ++i) {
-        const PixelState* s = st + free_px[static_cast<size_t>(i)].p;
+        const PixelState* s = st + f.p;
         const int32_t fp = s->label;
-        int32_t d = 0;
+        // E(alpha) - E(keep) of this node's unary terms.
+        int32_t d = f.d - s->cur + unary[static_cast<size_t>(i)];
         // Each edge between two nodes is added once, from its lower pixel.
         auto edge = [&](const PixelState& q, int32_t wpq, bool forward) {
           if (wpq == 0) return;
@@ -910,7 +900,11 @@ SolverStats Expand(const MrfProblem& pr, std::vector<int32_t>& labels,
             // E = A + (C - A) x_p + (D - C) x_q + (B + C - A - D)(1-x_p)x_q,
             // D = 0.
             d += c - a;
-            unary[static_cast<size_t>(q.node)] -= c;
+            if (q.node > i) {
+              unary[static_cast<size_t>(q.node)] -= c;
+            } else {
+              graph.add_tweights(q.node, 0, c);
+            }
             const int32_t cap = std::max(b + c - a, 0);
             if (cap > 0) graph.add_edge(i, q.node, cap, 0);
           }
@@ -919,11 +913,7 @@ SolverStats Expand(const MrfProblem& pr, std::vector<int32_t>& labels,
         edge(s[-1], s[-1].right, false);
         edge(s[w], s->down, true);
         edge(s[-w], s[-w].down, false);
-        unary[static_cast<size_t>(i)] += d;
-      }
-      for (int i = 0; i < m; ++i) {
         // x = 1 (switch to alpha) <=> SINK; cap_source is paid in SINK.
-        const int32_t d = unary[static_cast<size_t>(i)];
         if (d > 0) {
           graph.add_tweights(i, d, 0);
         } else {
@@ -936,14 +926,13 @@ SolverStats Expand(const MrfProblem& pr, std::vector<int32_t>& labels,
       ++stats.expansions;
       stats.graph_nodes += m;
 
-      // Switching pixels: node set to -2 - i (still < 0 for the scans' sake,
-      // but tells "moves too" apart).
+      // Switching pixels: node = -2 (tells "moves too" apart in the energy
+      // change below), the others' node back to -1.
       changed.clear();
       for (int i = 0; i < m; ++i) {
-        if (graph.what_segment(i) == Graph::SINK) {
-          changed.push_back(i);
-          st[free_px[static_cast<size_t>(i)].p].node = -2;
-        }
+        const bool moves = graph.what_segment(i) == Graph::SINK;
+        st[free_px[static_cast<size_t>(i)].p].node = moves ? -2 : -1;
+        if (moves) changed.push_back(i);
       }
       // Exact energy change of the move.
       int64_t delta = 0;
@@ -987,7 +976,7 @@ SolverStats Expand(const MrfProblem& pr, std::vector<int32_t>& labels,
         ++stats.accepted;
       }
       last_run[static_cast<size_t>(alpha)] = tick;
-      for (const Entry& f : free_px) st[f.p].node = -1;
+      for (int i : changed) st[free_px[static_cast<size_t>(i)].p].node = -1;
     }
     if (!improved) break;
   }
