@@ -651,7 +651,7 @@ struct alignas(32) PixelState {
   int32_t node = -1;  // graph node in the current expansion, or -1
   int32_t right = 0;
   int32_t down = 0;
-  int32_t reach = 0;  // see Lists
+  int32_t next = 0;  // see Lists
 };
 
 struct Entry {
@@ -669,7 +669,10 @@ struct Entry {
 // in every expansion with cost far_p; its sparse-view labels stay listed
 // with their own costs and are scanned first (a second sighting of a pixel
 // is then either skipped or, costing more, dominated too). Entries carry
-// D_p(l), so a scan reads the list and the pixel's state only.
+// D_p(l), so a scan reads the list and the pixel's state only. The state
+// keeps next_p, the smallest cost above reach_p (far_p included; the
+// largest int once everywhere): a raise below it lists nothing new and
+// does not read the sparse view.
 class Lists {
  public:
   Lists(const MrfProblem& pr, const SparseView& v)
@@ -678,13 +681,8 @@ class Lists {
   // Lists pixel p (state s, with cur and bound set), pixels in ascending
   // order.
   void Init(int p, PixelState& s) {
-    const size_t pz = static_cast<size_t>(p);
-    s.reach = s.cur + s.bound;
-    if (v_.far[pz] <= s.reach) everywhere_.push_back(p);
-    for (int64_t i = v_.begin[pz]; i < v_.begin[pz + 1]; ++i) {
-      const MrfProblem::NearCost& e = v_.near[i];
-      if (e.cost <= s.reach) Add(e.label, p, e.cost);
-    }
+    s.next = 0;
+    List(p, s, s.cur + s.bound);
   }
 
   const std::vector<Entry>& ForLabel(int l) const {
@@ -695,20 +693,33 @@ class Lists {
 
   // p (state s) now costs s.cur: list it where it can now go.
   void Raise(int p, PixelState& s) {
-    const size_t pz = static_cast<size_t>(p);
     const int32_t reach = s.cur + s.bound;
-    const int32_t old = s.reach;
-    if (reach <= old) return;
-    s.reach = reach;
-    if (old >= v_.far[pz]) return;  // already everywhere
-    if (v_.far[pz] <= reach) everywhere_.push_back(p);
-    for (int64_t i = v_.begin[pz]; i < v_.begin[pz + 1]; ++i) {
-      const MrfProblem::NearCost& e = v_.near[i];
-      if (e.cost > old && e.cost <= reach) Add(e.label, p, e.cost);
-    }
+    if (reach >= s.next) List(p, s, reach);
   }
 
  private:
+  // Lists p for the labels costing from s.next to reach; s.next := the
+  // smallest cost above reach.
+  void List(int p, PixelState& s, int32_t reach) {
+    const size_t pz = static_cast<size_t>(p);
+    const int32_t far = v_.far[pz];
+    int32_t next = std::numeric_limits<int32_t>::max();
+    if (far <= reach) {
+      everywhere_.push_back(p);
+    } else {
+      next = far;
+    }
+    for (int64_t i = v_.begin[pz]; i < v_.begin[pz + 1]; ++i) {
+      const MrfProblem::NearCost& e = v_.near[i];
+      if (e.cost > reach) {
+        next = std::min<int32_t>(next, e.cost);
+      } else if (e.cost >= s.next) {
+        Add(e.label, p, e.cost);
+      }
+    }
+    s.next = next;
+  }
+
   void Add(int l, int p, int32_t d) {
     if (!pr_.allowed.empty() &&
         pr_.allowed[static_cast<size_t>(l) * pr_.width * pr_.height +
