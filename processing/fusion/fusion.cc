@@ -10,6 +10,7 @@
 #include <new>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -77,6 +78,40 @@ absl::Status CheckCandidates(const std::vector<cv::Mat>& candidates,
   return absl::OkStatus();
 }
 
+// MATLAB's edge(I) with its defaults, per channel of an 8-bit image, ORed
+// (Appendix A compute_color_edge): Sobel gradients / 8, b = gx^2 + gy^2,
+// cut-off 4 * mean(b); a pixel is an edge where b exceeds the cut-off and is
+// a local maximum across its stronger gradient direction (thinning).
+cv::Mat EdgeMask(const cv::Mat& image8) {
+  std::vector<cv::Mat> channels;
+  cv::split(image8, channels);
+  cv::Mat mask = cv::Mat::zeros(image8.size(), CV_8UC1);
+  const int w = image8.cols, h = image8.rows;
+  for (const cv::Mat& c : channels) {
+    cv::Mat f, gx, gy;
+    c.convertTo(f, CV_32F, 1.0 / 255.0);
+    cv::Sobel(f, gx, CV_32F, 1, 0, 3, 1.0 / 8.0, 0, cv::BORDER_REPLICATE);
+    cv::Sobel(f, gy, CV_32F, 0, 1, 3, 1.0 / 8.0, 0, cv::BORDER_REPLICATE);
+    const cv::Mat b = gx.mul(gx) + gy.mul(gy);
+    const float cutoff = static_cast<float>(4.0 * cv::mean(b)[0]);
+    auto at = [&](int y, int x) {
+      return (x < 0 || x >= w || y < 0 || y >= h) ? 0.0f : b.at<float>(y, x);
+    };
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        const float v = b.at<float>(y, x);
+        if (!(v > cutoff)) continue;
+        const float ax = std::abs(gx.at<float>(y, x));
+        const float ay = std::abs(gy.at<float>(y, x));
+        const bool across_x = ax >= ay && at(y, x - 1) <= v && v > at(y, x + 1);
+        const bool across_y = ay >= ax && at(y - 1, x) <= v && v > at(y + 1, x);
+        if (across_x || across_y) mask.at<uchar>(y, x) = 1;
+      }
+    }
+  }
+  return mask;
+}
+
 absl::StatusOr<cv::Mat> GuideGrey8(const cv::Mat& guide, cv::Size size) {
   if (guide.empty() || guide.size() != size) {
     return absl::InvalidArgumentError(
@@ -121,11 +156,12 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
       !(params.lambda >= 0) || !(params.lambda <= 1e4) ||
       !(params.linear_model_thr <= 1e4) || !(params.data_truncation > 0) ||
       params.quadratic_truncation < 1 || !(params.linear_model_thr >= 1) ||
-      params.candidate_label_radius < 0) {
+      params.candidate_label_radius < 0 || !(params.edge_weight >= 0) ||
+      !(params.edge_weight <= 1)) {
     return absl::InvalidArgumentError(
         "fusion: sigma, data_scale, data_truncation must be > 0, lambda in "
         "[0, 1e4], linear_model_thr in [1, 1e4], quadratic_truncation >= 1, "
-        "candidate_label_radius >= 0");
+        "candidate_label_radius >= 0, edge_weight in [0, 1]");
   }
   const int num_k = static_cast<int>(candidates.size());
   const double per_candidate_max =
@@ -202,69 +238,82 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
     saving[i] =
         Round(params.data_scale * cost_max) - Round(params.data_scale * lut[i]);
   }
-  pr.data.resize(static_cast<size_t>(n * num_labels));
-  // Row by row into a small label x width buffer (cache friendly), then
-  // copied into the label-major volume; rows in parallel.
+  pr.far.resize(static_cast<size_t>(n));
+  pr.near_begin.assign(static_cast<size_t>(n + 1), 0);
+  // Pixel by pixel, rows in parallel: a candidate lowers the constant only
+  // in its window, so only the windows' labels are computed (in a small
+  // per-pixel buffer); those below the constant go to one vector per row,
+  // then into the sparse data term.
   const int width = pr.width;
+  std::vector<std::vector<MrfProblem::NearCost>> row_near(
+      static_cast<size_t>(pr.height));
   std::atomic<bool> failed{false};
   cv::parallel_for_(cv::Range(0, pr.height), [&](const cv::Range& rows) {
     try {
-      std::vector<int32_t> buf(static_cast<size_t>(num_labels) *
-                               static_cast<size_t>(width));
-      std::vector<int32_t> base(static_cast<size_t>(width));
+      std::vector<int32_t> cost(static_cast<size_t>(num_labels));
+      std::vector<std::pair<int, int>> spans;
+      spans.reserve(static_cast<size_t>(num_k));
       for (int y = rows.start; y < rows.end; ++y) {
         const int64_t row0 = static_cast<int64_t>(y) * width;
-        for (int x = 0; x < width; ++x) {
+        std::vector<MrfProblem::NearCost>& out =
+            row_near[static_cast<size_t>(y)];
+        for (int64_t p = row0; p < row0 + width; ++p) {
           int32_t b = 0;
+          spans.clear();
           for (int k = 0; k < num_k; ++k) {
-            if (!Valid(cand[static_cast<size_t>(k)][row0 + x],
-                       params.max_disp)) {
-              continue;
-            }
-            b += Round(params.data_scale * confidence(k, row0 + x) * cost_max);
+            const float z = cand[static_cast<size_t>(k)][p];
+            if (!Valid(z, params.max_disp)) continue;
+            b += Round(params.data_scale * confidence(k, p) * cost_max);
+            const int centre = static_cast<int>(z + 0.5f);
+            spans.emplace_back(std::max(0, centre - window - 1),
+                               std::min(num_labels - 1, centre + window + 1));
           }
-          base[static_cast<size_t>(x)] = b;
-        }
-        for (int l = 0; l < num_labels; ++l) {
-          std::copy(base.begin(), base.end(),
-                    buf.begin() + static_cast<int64_t>(l) * width);
-        }
-        for (int x = 0; x < width; ++x) {
+          for (const auto& [lo, hi] : spans) {
+            std::fill(cost.begin() + lo, cost.begin() + hi + 1, b);
+          }
           for (int k = 0; k < num_k; ++k) {
-            const float z = cand[static_cast<size_t>(k)][row0 + x];
+            const float z = cand[static_cast<size_t>(k)][p];
             if (!Valid(z, params.max_disp)) continue;
             const int centre = static_cast<int>(z + 0.5f);
             const int lo = std::max(0, centre - window - 1);
             const int hi = std::min(num_labels - 1, centre + window + 1);
-            int32_t* cell = buf.data() + x;
             if (confidences.empty()) {
               for (int l = lo; l <= hi; ++l) {
                 const size_t i = std::min(
                     static_cast<size_t>(
                         std::abs(static_cast<float>(l) - z) * kLutStep + 0.5f),
                     saving.size() - 1);
-                cell[static_cast<int64_t>(l) * width] -= saving[i];
+                cost[static_cast<size_t>(l)] -= saving[i];
               }
             } else {
-              const double scale = params.data_scale * confidence(k, row0 + x);
+              const double scale = params.data_scale * confidence(k, p);
               const int32_t full = Round(scale * cost_max);
               for (int l = lo; l <= hi; ++l) {
                 const size_t i = std::min(
                     static_cast<size_t>(
                         std::abs(static_cast<float>(l) - z) * kLutStep + 0.5f),
                     lut.size() - 1);
-                cell[static_cast<int64_t>(l) * width] -=
-                    full - Round(scale * lut[i]);
+                cost[static_cast<size_t>(l)] -= full - Round(scale * lut[i]);
               }
             }
           }
-        }
-        for (int l = 0; l < num_labels; ++l) {
-          uint16_t* dst = pr.data.data() + static_cast<int64_t>(l) * n + row0;
-          const int32_t* src = buf.data() + static_cast<int64_t>(l) * width;
-          for (int x = 0; x < width; ++x) {
-            dst[x] = static_cast<uint16_t>(src[x]);
+          // The windows' union, once, by ascending label.
+          std::sort(spans.begin(), spans.end());
+          const size_t first = out.size();
+          int next = 0;  // labels below `next` are done
+          for (const auto& [lo, hi] : spans) {
+            for (int l = std::max(lo, next); l <= hi; ++l) {
+              const int32_t c = cost[static_cast<size_t>(l)];
+              if (c < b) {
+                out.push_back(
+                    {static_cast<uint16_t>(l), static_cast<uint16_t>(c)});
+              }
+            }
+            next = std::max(next, hi + 1);
           }
+          pr.far[static_cast<size_t>(p)] = static_cast<uint16_t>(b);
+          pr.near_begin[static_cast<size_t>(p + 1)] =
+              static_cast<int64_t>(out.size() - first);
         }
       }
     } catch (...) {
@@ -274,13 +323,31 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
   if (failed) {
     return absl::ResourceExhaustedError("fusion: out of memory (data term)");
   }
+  for (int64_t p = 0; p < n; ++p) {
+    pr.near_begin[static_cast<size_t>(p + 1)] +=
+        pr.near_begin[static_cast<size_t>(p)];
+  }
+  pr.near.resize(static_cast<size_t>(pr.near_begin.back()));
+  for (int y = 0; y < pr.height; ++y) {
+    std::vector<MrfProblem::NearCost>& rn = row_near[static_cast<size_t>(y)];
+    std::copy(rn.begin(), rn.end(),
+              pr.near.begin() + pr.near_begin[static_cast<size_t>(y) * width]);
+    std::vector<MrfProblem::NearCost>().swap(rn);
+  }
 
   // Smoothness weights.
   pr.right.assign(static_cast<size_t>(n), 0);
   pr.down.assign(static_cast<size_t>(n), 0);
   pr.potts = params.smoothness != SmoothnessModel::kQuadratic;
   pr.truncation = pr.potts ? 1 : params.quadratic_truncation;
-  auto weight = [&](int a, int b) -> int32_t {
+  cv::Mat edges;
+  if (params.edge_weight < 1) {
+    cv::Mat guide8 = guide;
+    if (guide.depth() == CV_32F) guide.convertTo(guide8, CV_8U, 255.0);
+    edges = EdgeMask(guide8);
+  }
+  // The pair's weight; q is its right / lower pixel.
+  auto weight = [&](int a, int b, int64_t q) -> int32_t {
     double g = std::abs(a - b);
     double w = 0;
     switch (params.smoothness) {
@@ -300,6 +367,7 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
         break;
       }
     }
+    if (!edges.empty() && edges.ptr<uchar>()[q] != 0) w *= params.edge_weight;
     return static_cast<int32_t>(std::lround(params.lambda * w));
   };
   const uchar* img = grey->ptr<uchar>();
@@ -307,10 +375,11 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
     for (int x = 0; x < pr.width; ++x) {
       const int64_t p = static_cast<int64_t>(y) * pr.width + x;
       if (x + 1 < pr.width) {
-        pr.right[static_cast<size_t>(p)] = weight(img[p], img[p + 1]);
+        pr.right[static_cast<size_t>(p)] = weight(img[p], img[p + 1], p + 1);
       }
       if (y + 1 < pr.height) {
-        pr.down[static_cast<size_t>(p)] = weight(img[p], img[p + pr.width]);
+        pr.down[static_cast<size_t>(p)] =
+            weight(img[p], img[p + pr.width], p + pr.width);
       }
     }
   }
@@ -345,8 +414,13 @@ absl::Status CheckProblem(const MrfProblem& pr) {
   if (pr.width < 1 || pr.height < 1 || pr.num_labels < 1) {
     return absl::InvalidArgumentError("fusion: empty MRF problem");
   }
-  if (static_cast<int64_t>(pr.data.size()) != n * pr.num_labels ||
-      static_cast<int64_t>(pr.right.size()) != n ||
+  if ((pr.near_begin.empty() || !pr.data.empty()) &&
+      static_cast<int64_t>(pr.data.size()) != n * pr.num_labels) {
+    return absl::InvalidArgumentError(
+        "fusion: the data term needs num_labels costs per pixel, or the "
+        "sparse view");
+  }
+  if (static_cast<int64_t>(pr.right.size()) != n ||
       static_cast<int64_t>(pr.down.size()) != n ||
       (!pr.allowed.empty() &&
        static_cast<int64_t>(pr.allowed.size()) != n * pr.num_labels)) {
@@ -361,6 +435,34 @@ absl::Status CheckProblem(const MrfProblem& pr) {
   if (!pr.potts && (pr.truncation < 1 || pr.truncation > (1 << 16))) {
     return absl::InvalidArgumentError(
         "fusion: truncation must be in [1, 65536]");
+  }
+  if (!pr.near_begin.empty()) {
+    // The sparse view: shape, label range and order, costs below far. (That
+    // it matches `data`, when both are given, is the builder's promise;
+    // checking it would read the whole volume.)
+    if (static_cast<int64_t>(pr.far.size()) != n ||
+        static_cast<int64_t>(pr.near_begin.size()) != n + 1 ||
+        pr.near_begin.front() != 0 ||
+        pr.near_begin.back() != static_cast<int64_t>(pr.near.size())) {
+      return absl::InvalidArgumentError("fusion: malformed sparse data view");
+    }
+    for (int64_t p = 0; p < n; ++p) {
+      const int64_t b = pr.near_begin[static_cast<size_t>(p)];
+      const int64_t e = pr.near_begin[static_cast<size_t>(p + 1)];
+      if (e < b) {
+        return absl::InvalidArgumentError("fusion: malformed sparse data view");
+      }
+      int prev = -1;
+      for (int64_t i = b; i < e; ++i) {
+        const MrfProblem::NearCost& c = pr.near[static_cast<size_t>(i)];
+        if (c.label <= prev || c.label >= pr.num_labels ||
+            c.cost >= pr.far[static_cast<size_t>(p)]) {
+          return absl::InvalidArgumentError(
+              "fusion: malformed sparse data view");
+        }
+        prev = c.label;
+      }
+    }
   }
   // Keeps every unary sum and edge capacity of a move inside int.
   const int64_t rho_max = pr.potts ? 1 : pr.truncation;
@@ -389,12 +491,31 @@ absl::StatusOr<MrfProblem> BuildProblem(
   }
 }
 
+namespace {
+
+// D_p(l), from the dense volume or the sparse view.
+int32_t DataCost(const MrfProblem& pr, int64_t p, int32_t l) {
+  if (!pr.data.empty()) {
+    return pr.data[static_cast<size_t>(
+        static_cast<int64_t>(l) * pr.width * pr.height + p)];
+  }
+  for (int64_t i = pr.near_begin[static_cast<size_t>(p)];
+       i < pr.near_begin[static_cast<size_t>(p + 1)]; ++i) {
+    if (pr.near[static_cast<size_t>(i)].label == l) {
+      return pr.near[static_cast<size_t>(i)].cost;
+    }
+  }
+  return pr.far[static_cast<size_t>(p)];
+}
+
+}  // namespace
+
 int64_t Energy(const MrfProblem& pr, const std::vector<int32_t>& labels) {
   const int64_t n = static_cast<int64_t>(pr.width) * pr.height;
   int64_t e = 0;
   for (int64_t p = 0; p < n; ++p) {
     const int32_t l = labels[static_cast<size_t>(p)];
-    e += pr.data[static_cast<size_t>(l * n + p)];
+    e += DataCost(pr, p, l);
     const int x = static_cast<int>(p % pr.width);
     if (x + 1 < pr.width) {
       e += static_cast<int64_t>(pr.right[static_cast<size_t>(p)]) *
@@ -411,6 +532,33 @@ int64_t Energy(const MrfProblem& pr, const std::vector<int32_t>& labels) {
 std::vector<int32_t> WinnerTakesAll(const MrfProblem& pr) {
   const int64_t n = static_cast<int64_t>(pr.width) * pr.height;
   std::vector<int32_t> labels(static_cast<size_t>(n), 0);
+  if (!pr.near_begin.empty()) {
+    // Every label outside the sparse view costs far[p], more than any in it:
+    // the first (allowed) minimum is the view's, else the first allowed
+    // label.
+    auto allowed = [&](int64_t p, int l) {
+      return pr.allowed.empty() ||
+             pr.allowed[static_cast<size_t>(static_cast<int64_t>(l) * n + p)] !=
+                 0;
+    };
+    for (int64_t p = 0; p < n; ++p) {
+      uint16_t best = pr.far[static_cast<size_t>(p)];
+      int32_t label = -1;
+      for (int64_t i = pr.near_begin[static_cast<size_t>(p)];
+           i < pr.near_begin[static_cast<size_t>(p + 1)]; ++i) {
+        const MrfProblem::NearCost& c = pr.near[static_cast<size_t>(i)];
+        if (c.cost < best && allowed(p, c.label)) {
+          best = c.cost;
+          label = c.label;
+        }
+      }
+      for (int l = 0; label < 0 && l < pr.num_labels; ++l) {
+        if (allowed(p, l)) label = l;
+      }
+      labels[static_cast<size_t>(p)] = std::max(label, 0);
+    }
+    return labels;
+  }
   std::vector<int32_t> best(static_cast<size_t>(n),
                             std::numeric_limits<int32_t>::max());
   for (int l = 0; l < pr.num_labels; ++l) {
@@ -430,12 +578,6 @@ std::vector<int32_t> WinnerTakesAll(const MrfProblem& pr) {
 
 namespace {
 
-// A pixel's four edge weights, 0 where the neighbour is outside the image, so
-// the inner loops need neither coordinates nor bounds checks.
-struct Neighbours {
-  int32_t left = 0, right = 0, up = 0, down = 0;
-};
-
 template <bool kPotts>
 inline int32_t RhoOf(const MrfProblem& pr, int32_t a, int32_t b) {
   if constexpr (kPotts) {
@@ -445,140 +587,265 @@ inline int32_t RhoOf(const MrfProblem& pr, int32_t a, int32_t b) {
   }
 }
 
-// For each label, the pixels that may take it in an optimal move, ascending.
-// A pixel can only switch to alpha when D_p(alpha) - D_p(f_p) <= bound_p; as
-// D_p(f_p) >= min_l D_p(l), the pixels with D_p(alpha) <= min_l D_p(l) +
-// bound_p are a static superset. Scanned in blocks whose any-hit test
-// vectorises: most blocks of most labels have no such pixel.
-std::vector<std::vector<int>> ReachableByLabel(
-    const MrfProblem& pr, const std::vector<int32_t>& bound, bool prune) {
-  const int n = pr.width * pr.height;
-  const size_t nz = static_cast<size_t>(n);
-  // Loops in fixed blocks of kBlock pixels (plus a scalar tail) so that -O2
-  // vectorises them.
-  constexpr int kBlock = 64;
-  std::vector<uint16_t> thr(nz, std::numeric_limits<uint16_t>::max());
-  if (prune) {
-    std::vector<uint16_t> dmin(nz, std::numeric_limits<uint16_t>::max());
-    for (int l = 0; l < pr.num_labels; ++l) {
-      const uint16_t* row = pr.data.data() + static_cast<size_t>(l) * nz;
-      uint16_t* dm = dmin.data();
-      size_t p0 = 0;
-      for (; p0 + kBlock <= nz; p0 += kBlock) {
-        uint16_t block[kBlock];
-        for (int j = 0; j < kBlock; ++j) {
-          block[j] = std::min(dm[p0 + static_cast<size_t>(j)],
-                              row[p0 + static_cast<size_t>(j)]);
-        }
-        std::copy_n(block, kBlock, dm + p0);
-      }
-      for (; p0 < nz; ++p0) dm[p0] = std::min(dm[p0], row[p0]);
-    }
-    for (size_t p = 0; p < nz; ++p) {
-      thr[p] = static_cast<uint16_t>(std::min<int32_t>(
-          dmin[p] + bound[p], std::numeric_limits<uint16_t>::max()));
-    }
+// The sparse view of the data term (MrfProblem::near), the problem's own or
+// derived from `data` when the problem has none.
+struct SparseView {
+  const uint16_t* far = nullptr;
+  const int64_t* begin = nullptr;
+  const MrfProblem::NearCost* near = nullptr;
+  std::vector<uint16_t> far_store;
+  std::vector<int64_t> begin_store;
+  std::vector<MrfProblem::NearCost> near_store;
+};
+
+void MakeSparseView(const MrfProblem& pr, SparseView* v) {
+  if (!pr.near_begin.empty()) {
+    v->far = pr.far.data();
+    v->begin = pr.near_begin.data();
+    v->near = pr.near.data();
+    return;
   }
-  std::vector<std::vector<int>> reach(static_cast<size_t>(pr.num_labels));
+  const size_t nz = static_cast<size_t>(pr.width) * pr.height;
+  v->far_store.assign(nz, 0);
   for (int l = 0; l < pr.num_labels; ++l) {
     const uint16_t* row = pr.data.data() + static_cast<size_t>(l) * nz;
-    const uint8_t* ok = pr.allowed.empty()
-                            ? nullptr
-                            : pr.allowed.data() + static_cast<size_t>(l) * nz;
-    std::vector<int>& list = reach[static_cast<size_t>(l)];
-    auto collect = [&](int p0, int p1) {
-      for (int p = p0; p < p1; ++p) {
-        if (row[p] <= thr[static_cast<size_t>(p)] &&
-            (ok == nullptr || ok[p] != 0)) {
-          list.push_back(p);
-        }
-      }
-    };
-    int p0 = 0;
-    for (; p0 + kBlock <= n; p0 += kBlock) {
-      int hit = 0;
-      for (int j = 0; j < kBlock; ++j) {
-        hit |= row[p0 + j] <= thr[static_cast<size_t>(p0 + j)] ? 1 : 0;
-      }
-      if (hit != 0) collect(p0, p0 + kBlock);
+    for (size_t p = 0; p < nz; ++p) {
+      v->far_store[p] = std::max(v->far_store[p], row[p]);
     }
-    collect(p0, n);
   }
-  return reach;
+  v->begin_store.assign(nz + 1, 0);
+  for (int l = 0; l < pr.num_labels; ++l) {
+    const uint16_t* row = pr.data.data() + static_cast<size_t>(l) * nz;
+    for (size_t p = 0; p < nz; ++p) {
+      v->begin_store[p + 1] += row[p] < v->far_store[p] ? 1 : 0;
+    }
+  }
+  for (size_t p = 0; p < nz; ++p) v->begin_store[p + 1] += v->begin_store[p];
+  v->near_store.resize(static_cast<size_t>(v->begin_store[nz]));
+  std::vector<int64_t> fill(v->begin_store.begin(), v->begin_store.end() - 1);
+  for (int l = 0; l < pr.num_labels; ++l) {
+    const uint16_t* row = pr.data.data() + static_cast<size_t>(l) * nz;
+    for (size_t p = 0; p < nz; ++p) {
+      if (row[p] < v->far_store[p]) {
+        v->near_store[static_cast<size_t>(fill[p]++)] = {
+            static_cast<uint16_t>(l), row[p]};
+      }
+    }
+  }
+  v->far = v->far_store.data();
+  v->begin = v->begin_store.data();
+  v->near = v->near_store.data();
 }
+
+// Everything the expansion loop reads of a pixel, in half a cache line: a
+// list entry or a neighbour costs one access. right / down are the weights
+// of the edges to p + 1 and p + width (0 at the border), so p's left and up
+// weights are its neighbours' right and down. The state array has one row
+// of sentinels (label -1, weights 0) above and below the image, so the
+// inner loops need neither coordinates nor bounds checks.
+struct alignas(32) PixelState {
+  int32_t label = -1;
+  int32_t cur = 0;    // D_p(label)
+  int32_t bound = 0;  // largest smoothness saving of a switch
+  int32_t stamp = 0;  // tick of the last change of p or of a neighbour
+  int32_t node = -1;  // graph node in the current expansion, or -1
+  int32_t right = 0;
+  int32_t down = 0;
+  int32_t next = 0;  // see Lists
+};
+
+struct Entry {
+  int32_t p;
+  int32_t d;  // D_p(alpha)
+};
+
+// Per-label lists of the pixels that may switch to the label (Potts and
+// quadratic alike). A pixel can only switch to alpha when D_p(alpha) -
+// D_p(f_p) <= bound_p, so pixel p is listed for every label with D_p(l) <=
+// reach_p, where reach_p >= D_p(f_p) + bound_p always: it starts at that
+// value and is raised (p listed for the new labels) whenever p switches to a
+// costlier label. The labels at the pixel's constant far_p are not listed
+// one by one: once reach_p >= far_p the pixel goes to `everywhere`, scanned
+// in every expansion with cost far_p; its sparse-view labels stay listed
+// with their own costs and are scanned first (a second sighting of a pixel
+// is then either skipped or, costing more, dominated too). Entries carry
+// D_p(l), so a scan reads the list and the pixel's state only. The state
+// keeps next_p, the smallest cost above reach_p (far_p included; the
+// largest int once everywhere): a raise below it lists nothing new and
+// does not read the sparse view.
+class Lists {
+ public:
+  Lists(const MrfProblem& pr, const SparseView& v)
+      : pr_(pr), v_(v), by_label_(static_cast<size_t>(pr.num_labels)) {}
+
+  // Lists pixel p (state s, with cur and bound set), pixels in ascending
+  // order.
+  void Init(int p, PixelState& s) {
+    s.next = 0;
+    List(p, s, s.cur + s.bound);
+  }
+
+  const std::vector<Entry>& ForLabel(int l) const {
+    return by_label_[static_cast<size_t>(l)];
+  }
+  const std::vector<int>& Everywhere() const { return everywhere_; }
+  int32_t Far(int p) const { return v_.far[static_cast<size_t>(p)]; }
+
+  // p (state s) now costs s.cur: list it where it can now go.
+  void Raise(int p, PixelState& s) {
+    const int32_t reach = s.cur + s.bound;
+    if (reach >= s.next) List(p, s, reach);
+  }
+
+ private:
+  // Lists p for the labels costing from s.next to reach; s.next := the
+  // smallest cost above reach.
+  void List(int p, PixelState& s, int32_t reach) {
+    const size_t pz = static_cast<size_t>(p);
+    const int32_t far = v_.far[pz];
+    int32_t next = std::numeric_limits<int32_t>::max();
+    if (far <= reach) {
+      everywhere_.push_back(p);
+    } else {
+      next = far;
+    }
+    for (int64_t i = v_.begin[pz]; i < v_.begin[pz + 1]; ++i) {
+      const MrfProblem::NearCost& e = v_.near[i];
+      if (e.cost > reach) {
+        next = std::min<int32_t>(next, e.cost);
+      } else if (e.cost >= s.next) {
+        Add(e.label, p, e.cost);
+      }
+    }
+    s.next = next;
+  }
+
+  void Add(int l, int p, int32_t d) {
+    if (!pr_.allowed.empty() &&
+        pr_.allowed[static_cast<size_t>(l) * pr_.width * pr_.height +
+                    static_cast<size_t>(p)] == 0) {
+      return;
+    }
+    by_label_[static_cast<size_t>(l)].push_back({p, d});
+  }
+
+  const MrfProblem& pr_;
+  const SparseView& v_;
+  std::vector<std::vector<Entry>> by_label_;
+  std::vector<int> everywhere_;
+};
 
 template <bool kPotts>
 SolverStats Expand(const MrfProblem& pr, std::vector<int32_t>& labels,
-                   int max_cycles, bool prune) {
+                   int max_cycles, bool prune, Clock::time_point t_start) {
   const int n = pr.width * pr.height;
   const int w = pr.width;
   const size_t nz = static_cast<size_t>(n);
-  const Clock::time_point t_start = Clock::now();
   SolverStats stats;
-  std::vector<Neighbours> nb(nz);
-  std::vector<int32_t> cur(nz);
-  // Largest saving a pixel can get from its edges by switching.
-  std::vector<int32_t> bound(nz);
+  SparseView view;
+  MakeSparseView(pr, &view);
+  std::vector<PixelState> state(nz + 2 * static_cast<size_t>(w));
+  PixelState* const st = state.data() + w;
   const int32_t rho_max = RhoMax(pr);
+  // Without pruning every pixel is scanned in every expansion: no lists, but
+  // the dense volume.
+  std::optional<Lists> lists;
+  if (prune) lists.emplace(pr, view);
+  int64_t energy = 0;
   for (int p = 0; p < n; ++p) {
     const size_t pz = static_cast<size_t>(p);
-    const int x = p % w;
-    Neighbours& e = nb[pz];
-    if (x > 0) e.left = pr.right[pz - 1];
-    if (x + 1 < w) e.right = pr.right[pz];
-    if (p >= w) e.up = pr.down[pz - static_cast<size_t>(w)];
-    if (p + w < n) e.down = pr.down[pz];
-    bound[pz] = (e.left + e.right + e.up + e.down) * rho_max;
-    cur[pz] = pr.data[static_cast<size_t>(labels[pz]) * nz + pz];
+    PixelState& s = st[p];
+    s.label = labels[pz];
+    if ((p + 1) % w != 0) s.right = pr.right[pz];
+    if (p + w < n) s.down = pr.down[pz];
+    s.bound = (st[p - 1].right + s.right + st[p - w].down + s.down) * rho_max;
+    s.cur = view.far[pz];
+    for (int64_t i = view.begin[pz]; i < view.begin[pz + 1]; ++i) {
+      if (view.near[i].label == s.label) s.cur = view.near[i].cost;
+    }
+    energy += s.cur;
+    if (s.right != 0) {
+      energy += static_cast<int64_t>(s.right) *
+                RhoOf<kPotts>(pr, s.label, labels[pz + 1]);
+    }
+    if (s.down != 0) {
+      energy += static_cast<int64_t>(s.down) *
+                RhoOf<kPotts>(pr, s.label, labels[pz + static_cast<size_t>(w)]);
+    }
+    if (lists) lists->Init(p, s);
   }
-  const std::vector<std::vector<int>> reach =
-      ReachableByLabel(pr, bound, prune);
+  std::vector<uint16_t> dense_store;
+  const uint16_t* dense = pr.data.data();
+  if (!prune && pr.data.empty()) {
+    dense_store.resize(nz * static_cast<size_t>(pr.num_labels));
+    for (int l = 0; l < pr.num_labels; ++l) {
+      std::copy_n(view.far, nz,
+                  dense_store.begin() +
+                      static_cast<std::ptrdiff_t>(static_cast<size_t>(l) * nz));
+    }
+    for (size_t p = 0; p < nz; ++p) {
+      for (int64_t i = view.begin[p]; i < view.begin[p + 1]; ++i) {
+        dense_store[static_cast<size_t>(view.near[i].label) * nz + p] =
+            view.near[i].cost;
+      }
+    }
+    dense = dense_store.data();
+  }
   stats.index_seconds = Seconds(t_start, Clock::now());
-  stats.build_seconds += stats.index_seconds;
 
-  std::vector<int> node(nz, -1);
-  std::vector<int> free_px;
+  std::vector<Entry> free_px;
   free_px.reserve(nz);
-  // Per graph node: the unary difference E(alpha) - E(keep) added by the
-  // edges to earlier nodes (nodes are in ascending pixel order, so a node's
-  // backward edges are all added before it is reached).
-  std::vector<int32_t> from_earlier(nz);
-  std::vector<uint8_t> moved(nz, 0);
+  // Per graph node: terminal weights from edges added before it (below).
+  std::vector<int32_t> unary(nz);
   std::vector<int> changed;
   changed.reserve(nz);
   // Expansion skipping (Potts, with pruning): an expansion on alpha from a
   // labelling that is optimal among its own alpha-expansions cannot lower
   // the energy, and after alpha's last expansion the labelling is. A later
-  // move changes the energy of alpha's moves only through pixels in
-  // reach[alpha] or their neighbours; when none has changed (stamp <= the
-  // tick of alpha's last expansion), the expansion would be rejected, so it
-  // is skipped. Needs exact cuts: not for the truncated quadratic moves.
+  // move changes the energy of alpha's moves only through pixels that may
+  // switch to alpha (all listed) or their neighbours; when none of the
+  // listed pixels has a stamp after alpha's last expansion, the expansion
+  // would be rejected, so it is skipped. Needs exact cuts: not for the
+  // truncated quadratic moves.
   const bool skip = kPotts && prune;
-  std::vector<int64_t> stamp(nz, 0);
-  std::vector<int64_t> last_run(static_cast<size_t>(pr.num_labels), -1);
-  int64_t tick = 0;
+  std::vector<int32_t> last_run(static_cast<size_t>(pr.num_labels), -1);
+  int32_t tick = 0;
   Graph graph(n, 2 * n, &MaxflowError);
 
-  int64_t energy = Energy(pr, labels);
   stats.energy_before = energy;
   for (int cycle = 0; cycle < max_cycles; ++cycle) {
     ++stats.cycles;
     bool improved = false;
     for (int32_t alpha = 0; alpha < pr.num_labels; ++alpha) {
-      const Clock::time_point t0 = Clock::now();
-      const uint16_t* da = pr.data.data() + static_cast<size_t>(alpha) * nz;
-      const int64_t since = last_run[static_cast<size_t>(alpha)];
+      const int32_t since = last_run[static_cast<size_t>(alpha)];
+      const uint8_t* ok =
+          pr.allowed.empty()
+              ? nullptr
+              : pr.allowed.data() + static_cast<size_t>(alpha) * nz;
       bool dirty = !skip;
       free_px.clear();
-      for (int p : reach[static_cast<size_t>(alpha)]) {
-        const size_t pz = static_cast<size_t>(p);
-        dirty |= stamp[pz] > since;
-        if (labels[pz] == alpha) continue;
-        if (prune && da[p] - cur[pz] > bound[pz]) {
-          continue;  // dominated: stays in every optimal move
+      // A pixel may be listed twice (in `everywhere` too): node >= 0 marks
+      // the first.
+      auto consider = [&](int p, int32_t d) {
+        PixelState& s = st[p];
+        dirty |= s.stamp > since;
+        if (s.label == alpha || s.node >= 0) return;
+        if (prune && d - s.cur > s.bound) {
+          return;  // dominated: stays in every optimal move
         }
-        node[pz] = static_cast<int>(free_px.size());
-        free_px.push_back(p);
+        s.node = static_cast<int>(free_px.size());
+        free_px.push_back({p, d});
+      };
+      if (prune) {
+        for (const Entry& e : lists->ForLabel(alpha)) consider(e.p, e.d);
+        for (int p : lists->Everywhere()) {
+          if (ok == nullptr || ok[p] != 0) consider(p, lists->Far(p));
+        }
+      } else {
+        const uint16_t* da = dense + static_cast<size_t>(alpha) * nz;
+        for (int p = 0; p < n; ++p) {
+          if (ok == nullptr || ok[p] != 0) consider(p, da[p]);
+        }
       }
       if constexpr (kPotts) {
         if (prune) {
@@ -587,56 +854,54 @@ SolverStats Expand(const MrfProblem& pr, std::vector<int32_t>& labels,
           // exceeds those edges' weights is dominated too; dropping it keeps
           // the list a superset of the switchers, so one in-place pass is
           // exact.
+          auto at_alpha = [&](const PixelState& q) {
+            return q.label == alpha || q.node >= 0;
+          };
           size_t kept = 0;
-          for (int p : free_px) {
-            const size_t pz = static_cast<size_t>(p);
-            const int32_t excess = da[p] - cur[pz];
+          for (const Entry& f : free_px) {
+            PixelState* s = st + f.p;
+            const int32_t excess = f.d - s->cur;
             if (excess > 0) {
-              const Neighbours& e = nb[pz];
-              auto at_alpha = [&](int q) {
-                const size_t qz = static_cast<size_t>(q);
-                return labels[qz] == alpha || node[qz] >= 0;
-              };
               int32_t saving = 0;
-              if (e.left != 0 && at_alpha(p - 1)) saving += e.left;
-              if (e.right != 0 && at_alpha(p + 1)) saving += e.right;
-              if (e.up != 0 && at_alpha(p - w)) saving += e.up;
-              if (e.down != 0 && at_alpha(p + w)) saving += e.down;
+              if (s[-1].right != 0 && at_alpha(s[-1])) saving += s[-1].right;
+              if (s->right != 0 && at_alpha(s[1])) saving += s->right;
+              if (s[-w].down != 0 && at_alpha(s[-w])) saving += s[-w].down;
+              if (s->down != 0 && at_alpha(s[w])) saving += s->down;
               if (excess > saving) {
-                node[pz] = -1;
+                s->node = -1;
                 continue;
               }
             }
-            free_px[kept++] = p;
+            free_px[kept++] = f;
           }
           free_px.resize(kept);
           for (size_t i = 0; i < kept; ++i) {
-            node[static_cast<size_t>(free_px[i])] = static_cast<int>(i);
+            st[free_px[i].p].node = static_cast<int>(i);
           }
         }
       }
       if (free_px.empty() || !dirty) {
-        for (int p : free_px) node[static_cast<size_t>(p)] = -1;
+        for (const Entry& f : free_px) st[f.p].node = -1;
         if (!free_px.empty()) ++stats.skipped;
-        stats.build_seconds += Seconds(t0, Clock::now());
         continue;
       }
       const int m = static_cast<int>(free_px.size());
       graph.reset();
       graph.add_node(m);
-      std::fill_n(from_earlier.begin(), m, 0);
+      // unary[i]: what node i's terminal weights get from edges added before
+      // it is reached (a node reached already gets them directly).
+      std::fill_n(unary.begin(), m, 0);
       for (int i = 0; i < m; ++i) {
-        const int p = free_px[static_cast<size_t>(i)];
-        const size_t pz = static_cast<size_t>(p);
-        const int32_t fp = labels[pz];
+        const Entry& f = free_px[static_cast<size_t>(i)];
+        const PixelState* s = st + f.p;
+        const int32_t fp = s->label;
         // E(alpha) - E(keep) of this node's unary terms.
-        int32_t d = da[p] - cur[pz] + from_earlier[static_cast<size_t>(i)];
-        auto edge = [&](int q, int32_t wpq, bool forward) {
+        int32_t d = f.d - s->cur + unary[static_cast<size_t>(i)];
+        // Each edge between two nodes is added once, from its lower pixel.
+        auto edge = [&](const PixelState& q, int32_t wpq, bool forward) {
           if (wpq == 0) return;
-          const size_t qz = static_cast<size_t>(q);
-          const int nq = node[qz];
-          const int32_t fq = labels[qz];
-          if (nq < 0) {
+          const int32_t fq = q.label;
+          if (q.node < 0) {
             d += wpq *
                  (RhoOf<kPotts>(pr, alpha, fq) - RhoOf<kPotts>(pr, fp, fq));
           } else if (forward) {
@@ -646,16 +911,19 @@ SolverStats Expand(const MrfProblem& pr, std::vector<int32_t>& labels,
             // E = A + (C - A) x_p + (D - C) x_q + (B + C - A - D)(1-x_p)x_q,
             // D = 0.
             d += c - a;
-            from_earlier[static_cast<size_t>(nq)] -= c;
+            if (q.node > i) {
+              unary[static_cast<size_t>(q.node)] -= c;
+            } else {
+              graph.add_tweights(q.node, 0, c);
+            }
             const int32_t cap = std::max(b + c - a, 0);
-            if (cap > 0) graph.add_edge(i, nq, cap, 0);
+            if (cap > 0) graph.add_edge(i, q.node, cap, 0);
           }
         };
-        const Neighbours& e = nb[pz];
-        edge(p + 1, e.right, true);
-        edge(p - 1, e.left, false);
-        edge(p + w, e.down, true);
-        edge(p - w, e.up, false);
+        edge(s[1], s->right, true);
+        edge(s[-1], s[-1].right, false);
+        edge(s[w], s->down, true);
+        edge(s[-w], s[-w].down, false);
         // x = 1 (switch to alpha) <=> SINK; cap_source is paid in SINK.
         if (d > 0) {
           graph.add_tweights(i, d, 0);
@@ -665,66 +933,68 @@ SolverStats Expand(const MrfProblem& pr, std::vector<int32_t>& labels,
       }
       const Clock::time_point t1 = Clock::now();
       graph.maxflow();
-      const Clock::time_point t2 = Clock::now();
-      stats.build_seconds += Seconds(t0, t1);
-      stats.maxflow_seconds += Seconds(t1, t2);
+      stats.maxflow_seconds += Seconds(t1, Clock::now());
       ++stats.expansions;
       stats.graph_nodes += m;
 
+      // Switching pixels: node = -2 (tells "moves too" apart in the energy
+      // change below), the others' node back to -1.
       changed.clear();
       for (int i = 0; i < m; ++i) {
-        if (graph.what_segment(i) == Graph::SINK) {
-          const int p = free_px[static_cast<size_t>(i)];
-          changed.push_back(p);
-          moved[static_cast<size_t>(p)] = 1;
-        }
+        const bool moves = graph.what_segment(i) == Graph::SINK;
+        st[free_px[static_cast<size_t>(i)].p].node = moves ? -2 : -1;
+        if (moves) changed.push_back(i);
       }
       // Exact energy change of the move.
       int64_t delta = 0;
-      for (int p : changed) {
-        const size_t pz = static_cast<size_t>(p);
-        delta += static_cast<int64_t>(da[p]) - cur[pz];
-        const int32_t fp = labels[pz];
-        auto pair = [&](int q, int32_t wpq) {
+      for (int i : changed) {
+        const Entry& f = free_px[static_cast<size_t>(i)];
+        const PixelState* s = st + f.p;
+        delta += static_cast<int64_t>(f.d) - s->cur;
+        const int32_t fp = s->label;
+        // Each edge between two switching pixels is counted from its lower
+        // pixel.
+        auto pair = [&](const PixelState& q, int32_t wpq, bool forward) {
           if (wpq == 0) return;
-          const size_t qz = static_cast<size_t>(q);
-          if (moved[qz] && q < p) return;  // counted from q
-          const int32_t fq_new = moved[qz] ? alpha : labels[qz];
+          const bool q_moves = q.node == -2;
+          if (q_moves && !forward) return;
+          const int32_t fq_new = q_moves ? alpha : q.label;
           delta +=
               static_cast<int64_t>(wpq) * (RhoOf<kPotts>(pr, alpha, fq_new) -
-                                           RhoOf<kPotts>(pr, fp, labels[qz]));
+                                           RhoOf<kPotts>(pr, fp, q.label));
         };
-        const Neighbours& e = nb[pz];
-        pair(p + 1, e.right);
-        pair(p - 1, e.left);
-        pair(p + w, e.down);
-        pair(p - w, e.up);
+        pair(s[1], s->right, true);
+        pair(s[-1], s[-1].right, false);
+        pair(s[w], s->down, true);
+        pair(s[-w], s[-w].down, false);
       }
       if (delta < 0) {
         ++tick;
-        for (int p : changed) {
-          const size_t pz = static_cast<size_t>(p);
-          labels[pz] = alpha;
-          cur[pz] = da[p];
-          const Neighbours& e = nb[pz];
-          stamp[pz] = tick;
-          if (e.right != 0) stamp[pz + 1] = tick;
-          if (e.left != 0) stamp[pz - 1] = tick;
-          if (e.down != 0) stamp[pz + static_cast<size_t>(w)] = tick;
-          if (e.up != 0) stamp[pz - static_cast<size_t>(w)] = tick;
+        for (int i : changed) {
+          const Entry& f = free_px[static_cast<size_t>(i)];
+          PixelState* s = st + f.p;
+          s->label = alpha;
+          s->cur = f.d;
+          if (lists) lists->Raise(f.p, *s);
+          s->stamp = tick;
+          if (s->right != 0) s[1].stamp = tick;
+          if (s[-1].right != 0) s[-1].stamp = tick;
+          if (s->down != 0) s[w].stamp = tick;
+          if (s[-w].down != 0) s[-w].stamp = tick;
         }
         energy += delta;
         improved = true;
         ++stats.accepted;
       }
       last_run[static_cast<size_t>(alpha)] = tick;
-      for (int p : changed) moved[static_cast<size_t>(p)] = 0;
-      for (int p : free_px) node[static_cast<size_t>(p)] = -1;
+      for (int i : changed) st[free_px[static_cast<size_t>(i)].p].node = -1;
     }
     if (!improved) break;
   }
+  for (int p = 0; p < n; ++p) labels[static_cast<size_t>(p)] = st[p].label;
   stats.energy_after = energy;
   stats.total_seconds = Seconds(t_start, Clock::now());
+  stats.build_seconds = stats.total_seconds - stats.maxflow_seconds;
   return stats;
 }
 
@@ -734,6 +1004,7 @@ absl::StatusOr<SolverStats> AlphaExpansion(const MrfProblem& pr,
                                            std::vector<int32_t>* labels_ptr,
                                            int max_cycles,
                                            bool prune_dominated) {
+  const Clock::time_point t_start = Clock::now();
   if (absl::Status s = CheckProblem(pr); !s.ok()) return s;
   const int64_t n64 = static_cast<int64_t>(pr.width) * pr.height;
   if (labels_ptr == nullptr ||
@@ -751,9 +1022,10 @@ absl::StatusOr<SolverStats> AlphaExpansion(const MrfProblem& pr,
     }
   }
   try {
-    return pr.potts
-               ? Expand<true>(pr, *labels_ptr, max_cycles, prune_dominated)
-               : Expand<false>(pr, *labels_ptr, max_cycles, prune_dominated);
+    return pr.potts ? Expand<true>(pr, *labels_ptr, max_cycles, prune_dominated,
+                                   t_start)
+                    : Expand<false>(pr, *labels_ptr, max_cycles,
+                                    prune_dominated, t_start);
   } catch (const std::bad_alloc&) {
     return absl::ResourceExhaustedError("fusion: out of memory in max-flow");
   }

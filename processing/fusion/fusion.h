@@ -30,6 +30,7 @@
 //       rho = [f_p != f_q];
 //   kPotts:          w = lambda * linear_model_thr, rho = [f_p != f_q];
 //   kPottsStaticCue: w = lambda * ((g <= static_cue) + 1), rho = Potts;
+//   (times edge_weight where the pair's right / lower pixel is a guide edge)
 //   kQuadratic (Eqs. 5.5-5.7): w = lambda * linear_model_thr * exp(-c g^2)
 //       with g on [0, 1] grey, rho = min((f_p - f_q)^2, quadratic_truncation).
 //       (4-neighbours here; the thesis' Eq. 5.5 uses 8).
@@ -87,6 +88,11 @@ struct FusionParams {
   double static_cue = 8.0;         // Appendix A sCue
   double quadratic_c = 50.0;       // Eq. 5.6, on [0, 1] grey
   int quadratic_truncation = 4;    // rho cap for kQuadratic
+  // Appendix A `useEdge`: the weight of a pair whose right / lower pixel is
+  // an edge pixel of the guide (MATLAB edge(): Sobel, threshold 4 x the mean
+  // squared gradient, thinned; any colour channel) is multiplied by this.
+  // Appendix A uses eps (~0); 1 leaves the weights as they are.
+  double edge_weight = 1.0;
   int max_cycles = 20;
   // Leave dominated pixels out of the expansion graphs and skip expansions
   // that cannot change anything (both exact; see above). false builds the
@@ -98,7 +104,8 @@ struct FusionParams {
 
 // The integer MRF the solver works on. Edge weights: right[p] is the edge
 // (p, p + 1) (0 in the last column), down[p] the edge (p, p + width) (0 in the
-// last row). data is label-major: data[l * width * height + p].
+// last row). The data term is given densely, label-major (data[l * width *
+// height + p]), or sparsely (far / near_begin / near below), or both.
 struct MrfProblem {
   int width = 0;
   int height = 0;
@@ -111,6 +118,21 @@ struct MrfProblem {
   // Optional per-pixel allowed labels (fusion-move variant): when not empty,
   // allowed[l * N + p] != 0 iff pixel p may take label l.
   std::vector<uint8_t> allowed;
+  // The data term, sparsely (BuildProblem gives only this; when it is empty
+  // the solver derives it from `data`): for pixel p, near[near_begin[p] ..
+  // near_begin[p + 1]) lists by ascending label every label whose cost is
+  // below far[p], with that cost; every other label costs exactly far[p].
+  // Fusion costs are the sum of each candidate's bounded cost, so only the
+  // labels near some candidate are listed: the solver finds a pixel's cheap
+  // labels without reading num_labels costs, and the dense volume is not
+  // needed.
+  struct NearCost {
+    uint16_t label = 0;
+    uint16_t cost = 0;
+  };
+  std::vector<uint16_t> far;
+  std::vector<int64_t> near_begin;  // width * height + 1 offsets
+  std::vector<NearCost> near;
 };
 
 struct SolverStats {
@@ -122,9 +144,11 @@ struct SolverStats {
   int accepted = 0;          // moves that lowered the energy
   int64_t graph_nodes = 0;   // summed over expansions
   double setup_seconds = 0;  // data term + WTA (FuseAlphaExpansion only)
-  double build_seconds = 0;  // graph construction (incl. pruning scan)
-  double index_seconds = 0;  // of build_seconds: per-label pixel lists, once
-  double maxflow_seconds = 0;
+  // Everything of AlphaExpansion but max-flow: per-pixel state, per-label
+  // lists, pruning scans, graph construction, move bookkeeping.
+  double build_seconds = 0;
+  double index_seconds = 0;    // of build_seconds: the lists etc., made once
+  double maxflow_seconds = 0;  // inside maxflow::Graph::maxflow()
   double total_seconds = 0;
 };
 

@@ -43,6 +43,7 @@ struct TableArgs {
   double sigma = 1.0;
   double lambda = 1.0;
   double inconsistent_confidence = 1.0;
+  double edge_weight = 1.0;
 };
 
 // The thesis' eight exposures (Fig. 3.2), ISO 100.
@@ -138,6 +139,7 @@ absl::Status RunTable(const TableArgs& args) {
     fusion::TableOptions topt;
     topt.fusion.sigma = args.sigma;
     topt.fusion.lambda = args.lambda;
+    topt.fusion.edge_weight = args.edge_weight;
     topt.inconsistent_confidence = args.inconsistent_confidence;
     absl::StatusOr<fusion::TableResult> r = fusion::RunThesisTable(in, topt);
     if (!r.ok()) return r.status();
@@ -189,6 +191,11 @@ void AddTableCommands(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--inconsistent-confidence", args->inconsistent_confidence,
                   "Data weight of a candidate's LR-inconsistent pixels")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  cmd->add_option("--edge-weight", args->edge_weight,
+                  "Fusion smoothness factor on guide edge pixels (Appendix "
+                  "A useEdge: ~0; 1 = off)")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   cmd->callback([args] { SetOutcome(RunTable(*args)); });

@@ -5,9 +5,10 @@
 // at 1280x960 with 128 labels. Synthetic candidates: a scene of slanted
 // planes, each candidate = truth + 0.3 px noise with its own wrong blobs
 // (a third of each map), like tone-mapped disparities that fail in
-// different regions. Counters: graph construction vs max-flow seconds per
-// run, expansions (and those skipped as provably unable to change anything),
-// energy before/after. See docs/benchmarks.md.
+// different regions. Counters: the solve (AlphaExpansion) split into the
+// time inside max-flow and everything else, expansions (and those skipped as
+// provably unable to change anything), energy before/after. See
+// docs/benchmarks.md.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -65,7 +66,7 @@ void RunFusion(benchmark::State& state, int w, int h, int max_disp,
   params.max_disp = max_disp;
   params.candidate_labels_only = fusion_move;
   params.prune_dominated = prune;
-  double build = 0, index = 0, flow = 0, setup = 0;
+  double build = 0, index = 0, flow = 0, setup = 0, solve = 0;
   int64_t before = 0, after = 0, expansions = 0, skipped = 0, nodes = 0;
   for (auto _ : state) {
     absl::StatusOr<hdrstereo::fusion::FusionResult> r =
@@ -77,6 +78,7 @@ void RunFusion(benchmark::State& state, int w, int h, int max_disp,
     build += r->stats.build_seconds;
     index += r->stats.index_seconds;
     flow += r->stats.maxflow_seconds;
+    solve += r->stats.total_seconds;
     setup += r->stats.setup_seconds;
     before = r->stats.energy_before;
     after = r->stats.energy_after;
@@ -86,16 +88,19 @@ void RunFusion(benchmark::State& state, int w, int h, int max_disp,
     benchmark::DoNotOptimize(r->disparity.data);
   }
   const double n = static_cast<double>(state.iterations());
-  state.counters["setup_s"] = setup / n;
+  state.counters["setup_s"] = setup / n;  // data term + WTA start
+  state.counters["solve_s"] = solve / n;  // AlphaExpansion
+  // Of solve_s: everything but max-flow (lists, scans, graphs, moves) ...
   state.counters["build_s"] = build / n;
-  state.counters["index_s"] = index / n;  // part of build_s
-  state.counters["maxflow_s"] = flow / n;
+  state.counters["index_s"] = index / n;   // ... (of which made once) ...
+  state.counters["maxflow_s"] = flow / n;  // ... and inside maxflow().
   state.counters["E_before"] = static_cast<double>(before);
   state.counters["E_after"] = static_cast<double>(after);
   state.counters["expansions"] = static_cast<double>(expansions);
   state.counters["skipped"] = static_cast<double>(skipped);
-  // The target: (graph construction + max-flow) / max-flow <= 1.5.
-  state.counters["solve_per_flow"] = flow > 0 ? (build + flow) / flow : 0;
+  // The target: (graph construction + max-flow) / max-flow <= 1.5,
+  // measured as the whole solve over the time inside max-flow.
+  state.counters["solve_per_flow"] = flow > 0 ? solve / flow : 0;
   state.counters["nodes"] = static_cast<double>(nodes);
 }
 
