@@ -773,10 +773,11 @@ void RunKernel(const ViewPlanes& v, const StereoOptions& o, int d0, int d1,
     out.after.create(size, CV_32FC1);
   }
   const WtaTarget target{&out.best, &out.label, &out.before, &out.after};
-  // Each tile recomputes a halo of 2r rows and columns per side. Wide, low
-  // tiles measured fastest at 1280x960 (docs/benchmarks.md): narrower ones
-  // keep the rings in L2 but recompute more halo.
-  constexpr int kStripRows = 64;
+  // Each tile recomputes a halo of 2r rows and columns per side. Wide tiles
+  // measured fastest at 1280x960 (docs/benchmarks.md): narrower ones keep
+  // the rings in L2 but recompute more halo. The strip height does not
+  // change the rings' size, only the halo share and the load balance.
+  constexpr int kStripRows = 128;
   constexpr int kTileCols = 640;
   const int strip = std::min(kStripRows, v.h);
   const int tile = std::min(kTileCols, v.w);
