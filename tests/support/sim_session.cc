@@ -1,19 +1,17 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "tests/support/sim_session.h"
 
-#include <cmath>
 #include <filesystem>
 #include <opencv2/core.hpp>
 #include <string>
 #include <system_error>
 
 #include "absl/strings/str_cat.h"
-#include "absl/strings/str_format.h"
-#include "absl/strings/str_replace.h"
 #include "hardware/sim/scene.h"
 #include "hardware/sim/sim_world.h"
 #include "hardware/sim/truth.h"
 #include "processing/io/hdr_formats.h"
+#include "processing/structured_light/capture_io.h"
 #include "processing/structured_light/decode.h"
 #include "processing/structured_light/gray_code.h"
 #include "tests/support/temp_dir.h"
@@ -22,17 +20,6 @@ namespace hdrstereo::testing {
 namespace fs = std::filesystem;
 
 namespace {
-
-// As daemon/jobs/capture_plan.cc.
-std::string Tag(double seconds) {
-  if (seconds < 0.4) {
-    const double denominator = 1.0 / seconds;
-    if (std::abs(denominator - std::round(denominator)) < 1e-6 * denominator) {
-      return absl::StrFormat("1-%.0fs", denominator);
-    }
-  }
-  return absl::StrReplaceAll(absl::StrFormat("%gs", seconds), {{"+", ""}});
-}
 
 absl::Status Save(const fs::path& path, const cv::Mat& image) {
   std::error_code ec;
@@ -63,7 +50,8 @@ absl::Status RenderSimSession(const fs::path& dir,
   world.SetStagePosition(0);
   const double mid = options.exposures[options.exposures.size() / 2];
   if (absl::Status s = Save(
-          stereo / "left" / "ambient" / absl::StrCat("exp_", Tag(mid), ".png"),
+          stereo / "left" / "ambient" /
+              absl::StrCat("exp_", structured_light::ExposureTag(mid), ".png"),
           world.RenderExposure({mid, 100}, 8));
       !s.ok()) {
     return s;
@@ -73,7 +61,8 @@ absl::Status RenderSimSession(const fs::path& dir,
     for (double e : options.exposures) {
       if (absl::Status s =
               Save(stereo / (v == 0 ? "left" : "right") / "stereo" /
-                       absl::StrCat("exp_", Tag(e), ".png"),
+                       absl::StrCat("exp_", structured_light::ExposureTag(e),
+                                    ".png"),
                    world.RenderExposure({e, 100}, 8));
           !s.ok()) {
         return s;
@@ -102,8 +91,9 @@ absl::Status RenderSimSession(const fs::path& dir,
           if (absl::Status s = world.SetProjectorPattern(*pattern); !s.ok()) {
             return s;
           }
-          const std::string name = absl::StrCat(
-              "sl_", structured_light::FrameId(p), "_exp_", Tag(e), ".png");
+          const std::string name =
+              absl::StrCat("sl_", structured_light::FrameId(p), "_exp_",
+                           structured_light::ExposureTag(e), ".png");
           if (absl::Status s = Save(
                   sl / (v == 0 ? "left" : "right") / "structured_light" / name,
                   world.RenderExposure({e, 100}, 8));
