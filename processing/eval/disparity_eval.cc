@@ -8,8 +8,27 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "processing/base/options.h"
 
 namespace hdrstereo::eval {
+
+absl::Status EvalOptions::Validate() const {
+  for (size_t i = 0; i < thresholds.size(); ++i) {
+    RETURN_IF_ERROR(RequireField(
+        thresholds[i] >= 0 && std::isfinite(thresholds[i]),
+        absl::StrCat("thresholds[", i, "]"), thresholds[i], ">= 0 (px)"));
+  }
+  return RequireField(disparity_scale > 0 && std::isfinite(disparity_scale),
+                      "disparity_scale", disparity_scale, "> 0");
+}
+
+void to_json(nlohmann::json& j, const EvalOptions& o) {
+  const auto& [thresholds, gt_zero_valid, disparity_scale] = o;
+  j = nlohmann::json{{"thresholds", thresholds},
+                     {"gt_zero_valid", gt_zero_valid},
+                     {"disparity_scale", disparity_scale}};
+}
+
 namespace {
 
 absl::Status CheckMask(const cv::Mat& m, const cv::Size& size,
@@ -99,8 +118,9 @@ absl::StatusOr<DisparityEvaluation> EvaluateDisparity(
     return s;
   }
   if (absl::Status s = CheckMask(mask, truth.size(), "mask"); !s.ok()) return s;
-  for (double t : options.thresholds) {
-    if (!(t >= 0)) return absl::InvalidArgumentError("thresholds must be >= 0");
+  if (absl::Status s = options.Validate(); !s.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("evaluation: ", s.message()));
   }
   const std::vector<double>& t = options.thresholds;
   Accumulator all, nonocc, valid;
@@ -202,6 +222,10 @@ absl::StatusOr<cv::Mat> ColorizeError(const cv::Mat& disparity,
   }
   if (!(max_error > 0))
     return absl::InvalidArgumentError("max_error must be > 0");
+  if (absl::Status s = options.Validate(); !s.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("evaluation: ", s.message()));
+  }
   try {
     cv::Mat scaled(disparity.size(), CV_8UC1);
     cv::Mat invalid(disparity.size(), CV_8UC1, cv::Scalar(0));

@@ -15,10 +15,12 @@
 #define HDRSTEREO_PROCESSING_EVAL_DISPARITY_EVAL_H_
 
 #include <cstdint>
+#include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
+#include "absl/status/status.h"
 #include "absl/status/statusor.h"
 
 namespace hdrstereo::eval {
@@ -29,7 +31,12 @@ struct EvalOptions {
   // The estimate is multiplied by this before comparison (e.g. to undo a
   // Middlebury disparity scale); truth is used as is.
   double disparity_scale = 1.0;
+
+  // INVALID_ARGUMENT naming the first field that breaks a rule.
+  absl::Status Validate() const;
 };
+// Canonical JSON (processing/base/options.h).
+void to_json(nlohmann::json& j, const EvalOptions& o);
 
 struct RegionMetrics {
   int64_t pixels = 0;     // pixels in the region

@@ -103,13 +103,9 @@ absl::StatusOr<cv::Mat> DomainTransformFilter(
     return absl::InvalidArgumentError(
         "domain transform input and guide differ in size");
   }
-  if (!(options.sigma_s > 0) || !(options.sigma_r > 0) ||
-      !std::isfinite(options.sigma_s) || !std::isfinite(options.sigma_r) ||
-      options.iterations < 1) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "domain transform needs sigma_s > 0, sigma_r > 0, iterations >= 1; "
-        "got ",
-        options.sigma_s, ", ", options.sigma_r, ", ", options.iterations));
+  if (absl::Status s = options.Validate(); !s.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("domain transform: ", s.message()));
   }
   try {
     std::vector<cv::Mat> guide_planes;

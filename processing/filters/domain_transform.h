@@ -15,8 +15,10 @@
 #ifndef HDRSTEREO_PROCESSING_FILTERS_DOMAIN_TRANSFORM_H_
 #define HDRSTEREO_PROCESSING_FILTERS_DOMAIN_TRANSFORM_H_
 
+#include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 
+#include "absl/status/status.h"
 #include "absl/status/statusor.h"
 
 namespace hdrstereo::filters {
@@ -25,7 +27,12 @@ struct DomainTransformOptions {
   double sigma_s = 60.0;  // spatial standard deviation, pixels
   double sigma_r = 0.33;  // range standard deviation, guide units
   int iterations = 3;
+
+  // INVALID_ARGUMENT naming the first field that breaks a rule.
+  absl::Status Validate() const;
 };
+// Canonical JSON (processing/base/options.h).
+void to_json(nlohmann::json& j, const DomainTransformOptions& o);
 
 // src: CV_8U or CV_32F, any number of channels; guide: same size, 1 or 3
 // channels, or empty to use src (then 1 or 3 channels). Returns CV_32F with

@@ -61,15 +61,9 @@ absl::StatusOr<GuidedFilter> GuidedFilter::Create(
       !s.ok()) {
     return s;
   }
-  if (options.radius < 1) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "guided filter radius must be >= 1, got ", options.radius));
-  }
-  if (!(options.eps > 0.0) || !std::isfinite(options.eps)) {
-    return absl::InvalidArgumentError("guided filter eps must be > 0");
-  }
-  if (options.subsample < 1) {
-    return absl::InvalidArgumentError("guided filter subsample must be >= 1");
+  if (absl::Status s = options.Validate(); !s.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("guided filter: ", s.message()));
   }
   if (options.subsample > 1 && (guide.cols / options.subsample < 2 ||
                                 guide.rows / options.subsample < 2)) {

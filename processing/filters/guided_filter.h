@@ -21,6 +21,7 @@
 #ifndef HDRSTEREO_PROCESSING_FILTERS_GUIDED_FILTER_H_
 #define HDRSTEREO_PROCESSING_FILTERS_GUIDED_FILTER_H_
 
+#include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 
 #include "absl/status/status.h"
@@ -32,7 +33,12 @@ struct GuidedFilterOptions {
   int radius = 9;     // window is (2 radius + 1)^2 pixels
   double eps = 1e-4;  // ridge term, in squared guide units
   int subsample = 1;  // 1 = exact filter; s > 1 = fast guided filter
+
+  // INVALID_ARGUMENT naming the first field that breaks a rule.
+  absl::Status Validate() const;
 };
+// Canonical JSON (processing/base/options.h).
+void to_json(nlohmann::json& j, const GuidedFilterOptions& o);
 
 // Full-size scratch images of GuidedFilter::FilterPlane. Passing the same
 // workspace to repeated calls (one workspace per thread) avoids allocating

@@ -548,14 +548,8 @@ absl::StatusOr<cv::Mat> WlsFilter(const cv::Mat& src, const cv::Mat& guide,
   if (g.size() != src.size()) {
     return absl::InvalidArgumentError("WLS input and guide differ in size");
   }
-  if (!(options.alpha > 0) || !(options.lambda >= 0) ||
-      !(options.small_number > 0) || !(options.tolerance > 0) ||
-      options.max_iterations < 1 || !std::isfinite(options.alpha) ||
-      !std::isfinite(options.lambda)) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "WLS needs alpha > 0, lambda >= 0, small_number > 0, tolerance > 0, "
-        "max_iterations >= 1; got alpha=",
-        options.alpha, " lambda=", options.lambda));
+  if (absl::Status s = options.Validate(); !s.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("WLS: ", s.message()));
   }
   try {
     const cv::Mat gf = ToFloat(g);

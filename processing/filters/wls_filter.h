@@ -18,8 +18,10 @@
 #ifndef HDRSTEREO_PROCESSING_FILTERS_WLS_FILTER_H_
 #define HDRSTEREO_PROCESSING_FILTERS_WLS_FILTER_H_
 
+#include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 
+#include "absl/status/status.h"
 #include "absl/status/statusor.h"
 
 namespace hdrstereo::filters {
@@ -35,7 +37,12 @@ struct WlsOptions {
     kIncompleteCholesky,  // IC(0)
   };
   Preconditioner preconditioner = Preconditioner::kMultigrid;
+
+  // INVALID_ARGUMENT naming the first field that breaks a rule.
+  absl::Status Validate() const;
 };
+// Canonical JSON (processing/base/options.h).
+void to_json(nlohmann::json& j, const WlsOptions& o);
 
 struct WlsReport {
   int iterations = 0;

@@ -152,16 +152,8 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
   if (absl::Status s = CheckCandidates(candidates, params.max_disp); !s.ok()) {
     return s;
   }
-  if (!(params.sigma > 0) || !(params.data_scale > 0) ||
-      !(params.lambda >= 0) || !(params.lambda <= 1e4) ||
-      !(params.linear_model_thr <= 1e4) || !(params.data_truncation > 0) ||
-      params.quadratic_truncation < 1 || !(params.linear_model_thr >= 1) ||
-      params.candidate_label_radius < 0 || !(params.edge_weight >= 0) ||
-      !(params.edge_weight <= 1)) {
-    return absl::InvalidArgumentError(
-        "fusion: sigma, data_scale, data_truncation must be > 0, lambda in "
-        "[0, 1e4], linear_model_thr in [1, 1e4], quadratic_truncation >= 1, "
-        "candidate_label_radius >= 0, edge_weight in [0, 1]");
+  if (absl::Status s = params.Validate(); !s.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("fusion: ", s.message()));
   }
   const int num_k = static_cast<int>(candidates.size());
   const double per_candidate_max =

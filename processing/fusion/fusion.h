@@ -60,10 +60,12 @@
 #define HDRSTEREO_PROCESSING_FUSION_FUSION_H_
 
 #include <cstdint>
+#include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
+#include "absl/status/status.h"
 #include "absl/status/statusor.h"
 
 namespace hdrstereo::fusion {
@@ -100,7 +102,12 @@ struct FusionParams {
   bool prune_dominated = true;
   bool candidate_labels_only = false;  // fusion-move variant
   int candidate_label_radius = 1;
+
+  // INVALID_ARGUMENT naming the first field that breaks a rule.
+  absl::Status Validate() const;
 };
+// Canonical JSON (processing/base/options.h).
+void to_json(nlohmann::json& j, const FusionParams& o);
 
 // The integer MRF the solver works on. Edge weights: right[p] is the edge
 // (p, p + 1) (0 in the last column), down[p] the edge (p, p + width) (0 in the

@@ -43,9 +43,6 @@ absl::StatusOr<MergeResult> Merge8(const ExposureStack& stack,
   }
   const std::vector<float> w =
       options.weights.empty() ? HatWeights() : options.weights;
-  if (static_cast<int>(w.size()) != kLevels) {
-    return absl::InvalidArgumentError("merge weights need 256 entries");
-  }
   // LUTs: weight[c][z] and, per exposure, logE[j][c][z] = g_c(z) - ln dt_j.
   const int rch = response.log_inverse.channels();
   std::vector<float> log_e(static_cast<size_t>(n) * kMaxChannels * kLevels);
@@ -207,6 +204,9 @@ absl::StatusOr<MergeResult> MergeStack(const ExposureStack& stack,
                                        const CameraResponse& response,
                                        const MergeOptions& options) {
   if (absl::Status s = ValidateStack(stack); !s.ok()) return s;
+  if (absl::Status s = options.Validate(); !s.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("merge: ", s.message()));
+  }
   try {
     if (response.linear) return MergeLinear(stack, options);
     if (stack.images[0].depth() != CV_8U) {

@@ -9,9 +9,11 @@
 #define HDRSTEREO_PROCESSING_HDR_MERGE_H_
 
 #include <cstdint>
+#include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 #include <vector>
 
+#include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "processing/hdr/response.h"
 #include "processing/hdr/stack.h"
@@ -33,7 +35,12 @@ struct MergeOptions {
   // Linear input: values at or above this fraction of full scale count as
   // saturated (weight 0).
   double linear_saturation = 0.98;
+
+  // INVALID_ARGUMENT naming the first field that breaks a rule.
+  absl::Status Validate() const;
 };
+// Canonical JSON (processing/base/options.h).
+void to_json(nlohmann::json& j, const MergeOptions& o);
 
 struct MergeResult {
   // CV_32FC3 (or C1) relative radiance: with an 8-bit response fixed at

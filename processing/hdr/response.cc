@@ -82,8 +82,8 @@ absl::StatusOr<CameraResponse> RecoverResponse(const ExposureStack& stack,
         "response recovery needs 8-bit images; ", stack.Name(0),
         " is deeper (use LinearResponse() for linear 16-bit RAW data)"));
   }
-  if (options.samples < 2 || !(options.lambda >= 0)) {
-    return absl::InvalidArgumentError("need samples >= 2 and lambda >= 0");
+  if (absl::Status s = options.Validate(); !s.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("response: ", s.message()));
   }
   const int channels = stack.images[0].channels();
   const int n_images = static_cast<int>(stack.images.size());

@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -36,7 +37,12 @@ struct ResponseOptions {
   double lambda = 10.0;  // smoothness weight
   int samples = 120;     // pixels sampled per channel
   uint64_t seed = 1;     // sampling is random but reproducible
+
+  // INVALID_ARGUMENT naming the first field that breaks a rule.
+  absl::Status Validate() const;
 };
+// Canonical JSON (processing/base/options.h).
+void to_json(nlohmann::json& j, const ResponseOptions& o);
 
 // Debevec & Malik's hat weighting: w(z) = z for z <= 127, 255 - z above,
 // so w(0) = w(255) = 0 (clipped codes carry no information).

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "processing/base/status_macros.h"
 #include "processing/filters/guided_filter.h"
 #include "processing/hdr/merge.h"
 
@@ -65,34 +66,11 @@ absl::Status CheckInput(const cv::Mat& m, const char* what, bool hdr) {
 }
 
 absl::Status CheckOptions(const StereoOptions& o, int width) {
-  if (o.max_disparity <= o.min_disparity) {
-    return absl::InvalidArgumentError(absl::StrCat("max disparity (",
-                                                   o.max_disparity,
-                                                   ") must be greater than min "
-                                                   "disparity (",
-                                                   o.min_disparity, ")"));
-  }
+  RETURN_IF_ERROR(o.Validate());
   if (std::max(std::abs(o.min_disparity), std::abs(o.max_disparity)) >= width) {
     return absl::InvalidArgumentError(absl::StrCat(
         "disparity range [", o.min_disparity, ", ", o.max_disparity,
         "] is wider than the image (", width, " pixels)"));
-  }
-  if (o.radius < 1 || !(o.eps > 0) || !std::isfinite(o.eps)) {
-    return absl::InvalidArgumentError(
-        "guided filter needs radius >= 1, eps > 0");
-  }
-  if (!(o.alpha >= 0 && o.alpha <= 1) || !(o.tau_color > 0) ||
-      !(o.tau_gradient > 0)) {
-    return absl::InvalidArgumentError(
-        "cost needs alpha in [0,1] and positive truncations");
-  }
-  if (o.weighted_median &&
-      (o.median_radius < 1 || !(o.sigma_s > 0) || !(o.sigma_c > 0))) {
-    return absl::InvalidArgumentError(
-        "weighted median needs radius >= 1 and positive sigmas");
-  }
-  if (o.lr_tolerance < 0 || o.threads < 0) {
-    return absl::InvalidArgumentError("lr_tolerance and threads must be >= 0");
   }
   return absl::OkStatus();
 }

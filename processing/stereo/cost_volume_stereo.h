@@ -39,6 +39,7 @@
 #ifndef HDRSTEREO_PROCESSING_STEREO_COST_VOLUME_STEREO_H_
 #define HDRSTEREO_PROCESSING_STEREO_COST_VOLUME_STEREO_H_
 
+#include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 
 #include "absl/status/status.h"
@@ -86,7 +87,13 @@ struct StereoOptions {
   // (100 = the maximum) and clipped to [0,1].
   double hdr_white_percentile = 100.0;
   int threads = 0;  // 0 = cv::getNumThreads()
+
+  // INVALID_ARGUMENT naming the first field that breaks a rule (the range
+  // against the image width is PrepareMatchingImages' check).
+  absl::Status Validate() const;
 };
+// Canonical JSON (processing/base/options.h).
+void to_json(nlohmann::json& j, const StereoOptions& o);
 
 // Images as the matcher sees them (step 1 and the gradient planes).
 struct MatchingImages {

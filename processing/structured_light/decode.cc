@@ -131,6 +131,9 @@ std::string FrameId(const Pattern& pattern) {
 
 absl::StatusOr<DecodedView> Decode(const ViewFrames& view,
                                    const DecodeOptions& options) {
+  if (absl::Status s = options.Validate(); !s.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("decode: ", s.message()));
+  }
   const cv::Size psize = view.projector_size;
   if (psize.width <= 0 || psize.height <= 0) {
     return absl::InvalidArgumentError("projector size must be positive");

@@ -12,10 +12,12 @@
 #ifndef HDRSTEREO_PROCESSING_STRUCTURED_LIGHT_DECODE_H_
 #define HDRSTEREO_PROCESSING_STRUCTURED_LIGHT_DECODE_H_
 
+#include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
+#include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "processing/structured_light/gray_code.h"
 
@@ -51,7 +53,12 @@ struct DecodeOptions {
   // Pixels at or above this fraction of full scale are saturated; a bit
   // whose pattern and inverse are both saturated has no contrast.
   double saturation = 0.995;
+
+  // INVALID_ARGUMENT naming the first field that breaks a rule.
+  absl::Status Validate() const;
 };
+// Canonical JSON (processing/base/options.h).
+void to_json(nlohmann::json& j, const DecodeOptions& o);
 
 struct DecodedView {
   cv::Mat column;      // CV_32SC1 projector column, -1 = invalid

@@ -20,8 +20,10 @@
 #ifndef HDRSTEREO_PROCESSING_STRUCTURED_LIGHT_DISPARITY_H_
 #define HDRSTEREO_PROCESSING_STRUCTURED_LIGHT_DISPARITY_H_
 
+#include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 
+#include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "processing/structured_light/decode.h"
 
@@ -40,7 +42,12 @@ struct MatchOptions {
   double max_row_difference = 1.5;
   // Left-right check tolerance in pixels.
   double lr_tolerance = 1.0;
+
+  // INVALID_ARGUMENT naming the first field that breaks a rule.
+  absl::Status Validate() const;
 };
+// Canonical JSON (processing/base/options.h).
+void to_json(nlohmann::json& j, const MatchOptions& o);
 
 // Continuous projector coordinates per pixel (CV_32FC1, NaN = invalid).
 struct SubpixelCodes {
@@ -72,7 +79,12 @@ struct ProjectorFitOptions {
   int ransac_iterations = 300;
   double inlier_px = 1.0;  // reprojection error for RANSAC inliers
   uint64_t seed = 1;
+
+  // INVALID_ARGUMENT naming the first field that breaks a rule.
+  absl::Status Validate() const;
 };
+// Canonical JSON (processing/base/options.h).
+void to_json(nlohmann::json& j, const ProjectorFitOptions& o);
 
 struct ProjectorMatrix {
   // (x, y, d, 1) of a left pixel -> projector (column, row, 1) up to scale.

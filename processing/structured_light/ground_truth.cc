@@ -162,6 +162,10 @@ cv::Mat OcclusionMask(const cv::Mat& disp0, const cv::Mat& disp1, double tol) {
 absl::StatusOr<GroundTruth> ComputeGroundTruth(
     const DecodedView& left, const DecodedView& right,
     const GroundTruthOptions& options) {
+  if (absl::Status s = options.Validate(); !s.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("ground truth: ", s.message()));
+  }
   if (left.column.empty() || right.column.empty()) {
     return absl::InvalidArgumentError("ground truth: a view is not decoded");
   }

@@ -18,6 +18,7 @@
 #define HDRSTEREO_PROCESSING_STRUCTURED_LIGHT_GROUND_TRUTH_H_
 
 #include <filesystem>
+#include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
@@ -42,7 +43,13 @@ struct GroundTruthOptions {
   // when the disparities around them span at most `max_fill_range` px.
   int max_hole_area = 25;
   double max_fill_range = 2.0;
+
+  // INVALID_ARGUMENT naming the first field that breaks a rule, nested
+  // fields with their path ("match.fit_radius is 0; ...").
+  absl::Status Validate() const;
 };
+// Canonical JSON (processing/base/options.h).
+void to_json(nlohmann::json& j, const GroundTruthOptions& o);
 
 struct ViewStats {
   int pixels = 0;

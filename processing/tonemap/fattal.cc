@@ -165,11 +165,8 @@ absl::StatusOr<cv::Mat> SolvePoissonNeumann(const cv::Mat& f) {
 absl::StatusOr<std::vector<cv::Mat>> FattalCompress(
     const std::vector<cv::Mat>& log_lum, const FattalParams& params) {
   if (log_lum.empty()) return absl::InvalidArgumentError("no views");
-  if (!(params.alpha > 0) || !(params.beta > 0) || params.beta > 1.0 ||
-      params.min_level_size < 2) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "Fattal needs alpha > 0, 0 < beta <= 1, min_level_size >= 2; got ",
-        params.alpha, ", ", params.beta, ", ", params.min_level_size));
+  if (absl::Status s = params.Validate(); !s.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("Fattal: ", s.message()));
   }
   for (const cv::Mat& m : log_lum) {
     if (m.empty() || m.type() != CV_32FC1) {

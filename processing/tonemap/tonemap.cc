@@ -59,32 +59,6 @@ absl::Status ValidateRadiance(const cv::Mat& m, absl::string_view what) {
   return absl::OkStatus();
 }
 
-absl::Status ValidateParams(const Params& p) {
-  if (!(p.saturation >= 0) || !(p.gamma > 0) || !std::isfinite(p.saturation) ||
-      !std::isfinite(p.gamma)) {
-    return absl::InvalidArgumentError("saturation must be >= 0 and gamma > 0");
-  }
-  if (!(p.clip_low >= 0) || !(p.clip_high >= 0) ||
-      !(p.clip_low + p.clip_high < 0.5)) {
-    return absl::InvalidArgumentError(
-        "clip_low and clip_high must be >= 0 and sum to < 0.5");
-  }
-  if (!(p.base_contrast > 1) || !std::isfinite(p.base_contrast)) {
-    return absl::InvalidArgumentError("base_contrast must be > 1");
-  }
-  if (!(p.reinhard.key > 0) || !std::isfinite(p.reinhard.white)) {
-    return absl::InvalidArgumentError("Reinhard key must be > 0");
-  }
-  if (!(p.drago.bias > 0) || !(p.drago.bias < 1) || !(p.drago.ld_max > 0)) {
-    return absl::InvalidArgumentError(
-        "Drago bias must be in (0, 1) and ld_max > 0");
-  }
-  if (!(p.durand.sigma_s_fraction > 0) || !(p.durand.sigma_r > 0)) {
-    return absl::InvalidArgumentError("Durand sigmas must be > 0");
-  }
-  return absl::OkStatus();
-}
-
 cv::Mat Luminance(const cv::Mat& bgr) {
   cv::Mat lum(bgr.size(), CV_32FC1);
   cv::parallel_for_(cv::Range(0, bgr.rows), [&](const cv::Range& r) {
@@ -418,7 +392,10 @@ absl::StatusOr<std::vector<cv::Mat>> ToneMapViews(
                                  : absl::StrCat("radiance of view ", v);
     if (absl::Status s = ValidateRadiance(radiance[v], what); !s.ok()) return s;
   }
-  if (absl::Status s = ValidateParams(params); !s.ok()) return s;
+  if (absl::Status s = params.Validate(); !s.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("tone mapping: ", s.message()));
+  }
   try {
     absl::StatusOr<PairLuminance> pl = ComputeLuminance(radiance);
     if (!pl.ok()) return pl.status();

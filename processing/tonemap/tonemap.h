@@ -57,11 +57,13 @@
 #ifndef HDRSTEREO_PROCESSING_TONEMAP_TONEMAP_H_
 #define HDRSTEREO_PROCESSING_TONEMAP_TONEMAP_H_
 
+#include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "processing/filters/domain_transform.h"
@@ -85,23 +87,39 @@ struct ReinhardParams {
   // White point in scaled luminance units; <= 0 means the largest scaled
   // luminance of the image (pair), which then maps to 1.
   double white = 0.0;
+
+  // INVALID_ARGUMENT naming the first field that breaks a rule.
+  absl::Status Validate() const;
 };
+void to_json(nlohmann::json& j, const ReinhardParams& o);
 
 struct DragoParams {
   double bias = 0.85;
   double ld_max = 100.0;  // display maximum, cd/m^2 (Ldmax in the paper)
+
+  // INVALID_ARGUMENT naming the first field that breaks a rule.
+  absl::Status Validate() const;
 };
+void to_json(nlohmann::json& j, const DragoParams& o);
 
 struct DurandParams {
   double sigma_s_fraction = 0.02;  // spatial sigma / max(width, height)
   double sigma_r = 0.4;            // range sigma, log10 units
+
+  // INVALID_ARGUMENT naming the first field that breaks a rule.
+  absl::Status Validate() const;
 };
+void to_json(nlohmann::json& j, const DurandParams& o);
 
 struct FattalParams {
   double alpha = 0.1;  // times the pair's mean gradient magnitude per level
   double beta = 0.85;  // < 1 compresses large gradients; 1 = no attenuation
   int min_level_size = 32;  // coarsest pyramid level's smaller side
+
+  // INVALID_ARGUMENT naming the first field that breaks a rule.
+  absl::Status Validate() const;
 };
+void to_json(nlohmann::json& j, const FattalParams& o);
 
 struct Params {
   double saturation = 0.6;   // colour exponent, see above
@@ -116,7 +134,13 @@ struct Params {
   filters::GuidedFilterOptions guided;               // r = 9, eps = 1e-4
   filters::DomainTransformOptions domain_transform;  // 60, 0.33, 3 iters
   filters::WlsOptions wls;                           // 1.2, 1
+
+  // INVALID_ARGUMENT naming the first field that breaks a rule, nested
+  // fields with their path ("guided.radius is 0; ...").
+  absl::Status Validate() const;
 };
+// Canonical JSON (processing/base/options.h).
+void to_json(nlohmann::json& j, const Params& o);
 
 // "reinhard", "durand", "fattal", "drago", "guided", "domain-transform",
 // "wls" (exact, lower case).
