@@ -328,10 +328,10 @@ absl::Status RunProcessingJob(const hardware::Rig& rig,
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
   }
 
-  pipeline::RunOptions options{
-      .steps = {request.steps().begin(), request.steps().end()},
-      .force = request.force(),
-      .threads = environment.threads};
+  pipeline::RunOptions options;
+  options.steps = {request.steps().begin(), request.steps().end()};
+  options.force = request.force();
+  options.threads = environment.threads;
   absl::StatusOr<std::vector<std::string>> steps =
       pipeline::ResolveSteps(options.steps);
   if (!steps.ok()) return steps.status();

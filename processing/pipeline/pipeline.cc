@@ -11,6 +11,7 @@
 #include <limits>
 #include <map>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
@@ -27,6 +28,8 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
+#include "processing/base/options.h"
+#include "processing/base/status_macros.h"
 #include "processing/calib/stereo_calibration.h"
 #include "processing/eval/disparity_eval.h"
 #include "processing/fusion/fusion.h"
@@ -48,6 +51,7 @@
 
 namespace hdrstereo::pipeline {
 namespace fs = std::filesystem;
+using nlohmann::json;
 using structured_light::ExposureTag;
 
 namespace {
@@ -129,11 +133,16 @@ double MaxFinite(const cv::Mat& disparity) {
   return hi;
 }
 
-// What one step wrote (relative paths; sha256 filled in afterwards).
+// What one step runs with (built once, hashed and used) and what it wrote
+// (relative paths; sha256 filled in afterwards).
 struct StepIo {
   std::string step;
-  std::string params;
+  std::string params;  // canonical JSON of what the step runs with
   std::vector<Artifact> outputs;
+  // stereo and fusion: their options with the disparity range set.
+  stereo::StereoOptions ldr_stereo;
+  stereo::StereoOptions hdr_stereo;
+  fusion::FusionParams fusion;
 };
 
 struct Selection {
@@ -163,7 +172,9 @@ class Runner {
   absl::Status ExecuteStep(const std::string& step);
   absl::StatusOr<std::vector<std::pair<std::string, std::string>>> InputsOf(
       const std::string& step);
-  std::string ParamsOf(const std::string& step) const;
+  // Builds what `step` runs with into `io` (io.params and, for stereo and
+  // fusion, their options).
+  absl::Status Configure(StepIo& io);
   bool Verified(const std::vector<Artifact>& artifacts);
 
   absl::Status Decode(StepIo& io);
@@ -509,8 +520,9 @@ absl::Status Runner::Response(StepIo& io) {
   absl::StatusOr<hdr::ExposureStack> left = Stack(0);
   if (!left.ok()) return left.status();
   absl::StatusOr<hdr::CameraResponse> r =
-      left->images[0].depth() == CV_8U ? hdr::RecoverResponse(*left)
-                                       : hdr::LinearResponse(left->camera);
+      left->images[0].depth() == CV_8U
+          ? hdr::RecoverResponse(*left, options_.step_options.response)
+          : hdr::LinearResponse(left->camera);
   if (!r.ok()) return r.status();
   std::error_code ec;
   fs::create_directories(dir_ / "hdr", ec);
@@ -527,7 +539,8 @@ absl::Status Runner::Hdr(StepIo& io) {
   for (int v = 0; v < 2; ++v) {
     absl::StatusOr<hdr::ExposureStack> stack = Stack(v);
     if (!stack.ok()) return stack.status();
-    absl::StatusOr<hdr::MergeResult> m = hdr::MergeStack(*stack, *r);
+    absl::StatusOr<hdr::MergeResult> m =
+        hdr::MergeStack(*stack, *r, options_.step_options.merge);
     if (!m.ok()) return m.status();
     cv::Mat radiance = m->radiance;
     if (radiance.channels() == 1)
@@ -549,12 +562,13 @@ absl::Status Runner::Tonemap(StepIo& io) {
   if (!r.ok()) return r.status();
   const std::vector<tonemap::Operator> ops = tonemap::AllOperators();
   const std::vector<std::string> names = OperatorNames();
-  std::vector<StepIo> parts(ops.size(), StepIo{io.step, io.params, {}});
+  std::vector<StepIo> parts(ops.size(),
+                            StepIo{io.step, io.params, {}, {}, {}, {}});
   absl::Status s = ParallelFor(
       static_cast<int>(ops.size()), io.step, names, [&](int i) -> absl::Status {
         const size_t k = static_cast<size_t>(i);
         absl::StatusOr<std::pair<cv::Mat, cv::Mat>> pair =
-            tonemap::ToneMapPair(*l, *r, ops[k]);
+            tonemap::ToneMapPair(*l, *r, ops[k], options_.step_options.tonemap);
         if (!pair.ok()) return pair.status();
         const std::string base = absl::StrCat("tonemapped/", names[k], "/");
         if (absl::Status w = Write(parts[k], "tonemapped",
@@ -595,7 +609,7 @@ absl::Status Runner::SlGroundTruth(StepIo& io) {
       return absl::FailedPreconditionError(frames.status().message());
     }
     absl::StatusOr<structured_light::DecodedView> d =
-        structured_light::Decode(*frames);
+        structured_light::Decode(*frames, options_.step_options.sl_decode);
     if (!d.ok()) return d.status();
     decoded[v] = std::move(*d);
     return absl::OkStatus();
@@ -607,7 +621,8 @@ absl::Status Runner::SlGroundTruth(StepIo& io) {
     }
   }
   absl::StatusOr<structured_light::GroundTruth> gt =
-      structured_light::ComputeGroundTruth(decoded[0], decoded[1]);
+      structured_light::ComputeGroundTruth(
+          decoded[0], decoded[1], options_.step_options.sl_ground_truth);
   if (!gt.ok()) return gt.status();
   for (const std::string& w : gt->warnings) {
     Warn(absl::StrCat("sl_groundtruth: ", w));
@@ -630,26 +645,22 @@ absl::Status Runner::Stereo(StepIo& io) {
   for (const auto& s : stacks) {
     if (!s.ok()) return s.status();
   }
-  absl::StatusOr<int> max_disp = MaxDisparity(stacks[0]->images[0].cols);
-  if (!max_disp.ok()) return max_disp.status();
-  const std::string params = absl::StrCat(
-      R"({"max_disparity": )", *max_disp, R"(, "ldr_exposure_s": )",
-      absl::StrFormat("%.17g", stacks[0]->exposure_s[LdrIndex()]), "}");
-  Info(absl::StrCat("stereo: disparities 0..", *max_disp));
+  Info(absl::StrCat("stereo: disparities 0..", io.ldr_stereo.max_disparity));
   const std::vector<std::string> methods = StereoMethods();
-  std::vector<StepIo> parts(methods.size(), StepIo{io.step, io.params, {}});
+  std::vector<StepIo> parts(methods.size(),
+                            StepIo{io.step, io.params, {}, {}, {}, {}});
   absl::Status s = ParallelFor(
       static_cast<int>(methods.size()), io.step, methods,
       [&](int i) -> absl::Status {
         const size_t k = static_cast<size_t>(i);
         const std::string& m = methods[k];
         cv::Mat left, right;
-        stereo::StereoOptions o;
+        const stereo::StereoOptions& o =
+            m == "hdr" ? io.hdr_stereo : io.ldr_stereo;
         if (m == "ldr") {
           left = stacks[0]->images[LdrIndex()];
           right = stacks[1]->images[LdrIndex()];
         } else if (m == "hdr") {
-          o = stereo::StereoOptions::Hdr();
           absl::StatusOr<cv::Mat> l = ReadPfm("hdr/im0.pfm");
           if (!l.ok()) return l.status();
           absl::StatusOr<cv::Mat> r = ReadPfm("hdr/im1.pfm");
@@ -666,10 +677,6 @@ absl::Status Runner::Stereo(StepIo& io) {
           left = *l;
           right = *r;
         }
-        o.max_disparity = *max_disp;
-        // One thread per matching: the matchings themselves run in
-        // parallel, and the result does not depend on the split.
-        o.threads = 1;
         absl::StatusOr<stereo::StereoResult> d =
             stereo::ComputeDisparity(left, right, o);
         if (!d.ok()) {
@@ -678,8 +685,7 @@ absl::Status Runner::Stereo(StepIo& io) {
               absl::StrCat("stereo ", m, ": ", d.status().message()));
         }
         return Write(parts[k], "disparity",
-                     absl::StrCat("disparity/", m, ".pfm"), d->disparity,
-                     params);
+                     absl::StrCat("disparity/", m, ".pfm"), d->disparity);
       });
   if (!s.ok()) return s;
   for (StepIo& p : parts) {
@@ -691,8 +697,7 @@ absl::Status Runner::Stereo(StepIo& io) {
 absl::Status Runner::Fusion(StepIo& io) {
   absl::StatusOr<hdr::ExposureStack> left = Stack(0);
   if (!left.ok()) return left.status();
-  absl::StatusOr<int> max_disp = MaxDisparity(left->images[0].cols);
-  if (!max_disp.ok()) return max_disp.status();
+  const int max_disp = io.fusion.max_disp;
   std::vector<cv::Mat> candidates;
   for (const std::string& op : OperatorNames()) {
     absl::StatusOr<cv::Mat> d = ReadPfm(absl::StrCat("disparity/", op, ".pfm"));
@@ -702,21 +707,20 @@ absl::Status Runner::Fusion(StepIo& io) {
   // The guide: the LDR middle exposure's left view (Appendix A: left.jpg).
   const cv::Mat guide = To8Bit(left->images[LdrIndex()]);
   const std::vector<std::string>& methods = FusedMethods();
-  std::vector<StepIo> parts(methods.size(), StepIo{io.step, io.params, {}});
+  std::vector<StepIo> parts(methods.size(),
+                            StepIo{io.step, io.params, {}, {}, {}, {}});
   absl::Status s = ParallelFor(
       static_cast<int>(methods.size()), io.step, methods,
       [&](int i) -> absl::Status {
         const size_t k = static_cast<size_t>(i);
         absl::StatusOr<cv::Mat> d;
         if (methods[k] == "mean") {
-          d = fusion::FuseMean(candidates, *max_disp);
+          d = fusion::FuseMean(candidates, max_disp);
         } else if (methods[k] == "median") {
-          d = fusion::FuseMedian(candidates, *max_disp);
+          d = fusion::FuseMedian(candidates, max_disp);
         } else {
-          fusion::FusionParams fp;
-          fp.max_disp = *max_disp;
           absl::StatusOr<fusion::FusionResult> r =
-              fusion::FuseAlphaExpansion(candidates, guide, fp);
+              fusion::FuseAlphaExpansion(candidates, guide, io.fusion);
           if (!r.ok()) return r.status();
           d = r->disparity;
         }
@@ -747,10 +751,9 @@ absl::Status Runner::Evaluate(StepIo& io) {
       absl::StatusOr<cv::Mat> d =
           ReadPfm(absl::StrCat("disparity/", m, ".pfm"));
       if (!d.ok()) return d.status();
-      eval::EvalOptions o;
-      o.gt_zero_valid = true;
       absl::StatusOr<eval::DisparityEvaluation> e =
-          eval::EvaluateDisparity(*d, t.disparity, t.nonoccluded, cv::Mat(), o);
+          eval::EvaluateDisparity(*d, t.disparity, t.nonoccluded, cv::Mat(),
+                                  options_.step_options.evaluation);
       if (!e.ok()) {
         return absl::Status(e.status().code(),
                             absl::StrCat("evaluate ", m, " against ", t.name,
@@ -959,9 +962,8 @@ absl::Status Runner::Report(StepIo& io) {
       return s;
     }
     for (const Truth& t : *truths) {
-      eval::EvalOptions o;
-      o.gt_zero_valid = true;
-      absl::StatusOr<cv::Mat> e = eval::ColorizeError(*d, t.disparity, 4.0, o);
+      absl::StatusOr<cv::Mat> e = eval::ColorizeError(
+          *d, t.disparity, 4.0, options_.step_options.evaluation);
       if (!e.ok()) return e.status();
       if (absl::Status s = png(absl::StrCat("error_", t.name, "_", m, ".png"),
                                *e, absl::StrCat(m, " vs ", t.name), err);
@@ -1009,34 +1011,52 @@ absl::Status Runner::Report(StepIo& io) {
 
 // ------------------------------------------------------------ machinery
 
-std::string Runner::ParamsOf(const std::string& step) const {
-  if (step == "response") return R"({"lambda": 10, "samples": 120, "seed": 1})";
-  if (step == "tonemap") {
-    return absl::StrCat(R"({"operators": [")",
-                        absl::StrJoin(OperatorNames(), "\", \""), "\"]}");
-  }
-  if (step == "stereo")
-    return R"({"ldr": "middle exposure", "hdr": "Eq. 4.2"})";
-  if (step == "fusion") return R"({"fused": "alpha-expansion of the 7 TMOs"})";
-  if (step == "evaluate") return R"({"region": "nonoccluded"})";
-  if (step == "sl_groundtruth") {
-    return in_.projector_size
-               ? absl::StrCat(R"({"projector": [)", in_.projector_size->first,
-                              ", ", in_.projector_size->second, "]}")
-               : "{}";
-  }
-  if (step == "export") {
-    std::string k = "null";
-    if (in_.intrinsics) {
-      k = absl::StrFormat("[%.17g, %.17g, %.17g, %.17g]", in_.intrinsics->fx,
-                          in_.intrinsics->fy, in_.intrinsics->cx,
-                          in_.intrinsics->cy);
+absl::Status Runner::Configure(StepIo& io) {
+  const StepOptions& o = options_.step_options;
+  const std::string& step = io.step;
+  json params = json::object();
+  if (step == "response") {
+    params = o.response;
+  } else if (step == "hdr") {
+    params = o.merge;
+  } else if (step == "tonemap") {
+    params = {{"operators", OperatorNames()}, {"params", o.tonemap}};
+  } else if (step == "sl_groundtruth") {
+    params = {{"decode", o.sl_decode}, {"ground_truth", o.sl_ground_truth}};
+    if (in_.projector_size) {
+      params["projector"] = {in_.projector_size->first,
+                             in_.projector_size->second};
     }
-    return absl::StrCat(R"({"baseline_mm": )",
-                        absl::StrFormat("%.17g", in_.baseline_mm),
-                        R"(, "intrinsics": )", k, "}");
-  }
-  if (step == "report") {
+  } else if (step == "stereo" || step == "fusion") {
+    absl::StatusOr<hdr::ExposureStack> left = Stack(0);
+    if (!left.ok()) return left.status();
+    absl::StatusOr<int> max_disp = MaxDisparity(left->images[0].cols);
+    if (!max_disp.ok()) return max_disp.status();
+    if (step == "stereo") {
+      for (stereo::StereoOptions* s : {&io.ldr_stereo, &io.hdr_stereo}) {
+        *s = s == &io.ldr_stereo ? o.ldr_stereo : o.hdr_stereo;
+        s->max_disparity = *max_disp;
+        // One thread per matching: the matchings themselves run in
+        // parallel, and the result does not depend on the split.
+        s->threads = 1;
+      }
+      params = {{"ldr", io.ldr_stereo},
+                {"hdr", io.hdr_stereo},
+                {"ldr_exposure_s", left->exposure_s[LdrIndex()]}};
+    } else {
+      io.fusion = o.fusion;
+      io.fusion.max_disp = *max_disp;
+      params = io.fusion;
+    }
+  } else if (step == "evaluate") {
+    params = o.evaluation;
+  } else if (step == "export") {
+    params = {{"baseline_mm", in_.baseline_mm}, {"intrinsics", nullptr}};
+    if (in_.intrinsics) {
+      params["intrinsics"] = {in_.intrinsics->fx, in_.intrinsics->fy,
+                              in_.intrinsics->cx, in_.intrinsics->cy};
+    }
+  } else if (step == "report") {
     // Everything the page shows that is not in an input file.
     std::string s = absl::StrCat(in_.session_name, "\n",
                                  absl::StrFormat("%.17g", in_.baseline_mm),
@@ -1044,9 +1064,10 @@ std::string Runner::ParamsOf(const std::string& step) const {
     for (const auto& [k, v] : in_.capture_summary) {
       absl::StrAppend(&s, k, "\t", v, "\n");
     }
-    return absl::StrCat(R"({"page": ")", io::Sha256Hex(s), "\"}");
+    params = {{"page", io::Sha256Hex(s)}, {"error_maps", o.evaluation}};
   }
-  return "{}";
+  io.params = params.dump();
+  return absl::OkStatus();
 }
 
 absl::StatusOr<std::vector<std::pair<std::string, std::string>>>
@@ -1112,7 +1133,9 @@ absl::Status Runner::ExecuteStep(const std::string& step) {
   absl::StatusOr<std::vector<std::pair<std::string, std::string>>> inputs =
       InputsOf(step);
   if (!inputs.ok()) return inputs.status();
-  const std::string params = ParamsOf(step);
+  StepIo io{step, "", {}, {}, {}, {}};
+  if (absl::Status s = Configure(io); !s.ok()) return s;
+  const std::string& params = io.params;
   std::string key = absl::StrCat(step, "\n", kVersion, "\n", params, "\n");
   for (const auto& [path, sha] : *inputs)
     absl::StrAppend(&key, path, " ", sha, "\n");
@@ -1157,7 +1180,6 @@ absl::Status Runner::ExecuteStep(const std::string& step) {
           {"report", &Runner::Report},
       };
   Info(absl::StrCat(step, ": computing"));
-  StepIo io{step, params, {}};
   absl::Status s;
   try {
     s = (this->*fns->at(step))(io);
@@ -1365,6 +1387,7 @@ absl::Status Runner::Preflight(const std::vector<std::string>& steps) {
 absl::StatusOr<RunSummary> Runner::Run() {
   absl::StatusOr<std::vector<std::string>> steps = ResolveSteps(options_.steps);
   if (!steps.ok()) return steps.status();
+  if (absl::Status s = options_.step_options.Validate(); !s.ok()) return s;
   if (absl::Status s = Preflight(*steps); !s.ok()) return s;
   Info(absl::StrCat("steps: ", absl::StrJoin(*steps, ", ")));
 
@@ -1425,6 +1448,34 @@ absl::StatusOr<RunSummary> Runner::Run() {
 }
 
 }  // namespace
+
+absl::Status StepOptions::Validate() const {
+  RETURN_IF_ERROR(WithFieldPrefix("response", response.Validate()));
+  RETURN_IF_ERROR(WithFieldPrefix("merge", merge.Validate()));
+  RETURN_IF_ERROR(WithFieldPrefix("tonemap", tonemap.Validate()));
+  RETURN_IF_ERROR(WithFieldPrefix("sl_decode", sl_decode.Validate()));
+  RETURN_IF_ERROR(
+      WithFieldPrefix("sl_ground_truth", sl_ground_truth.Validate()));
+  // The disparity range and thread counts are the steps' (any valid value
+  // stands in for them here).
+  for (const auto& [name, stereo] :
+       {std::pair{"ldr_stereo", ldr_stereo}, {"hdr_stereo", hdr_stereo}}) {
+    stereo::StereoOptions s = stereo;
+    s.max_disparity = s.min_disparity + 1;
+    s.threads = 1;
+    RETURN_IF_ERROR(WithFieldPrefix(name, s.Validate()));
+  }
+  fusion::FusionParams f = fusion;
+  f.max_disp = 1;
+  RETURN_IF_ERROR(WithFieldPrefix("fusion", f.Validate()));
+  RETURN_IF_ERROR(WithFieldPrefix("evaluation", evaluation.Validate()));
+  if (evaluation.thresholds != std::vector<double>{0.5, 1, 2, 4}) {
+    return absl::InvalidArgumentError(
+        "evaluation.thresholds must be {0.5, 1, 2, 4}: the metrics' "
+        "bad-pixel columns");
+  }
+  return absl::OkStatus();
+}
 
 const std::vector<std::string>& AllSteps() {
   static const std::vector<std::string>* all = [] {

@@ -30,6 +30,14 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "processing/eval/disparity_eval.h"
+#include "processing/fusion/fusion.h"
+#include "processing/hdr/merge.h"
+#include "processing/hdr/response.h"
+#include "processing/stereo/cost_volume_stereo.h"
+#include "processing/structured_light/decode.h"
+#include "processing/structured_light/ground_truth.h"
+#include "processing/tonemap/tonemap.h"
 
 namespace hdrstereo::pipeline {
 
@@ -141,10 +149,37 @@ class RunObserver {
   virtual void Warn(const std::string& message) = 0;
 };
 
+// The option structs the steps run with. A step's cache key holds the
+// canonical JSON of exactly the structs it uses, as it uses them, so that
+// changing a field (or a default in a header) recomputes that step and what
+// depends on it, and nothing else.
+struct StepOptions {
+  hdr::ResponseOptions response;              // response (8-bit stacks)
+  hdr::MergeOptions merge;                    // hdr
+  tonemap::Params tonemap;                    // tonemap, all seven operators
+  structured_light::DecodeOptions sl_decode;  // sl_groundtruth
+  structured_light::GroundTruthOptions sl_ground_truth;  // sl_groundtruth
+  // stereo: the LDR middle exposure and the tone-mapped pairs, and the HDR
+  // radiance. The step sets max_disparity (from the ground truth) and
+  // threads (1: the matchings run in parallel); the values here are unused.
+  stereo::StereoOptions ldr_stereo;
+  stereo::StereoOptions hdr_stereo = stereo::StereoOptions::Hdr();
+  // fusion: max_disp is set by the step, as for stereo.
+  fusion::FusionParams fusion;
+  // evaluate, and the report's error maps. The metrics' bad-pixel columns
+  // are the thresholds 0.5, 1, 2 and 4 px.
+  eval::EvalOptions evaluation{.gt_zero_valid = true};
+
+  // INVALID_ARGUMENT naming the first field that breaks a rule
+  // ("ldr_stereo.radius is 0; ...").
+  absl::Status Validate() const;
+};
+
 struct RunOptions {
   std::vector<std::string> steps;  // empty = all; dependencies are added
   bool force = false;              // recompute even when unchanged
   int threads = 2;                 // independent steps run in parallel
+  StepOptions step_options;
 };
 
 struct RunSummary {
@@ -156,7 +191,8 @@ struct RunSummary {
 
 // FAILED_PRECONDITION naming what is missing (no stereo frames, a
 // structured-light capture without some bit plane, ...), INVALID_ARGUMENT
-// for unknown steps; the status of the failing step otherwise.
+// for unknown steps or bad step options; the status of the failing step
+// otherwise.
 absl::StatusOr<RunSummary> Run(const SessionInput& input,
                                const RunOptions& options, RunStore& store,
                                RunObserver& observer);

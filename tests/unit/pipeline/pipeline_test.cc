@@ -3,17 +3,20 @@
 // The session pipeline on a simulated lab-lamp session (240 x 180 camera,
 // 256 x 192 projector, five exposures, structured light at 1/30 and 1/125 s,
 // exact truth): step resolution, the files of a full run, metrics against
-// both ground truths, reuse / partial recomputation / force, bad input, the
+// both ground truths, reuse / partial recomputation / force, the step
+// options as the cache key (on a smaller session), bad input, the
 // Middlebury export, the command-line tool and the HTML report in headless
 // Chromium. The full run is done once; tests that change things work on
 // copies of its folder and store.
 #include "processing/pipeline/pipeline.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <limits>
 #include <map>
@@ -34,6 +37,7 @@
 #include "processing/tonemap/tonemap.h"
 #include "tests/support/proc_tool.h"
 #include "tests/support/sim_session.h"
+#include "tests/support/status_matchers.h"
 #include "tests/support/subprocess.h"
 #include "tests/support/temp_dir.h"
 
@@ -612,6 +616,114 @@ void LoadsInHeadlessChromium() {
   // Kept for people next to the test binary (ctest's working folder).
   const fs::path keep = fs::current_path() / "pipeline_report.png";
   fs::copy_file(shot, keep, fs::copy_options::overwrite_existing);
+}
+
+// For each step with options: one field changed through RunOptions'
+// structs recomputes that step and exactly the steps that depend on it
+// (their inputs change), and reuses every other step.
+std::set<std::string> StepAndDependants(const std::string& step) {
+  std::set<std::string> out = {step};
+  for (const std::string& s : AllSteps()) {  // topological order
+    for (const std::string& d : StepDependencies(s)) {
+      if (out.count(d)) out.insert(s);
+    }
+  }
+  return out;
+}
+
+TEST(PipelineOptions, ChangedFieldRecomputesItsStepAndDependants) {
+  TempDir tmp;
+  const fs::path base = tmp / "base";
+  testing::SimSessionOptions small;
+  small.width = 120;
+  small.exposures = {1.0 / 30, 1.0 / 250, 1.0 / 2000};
+  small.sl_exposures = {1.0 / 60};
+  small.projector_width = 128;
+  small.projector_height = 96;
+  ASSERT_TRUE(testing::RenderSimSession(base, small).ok());
+  MemoryStore base_store;
+  Recorder rec;
+  ASSERT_TRUE(pipeline::Run(Discover(base), {}, base_store, rec).ok());
+
+  struct Case {
+    std::string step;
+    std::function<void(StepOptions&)> edit;
+  };
+  const std::vector<Case> cases = {
+      {"response", [](StepOptions& o) { o.response.lambda = 30; }},
+      {"hdr", [](StepOptions& o) { o.merge.per_channel_weights = false; }},
+      {"tonemap", [](StepOptions& o) { o.tonemap.saturation = 0.8; }},
+      {"sl_groundtruth",
+       [](StepOptions& o) { o.sl_ground_truth.use_illumination = false; }},
+      {"stereo", [](StepOptions& o) { o.ldr_stereo.alpha = 0.6; }},
+      {"stereo", [](StepOptions& o) { o.hdr_stereo.tau_color = 4.0 / 255; }},
+      {"fusion", [](StepOptions& o) { o.fusion.lambda = 3; }},
+      {"evaluate", [](StepOptions& o) { o.evaluation.disparity_scale = 1.01; }},
+  };
+  int n = 0;
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.step);
+    const fs::path dir = tmp / absl::StrCat("case", n++);
+    fs::copy(base, dir, fs::copy_options::recursive);
+    MemoryStore store = base_store;
+    RunOptions o;
+    c.edit(o.step_options);
+    absl::StatusOr<RunSummary> s = pipeline::Run(Discover(dir), o, store, rec);
+    ASSERT_TRUE(s.ok()) << s.status();
+    const std::set<std::string> expected = StepAndDependants(c.step);
+    EXPECT_EQ(AsSet(s->computed), expected);
+    for (const std::string& step : s->reused) {
+      EXPECT_EQ(expected.count(step), 0u) << step;
+    }
+    EXPECT_EQ(s->computed.size() + s->reused.size(), AllSteps().size());
+    // Run again with the same options: nothing left to do.
+    s = pipeline::Run(Discover(dir), o, store, rec);
+    ASSERT_TRUE(s.ok()) << s.status();
+    EXPECT_TRUE(s->computed.empty()) << ::testing::PrintToString(s->computed);
+  }
+  // Export has no option struct: its parameters are the session's. The
+  // baseline is also shown by the report (its own parameter, not through
+  // export's files).
+  const fs::path dir = tmp / "export";
+  fs::copy(base, dir, fs::copy_options::recursive);
+  MemoryStore store = base_store;
+  SessionInput in = Discover(dir);
+  in.baseline_mm = 120;
+  absl::StatusOr<RunSummary> s = pipeline::Run(in, {}, store, rec);
+  ASSERT_TRUE(s.ok()) << s.status();
+  EXPECT_EQ(AsSet(s->computed), (std::set<std::string>{"export", "report"}));
+}
+
+TEST(PipelineOptions, BadOptionsNameTheFieldAndChangeNothing) {
+  TempDir tmp;
+  ASSERT_TRUE(testing::CopyCachedSimSession(tmp / "s").ok());
+  MemoryStore store;
+  Recorder rec;
+  const std::vector<std::pair<std::function<void(StepOptions&)>, std::string>>
+      cases = {
+          {[](StepOptions& o) { o.response.samples = 1; },
+           "response.samples is 1"},
+          {[](StepOptions& o) { o.tonemap.guided.radius = 0; },
+           "tonemap.guided.radius is 0"},
+          {[](StepOptions& o) { o.ldr_stereo.radius = 0; },
+           "ldr_stereo.radius is 0"},
+          {[](StepOptions& o) { o.hdr_stereo.alpha = 2; },
+           "hdr_stereo.alpha is 2"},
+          {[](StepOptions& o) { o.fusion.sigma = 0; }, "fusion.sigma is 0"},
+          {[](StepOptions& o) { o.sl_decode.min_lit = 2; },
+           "sl_decode.min_lit is 2"},
+          {[](StepOptions& o) { o.evaluation.thresholds = {1}; },
+           "evaluation.thresholds must be {0.5, 1, 2, 4}"},
+      };
+  for (const auto& [edit, message] : cases) {
+    RunOptions o;
+    edit(o.step_options);
+    EXPECT_THAT(pipeline::Run(Discover(tmp / "s"), o, store, rec),
+                testing::StatusIs(absl::StatusCode::kInvalidArgument,
+                                  ::testing::HasSubstr(message)));
+  }
+  EXPECT_TRUE(store.steps.empty());
+  EXPECT_FALSE(fs::exists(tmp / "s" / "decoded"));
 }
 
 // One process per TEST under ctest, and each renders the session: the
