@@ -13,6 +13,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "daemon/store/frame_repository.h"
+#include "processing/io/capture_layout.h"
 #include "processing/io/sha256.h"
 
 namespace hdrstereo::jobs {
@@ -54,7 +55,7 @@ absl::Status RemoveUnrecordedFiles(
     const std::map<int, store::FrameRecord>& good) {
   std::set<fs::path> keep;
   for (const auto& [sequence, frame] : good) keep.insert(frame.path);
-  const fs::path root = session_dir / "captures" / std::to_string(capture_id);
+  const fs::path root = session_dir / io::CaptureDir(capture_id);
   std::error_code ec;
   if (!fs::exists(root, ec)) return absl::OkStatus();
   std::vector<fs::path> doomed;
@@ -117,13 +118,14 @@ BaseSettings SettingsOf(const v1::CapturePlan& plan) {
 }
 
 std::string Describe(const FrameSpec& spec, int views) {
-  std::string what = spec.kind;
+  std::string what = io::FrameRoleName(spec.role);
   if (spec.pattern.has_value()) {
     what = absl::StrCat("pattern ", spec.pattern->Id(),
                         spec.pattern->inverse ? " inverse" : "");
   }
-  return absl::StrFormat("%s view, %s, %s", ViewName(spec.view_index, views),
-                         what, ExposureTag(spec.exposure_s));
+  return absl::StrFormat("%s view, %s, %s",
+                         io::ViewName(spec.view_index, views), what,
+                         io::ExposureTag(spec.exposure_s));
 }
 
 int ViewsOf(const v1::CapturePlan& plan) {
@@ -394,9 +396,8 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   if (write_truth && plan.has_bracketed_stereo()) {
     const double left_mm = specs.front().stage_position_mm;
     const double baseline_mm = plan.bracketed_stereo().baseline_mm();
-    if (absl::Status s = write_truth(
-            left_mm, baseline_mm,
-            session_dir / "captures" / std::to_string(capture->id) / "truth");
+    if (absl::Status s = write_truth(left_mm, baseline_mm,
+                                     session_dir / io::TruthDir(capture->id));
         !s.ok()) {
       return absl::Status(
           s.code(),

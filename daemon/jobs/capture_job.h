@@ -41,7 +41,7 @@ using TruthWriter = std::function<absl::Status(
 
 // The job runner for capture jobs (JobKind::kCapture); the job's request is
 // a serialized, normalised v1::CapturePlan. With `write_truth`, a finished
-// bracketed-stereo capture also gets its truth in captures/<id>/truth/.
+// bracketed-stereo capture also gets its truth in io::TruthDir.
 absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
                            const TruthWriter& write_truth = nullptr);
 

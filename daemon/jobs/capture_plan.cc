@@ -81,11 +81,6 @@ const std::vector<double>& DefaultStructuredLightExposures() {
   return kExposures;
 }
 
-std::string ViewName(int view_index, int views) {
-  if (views == 2) return view_index == 0 ? "left" : "right";
-  return absl::StrCat("view", view_index);
-}
-
 std::string PlanKindName(const v1::CapturePlan& plan) {
   switch (plan.plan_case()) {
     case v1::CapturePlan::kBracketedStereo:
@@ -189,21 +184,24 @@ absl::StatusOr<v1::CapturePlan> NormalizePlan(const v1::CapturePlan& plan,
 std::vector<FrameSpec> ExpandPlan(const v1::CapturePlan& plan,
                                   const RigLimits& rig, int64_t capture_id) {
   std::vector<FrameSpec> frames;
-  const std::string root = absl::StrCat("captures/", capture_id, "/");
-  auto add = [&](int view, int views, double stage_mm, double exposure,
-                 const std::string& kind, const std::string& name,
+  auto add = [&](int view, int views, double stage_mm, io::FrameKey key,
                  std::optional<sl::Pattern> pattern) {
     FrameSpec f;
     f.sequence = static_cast<int>(frames.size());
     f.view_index = view;
     f.stage_position_mm = stage_mm;
-    f.exposure_s = exposure;
-    f.kind = kind;
+    f.exposure_s = key.exposure_s;
+    f.role = key.role;
     f.projector_blank = !pattern.has_value();
     f.pattern = pattern;
-    f.relative_stem =
-        absl::StrCat(root, ViewName(view, views), "/", kind, "/", name);
+    f.relative_stem = io::FrameStem(capture_id, io::ViewName(view, views), key);
     frames.push_back(std::move(f));
+  };
+  auto exposure = [](io::FrameRole role, double seconds) {
+    io::FrameKey key;
+    key.role = role;
+    key.exposure_s = seconds;
+    return key;
   };
   switch (plan.plan_case()) {
     case v1::CapturePlan::kBracketedStereo: {
@@ -212,14 +210,14 @@ std::vector<FrameSpec> ExpandPlan(const v1::CapturePlan& plan,
         // One frame of the scene as it is (projector dark) before anything
         // moves, at the middle of the bracket.
         const double mid = p.exposures_s(p.exposures_s_size() / 2);
-        add(0, p.views(), rig.home_position_mm, mid, "ambient",
-            absl::StrCat("exp_", ExposureTag(mid)), std::nullopt);
+        add(0, p.views(), rig.home_position_mm,
+            exposure(io::FrameRole::kAmbient, mid), std::nullopt);
       }
       for (int v = 0; v < p.views(); ++v) {
         const double x = rig.home_position_mm + v * p.baseline_mm();
         for (double e : p.exposures_s()) {
-          add(v, p.views(), x, e, "stereo",
-              absl::StrCat("exp_", ExposureTag(e)), std::nullopt);
+          add(v, p.views(), x, exposure(io::FrameRole::kStereo, e),
+              std::nullopt);
         }
       }
       break;
@@ -232,10 +230,10 @@ std::vector<FrameSpec> ExpandPlan(const v1::CapturePlan& plan,
         const double x = rig.home_position_mm + v * p.baseline_mm();
         for (double e : p.exposures_s()) {
           for (const sl::Pattern& pattern : patterns) {
-            add(v, p.views(), x, e, "structured_light",
-                absl::StrCat("sl_", pattern.Id(), pattern.inverse ? "_inv" : "",
-                             "_exp_", ExposureTag(e)),
-                pattern);
+            io::FrameKey key = exposure(io::FrameRole::kStructuredLight, e);
+            key.pattern = pattern.Id();
+            key.inverse = pattern.inverse;
+            add(v, p.views(), x, std::move(key), pattern);
           }
         }
       }
@@ -245,8 +243,11 @@ std::vector<FrameSpec> ExpandPlan(const v1::CapturePlan& plan,
       const v1::CalibrationPlan& p = plan.calibration();
       for (int pose = 0; pose < p.poses(); ++pose) {
         for (int v = 0; v < 2; ++v) {
-          add(v, 2, rig.home_position_mm + v * p.baseline_mm(), p.exposure_s(),
-              "calibration", absl::StrFormat("pose_%02d", pose), std::nullopt);
+          io::FrameKey key =
+              exposure(io::FrameRole::kCalibration, p.exposure_s());
+          key.pose = pose;
+          add(v, 2, rig.home_position_mm + v * p.baseline_mm(), std::move(key),
+              std::nullopt);
         }
       }
       break;

@@ -14,7 +14,7 @@
 
 #include "absl/status/statusor.h"
 #include "hdrstereo/v1/jobs.pb.h"
-#include "processing/structured_light/capture_io.h"
+#include "processing/io/capture_layout.h"
 #include "processing/structured_light/gray_code.h"
 
 namespace hdrstereo::jobs {
@@ -40,11 +40,11 @@ struct FrameSpec {
   int view_index = 0;
   double stage_position_mm = 0;
   double exposure_s = 0;
-  std::string kind;  // folder: "ambient", "stereo", "structured_light", ...
+  io::FrameRole role = io::FrameRole::kStereo;
   std::optional<structured_light::Pattern> pattern;  // structured light only
   bool projector_blank = true;  // false only with a pattern
   // Path relative to the session folder, without the extension (the camera
-  // decides it): captures/<id>/<view>/<kind>/<name>.
+  // decides it): io::FrameStem.
   std::string relative_stem;
 };
 
@@ -57,9 +57,6 @@ absl::StatusOr<v1::CapturePlan> NormalizePlan(const v1::CapturePlan& plan,
 std::vector<FrameSpec> ExpandPlan(const v1::CapturePlan& plan,
                                   const RigLimits& rig, int64_t capture_id);
 
-// "left"/"right" for a pair, "view0".. otherwise.
-std::string ViewName(int view_index, int views);
-using structured_light::ExposureTag;
 // "bracketed_stereo", "structured_light" or "calibration".
 std::string PlanKindName(const v1::CapturePlan& plan);
 

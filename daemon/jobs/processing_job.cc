@@ -11,11 +11,11 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
-#include "absl/strings/str_split.h"
 #include "daemon/jobs/capture_plan.h"
 #include "daemon/store/artifact_repository.h"
 #include "daemon/store/frame_repository.h"
 #include "daemon/store/job_repository.h"
+#include "processing/io/capture_layout.h"
 #include "processing/pipeline/pipeline.h"
 #include "processing/pipeline/session_files.h"
 
@@ -153,17 +153,20 @@ absl::StatusOr<std::vector<int64_t>> PendingCaptures(store::Store& store,
   return out;
 }
 
-// "captures/<id>/<view>/<role>/<file>" -> role.
-std::string RoleOf(const std::string& path) {
-  std::vector<std::string> parts = absl::StrSplit(path, '/');
-  return parts.size() >= 5 ? parts[3] : "";
+// The frame's role from its path in the capture layout; nullopt for a path
+// outside it.
+std::optional<io::FrameRole> RoleOf(const std::string& path) {
+  absl::StatusOr<io::FramePath> parsed = io::ParseFramePath(path);
+  if (!parsed.ok()) return std::nullopt;
+  return parsed->key.role;
 }
 
 pipeline::FrameInput ToFrameInput(const store::FrameRecord& f) {
+  const std::optional<io::FrameRole> role = RoleOf(f.path);
   return pipeline::FrameInput{.path = f.path,
                               .capture_kind = f.capture_kind,
                               .capture_id = f.capture_id,
-                              .role = RoleOf(f.path),
+                              .role = role ? io::FrameRoleName(*role) : "",
                               .view_index = f.view_index,
                               .exposure_s = f.exposure_s,
                               .pattern = f.pattern,
@@ -254,11 +257,13 @@ class JobObserver : public pipeline::RunObserver {
 std::string ExposureList(const CaptureState& capture) {
   std::set<double> exposures;
   for (const store::FrameRecord& f : capture.frames) {
-    if (RoleOf(f.path) == "stereo") exposures.insert(f.exposure_s);
+    if (RoleOf(f.path) == io::FrameRole::kStereo) {
+      exposures.insert(f.exposure_s);
+    }
   }
   std::vector<std::string> tags;
   for (auto it = exposures.rbegin(); it != exposures.rend(); ++it) {
-    tags.push_back(ExposureTag(*it));
+    tags.push_back(io::ExposureTag(*it));
   }
   return absl::StrJoin(tags, ", ");
 }
@@ -359,8 +364,7 @@ absl::Status RunProcessingJob(const hardware::Rig& rig,
     input.projector_size = std::make_pair(projector->resolution().width,
                                           projector->resolution().height);
   }
-  const std::string truth_dir =
-      absl::StrCat("captures/", inputs->stereo->capture.id, "/truth/");
+  const std::string truth_dir = io::TruthDir(inputs->stereo->capture.id) + "/";
   std::error_code ec;
   if (fs::exists(input.session_dir / truth_dir / "disp0.pfm", ec)) {
     input.sim_truth_disparity = truth_dir + "disp0.pfm";

@@ -37,6 +37,7 @@
 #include "processing/hdr/response.h"
 #include "processing/hdr/stack.h"
 #include "processing/io/atomic_file.h"
+#include "processing/io/capture_layout.h"
 #include "processing/io/hdr_formats.h"
 #include "processing/io/image.h"
 #include "processing/io/sha256.h"
@@ -51,8 +52,8 @@
 
 namespace hdrstereo::pipeline {
 namespace fs = std::filesystem;
+using io::ExposureTag;
 using nlohmann::json;
-using structured_light::ExposureTag;
 
 namespace {
 
@@ -90,7 +91,9 @@ const std::vector<StepDef>& Defs() {
   return *defs;
 }
 
-std::string ViewName(int v) { return v == 0 ? "left" : "right"; }
+// The pipeline's own folders (decoded/, exposures/) name the views as the
+// capture layout does.
+std::string ViewName(int v) { return io::ViewName(v); }
 
 std::vector<std::string> OperatorNames() {
   std::vector<std::string> out;
@@ -593,7 +596,7 @@ absl::Status Runner::SlGroundTruth(StepIo& io) {
         "structured-light ground truth");
     return absl::OkStatus();
   }
-  const fs::path capture = dir_ / "captures" / std::to_string(sel_.sl_capture);
+  const fs::path capture = dir_ / io::CaptureDir(sel_.sl_capture);
   std::optional<cv::Size> psize;
   if (in_.projector_size) {
     psize = cv::Size(in_.projector_size->first, in_.projector_size->second);
@@ -1252,11 +1255,11 @@ absl::Status Runner::Preflight(const std::vector<std::string>& steps) {
     } else if (f.capture_id == sl_id && f.capture_kind == "structured_light") {
       sel_.sl.push_back(f);
       if (sel_.sl_view_folder[v].empty()) {
-        // captures/<id>/<view>/structured_light/<file>
-        const fs::path path(f.path);
-        auto it = path.begin();
-        std::advance(it, 2);
-        sel_.sl_view_folder[v] = it->string();
+        absl::StatusOr<io::FramePath> path = io::ParseFramePath(f.path);
+        if (!path.ok()) {
+          return absl::FailedPreconditionError(path.status().message());
+        }
+        sel_.sl_view_folder[v] = path->view;
       }
     } else if (f.capture_id == calib_id && f.capture_kind == "calibration") {
       sel_.calibration[v].push_back(f);
@@ -1320,7 +1323,7 @@ absl::Status Runner::Preflight(const std::vector<std::string>& steps) {
     }
   }
   if (wants("sl_groundtruth") && sl_id >= 0) {
-    // Every pattern of every exposure of both views (capture_io.h naming).
+    // Every pattern of every exposure of both views (capture_layout.h naming).
     for (int v = 0; v < 2; ++v) {
       if (sel_.sl_view_folder[v].empty()) {
         return absl::FailedPreconditionError(absl::StrFormat(
@@ -1358,12 +1361,16 @@ absl::Status Runner::Preflight(const std::vector<std::string>& steps) {
              structured_light::AllPatterns(psize)) {
           const std::string id = structured_light::FrameId(p);
           if (!present[v][tag].count(id)) {
+            io::FrameKey key;
+            key.role = io::FrameRole::kStructuredLight;
+            key.exposure_s = io::ParseExposureTag(tag).value_or(0);
+            key.pattern = p.Id();
+            key.inverse = p.inverse;
             return absl::FailedPreconditionError(absl::StrFormat(
                 "structured_light capture %d: %s view, exposure %s: bit "
-                "plane %s is missing (captures/%d/%s/structured_light/"
-                "sl_%s_exp_%s.*)",
-                sl_id, ViewName(v), tag, id, sl_id, sel_.sl_view_folder[v], id,
-                tag));
+                "plane %s is missing (%s.*)",
+                sl_id, ViewName(v), tag, id,
+                io::FrameStem(sl_id, sel_.sl_view_folder[v], key)));
           }
         }
       }

@@ -18,40 +18,14 @@
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
 #include "processing/io/atomic_file.h"
+#include "processing/io/capture_layout.h"
 #include "processing/io/image.h"
-#include "processing/structured_light/capture_io.h"
 
 namespace hdrstereo::pipeline {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
 namespace {
-
-int ViewIndex(const std::string& name) {
-  if (name == "left" || name == "view0") return 0;
-  if (name == "right" || name == "view1") return 1;
-  return -1;
-}
-
-// "exp_1-30s" or "..._exp_1-30s" -> seconds (0 when absent).
-double ExposureOf(const std::string& stem) {
-  const size_t at = stem.rfind("exp_");
-  if (at == std::string::npos) return 0;
-  return structured_light::ParseExposureTag(stem.substr(at + 4)).value_or(0);
-}
-
-// "sl_col_b03_inv_exp_1-30s" -> pattern "col_b03", inverse.
-void PatternOf(const std::string& stem, FrameInput* f) {
-  if (!absl::StartsWith(stem, "sl_")) return;
-  std::string id = stem.substr(3);
-  const size_t at = id.rfind("_exp_");
-  if (at != std::string::npos) id = id.substr(0, at);
-  if (absl::EndsWith(id, "_inv")) {
-    f->inverse = true;
-    id = id.substr(0, id.size() - 4);
-  }
-  f->pattern = id;
-}
 
 json ArtifactToJson(const Artifact& a) {
   return json{{"step", a.step},     {"kind", a.kind},
@@ -127,53 +101,37 @@ absl::StatusOr<SessionInput> DiscoverSessionOrThrow(
   SessionInput in;
   in.session_dir = fs::absolute(session_dir);
   in.session_name = in.session_dir.filename().string();
-  const fs::path captures = in.session_dir / "captures";
+  const fs::path captures = in.session_dir / io::kCapturesDir;
   std::vector<std::tuple<int64_t, int, std::string, std::string, FrameInput>>
       found;
   int64_t latest_stereo = -1;
   if (fs::is_directory(captures, ec)) {
-    for (const fs::directory_entry& cap : fs::directory_iterator(captures)) {
-      int64_t id = 0;
-      if (!cap.is_directory() ||
-          !absl::SimpleAtoi(cap.path().filename().string(), &id)) {
+    for (const fs::directory_entry& file :
+         fs::recursive_directory_iterator(captures)) {
+      const std::string name = file.path().filename().string();
+      if (!file.is_regular_file() ||
+          absl::StrContains(name, io::kTempFileMarker)) {
         continue;
       }
-      for (const fs::directory_entry& view : fs::directory_iterator(cap)) {
-        const int v = ViewIndex(view.path().filename().string());
-        if (!view.is_directory() || v < 0) continue;
-        for (const fs::directory_entry& role : fs::directory_iterator(view)) {
-          if (!role.is_directory()) continue;
-          const std::string r = role.path().filename().string();
-          std::string kind;
-          if (r == "stereo" || r == "ambient") {
-            kind = "bracketed_stereo";
-          } else if (r == "structured_light") {
-            kind = "structured_light";
-          } else if (r == "calibration") {
-            kind = "calibration";
-          } else {
-            continue;
-          }
-          for (const fs::directory_entry& file : fs::directory_iterator(role)) {
-            const std::string name = file.path().filename().string();
-            if (!file.is_regular_file() ||
-                absl::StrContains(name, io::kTempFileMarker)) {
-              continue;
-            }
-            FrameInput f;
-            f.path = fs::relative(file.path(), in.session_dir).generic_string();
-            f.capture_kind = kind;
-            f.capture_id = id;
-            f.role = r;
-            f.view_index = v;
-            const std::string stem = file.path().stem().string();
-            f.exposure_s = ExposureOf(stem);
-            PatternOf(stem, &f);
-            if (r == "stereo") latest_stereo = std::max(latest_stereo, id);
-            found.emplace_back(id, v, r, name, std::move(f));
-          }
-        }
+      const std::string rel =
+          fs::relative(file.path(), in.session_dir).generic_string();
+      // Truth files and anything else outside the frame layout.
+      absl::StatusOr<io::FramePath> p = io::ParseFramePath(rel);
+      if (!p.ok() || p->view_index > 1) continue;
+      FrameInput f;
+      f.path = rel;
+      f.capture_kind = io::CaptureKindName(io::KindOfRole(p->key.role));
+      f.capture_id = p->capture_id;
+      f.role = io::FrameRoleName(p->key.role);
+      f.view_index = p->view_index;
+      f.exposure_s = p->key.exposure_s;
+      f.pattern = p->key.pattern;
+      f.inverse = p->key.inverse;
+      if (p->key.role == io::FrameRole::kStereo) {
+        latest_stereo = std::max(latest_stereo, p->capture_id);
       }
+      found.emplace_back(f.capture_id, f.view_index, f.role, name,
+                         std::move(f));
     }
   }
   std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) {
@@ -183,7 +141,7 @@ absl::StatusOr<SessionInput> DiscoverSessionOrThrow(
   });
   for (auto& t : found) in.frames.push_back(std::move(std::get<4>(t)));
   if (latest_stereo >= 0) {
-    const fs::path truth = captures / std::to_string(latest_stereo) / "truth";
+    const fs::path truth = in.session_dir / io::TruthDir(latest_stereo);
     if (fs::exists(truth / "disp0.pfm", ec)) {
       in.sim_truth_disparity =
           fs::relative(truth / "disp0.pfm", in.session_dir).generic_string();

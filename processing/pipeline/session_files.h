@@ -18,18 +18,16 @@
 
 namespace hdrstereo::pipeline {
 
-// Walks `captures/<id>/<view>/<role>/<file>` (daemon/jobs/capture_plan.cc):
-//   role stereo, ambient  -> capture_kind "bracketed_stereo", exp_<tag>.*
-//   structured_light      -> "structured_light",
-//                            sl_<pattern>[_inv]_exp_<tag>.*
-//   calibration           -> "calibration", pose_NN.*
-// views "left"/"view0" = 0, "right"/"view1" = 1. Frames are ordered by
-// capture id, view, role and file name; sha256 is left empty. When
-// `captures/<latest stereo capture>/truth/disp0.pfm` exists (the
-// simulator's exact truth) it becomes sim_truth_disparity (with
-// nonocc0.png), and its calib.txt gives baseline_mm and the intrinsics.
-// session_name is the folder's name. NOT_FOUND when `session_dir` is not
-// a folder; a session without captures gives no frames (not an error).
+// Finds the frames of the capture layout (processing/io/capture_layout.h):
+// every file that io::ParseFramePath accepts, with capture_kind from its
+// role (stereo, ambient -> "bracketed_stereo", structured_light,
+// calibration); views 0 and 1 only. Frames are ordered by capture id, view,
+// role and file name; sha256 is left empty. When the latest stereo
+// capture's io::TruthDir holds disp0.pfm (the simulator's exact truth) it
+// becomes sim_truth_disparity (with nonocc0.png), and its calib.txt gives
+// baseline_mm and the intrinsics. session_name is the folder's name.
+// NOT_FOUND when `session_dir` is not a folder; a session without captures
+// gives no frames (not an error).
 absl::StatusOr<SessionInput> DiscoverSession(
     const std::filesystem::path& session_dir);
 

@@ -1,11 +1,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
-// Reading structured-light frames in the capture layout written by capture
-// jobs (daemon/jobs/capture_plan.cc):
+// Reading structured-light frames in the capture layout
+// (processing/io/capture_layout.h):
 //   <capture>/<view>/structured_light/sl_<col|row>_bNN[_inv]_exp_<tag>.<ext>
 //   <capture>/<view>/structured_light/sl_<white|black>_exp_<tag>.<ext>
-// with <tag> as ExposureTag ("1-30s", "0.5s") and any image format
-// io::DecodeImageFile reads (8- or 16-bit).
+// in any image format io::DecodeImageFile reads (8- or 16-bit).
 #ifndef HDRSTEREO_PROCESSING_STRUCTURED_LIGHT_CAPTURE_IO_H_
 #define HDRSTEREO_PROCESSING_STRUCTURED_LIGHT_CAPTURE_IO_H_
 
@@ -28,14 +27,6 @@ namespace hdrstereo::structured_light {
 absl::StatusOr<ViewFrames> LoadCaptureView(
     const std::filesystem::path& capture_dir, const std::string& view,
     std::optional<cv::Size> projector_size = std::nullopt);
-
-// "1-125s" for 1/125 s, "0.5s", "2s": the file-name-safe exposure tag of
-// the capture layout.
-std::string ExposureTag(double seconds);
-
-// Exposure time of a tag ("1-30s" -> 1/30, "0.5s" -> 0.5); nullopt when it
-// is not one.
-std::optional<double> ParseExposureTag(const std::string& tag);
 
 }  // namespace hdrstereo::structured_light
 

@@ -10,9 +10,9 @@
 #include "hardware/sim/scene.h"
 #include "hardware/sim/sim_world.h"
 #include "hardware/sim/truth.h"
+#include "processing/base/status_macros.h"
+#include "processing/io/capture_layout.h"
 #include "processing/io/hdr_formats.h"
-#include "processing/structured_light/capture_io.h"
-#include "processing/structured_light/decode.h"
 #include "processing/structured_light/gray_code.h"
 #include "tests/support/temp_dir.h"
 
@@ -45,61 +45,47 @@ absl::Status RenderSimSession(const fs::path& dir,
   scene->projector.height = options.projector_height;
   scene->timing.scale = 0;
   sim::SimWorld world(*scene);
-  const fs::path stereo = dir / "captures" / "1";
+  // Capture 1: bracketed stereo with its truth; capture 2: structured light.
+  auto frame = [&](int64_t capture, int view, const io::FrameKey& key) {
+    return dir / (io::FrameStem(capture, io::ViewName(view), key) + ".png");
+  };
+  io::FrameKey key;
   world.BlankProjector();
   world.SetStagePosition(0);
-  const double mid = options.exposures[options.exposures.size() / 2];
-  if (absl::Status s = Save(
-          stereo / "left" / "ambient" /
-              absl::StrCat("exp_", structured_light::ExposureTag(mid), ".png"),
-          world.RenderExposure({mid, 100}, 8));
-      !s.ok()) {
-    return s;
-  }
+  key.role = io::FrameRole::kAmbient;
+  key.exposure_s = options.exposures[options.exposures.size() / 2];
+  RETURN_IF_ERROR(
+      Save(frame(1, 0, key), world.RenderExposure({key.exposure_s, 100}, 8)));
+  key.role = io::FrameRole::kStereo;
   for (int v = 0; v < 2; ++v) {
     world.SetStagePosition(v * options.baseline_mm);
     for (double e : options.exposures) {
-      if (absl::Status s =
-              Save(stereo / (v == 0 ? "left" : "right") / "stereo" /
-                       absl::StrCat("exp_", structured_light::ExposureTag(e),
-                                    ".png"),
-                   world.RenderExposure({e, 100}, 8));
-          !s.ok()) {
-        return s;
-      }
+      key.exposure_s = e;
+      RETURN_IF_ERROR(
+          Save(frame(1, v, key), world.RenderExposure({e, 100}, 8)));
     }
   }
   if (options.truth) {
-    absl::StatusOr<sim::StereoTruth> truth =
-        world.Truth(0, options.baseline_mm);
-    if (!truth.ok()) return truth.status();
-    if (absl::Status s = sim::WriteStereoTruth(*truth, stereo / "truth");
-        !s.ok()) {
-      return s;
-    }
+    ASSIGN_OR_RETURN(const sim::StereoTruth truth,
+                     world.Truth(0, options.baseline_mm));
+    RETURN_IF_ERROR(sim::WriteStereoTruth(truth, dir / io::TruthDir(1)));
   }
   if (options.structured_light) {
     const cv::Size psize(options.projector_width, options.projector_height);
-    const fs::path sl = dir / "captures" / "2";
+    key.role = io::FrameRole::kStructuredLight;
     for (int v = 0; v < 2; ++v) {
       world.SetStagePosition(v * options.baseline_mm);
       for (double e : options.sl_exposures) {
+        key.exposure_s = e;
         for (const structured_light::Pattern& p :
              structured_light::AllPatterns(psize)) {
-          absl::StatusOr<cv::Mat> pattern = structured_light::Render(p, psize);
-          if (!pattern.ok()) return pattern.status();
-          if (absl::Status s = world.SetProjectorPattern(*pattern); !s.ok()) {
-            return s;
-          }
-          const std::string name =
-              absl::StrCat("sl_", structured_light::FrameId(p), "_exp_",
-                           structured_light::ExposureTag(e), ".png");
-          if (absl::Status s = Save(
-                  sl / (v == 0 ? "left" : "right") / "structured_light" / name,
-                  world.RenderExposure({e, 100}, 8));
-              !s.ok()) {
-            return s;
-          }
+          ASSIGN_OR_RETURN(const cv::Mat pattern,
+                           structured_light::Render(p, psize));
+          RETURN_IF_ERROR(world.SetProjectorPattern(pattern));
+          key.pattern = p.Id();
+          key.inverse = p.inverse;
+          RETURN_IF_ERROR(
+              Save(frame(2, v, key), world.RenderExposure({e, 100}, 8)));
         }
       }
     }

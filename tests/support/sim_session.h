@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
-// A session folder rendered by the simulator in the daemon's capture layout
-// (daemon/jobs/capture_plan.cc), for pipeline tests:
+// A session folder rendered by the simulator in the capture layout
+// (processing/io/capture_layout.h), for pipeline tests:
 //   captures/1/left/ambient/exp_<mid>.png
 //   captures/1/<left|right>/stereo/exp_<tag>.png       bracketed stereo
 //   captures/1/truth/{disp0.pfm,nonocc0.png,calib.txt,...}  exact truth

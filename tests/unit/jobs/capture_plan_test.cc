@@ -24,7 +24,7 @@ TEST(CapturePlanTest, DefaultStereoIsTheThesisBracketAtTwoViews) {
   EXPECT_EQ(plan->bracketed_stereo().baseline_mm(), 150);
   std::vector<FrameSpec> frames = ExpandPlan(*plan, {}, 7);
   ASSERT_EQ(frames.size(), 17u);  // ambient + 2 x 8
-  EXPECT_EQ(frames[0].kind, "ambient");
+  EXPECT_EQ(frames[0].role, io::FrameRole::kAmbient);
   EXPECT_EQ(frames[1].relative_stem, "captures/7/left/stereo/exp_1-15s");
   EXPECT_EQ(frames[8].relative_stem, "captures/7/left/stereo/exp_1-2000s");
   EXPECT_EQ(frames[9].relative_stem, "captures/7/right/stereo/exp_1-15s");
@@ -88,12 +88,6 @@ TEST(CapturePlanTest, BadPlansNameTheField) {
     EXPECT_THAT(std::string(normalized.status().message()),
                 HasSubstr(c.expected));
   }
-}
-
-TEST(CapturePlanTest, ExposureTags) {
-  EXPECT_EQ(ExposureTag(1.0 / 125), "1-125s");
-  EXPECT_EQ(ExposureTag(0.5), "0.5s");
-  EXPECT_EQ(ExposureTag(2), "2s");
 }
 
 }  // namespace

@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "processing/io/capture_layout.h"
 #include "processing/io/hdr_formats.h"
-#include "processing/structured_light/capture_io.h"
 #include "processing/structured_light/decode.h"
 #include "tests/support/proc_tool.h"
 #include "tests/support/subprocess.h"
@@ -31,20 +31,24 @@ using ::hdrstereo::testing::TempDir;
 std::filesystem::path WriteCapture(const std::filesystem::path& root,
                                    testing::SimCapture* capture_out) {
   *capture_out = testing::RenderSimCapture("shadowed", {1.0 / 30}, 160);
-  const std::filesystem::path dir = root / "captures" / "1";
-  const char* names[2] = {"left", "right"};
   for (int v = 0; v < 2; ++v) {
-    const std::filesystem::path folder = dir / names[v] / "structured_light";
-    std::filesystem::create_directories(folder);
+    std::filesystem::create_directories(
+        root /
+        io::RoleDir(1, io::ViewName(v), io::FrameRole::kStructuredLight));
     const std::vector<Pattern> patterns =
         AllPatterns(capture_out->views[v].projector_size);
     for (size_t i = 0; i < patterns.size(); ++i) {
+      io::FrameKey key;
+      key.role = io::FrameRole::kStructuredLight;
+      key.exposure_s = 1.0 / 30;
+      key.pattern = patterns[i].Id();
+      key.inverse = patterns[i].inverse;
       EXPECT_TRUE(cv::imwrite(
-          (folder / ("sl_" + FrameId(patterns[i]) + "_exp_1-30s.png")).string(),
+          (root / (io::FrameStem(1, io::ViewName(v), key) + ".png")).string(),
           capture_out->views[v].exposures[0].frames[i]));
     }
   }
-  return dir;
+  return root / io::CaptureDir(1);
 }
 
 TEST(SlToolTest, DecodeAndDisparityWriteTheirFiles) {
@@ -120,16 +124,6 @@ TEST(SlToolTest, BrokenCapturesAreClearErrors) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("no structured-light folder"), std::string::npos)
       << r.err;
-}
-
-TEST(CaptureIoTest, ExposureTagsAsCaptureJobsWriteThem) {
-  EXPECT_DOUBLE_EQ(ParseExposureTag("1-30s").value_or(0), 1.0 / 30);
-  EXPECT_DOUBLE_EQ(ParseExposureTag("1-125s").value_or(0), 1.0 / 125);
-  EXPECT_DOUBLE_EQ(ParseExposureTag("0.5s").value_or(0), 0.5);
-  EXPECT_DOUBLE_EQ(ParseExposureTag("2s").value_or(0), 2.0);
-  EXPECT_FALSE(ParseExposureTag("1-0s").has_value());
-  EXPECT_FALSE(ParseExposureTag("fast").has_value());
-  EXPECT_FALSE(ParseExposureTag("s").has_value());
 }
 
 }  // namespace
