@@ -16,6 +16,7 @@
 #include "daemon/store/frame_repository.h"
 #include "daemon/store/job_repository.h"
 #include "processing/io/capture_layout.h"
+#include "processing/io/middlebury.h"
 #include "processing/pipeline/pipeline.h"
 #include "processing/pipeline/session_files.h"
 
@@ -369,8 +370,10 @@ absl::Status RunProcessingJob(const hardware::Rig& rig,
   if (fs::exists(input.session_dir / truth_dir / "disp0.pfm", ec)) {
     input.sim_truth_disparity = truth_dir + "disp0.pfm";
     input.sim_truth_nonoccluded = truth_dir + "nonocc0.png";
-    // The simulated camera's intrinsics, for the export's calib.txt.
-    pipeline::ReadCalib(input.session_dir / truth_dir / "calib.txt", &input);
+    // The simulated camera's intrinsics, for the export's calib.txt
+    // (without them the export uses a nominal camera and warns).
+    pipeline::ApplyCalib(input.session_dir / truth_dir / io::kCalibFile, &input)
+        .IgnoreError();
   }
   input.capture_summary = environment.summary;
   input.capture_summary.emplace_back(

@@ -9,7 +9,9 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "processing/io/atomic_file.h"
+#include "processing/base/status_macros.h"
+#include "processing/io/hdr_formats.h"
+#include "processing/io/middlebury.h"
 
 namespace hdrstereo::sim {
 namespace {
@@ -68,37 +70,7 @@ void Correspond(const Renderer& renderer, const View& self, const View& other,
   });
 }
 
-absl::Status WriteBytes(const std::filesystem::path& path,
-                        const absl::StatusOr<std::string>& bytes) {
-  if (!bytes.ok()) return bytes.status();
-  return io::WriteFileAtomically(path, *bytes);
-}
-
-absl::StatusOr<std::string> EncodePng(const cv::Mat& image) {
-  std::vector<uint8_t> buffer;
-  try {
-    if (!cv::imencode(".png", image, buffer)) {
-      return absl::InternalError("cv::imencode(.png) failed");
-    }
-  } catch (const cv::Exception& e) {
-    return absl::InternalError(absl::StrCat("cv::imencode(.png): ", e.what()));
-  }
-  return std::string(buffer.begin(), buffer.end());
-}
-
 }  // namespace
-
-absl::StatusOr<std::string> EncodePfm(const cv::Mat& image) {
-  std::vector<uint8_t> buffer;
-  try {
-    if (!cv::imencode(".pfm", image, buffer)) {
-      return absl::InternalError("cv::imencode(.pfm) failed");
-    }
-  } catch (const cv::Exception& e) {
-    return absl::InternalError(absl::StrCat("cv::imencode(.pfm): ", e.what()));
-  }
-  return std::string(buffer.begin(), buffer.end());
-}
 
 absl::StatusOr<StereoTruth> ComputeStereoTruth(
     const Renderer& renderer, double left_mm, double baseline_mm,
@@ -145,36 +117,34 @@ absl::Status WriteStereoTruth(const StereoTruth& truth,
   for (int i = 0; i < 2; ++i) {
     const ViewTruth& vt = i == 0 ? truth.left : truth.right;
     const std::string n = std::to_string(i);
-    for (auto [name, mat] :
-         {std::pair<std::string, const cv::Mat*>{"radiance", &vt.radiance},
-          {"depth", &vt.depth},
-          {"disp", &vt.disparity}}) {
-      absl::Status s = WriteBytes(dir / (name + n + ".pfm"), EncodePfm(*mat));
-      if (!s.ok()) return s;
-    }
-    absl::Status s =
-        WriteBytes(dir / ("nonocc" + n + ".png"), EncodePng(vt.nonoccluded));
-    if (!s.ok()) return s;
+    RETURN_IF_ERROR(io::WritePfm(dir / ("radiance" + n + ".pfm"), vt.radiance));
+    RETURN_IF_ERROR(io::WritePfm(dir / ("depth" + n + ".pfm"), vt.depth));
+    RETURN_IF_ERROR(io::WritePfm(dir / ("disp" + n + ".pfm"), vt.disparity));
+    RETURN_IF_ERROR(
+        io::WritePng(dir / ("nonocc" + n + ".png"), vt.nonoccluded));
     if (!truth.rectified) {
-      s = WriteBytes(dir / ("dispy" + n + ".pfm"), EncodePfm(vt.disparity_y));
-      if (!s.ok()) return s;
+      RETURN_IF_ERROR(
+          io::WritePfm(dir / ("dispy" + n + ".pfm"), vt.disparity_y));
     }
   }
-  // Middlebury 2014 calib.txt (f, cx, cy in px; baseline in mm; doffs = 0
-  // because both views share the same intrinsics).
+  // doffs = 0: both views share the same intrinsics; ndisp a multiple of 16
+  // above the largest disparity.
   const CameraIntrinsics& c = truth.intrinsics;
   double max_disp = 0;
   cv::Mat finite = truth.left.disparity.clone();
   finite.setTo(0, finite == kInfF);
   cv::minMaxLoc(finite, nullptr, &max_disp);
-  const std::string cam = absl::StrFormat("[%.6f 0 %.6f; 0 %.6f %.6f; 0 0 1]",
-                                          c.fx, c.cx, c.fy, c.cy);
-  const std::string calib = absl::StrFormat(
-      "cam0=%s\ncam1=%s\ndoffs=0\nbaseline=%.6f\nwidth=%d\nheight=%d\n"
-      "ndisp=%d\nleft_stage_mm=%.6f\n",
-      cam, cam, truth.baseline_mm, c.width, c.height,
-      static_cast<int>(std::ceil(max_disp / 16.0) * 16), truth.left_mm);
-  return io::WriteFileAtomically(dir / "calib.txt", calib);
+  io::Calib calib;
+  calib.fx = c.fx;
+  calib.fy = c.fy;
+  calib.cx = c.cx;
+  calib.cy = c.cy;
+  calib.baseline_mm = truth.baseline_mm;
+  calib.width = c.width;
+  calib.height = c.height;
+  calib.ndisp = static_cast<int>(std::ceil(max_disp / 16.0) * 16);
+  calib.extra = {{"left_stage_mm", absl::StrFormat("%.6f", truth.left_mm)}};
+  return io::WriteCalib(dir / io::kCalibFile, calib);
 }
 
 }  // namespace hdrstereo::sim

@@ -47,14 +47,12 @@ absl::StatusOr<StereoTruth> ComputeStereoTruth(
     const cv::Mat& projector_pattern = cv::Mat());
 
 // Writes radiance{0,1}.pfm, depth{0,1}.pfm, disp{0,1}.pfm (0 = left,
-// 1 = right), nonocc{0,1}.png and a Middlebury-style calib.txt into `dir`
+// 1 = right), nonocc{0,1}.png and a Middlebury calib.txt
+// (processing/io/middlebury.h, with the extra key left_stage_mm) into `dir`
 // (created if missing), each file atomically; for a misaligned rig also
 // dispy{0,1}.pfm (the vertical component).
 absl::Status WriteStereoTruth(const StereoTruth& truth,
                               const std::filesystem::path& dir);
-
-// Encodes a float image as PFM bytes (cv::imencode).
-absl::StatusOr<std::string> EncodePfm(const cv::Mat& image);
 
 }  // namespace hdrstereo::sim
 

@@ -40,6 +40,7 @@
 #include "processing/io/capture_layout.h"
 #include "processing/io/hdr_formats.h"
 #include "processing/io/image.h"
+#include "processing/io/middlebury.h"
 #include "processing/io/sha256.h"
 #include "processing/pipeline/session_files.h"
 #include "processing/report/html_report.h"
@@ -225,7 +226,7 @@ class Runner {
   }
   bool HasSlTruth() {
     return HasOutput("sl_groundtruth",
-                     "ground_truth/structured_light/disp0GT.pfm");
+                     absl::StrCat(kSlDir, "/", io::kDisparity0File));
   }
 
   absl::Status Write(StepIo& io, const std::string& kind,
@@ -255,7 +256,7 @@ class Runner {
     std::string name;
     cv::Mat disparity;    // CV_32FC1, +inf unknown
     cv::Mat nonoccluded;  // CV_8UC1 255 = scored
-    cv::Mat mask0nocc;    // Middlebury 255 / 128 / 0
+    cv::Mat mask0nocc;    // io::kMaskNonOccluded / kMaskOccluded / ...
   };
   absl::StatusOr<std::vector<Truth>> Truths();
 
@@ -368,7 +369,8 @@ absl::StatusOr<cv::Mat> Runner::Read(const std::string& rel) const {
 absl::StatusOr<int> Runner::MaxDisparity(int width) {
   double hi = -1;
   if (HasSlTruth()) {
-    absl::StatusOr<cv::Mat> d = ReadPfm(absl::StrCat(kSlDir, "/disp0GT.pfm"));
+    absl::StatusOr<cv::Mat> d =
+        ReadPfm(absl::StrCat(kSlDir, "/", io::kDisparity0File));
     if (!d.ok()) return d.status();
     hi = std::max(hi, MaxFinite(*d));
   }
@@ -388,13 +390,14 @@ absl::StatusOr<std::vector<Runner::Truth>> Runner::Truths() {
   if (HasSlTruth()) {
     Truth t;
     t.name = kStructuredLight;
-    absl::StatusOr<cv::Mat> d = ReadPfm(absl::StrCat(kSlDir, "/disp0GT.pfm"));
+    absl::StatusOr<cv::Mat> d =
+        ReadPfm(absl::StrCat(kSlDir, "/", io::kDisparity0File));
     if (!d.ok()) return d.status();
-    absl::StatusOr<cv::Mat> m = Read(absl::StrCat(kSlDir, "/mask0nocc.png"));
+    absl::StatusOr<cv::Mat> m = Read(absl::StrCat(kSlDir, "/", io::kMask0File));
     if (!m.ok()) return m.status();
     t.disparity = *d;
     t.mask0nocc = *m;
-    t.nonoccluded = *m == 255;
+    t.nonoccluded = *m == io::kMaskNonOccluded;
     out.push_back(std::move(t));
   }
   if (!in_.sim_truth_disparity.empty()) {
@@ -403,17 +406,14 @@ absl::StatusOr<std::vector<Runner::Truth>> Runner::Truths() {
     absl::StatusOr<cv::Mat> d = ReadPfm(in_.sim_truth_disparity);
     if (!d.ok()) return d.status();
     t.disparity = *d;
-    const cv::Mat finite = t.disparity < std::numeric_limits<float>::infinity();
+    cv::Mat nonoccluded;
     if (!in_.sim_truth_nonoccluded.empty()) {
       absl::StatusOr<cv::Mat> m = Read(in_.sim_truth_nonoccluded);
       if (!m.ok()) return m.status();
-      t.nonoccluded = (*m > 0) & finite;
-    } else {
-      t.nonoccluded = finite;
+      nonoccluded = *m;
     }
-    t.mask0nocc = cv::Mat(t.disparity.size(), CV_8UC1, cv::Scalar(0));
-    t.mask0nocc.setTo(128, finite);
-    t.mask0nocc.setTo(255, t.nonoccluded);
+    t.mask0nocc = io::MaskFromTruth(t.disparity, nonoccluded);
+    t.nonoccluded = t.mask0nocc == io::kMaskNonOccluded;
     out.push_back(std::move(t));
   }
   return out;
@@ -634,8 +634,8 @@ absl::Status Runner::SlGroundTruth(StepIo& io) {
       !w.ok()) {
     return w;
   }
-  for (const char* name :
-       {"disp0GT.pfm", "disp1GT.pfm", "mask0nocc.png", "sl_stats.json"}) {
+  for (const char* name : {io::kDisparity0File, io::kDisparity1File,
+                           io::kMask0File, structured_light::kStatsFile}) {
     io.outputs.push_back({io.step, "ground_truth",
                           absl::StrCat(kSlDir, "/", name), io.params, "", 0});
   }
@@ -806,16 +806,13 @@ absl::Status Runner::Export(StepIo& io) {
   absl::StatusOr<std::vector<Truth>> truths = Truths();
   if (!truths.ok()) return truths.status();
   if (truths->empty()) {
-    Warn("export: no ground truth: no disp0GT.pfm / mask0nocc.png");
+    Warn(absl::StrCat("export: no ground truth: no ", io::kDisparity0File,
+                      " / ", io::kMask0File));
   } else {
     const Truth& t = truths->front();
-    if (absl::Status s = Write(io, "export", "disp0GT.pfm", t.disparity);
-        !s.ok()) {
-      return s;
-    }
-    if (absl::Status s = Write(io, "export", "mask0nocc.png", t.mask0nocc);
-        !s.ok()) {
-      return s;
+    RETURN_IF_ERROR(io::WriteGroundTruth(dir_, t.disparity, t.mask0nocc));
+    for (const char* name : {io::kDisparity0File, io::kMask0File}) {
+      io.outputs.push_back({io.step, "export", name, io.params, "", 0});
     }
   }
   SessionInput::Intrinsics k;
@@ -830,16 +827,19 @@ absl::Status Runner::Export(StepIo& io) {
         "export: camera intrinsics unknown: calib.txt has a nominal focal "
         "length (image width)");
   }
-  absl::StatusOr<int> max_disp = MaxDisparity(size.width);
-  if (!max_disp.ok()) return max_disp.status();
-  const std::string cam = absl::StrFormat("[%.6f 0 %.6f; 0 %.6f %.6f; 0 0 1]",
-                                          k.fx, k.cx, k.fy, k.cy);
-  return WriteText(
-      io, "export", "calib.txt",
-      absl::StrFormat("cam0=%s\ncam1=%s\ndoffs=0\nbaseline=%.6f\nwidth=%d\n"
-                      "height=%d\nndisp=%d\n",
-                      cam, cam, in_.baseline_mm, size.width, size.height,
-                      *max_disp + 1));
+  ASSIGN_OR_RETURN(const int max_disp, MaxDisparity(size.width));
+  io::Calib calib;
+  calib.fx = k.fx;
+  calib.fy = k.fy;
+  calib.cx = k.cx;
+  calib.cy = k.cy;
+  calib.baseline_mm = in_.baseline_mm;
+  calib.width = size.width;
+  calib.height = size.height;
+  calib.ndisp = max_disp + 1;
+  return WriteOutput(
+      io, "export", io::kCalibFile, "",
+      [&](const fs::path& path) { return io::WriteCalib(path, calib); });
 }
 
 absl::Status Runner::Report(StepIo& io) {

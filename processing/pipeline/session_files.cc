@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <string>
 #include <system_error>
 #include <tuple>
@@ -13,13 +12,12 @@
 #include <vector>
 
 #include "absl/strings/match.h"
-#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
-#include "absl/strings/str_split.h"
-#include "absl/strings/strip.h"
+#include "processing/base/status_macros.h"
 #include "processing/io/atomic_file.h"
 #include "processing/io/capture_layout.h"
 #include "processing/io/image.h"
+#include "processing/io/middlebury.h"
 
 namespace hdrstereo::pipeline {
 namespace fs = std::filesystem;
@@ -150,7 +148,9 @@ absl::StatusOr<SessionInput> DiscoverSessionOrThrow(
             fs::relative(truth / "nonocc0.png", in.session_dir)
                 .generic_string();
       }
-      ReadCalib(truth / "calib.txt", &in);
+      // Without a readable calib.txt the export falls back to a nominal
+      // camera, and says so.
+      ApplyCalib(truth / io::kCalibFile, &in).IgnoreError();
     }
   }
   return in;
@@ -266,28 +266,14 @@ std::string FormatMetrics(const std::vector<Metric>& metrics) {
   return out;
 }
 
-void ReadCalib(const fs::path& path, SessionInput* in) {
-  absl::StatusOr<std::string> text = io::ReadFileBytes(path);
-  if (!text.ok()) return;
-  for (absl::string_view line : absl::StrSplit(*text, '\n')) {
-    if (absl::ConsumePrefix(&line, "baseline=")) {
-      double b = 0;
-      if (absl::SimpleAtod(line, &b) && in->baseline_mm <= 0) {
-        in->baseline_mm = b;
-      }
-    } else if (absl::ConsumePrefix(&line, "cam0=")) {
-      std::string m(line);
-      for (char& c : m) {
-        if (c == '[' || c == ']' || c == ';') c = ' ';
-      }
-      std::istringstream s(m);
-      double v[9] = {};
-      for (double& x : v) s >> x;
-      if (s && v[0] > 0 && !in->intrinsics) {
-        in->intrinsics = SessionInput::Intrinsics{v[0], v[4], v[2], v[5]};
-      }
-    }
+absl::Status ApplyCalib(const fs::path& path, SessionInput* in) {
+  ASSIGN_OR_RETURN(const io::Calib calib, io::ReadCalib(path));
+  if (in->baseline_mm <= 0) in->baseline_mm = calib.baseline_mm;
+  if (!in->intrinsics) {
+    in->intrinsics =
+        SessionInput::Intrinsics{calib.fx, calib.fy, calib.cx, calib.cy};
   }
+  return absl::OkStatus();
 }
 
 }  // namespace hdrstereo::pipeline

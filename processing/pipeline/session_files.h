@@ -61,9 +61,9 @@ class JsonRunStore : public RunStore {
 // "ground_truth": ..., "rmse": ..., "mae": ..., "bad_0_5": ..., "bad_1": ...,
 // "bad_2": ..., "bad_4": ..., "coverage": ...}, ...]} (stable formatting).
 // Fills in->intrinsics (and in->baseline_mm when unset) from a Middlebury
-// calib.txt ("cam0=[fx 0 cx; 0 fy cy; 0 0 1]", "baseline=..."); fields
-// already set and unreadable files are left alone.
-void ReadCalib(const std::filesystem::path& path, SessionInput* in);
+// calib.txt (io::ReadCalib); fields already set are left alone. The
+// errors of io::ReadCalib, `in` unchanged.
+absl::Status ApplyCalib(const std::filesystem::path& path, SessionInput* in);
 
 std::string MetricsToJson(const std::vector<Metric>& metrics);
 absl::StatusOr<std::vector<Metric>> MetricsFromJson(const std::string& text);

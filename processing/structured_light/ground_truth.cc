@@ -5,12 +5,11 @@
 #include <cmath>
 #include <limits>
 #include <opencv2/imgproc.hpp>
-#include <system_error>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "processing/io/atomic_file.h"
-#include "processing/io/hdr_formats.h"
+#include "processing/io/middlebury.h"
 
 namespace hdrstereo::structured_light {
 namespace {
@@ -286,25 +285,12 @@ std::string StatsJson(const GroundTruthStats& stats) {
 
 absl::Status WriteMiddlebury(const GroundTruth& truth,
                              const std::filesystem::path& dir) {
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) {
-    return absl::InternalError(
-        absl::StrCat("cannot create ", dir.string(), ": ", ec.message()));
-  }
-  if (absl::Status s = io::WritePfm(dir / "disp0GT.pfm", truth.disp0);
+  if (absl::Status s =
+          io::WriteGroundTruth(dir, truth.disp0, truth.mask0nocc, truth.disp1);
       !s.ok()) {
     return s;
   }
-  if (absl::Status s = io::WritePfm(dir / "disp1GT.pfm", truth.disp1);
-      !s.ok()) {
-    return s;
-  }
-  if (absl::Status s = io::WritePng(dir / "mask0nocc.png", truth.mask0nocc);
-      !s.ok()) {
-    return s;
-  }
-  return io::WriteFileAtomically(dir / "sl_stats.json", StatsJson(truth.stats));
+  return io::WriteFileAtomically(dir / kStatsFile, StatsJson(truth.stats));
 }
 
 }  // namespace hdrstereo::structured_light

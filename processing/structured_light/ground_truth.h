@@ -98,8 +98,12 @@ absl::StatusOr<GroundTruth> ComputeGroundTruth(
 // The statistics as a JSON object (stable keys, for reports and tests).
 std::string StatsJson(const GroundTruthStats& stats);
 
-// Writes disp0GT.pfm, disp1GT.pfm, mask0nocc.png and sl_stats.json into
-// `dir` (created if missing), each atomically.
+// The statistics' file beside the Middlebury files.
+inline constexpr char kStatsFile[] = "sl_stats.json";
+
+// Writes the Middlebury ground truth (processing/io/middlebury.h:
+// disp0GT.pfm, disp1GT.pfm, mask0nocc.png) and sl_stats.json into `dir`
+// (created if missing), each atomically.
 absl::Status WriteMiddlebury(const GroundTruth& truth,
                              const std::filesystem::path& dir);
 

@@ -28,6 +28,7 @@
 #include "hardware/sim/stage_emulator.h"
 #include "hardware/sim/truth.h"
 #include "processing/io/atomic_file.h"
+#include "processing/io/middlebury.h"
 
 namespace hdrstereo::sim {
 namespace {
@@ -107,7 +108,8 @@ int Render(const RenderOptions& o) {
     if (absl::Status s = WriteStereoTruth(*truth, o.out); !s.ok()) {
       return Fail(s);
     }
-    std::cout << (std::filesystem::path(o.out) / "calib.txt").string() << "\n";
+    std::cout << (std::filesystem::path(o.out) / io::kCalibFile).string()
+              << "\n";
   }
   return kExitOk;
 }
