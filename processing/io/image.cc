@@ -174,4 +174,11 @@ cv::Mat ToFloat(const cv::Mat& pixels) {
   return out;
 }
 
+cv::Mat To8Bit(const cv::Mat& pixels) {
+  if (pixels.depth() == CV_8U) return pixels;
+  cv::Mat out;
+  pixels.convertTo(out, CV_8U, pixels.depth() == CV_16U ? 1.0 / 257.0 : 255.0);
+  return out;
+}
+
 }  // namespace hdrstereo::io

@@ -50,6 +50,9 @@ absl::StatusOr<DecodedImage> DecodeRawFile(const std::filesystem::path& path);
 // Scales integer images to float in [0, 1] (8-bit / 255, 16-bit / 65535);
 // float images are returned converted to CV_32F unchanged.
 cv::Mat ToFloat(const cv::Mat& pixels);
+// The other way, for display and guides: 8-bit as is, 16-bit / 257, float
+// [0, 1] x 255 (saturating).
+cv::Mat To8Bit(const cv::Mat& pixels);
 
 // Reads a whole file into memory.
 absl::StatusOr<std::string> ReadFileBytes(const std::filesystem::path& path);

@@ -10,7 +10,8 @@
 //     range), evaluate, export
 //   stereo, fusion, sl_groundtruth -> evaluate -> report
 //   rectify, sl_groundtruth -> export (Middlebury 2014 layout)
-// (StepDependencies() has the exact edges; docs/pipeline.md the files.)
+// (the step table, step_table.cc, has the exact edges; docs/pipeline.md
+// the files; step.h the contract between the scheduler and the steps.)
 //
 // The pipeline knows nothing of SQLite or RPC: the caller (the daemon's
 // processing job) says which frames exist, remembers what earlier runs

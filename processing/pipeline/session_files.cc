@@ -244,13 +244,17 @@ absl::StatusOr<std::vector<Metric>> MetricsFromJson(const std::string& text) {
   return out;
 }
 
-std::string FormatMetrics(const std::vector<Metric>& metrics) {
-  std::vector<Metric> sorted = metrics;
-  std::stable_sort(sorted.begin(), sorted.end(),
+std::vector<Metric> SortMetrics(std::vector<Metric> metrics) {
+  std::stable_sort(metrics.begin(), metrics.end(),
                    [](const Metric& a, const Metric& b) {
                      return std::tie(a.ground_truth, a.rmse) <
                             std::tie(b.ground_truth, b.rmse);
                    });
+  return metrics;
+}
+
+std::string FormatMetrics(const std::vector<Metric>& metrics) {
+  const std::vector<Metric> sorted = SortMetrics(metrics);
   std::string out =
       "| ground truth | method | RMSE | MAE | bad-0.5 % | bad-1 % | bad-2 % | "
       "bad-4 % | coverage % |\n|---|---|---:|---:|---:|---:|---:|---:|---:|\n";

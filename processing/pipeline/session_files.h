@@ -68,7 +68,9 @@ absl::Status ApplyCalib(const std::filesystem::path& path, SessionInput* in);
 std::string MetricsToJson(const std::vector<Metric>& metrics);
 absl::StatusOr<std::vector<Metric>> MetricsFromJson(const std::string& text);
 
-// The metrics as a Markdown table sorted by ground truth, then RMSE.
+// Sorted by ground truth, then RMSE (the order tables show them in).
+std::vector<Metric> SortMetrics(std::vector<Metric> metrics);
+// The metrics as a Markdown table in SortMetrics order.
 std::string FormatMetrics(const std::vector<Metric>& metrics);
 
 }  // namespace hdrstereo::pipeline

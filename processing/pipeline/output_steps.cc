@@ -1,0 +1,241 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// evaluate: every method scored against every ground truth
+// (metrics/metrics.json and RunStore::RecordMetrics). export: the
+// Middlebury 2014 files of the session. report: the HTML page
+// (processing/report/session_report.h) in report/.
+#include <algorithm>
+#include <array>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
+#include "processing/base/options.h"
+#include "processing/base/status_macros.h"
+#include "processing/eval/disparity_eval.h"
+#include "processing/io/capture_layout.h"
+#include "processing/io/image.h"
+#include "processing/io/middlebury.h"
+#include "processing/io/sha256.h"
+#include "processing/pipeline/session_files.h"
+#include "processing/pipeline/steps.h"
+#include "processing/report/html_report.h"
+#include "processing/report/session_report.h"
+#include "processing/tonemap/tonemap.h"
+
+namespace hdrstereo::pipeline {
+namespace {
+
+// Every method with a disparity map: the matched ones, then the fused.
+std::vector<std::string> AllMethods() {
+  std::vector<std::string> out = {"ldr"};
+  for (tonemap::Operator op : tonemap::AllOperators()) {
+    out.push_back(tonemap::OperatorName(op));
+  }
+  for (const char* m : {"hdr", "mean", "median", "fused"}) out.push_back(m);
+  return out;
+}
+
+absl::Status RunEvaluate(const eval::EvalOptions& options, StepContext& c) {
+  ASSIGN_OR_RETURN(const std::vector<Truth> truths, c.Truths());
+  std::vector<Metric> rows;
+  if (truths.empty()) {
+    c.Warn(
+        "evaluate: no ground truth (no structured-light capture, no "
+        "simulator truth): no metrics");
+  }
+  for (const Truth& t : truths) {
+    for (const std::string& m : AllMethods()) {
+      ASSIGN_OR_RETURN(const cv::Mat d,
+                       c.ReadPfm(absl::StrCat("disparity/", m, ".pfm")));
+      absl::StatusOr<eval::DisparityEvaluation> e = eval::EvaluateDisparity(
+          d, t.disparity, t.nonoccluded, cv::Mat(), options);
+      if (!e.ok()) {
+        return absl::Status(e.status().code(),
+                            absl::StrCat("evaluate ", m, " against ", t.name,
+                                         ": ", e.status().message()));
+      }
+      const eval::RegionMetrics& r = e->nonoccluded;
+      Metric row;
+      row.method = m;
+      row.ground_truth = t.name;
+      row.rmse = r.rmse;
+      row.mae = r.mae;
+      row.bad_0_5 = r.bad_percent.at(0);
+      row.bad_1 = r.bad_percent.at(1);
+      row.bad_2 = r.bad_percent.at(2);
+      row.bad_4 = r.bad_percent.at(3);
+      row.coverage = 100.0 * r.coverage;
+      rows.push_back(row);
+    }
+  }
+  RETURN_IF_ERROR(
+      c.outputs().WriteText("metrics", kMetricsFile, MetricsToJson(rows)));
+  return c.state().RecordMetrics(rows);
+}
+
+absl::Status RunExport(StepContext& c) {
+  ASSIGN_OR_RETURN(const hdr::ExposureStack left, c.Stack(0));
+  ASSIGN_OR_RETURN(const hdr::ExposureStack right, c.Stack(1));
+  RETURN_IF_ERROR(
+      c.outputs().WriteImage("export", "im0.png", left.images[c.LdrIndex()]));
+  RETURN_IF_ERROR(
+      c.outputs().WriteImage("export", "im1.png", right.images[c.LdrIndex()]));
+  const cv::Size size = left.images[0].size();
+  ASSIGN_OR_RETURN(const std::vector<Truth> truths, c.Truths());
+  if (truths.empty()) {
+    c.Warn(absl::StrCat("export: no ground truth: no ", io::kDisparity0File,
+                        " / ", io::kMask0File));
+  } else {
+    const Truth& t = truths.front();
+    RETURN_IF_ERROR(io::WriteGroundTruth(c.dir(), t.disparity, t.mask0nocc));
+    for (const char* name : {io::kDisparity0File, io::kMask0File}) {
+      c.outputs().Record("export", name);
+    }
+  }
+  io::Calib calib;
+  if (c.input().intrinsics) {
+    calib.fx = c.input().intrinsics->fx;
+    calib.fy = c.input().intrinsics->fy;
+    calib.cx = c.input().intrinsics->cx;
+    calib.cy = c.input().intrinsics->cy;
+  } else {
+    // A nominal camera (horizontal field of view about 53 degrees) keeps
+    // calib.txt parseable; depth from it is only indicative.
+    calib.fx = calib.fy = size.width;
+    calib.cx = (size.width - 1) / 2.0;
+    calib.cy = (size.height - 1) / 2.0;
+    c.Warn(
+        "export: camera intrinsics unknown: calib.txt has a nominal focal "
+        "length (image width)");
+  }
+  ASSIGN_OR_RETURN(const int max_disp, c.MaxDisparity(size.width));
+  calib.baseline_mm = c.input().baseline_mm;
+  calib.width = size.width;
+  calib.height = size.height;
+  calib.ndisp = max_disp + 1;
+  return c.outputs().Write("export", io::kCalibFile,
+                           [&](const std::filesystem::path& path) {
+                             return io::WriteCalib(path, calib);
+                           });
+}
+
+report::Table MetricsTable(const std::vector<Metric>& metrics) {
+  report::Table t{"metrics",
+                  {"ground truth", "method", "RMSE", "MAE", "bad-0.5 %",
+                   "bad-1 %", "bad-2 %", "bad-4 %", "coverage %"},
+                  {}};
+  for (const Metric& m : SortMetrics(metrics)) {
+    t.rows.push_back(
+        {m.ground_truth, m.method, absl::StrFormat("%.3f", m.rmse),
+         absl::StrFormat("%.3f", m.mae), absl::StrFormat("%.1f", m.bad_0_5),
+         absl::StrFormat("%.1f", m.bad_1), absl::StrFormat("%.1f", m.bad_2),
+         absl::StrFormat("%.1f", m.bad_4),
+         absl::StrFormat("%.1f", m.coverage)});
+  }
+  return t;
+}
+
+absl::Status RunReport(const eval::EvalOptions& error_options, StepContext& c) {
+  const SessionInput& in = c.input();
+  report::SessionReportInput r;
+  r.title = absl::StrCat("Session ", in.session_name);
+  r.summary = in.capture_summary;
+  for (int v = 0; v < 2; ++v) {
+    ASSIGN_OR_RETURN(const hdr::ExposureStack stack, c.Stack(v));
+    r.exposures[v] = stack.images;
+    if (v == 0) {
+      for (double e : stack.exposure_s) {
+        r.exposure_tags.push_back(io::ExposureTag(e));
+      }
+    }
+  }
+  const cv::Size size = r.exposures[0][0].size();
+  ASSIGN_OR_RETURN(r.max_disparity, c.MaxDisparity(size.width));
+  const FrameSelection& frames = c.frames();
+  r.summary.push_back({"exposures", absl::StrJoin(r.exposure_tags, ", ")});
+  r.summary.push_back({"baseline", absl::StrFormat("%.1f mm", in.baseline_mm)});
+  r.summary.push_back(
+      {"frames", absl::StrCat(in.frames.size(), " (",
+                              frames.stereo[0].size() + frames.stereo[1].size(),
+                              " stereo, ", frames.structured_light.size(),
+                              " structured light)")});
+  r.summary.push_back(
+      {"image size", absl::StrCat(size.width, " x ", size.height)});
+  r.summary.push_back(
+      {"disparity range", absl::StrCat("0 .. ", r.max_disparity)});
+  absl::StatusOr<std::string> rect =
+      io::ReadFileBytes(c.dir() / "exposures/rectification.txt");
+  if (rect.ok()) r.summary.push_back({"rectification", *rect});
+
+  r.hdr_preview = (c.dir() / "tonemapped/reinhard/im0.png").string();
+  for (tonemap::Operator op : tonemap::AllOperators()) {
+    const std::string name = tonemap::OperatorName(op);
+    const std::string folder = (c.dir() / "tonemapped" / name).string() + "/";
+    r.tonemapped.push_back({name, {folder + "im0.png", folder + "im1.png"}});
+  }
+  ASSIGN_OR_RETURN(const std::vector<Truth> truths, c.Truths());
+  for (const Truth& t : truths) {
+    r.truths.push_back({t.name, t.disparity, t.mask0nocc});
+  }
+  for (const std::string& m : AllMethods()) {
+    ASSIGN_OR_RETURN(const cv::Mat d,
+                     c.ReadPfm(absl::StrCat("disparity/", m, ".pfm")));
+    r.disparities.push_back({m, d});
+  }
+  r.error_options = error_options;
+  ASSIGN_OR_RETURN(const std::string metrics,
+                   io::ReadFileBytes(c.dir() / kMetricsFile));
+  ASSIGN_OR_RETURN(const std::vector<Metric> rows, MetricsFromJson(metrics));
+  r.metrics = MetricsTable(rows);
+
+  ASSIGN_OR_RETURN(const report::SessionReport page,
+                   report::BuildSessionReport(r));
+  for (const report::ReportFile& f : page.files) {
+    const std::string rel = absl::StrCat("report/", f.name);
+    if (f.copy_from.empty()) {
+      RETURN_IF_ERROR(c.outputs().WriteImage("report", rel, f.image));
+    } else {
+      ASSIGN_OR_RETURN(const std::string bytes, io::ReadFileBytes(f.copy_from));
+      RETURN_IF_ERROR(c.outputs().WriteText("report", rel, bytes));
+    }
+  }
+  return c.outputs().WriteText("report", "report/index.html",
+                               report::RenderPage(page.page));
+}
+
+}  // namespace
+
+absl::StatusOr<ConfiguredStep> ConfigureEvaluate(const StepContext& c) {
+  const eval::EvalOptions options = c.options().evaluation;
+  return ConfiguredStep{
+      options, [options](StepContext& c) { return RunEvaluate(options, c); }};
+}
+
+absl::StatusOr<ConfiguredStep> ConfigureExport(const StepContext& c) {
+  nlohmann::json params = {{"baseline_mm", c.input().baseline_mm},
+                           {"intrinsics", nullptr}};
+  if (const auto& k = c.input().intrinsics) {
+    params["intrinsics"] = {k->fx, k->fy, k->cx, k->cy};
+  }
+  return ConfiguredStep{params, &RunExport};
+}
+
+absl::StatusOr<ConfiguredStep> ConfigureReport(const StepContext& c) {
+  const SessionInput& in = c.input();
+  // Everything the page shows that is not in an input file.
+  std::string page = absl::StrCat(in.session_name, "\n",
+                                  absl::StrFormat("%.17g", in.baseline_mm),
+                                  "\n", in.frames.size(), "\n");
+  for (const auto& [key, value] : in.capture_summary) {
+    absl::StrAppend(&page, key, "\t", value, "\n");
+  }
+  const eval::EvalOptions error_options = c.options().evaluation;
+  return ConfiguredStep{
+      {{"page", io::Sha256Hex(page)}, {"error_maps", error_options}},
+      [error_options](StepContext& c) { return RunReport(error_options, c); }};
+}
+
+}  // namespace hdrstereo::pipeline
