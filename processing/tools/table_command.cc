@@ -6,7 +6,7 @@
 //                      [--nonoccluded mask.png] [--max-disp D]
 // The thesis' Tables 5.2 / 5.3 (RMSE and bad-1px of LDR, the seven TMOs,
 // HDR-CVF, mean, median, fused-4, fused-7; see
-// processing/fusion/thesis_table.h) for simulated scenes rendered with the
+// processing/experiment/thesis_table.h) for simulated scenes rendered with the
 // thesis' eight exposures (1/15 .. 1/2000 s, exact truth), or for a
 // recorded data set: two exposure stack folders (exposures.txt, as for
 // `merge`) and a left-view truth disparity.
@@ -25,7 +25,7 @@
 #include "hardware/sim/scene.h"
 #include "hardware/sim/sim_world.h"
 #include "hardware/sim/truth.h"
-#include "processing/fusion/thesis_table.h"
+#include "processing/experiment/thesis_table.h"
 #include "processing/hdr/stack.h"
 #include "processing/io/hdr_formats.h"
 #include "processing/tools/command_registry.h"

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-#include "processing/fusion/thesis_table.h"
+#include "processing/experiment/thesis_table.h"
 
 #include <algorithm>
 #include <bit>

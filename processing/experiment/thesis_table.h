@@ -12,8 +12,8 @@
 //   fused-7             graph-cut fusion of all seven (Table 5.2/5.3).
 // Each row is scored against the truth (RMSE and bad-1px, percent of
 // pixels with |error| > 1) on the non-occluded pixels.
-#ifndef HDRSTEREO_PROCESSING_FUSION_THESIS_TABLE_H_
-#define HDRSTEREO_PROCESSING_FUSION_THESIS_TABLE_H_
+#ifndef HDRSTEREO_PROCESSING_EXPERIMENT_THESIS_TABLE_H_
+#define HDRSTEREO_PROCESSING_EXPERIMENT_THESIS_TABLE_H_
 
 #include <map>
 #include <opencv2/core.hpp>
@@ -75,4 +75,4 @@ double MeanBad1(const std::vector<TableResult>& results,
 
 }  // namespace hdrstereo::fusion
 
-#endif  // HDRSTEREO_PROCESSING_FUSION_THESIS_TABLE_H_
+#endif  // HDRSTEREO_PROCESSING_EXPERIMENT_THESIS_TABLE_H_

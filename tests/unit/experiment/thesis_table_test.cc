@@ -4,7 +4,7 @@
 // desk-lamp rendered with the eight thesis exposures at 256 px width, exact
 // truth. Asserts the claims where the data supports them (see
 // docs/results.md for the table at 320 px and the regenerating command).
-#include "processing/fusion/thesis_table.h"
+#include "processing/experiment/thesis_table.h"
 
 #include <gtest/gtest.h>
 
