@@ -1,17 +1,12 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
-// The thesis' Tables 5.2 and 5.3 for one HDR stereo data set: from the left
-// and right exposure stacks, merge HDR (Debevec & Malik, response recovered
-// from the left stack), tone-map the pair with all seven operators (shared
-// normalisation), match the LDR middle exposure, each tone-mapped pair and
-// the HDR radiance (HDR-CVF, Eq. 4.2) with the cost-volume filtering
-// matcher, then fuse the seven tone-mapped disparities:
-//   mean, median        per-pixel baselines (Table 5.3);
-//   fused-4             graph-cut fusion of 4 of the 7, averaged over all 35
-//                       subsets (the thesis: "4 random" maps);
-//   fused-7             graph-cut fusion of all seven (Table 5.2/5.3).
-// Each row is scored against the truth (RMSE and bad-1px, percent of
-// pixels with |error| > 1) on the non-occluded pixels.
+// The thesis' Tables 5.2 and 5.3 for one HDR stereo data set: the thesis
+// experiment (thesis_experiment.h) on the left and right exposure stacks in
+// memory, every method scored against the truth (RMSE and bad-1px, percent
+// of pixels with |error| > 1) on the non-occluded pixels. Besides what a
+// processed session has, the table has fused-4: graph-cut fusion of 4 of
+// the 7 tone-mapped disparities, averaged over all 35 subsets (the thesis:
+// "4 random" maps).
 #ifndef HDRSTEREO_PROCESSING_EXPERIMENT_THESIS_TABLE_H_
 #define HDRSTEREO_PROCESSING_EXPERIMENT_THESIS_TABLE_H_
 
@@ -21,10 +16,12 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "processing/experiment/method.h"
+#include "processing/experiment/thesis_experiment.h"
 #include "processing/fusion/fusion.h"
 #include "processing/hdr/stack.h"
 
-namespace hdrstereo::fusion {
+namespace hdrstereo::experiment {
 
 struct TableInput {
   std::string name;
@@ -32,32 +29,27 @@ struct TableInput {
   int ldr_index = -1;              // LDR row's exposure; -1 = the middle
   cv::Mat truth;                   // CV_32FC1 left disparity (inf = none)
   cv::Mat nonoccluded;             // CV_8UC1, optional
-  int max_disp = 0;                // 0 = from the truth (max + 2)
+  int max_disp = 0;                // 0 = DisparityRange of the truth
 };
 
 struct TableOptions {
-  FusionParams fusion;  // max_disp is set from the input
-  // Candidates' left-right check: pixels that fail it get this confidence
-  // in the data term (1 = ignore the check). Default 1: on the simulated
-  // scenes down-weighting inconsistent pixels made fusion worse (lab-lamp,
-  // 256 px: fused-7 RMSE 0.71 at 1, 1.72 at 0.25, 2.84 at 0.05) -- the
-  // failing TMOs' errors are often left-right consistent.
-  double inconsistent_confidence = 1.0;
+  ExperimentOptions experiment;
   bool fused4_all_subsets = true;  // else the first 4 only
+  int threads = 2;                 // matchings and fusions in parallel
 };
 
 struct TableRow {
-  std::string name;
+  Method method = Method::kLdr;
   double rmse = 0;
   double bad1 = 0;  // percent of scored pixels
 };
 
 struct TableResult {
   std::string name;
-  std::vector<TableRow> rows;  // LDR, the 7 TMOs, HDR-CVF, mean, median,
-                               // fused-4, fused-7
-  std::map<std::string, cv::Mat> disparity;  // by row name (fused-4: none)
-  SolverStats fused7_stats;
+  std::vector<TableRow> rows;           // ldr, the 7 TMOs, hdr, mean, median,
+                                        // fused-4, fused
+  std::map<Method, cv::Mat> disparity;  // by method (fused-4: none)
+  fusion::SolverStats fused_stats;
 };
 
 absl::StatusOr<TableResult> RunThesisTable(const TableInput& input,
@@ -67,12 +59,10 @@ absl::StatusOr<TableResult> RunThesisTable(const TableInput& input,
 // the rows in TableResult order.
 std::string FormatTable(const std::vector<TableResult>& results);
 
-// Mean over the data sets of row `name` (RMSE or bad-1px); -1 if missing.
-double MeanRmse(const std::vector<TableResult>& results,
-                const std::string& name);
-double MeanBad1(const std::vector<TableResult>& results,
-                const std::string& name);
+// Mean over the data sets of a method's RMSE or bad-1px; -1 if missing.
+double MeanRmse(const std::vector<TableResult>& results, Method method);
+double MeanBad1(const std::vector<TableResult>& results, Method method);
 
-}  // namespace hdrstereo::fusion
+}  // namespace hdrstereo::experiment
 
 #endif  // HDRSTEREO_PROCESSING_EXPERIMENT_THESIS_TABLE_H_

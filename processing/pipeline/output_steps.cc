@@ -15,6 +15,8 @@
 #include "processing/base/options.h"
 #include "processing/base/status_macros.h"
 #include "processing/eval/disparity_eval.h"
+#include "processing/experiment/method.h"
+#include "processing/experiment/thesis_experiment.h"
 #include "processing/io/capture_layout.h"
 #include "processing/io/image.h"
 #include "processing/io/middlebury.h"
@@ -23,22 +25,18 @@
 #include "processing/pipeline/steps.h"
 #include "processing/report/html_report.h"
 #include "processing/report/session_report.h"
-#include "processing/tonemap/tonemap.h"
 
 namespace hdrstereo::pipeline {
 namespace {
 
-// Every method with a disparity map: the matched ones, then the fused.
-std::vector<std::string> AllMethods() {
-  std::vector<std::string> out = {"ldr"};
-  for (tonemap::Operator op : tonemap::AllOperators()) {
-    out.push_back(tonemap::OperatorName(op));
-  }
-  for (const char* m : {"hdr", "mean", "median", "fused"}) out.push_back(m);
-  return out;
+using experiment::Method;
+
+std::string DisparityFile(Method m) {
+  return absl::StrCat("disparity/", experiment::MethodName(m), ".pfm");
 }
 
-absl::Status RunEvaluate(const eval::EvalOptions& options, StepContext& c) {
+absl::Status RunEvaluate(const experiment::ExperimentOptions& options,
+                         StepContext& c) {
   ASSIGN_OR_RETURN(const std::vector<Truth> truths, c.Truths());
   std::vector<Metric> rows;
   if (truths.empty()) {
@@ -47,19 +45,19 @@ absl::Status RunEvaluate(const eval::EvalOptions& options, StepContext& c) {
         "simulator truth): no metrics");
   }
   for (const Truth& t : truths) {
-    for (const std::string& m : AllMethods()) {
-      ASSIGN_OR_RETURN(const cv::Mat d,
-                       c.ReadPfm(absl::StrCat("disparity/", m, ".pfm")));
-      absl::StatusOr<eval::DisparityEvaluation> e = eval::EvaluateDisparity(
-          d, t.disparity, t.nonoccluded, cv::Mat(), options);
-      if (!e.ok()) {
-        return absl::Status(e.status().code(),
-                            absl::StrCat("evaluate ", m, " against ", t.name,
-                                         ": ", e.status().message()));
+    for (Method m : experiment::SessionMethods()) {
+      ASSIGN_OR_RETURN(const cv::Mat d, c.ReadPfm(DisparityFile(m)));
+      absl::StatusOr<eval::RegionMetrics> score =
+          experiment::Score(d, t.disparity, t.nonoccluded, options);
+      if (!score.ok()) {
+        return absl::Status(
+            score.status().code(),
+            absl::StrCat("evaluate ", experiment::MethodName(m), " against ",
+                         t.name, ": ", score.status().message()));
       }
-      const eval::RegionMetrics& r = e->nonoccluded;
+      const eval::RegionMetrics& r = *score;
       Metric row;
-      row.method = m;
+      row.method = experiment::MethodName(m);
       row.ground_truth = t.name;
       row.rmse = r.rmse;
       row.mae = r.mae;
@@ -171,8 +169,8 @@ absl::Status RunReport(const eval::EvalOptions& error_options, StepContext& c) {
   if (rect.ok()) r.summary.push_back({"rectification", *rect});
 
   r.hdr_preview = (c.dir() / "tonemapped/reinhard/im0.png").string();
-  for (tonemap::Operator op : tonemap::AllOperators()) {
-    const std::string name = tonemap::OperatorName(op);
+  for (Method m : experiment::ToneMappedMethods()) {
+    const std::string name = experiment::MethodName(m);
     const std::string folder = (c.dir() / "tonemapped" / name).string() + "/";
     r.tonemapped.push_back({name, {folder + "im0.png", folder + "im1.png"}});
   }
@@ -180,10 +178,9 @@ absl::Status RunReport(const eval::EvalOptions& error_options, StepContext& c) {
   for (const Truth& t : truths) {
     r.truths.push_back({t.name, t.disparity, t.mask0nocc});
   }
-  for (const std::string& m : AllMethods()) {
-    ASSIGN_OR_RETURN(const cv::Mat d,
-                     c.ReadPfm(absl::StrCat("disparity/", m, ".pfm")));
-    r.disparities.push_back({m, d});
+  for (Method m : experiment::SessionMethods()) {
+    ASSIGN_OR_RETURN(const cv::Mat d, c.ReadPfm(DisparityFile(m)));
+    r.disparities.push_back({experiment::MethodName(m), d});
   }
   r.error_options = error_options;
   ASSIGN_OR_RETURN(const std::string metrics,
@@ -209,9 +206,11 @@ absl::Status RunReport(const eval::EvalOptions& error_options, StepContext& c) {
 }  // namespace
 
 absl::StatusOr<ConfiguredStep> ConfigureEvaluate(const StepContext& c) {
-  const eval::EvalOptions options = c.options().evaluation;
-  return ConfiguredStep{
-      options, [options](StepContext& c) { return RunEvaluate(options, c); }};
+  experiment::ExperimentOptions options;
+  options.evaluation = c.options().experiment.evaluation;
+  return ConfiguredStep{options.evaluation, [options](StepContext& c) {
+                          return RunEvaluate(options, c);
+                        }};
 }
 
 absl::StatusOr<ConfiguredStep> ConfigureExport(const StepContext& c) {
@@ -232,7 +231,7 @@ absl::StatusOr<ConfiguredStep> ConfigureReport(const StepContext& c) {
   for (const auto& [key, value] : in.capture_summary) {
     absl::StrAppend(&page, key, "\t", value, "\n");
   }
-  const eval::EvalOptions error_options = c.options().evaluation;
+  const eval::EvalOptions error_options = c.options().experiment.evaluation;
   return ConfiguredStep{
       {{"page", io::Sha256Hex(page)}, {"error_maps", error_options}},
       [error_options](StepContext& c) { return RunReport(error_options, c); }};

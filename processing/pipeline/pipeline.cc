@@ -233,31 +233,9 @@ absl::Status Runner::Schedule(const std::vector<std::string>& steps) {
 }  // namespace
 
 absl::Status StepOptions::Validate() const {
-  RETURN_IF_ERROR(WithFieldPrefix("response", response.Validate()));
-  RETURN_IF_ERROR(WithFieldPrefix("merge", merge.Validate()));
-  RETURN_IF_ERROR(WithFieldPrefix("tonemap", tonemap.Validate()));
+  RETURN_IF_ERROR(WithFieldPrefix("experiment", experiment.Validate()));
   RETURN_IF_ERROR(WithFieldPrefix("sl_decode", sl_decode.Validate()));
-  RETURN_IF_ERROR(
-      WithFieldPrefix("sl_ground_truth", sl_ground_truth.Validate()));
-  // The disparity range and thread counts are the steps' (any valid value
-  // stands in for them here).
-  for (const auto& [name, stereo] :
-       {std::pair{"ldr_stereo", ldr_stereo}, {"hdr_stereo", hdr_stereo}}) {
-    stereo::StereoOptions s = stereo;
-    s.max_disparity = s.min_disparity + 1;
-    s.threads = 1;
-    RETURN_IF_ERROR(WithFieldPrefix(name, s.Validate()));
-  }
-  fusion::FusionParams f = fusion;
-  f.max_disp = 1;
-  RETURN_IF_ERROR(WithFieldPrefix("fusion", f.Validate()));
-  RETURN_IF_ERROR(WithFieldPrefix("evaluation", evaluation.Validate()));
-  if (evaluation.thresholds != std::vector<double>{0.5, 1, 2, 4}) {
-    return absl::InvalidArgumentError(
-        "evaluation.thresholds must be {0.5, 1, 2, 4}: the metrics' "
-        "bad-pixel columns");
-  }
-  return absl::OkStatus();
+  return WithFieldPrefix("sl_ground_truth", sl_ground_truth.Validate());
 }
 
 absl::StatusOr<RunSummary> Run(const SessionInput& input,

@@ -31,14 +31,9 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
-#include "processing/eval/disparity_eval.h"
-#include "processing/fusion/fusion.h"
-#include "processing/hdr/merge.h"
-#include "processing/hdr/response.h"
-#include "processing/stereo/cost_volume_stereo.h"
+#include "processing/experiment/thesis_experiment.h"
 #include "processing/structured_light/decode.h"
 #include "processing/structured_light/ground_truth.h"
-#include "processing/tonemap/tonemap.h"
 
 namespace hdrstereo::pipeline {
 
@@ -105,7 +100,7 @@ struct Artifact {
 
 // One metrics row (thesis Table 5.2 for this session).
 struct Metric {
-  std::string method;        // "ldr", "reinhard", ..., "hdr", "fused", ...
+  std::string method;        // experiment::MethodName: "ldr", ..., "fused"
   std::string ground_truth;  // "structured_light" or "simulation"
   double rmse = 0;
   double mae = 0;
@@ -155,24 +150,16 @@ class RunObserver {
 // changing a field (or a default in a header) recomputes that step and what
 // depends on it, and nothing else.
 struct StepOptions {
-  hdr::ResponseOptions response;              // response (8-bit stacks)
-  hdr::MergeOptions merge;                    // hdr
-  tonemap::Params tonemap;                    // tonemap, all seven operators
-  structured_light::DecodeOptions sl_decode;  // sl_groundtruth
+  // The thesis experiment's stages (processing/experiment): response,
+  // hdr, tonemap, stereo, fusion, evaluate and the report's error maps
+  // each hash and use the part they run. The stereo and fusion steps set
+  // the disparity range from the ground truth.
+  experiment::ExperimentOptions experiment;
+  structured_light::DecodeOptions sl_decode;             // sl_groundtruth
   structured_light::GroundTruthOptions sl_ground_truth;  // sl_groundtruth
-  // stereo: the LDR middle exposure and the tone-mapped pairs, and the HDR
-  // radiance. The step sets max_disparity (from the ground truth) and
-  // threads (1: the matchings run in parallel); the values here are unused.
-  stereo::StereoOptions ldr_stereo;
-  stereo::StereoOptions hdr_stereo = stereo::StereoOptions::Hdr();
-  // fusion: max_disp is set by the step, as for stereo.
-  fusion::FusionParams fusion;
-  // evaluate, and the report's error maps. The metrics' bad-pixel columns
-  // are the thresholds 0.5, 1, 2 and 4 px.
-  eval::EvalOptions evaluation{.gt_zero_valid = true};
 
   // INVALID_ARGUMENT naming the first field that breaks a rule
-  // ("ldr_stereo.radius is 0; ...").
+  // ("experiment.ldr_stereo.radius is 0; ...").
   absl::Status Validate() const;
 };
 

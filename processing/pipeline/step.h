@@ -152,9 +152,8 @@ class StepContext {
 
   // The ground truths there are, best first.
   absl::StatusOr<std::vector<Truth>> Truths() const;
-  // The disparity range every matching and fusion uses: the largest truth
-  // disparity + the margin, or the default without truth; at most the
-  // image width - 2.
+  // The disparity range every matching and fusion uses
+  // (experiment::DisparityRange of the ground truths).
   absl::StatusOr<int> MaxDisparity(int width) const;
 
   void Progress(int64_t done, int64_t total, const std::string& what) {
@@ -170,6 +169,9 @@ class StepContext {
   absl::Status ParallelFor(
       const std::vector<std::string>& names,
       const std::function<absl::Status(int, StepOutputs&)>& fn);
+  // ParallelFor for the experiment's units (matchings, fusions), which
+  // write nothing themselves.
+  experiment::UnitRunner Units();
 
  private:
   bool HasStructuredLightTruth() const;

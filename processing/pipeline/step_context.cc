@@ -5,10 +5,10 @@
 #include <filesystem>
 #include <limits>
 #include <system_error>
-#include <thread>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "processing/base/parallel_for.h"
 #include "processing/base/status_macros.h"
 #include "processing/io/atomic_file.h"
 #include "processing/io/capture_layout.h"
@@ -21,21 +21,8 @@ namespace hdrstereo::pipeline {
 namespace fs = std::filesystem;
 namespace {
 
-// Disparity range when there is no ground truth to take it from.
-constexpr int kDefaultMaxDisparity = 64;
-// Added to the largest ground-truth disparity (as the thesis table does).
-constexpr int kDisparityMargin = 2;
 constexpr char kSimulation[] = "simulation";
 constexpr char kStructuredLight[] = "structured_light";
-
-double MaxFinite(const cv::Mat& disparity) {
-  double hi = 0;
-  cv::Mat finite = disparity == disparity;  // not NaN
-  finite &= disparity < std::numeric_limits<float>::infinity();
-  if (cv::countNonZero(finite) == 0) return 0;
-  cv::minMaxLoc(disparity, nullptr, &hi, nullptr, nullptr, finite);
-  return hi;
-}
 
 }  // namespace
 
@@ -170,22 +157,18 @@ bool StepContext::HasStructuredLightTruth() const {
 }
 
 absl::StatusOr<int> StepContext::MaxDisparity(int width) const {
-  double hi = -1;
+  double hi = 0;
   if (HasStructuredLightTruth()) {
     ASSIGN_OR_RETURN(
         const cv::Mat d,
         ReadPfm(absl::StrCat(kStructuredLightDir, "/", io::kDisparity0File)));
-    hi = std::max(hi, MaxFinite(d));
+    hi = std::max(hi, experiment::LargestDisparity(d));
   }
   if (!input().sim_truth_disparity.empty()) {
     ASSIGN_OR_RETURN(const cv::Mat d, ReadPfm(input().sim_truth_disparity));
-    hi = std::max(hi, MaxFinite(d));
+    hi = std::max(hi, experiment::LargestDisparity(d));
   }
-  const int max_disp = hi > 0
-                           ? static_cast<int>(std::ceil(hi)) + kDisparityMargin
-                           : kDefaultMaxDisparity;
-  // The matcher needs every disparity to stay inside the image.
-  return std::clamp(max_disp, 1, std::max(1, width - 2));
+  return experiment::DisparityRange(hi, width);
 }
 
 absl::StatusOr<std::vector<Truth>> StepContext::Truths() const {
@@ -220,43 +203,29 @@ absl::Status StepContext::ParallelFor(
     const std::function<absl::Status(int, StepOutputs&)>& fn) {
   const int n = static_cast<int>(names.size());
   std::vector<StepOutputs> parts(names.size(), outputs_.Empty());
-  std::atomic<int> next{0};
   std::atomic<int> done{0};
-  absl::Mutex mu;
-  absl::Status first;
-  auto work = [&] {
-    for (;;) {
-      {
-        absl::MutexLock l(&mu);
-        if (!first.ok()) return;
-      }
-      const int i = next.fetch_add(1);
-      if (i >= n) return;
-      absl::Status s = state_.Checkpoint();
-      if (s.ok()) {
+  RETURN_IF_ERROR(hdrstereo::ParallelFor(
+      n, session_.options.threads, [&](int i) -> absl::Status {
+        RETURN_IF_ERROR(state_.Checkpoint());
         try {
-          s = fn(i, parts[static_cast<size_t>(i)]);
+          RETURN_IF_ERROR(fn(i, parts[static_cast<size_t>(i)]));
         } catch (const cv::Exception& e) {
-          s = absl::InternalError(absl::StrCat(step_, ": OpenCV: ", e.what()));
+          return absl::InternalError(
+              absl::StrCat(step_, ": OpenCV: ", e.what()));
         }
-      }
-      if (!s.ok()) {
-        absl::MutexLock l(&mu);
-        if (first.ok()) first = s;
-        return;
-      }
-      Progress(done.fetch_add(1) + 1, n,
-               absl::StrCat(step_, ": ", names[static_cast<size_t>(i)]));
-    }
-  };
-  const int threads = std::clamp(session_.options.threads, 1, std::max(n, 1));
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(work);
-  work();
-  for (std::thread& t : pool) t.join();
-  RETURN_IF_ERROR(first);
+        Progress(done.fetch_add(1) + 1, n,
+                 absl::StrCat(step_, ": ", names[static_cast<size_t>(i)]));
+        return absl::OkStatus();
+      }));
   for (StepOutputs& p : parts) outputs_.Append(std::move(p));
   return absl::OkStatus();
+}
+
+experiment::UnitRunner StepContext::Units() {
+  return [this](const std::vector<std::string>& names,
+                const std::function<absl::Status(int)>& unit) {
+    return ParallelFor(names, [&](int i, StepOutputs&) { return unit(i); });
+  };
 }
 
 }  // namespace hdrstereo::pipeline

@@ -4,8 +4,8 @@
 //                      [--baseline-mm B] [--markdown OUT.md]
 // hdrstereo-proc table --left-stack L/ --right-stack R/ --truth disp.pfm
 //                      [--nonoccluded mask.png] [--max-disp D]
-// The thesis' Tables 5.2 / 5.3 (RMSE and bad-1px of LDR, the seven TMOs,
-// HDR-CVF, mean, median, fused-4, fused-7; see
+// The thesis' Tables 5.2 / 5.3 (RMSE and bad-1px of ldr, the seven TMOs,
+// hdr, mean, median, fused-4, fused; see
 // processing/experiment/thesis_table.h) for simulated scenes rendered with the
 // thesis' eight exposures (1/15 .. 1/2000 s, exact truth), or for a
 // recorded data set: two exposure stack folders (exposures.txt, as for
@@ -54,8 +54,8 @@ const std::vector<double>& ThesisExposures() {
   return kTimes;
 }
 
-absl::StatusOr<fusion::TableInput> SimInput(const std::string& name, int width,
-                                            double baseline_mm) {
+absl::StatusOr<experiment::TableInput> SimInput(const std::string& name,
+                                                int width, double baseline_mm) {
   absl::StatusOr<sim::Scene> scene = sim::LoadScene(name);
   if (!scene.ok()) return scene.status();
   const double k = static_cast<double>(width) / scene->camera.width;
@@ -67,7 +67,7 @@ absl::StatusOr<fusion::TableInput> SimInput(const std::string& name, int width,
   scene->camera.cx = (scene->camera.width - 1) / 2.0;
   scene->camera.cy = (scene->camera.height - 1) / 2.0;
   sim::SimWorld world(*scene);
-  fusion::TableInput in;
+  experiment::TableInput in;
   in.name = name;
   for (double t : ThesisExposures()) {
     world.SetStagePosition(0);
@@ -85,8 +85,8 @@ absl::StatusOr<fusion::TableInput> SimInput(const std::string& name, int width,
   return in;
 }
 
-absl::StatusOr<fusion::TableInput> StackInput(const TableArgs& args) {
-  fusion::TableInput in;
+absl::StatusOr<experiment::TableInput> StackInput(const TableArgs& args) {
+  experiment::TableInput in;
   in.name = std::filesystem::path(args.left_stack).parent_path().filename();
   if (in.name.empty()) in.name = "data";
   absl::StatusOr<hdr::ExposureStack> l = hdr::LoadStack(args.left_stack);
@@ -110,7 +110,7 @@ absl::StatusOr<fusion::TableInput> StackInput(const TableArgs& args) {
 }
 
 absl::Status RunTable(const TableArgs& args) {
-  std::vector<fusion::TableInput> inputs;
+  std::vector<experiment::TableInput> inputs;
   const bool stacks = !args.left_stack.empty() || !args.right_stack.empty();
   if (stacks == !args.scenes.empty()) {
     return absl::InvalidArgumentError(
@@ -122,30 +122,31 @@ absl::Status RunTable(const TableArgs& args) {
       return absl::InvalidArgumentError(
           "--left-stack, --right-stack and --truth go together");
     }
-    absl::StatusOr<fusion::TableInput> in = StackInput(args);
+    absl::StatusOr<experiment::TableInput> in = StackInput(args);
     if (!in.ok()) return in.status();
     inputs.push_back(*in);
   }
   for (const std::string& name : args.scenes) {
-    absl::StatusOr<fusion::TableInput> in =
+    absl::StatusOr<experiment::TableInput> in =
         SimInput(name, args.width, args.baseline_mm);
     if (!in.ok()) return in.status();
     inputs.push_back(*in);
   }
-  std::vector<fusion::TableResult> results;
-  for (const fusion::TableInput& in : inputs) {
+  std::vector<experiment::TableResult> results;
+  for (const experiment::TableInput& in : inputs) {
     std::cerr << "matching and fusing " << in.name << " (" << in.truth.cols
               << "x" << in.truth.rows << ")\n";
-    fusion::TableOptions topt;
-    topt.fusion.sigma = args.sigma;
-    topt.fusion.lambda = args.lambda;
-    topt.fusion.edge_weight = args.edge_weight;
-    topt.inconsistent_confidence = args.inconsistent_confidence;
-    absl::StatusOr<fusion::TableResult> r = fusion::RunThesisTable(in, topt);
+    experiment::TableOptions topt;
+    topt.experiment.fusion.sigma = args.sigma;
+    topt.experiment.fusion.lambda = args.lambda;
+    topt.experiment.fusion.edge_weight = args.edge_weight;
+    topt.experiment.inconsistent_confidence = args.inconsistent_confidence;
+    absl::StatusOr<experiment::TableResult> r =
+        experiment::RunThesisTable(in, topt);
     if (!r.ok()) return r.status();
     results.push_back(*r);
   }
-  const std::string table = fusion::FormatTable(results);
+  const std::string table = experiment::FormatTable(results);
   std::cout << table;
   if (!args.markdown.empty()) {
     std::ofstream f(args.markdown);
@@ -162,7 +163,8 @@ void AddTableCommands(CLI::App& app) {
   auto args = std::make_shared<TableArgs>();
   CLI::App* cmd = app.add_subcommand(
       "table",
-      "Thesis Tables 5.2/5.3: LDR, 7 TMOs, HDR-CVF, mean, median, fusion");
+      "Thesis Tables 5.2/5.3: ldr, 7 TMOs, hdr (HDR-CVF), mean, median, "
+      "fused-4, fused");
   cmd->add_option("--scene", args->scenes,
                   "Simulated scene (bundled name or JSON), repeatable");
   cmd->add_option("--width", args->width, "Rendered width (px)")

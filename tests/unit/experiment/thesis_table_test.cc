@@ -16,9 +16,8 @@
 #include "hardware/sim/scene.h"
 #include "hardware/sim/sim_world.h"
 #include "hardware/sim/truth.h"
-#include "processing/tonemap/tonemap.h"
 
-namespace hdrstereo::fusion {
+namespace hdrstereo::experiment {
 namespace {
 
 TableInput Render(const std::string& name, int width) {
@@ -58,17 +57,18 @@ TEST(ThesisTable, FusionBeatsLdrTmosMeanAndMedian) {
   for (const std::string name : {"lab-lamp", "two-lamps", "desk-lamp"}) {
     absl::StatusOr<TableResult> r = RunThesisTable(Render(name, 256));
     ASSERT_TRUE(r.ok()) << r.status();
-    EXPECT_LE(r->fused7_stats.energy_after, r->fused7_stats.energy_before);
+    EXPECT_LE(r->fused_stats.energy_after, r->fused_stats.energy_before);
     results.push_back(*r);
   }
   std::cout << FormatTable(results);
-  const double fused7 = MeanRmse(results, "fused-7");
-  const double fused7_bad = MeanBad1(results, "fused-7");
-  const double ldr = MeanRmse(results, "LDR");
+  const double fused7 = MeanRmse(results, Method::kFused);
+  const double fused7_bad = MeanBad1(results, Method::kFused);
+  const double ldr = MeanRmse(results, Method::kLdr);
   RecordProperty("fused7_rmse", std::to_string(fused7));
   RecordProperty("fused7_bad1", std::to_string(fused7_bad));
   RecordProperty("ldr_rmse", std::to_string(ldr));
-  RecordProperty("median_rmse", std::to_string(MeanRmse(results, "median")));
+  RecordProperty("median_rmse",
+                 std::to_string(MeanRmse(results, Method::kMedian)));
 
   // What the simulated data supports (measured at 256 px, 2026-11-23 and
   // 2026-12-01: fused-7 RMSE 1.44 / bad-1px 12.7 %, LDR 2.16 / 25.3 %,
@@ -77,14 +77,14 @@ TEST(ThesisTable, FusionBeatsLdrTmosMeanAndMedian) {
   // matching and the mean, beats the median on bad pixels, and beats the
   // average single TMO and five of the seven.
   EXPECT_LT(fused7, 0.8 * ldr);
-  EXPECT_LT(fused7_bad, MeanBad1(results, "LDR") / 1.5);
-  EXPECT_LT(fused7, 0.8 * MeanRmse(results, "mean"));
-  EXPECT_LT(fused7_bad, MeanBad1(results, "median"));
-  EXPECT_LT(fused7, 1.05 * MeanRmse(results, "median"));
+  EXPECT_LT(fused7_bad, MeanBad1(results, Method::kLdr) / 1.5);
+  EXPECT_LT(fused7, 0.8 * MeanRmse(results, Method::kMean));
+  EXPECT_LT(fused7_bad, MeanBad1(results, Method::kMedian));
+  EXPECT_LT(fused7, 1.05 * MeanRmse(results, Method::kMedian));
   double tmo_sum = 0;
   int beaten = 0;
-  for (tonemap::Operator op : tonemap::AllOperators()) {
-    const double rmse = MeanRmse(results, tonemap::OperatorName(op));
+  for (Method m : ToneMappedMethods()) {
+    const double rmse = MeanRmse(results, m);
     tmo_sum += rmse;
     if (fused7 < rmse) ++beaten;
   }
@@ -98,4 +98,4 @@ TEST(ThesisTable, FusionBeatsLdrTmosMeanAndMedian) {
 }
 
 }  // namespace
-}  // namespace hdrstereo::fusion
+}  // namespace hdrstereo::experiment

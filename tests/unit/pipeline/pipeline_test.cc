@@ -650,15 +650,22 @@ TEST(PipelineOptions, ChangedFieldRecomputesItsStepAndDependants) {
     std::function<void(StepOptions&)> edit;
   };
   const std::vector<Case> cases = {
-      {"response", [](StepOptions& o) { o.response.lambda = 30; }},
-      {"hdr", [](StepOptions& o) { o.merge.per_channel_weights = false; }},
-      {"tonemap", [](StepOptions& o) { o.tonemap.saturation = 0.8; }},
+      {"response", [](StepOptions& o) { o.experiment.response.lambda = 30; }},
+      {"hdr",
+       [](StepOptions& o) { o.experiment.merge.per_channel_weights = false; }},
+      {"tonemap",
+       [](StepOptions& o) { o.experiment.tonemap.saturation = 0.8; }},
       {"sl_groundtruth",
        [](StepOptions& o) { o.sl_ground_truth.use_illumination = false; }},
-      {"stereo", [](StepOptions& o) { o.ldr_stereo.alpha = 0.6; }},
-      {"stereo", [](StepOptions& o) { o.hdr_stereo.tau_color = 4.0 / 255; }},
-      {"fusion", [](StepOptions& o) { o.fusion.lambda = 3; }},
-      {"evaluate", [](StepOptions& o) { o.evaluation.disparity_scale = 1.01; }},
+      {"stereo", [](StepOptions& o) { o.experiment.ldr_stereo.alpha = 0.6; }},
+      {"stereo",
+       [](StepOptions& o) { o.experiment.hdr_stereo.tau_color = 4.0 / 255; }},
+      {"fusion", [](StepOptions& o) { o.experiment.fusion.lambda = 3; }},
+      // Candidates' left-right checks weigh in (disparity/<method>_lr.png).
+      {"fusion",
+       [](StepOptions& o) { o.experiment.inconsistent_confidence = 0.5; }},
+      {"evaluate",
+       [](StepOptions& o) { o.experiment.evaluation.disparity_scale = 1.01; }},
   };
   int n = 0;
   for (const Case& c : cases) {
@@ -701,19 +708,20 @@ TEST(PipelineOptions, BadOptionsNameTheFieldAndChangeNothing) {
   Recorder rec;
   const std::vector<std::pair<std::function<void(StepOptions&)>, std::string>>
       cases = {
-          {[](StepOptions& o) { o.response.samples = 1; },
-           "response.samples is 1"},
-          {[](StepOptions& o) { o.tonemap.guided.radius = 0; },
-           "tonemap.guided.radius is 0"},
-          {[](StepOptions& o) { o.ldr_stereo.radius = 0; },
-           "ldr_stereo.radius is 0"},
-          {[](StepOptions& o) { o.hdr_stereo.alpha = 2; },
-           "hdr_stereo.alpha is 2"},
-          {[](StepOptions& o) { o.fusion.sigma = 0; }, "fusion.sigma is 0"},
+          {[](StepOptions& o) { o.experiment.response.samples = 1; },
+           "experiment.response.samples is 1"},
+          {[](StepOptions& o) { o.experiment.tonemap.guided.radius = 0; },
+           "experiment.tonemap.guided.radius is 0"},
+          {[](StepOptions& o) { o.experiment.ldr_stereo.radius = 0; },
+           "experiment.ldr_stereo.radius is 0"},
+          {[](StepOptions& o) { o.experiment.hdr_stereo.alpha = 2; },
+           "experiment.hdr_stereo.alpha is 2"},
+          {[](StepOptions& o) { o.experiment.fusion.sigma = 0; },
+           "experiment.fusion.sigma is 0"},
           {[](StepOptions& o) { o.sl_decode.min_lit = 2; },
            "sl_decode.min_lit is 2"},
-          {[](StepOptions& o) { o.evaluation.thresholds = {1}; },
-           "evaluation.thresholds must be {0.5, 1, 2, 4}"},
+          {[](StepOptions& o) { o.experiment.evaluation.thresholds = {1}; },
+           "experiment.evaluation.thresholds must be {0.5, 1, 2, 4}"},
       };
   for (const auto& [edit, message] : cases) {
     RunOptions o;

@@ -1,0 +1,135 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// The thesis experiment (ch. 5, Tables 5.2 / 5.3), once: camera response
+// from the left stack -> HDR radiance per view -> the pair tone-mapped with
+// each of the seven operators -> the LDR middle exposure, the seven pairs
+// and the radiance matched (cost-volume filtering) -> the seven tone-mapped
+// disparities fused (mean, median, graph cut) -> every method scored on the
+// non-occluded pixels of a truth.
+//
+// The session pipeline runs these stages as its steps (with files between
+// them) and hdrstereo-proc table (thesis_table.h) runs them in memory; both
+// call the functions here with the same ExperimentOptions, so a processed
+// session's metrics and the table agree on the same input by construction.
+#ifndef HDRSTEREO_PROCESSING_EXPERIMENT_THESIS_EXPERIMENT_H_
+#define HDRSTEREO_PROCESSING_EXPERIMENT_THESIS_EXPERIMENT_H_
+
+#include <functional>
+#include <map>
+#include <nlohmann/json_fwd.hpp>
+#include <opencv2/core.hpp>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "processing/eval/disparity_eval.h"
+#include "processing/experiment/method.h"
+#include "processing/fusion/fusion.h"
+#include "processing/hdr/merge.h"
+#include "processing/hdr/response.h"
+#include "processing/hdr/stack.h"
+#include "processing/stereo/cost_volume_stereo.h"
+#include "processing/tonemap/tonemap.h"
+
+namespace hdrstereo::experiment {
+
+struct ExperimentOptions {
+  hdr::ResponseOptions response;  // Debevec & Malik, 8-bit stacks
+  hdr::MergeOptions merge;
+  tonemap::Params tonemap;  // all seven operators
+  // ldr and the tone-mapped pairs; hdr. Their disparity range and thread
+  // count are set per run (DisparityRange; one thread a matching).
+  stereo::StereoOptions ldr_stereo;
+  stereo::StereoOptions hdr_stereo = stereo::StereoOptions::Hdr();
+  // The graph-cut fusion; max_disp is set per run like the stereo range.
+  fusion::FusionParams fusion;
+  // Candidates' left-right check: pixels that fail it get this confidence
+  // in the fusion's data term (1 = ignore the check). Default 1: on the
+  // simulated scenes down-weighting inconsistent pixels made fusion worse
+  // (lab-lamp, 256 px: fused-7 RMSE 0.71 at 1, 1.72 at 0.25, 2.84 at 0.05)
+  // -- the failing TMOs' errors are often left-right consistent.
+  double inconsistent_confidence = 1.0;
+  // Scoring; the bad-pixel thresholds are 0.5, 1, 2 and 4 px.
+  eval::EvalOptions evaluation{.gt_zero_valid = true};
+
+  // INVALID_ARGUMENT naming the first field that breaks a rule ("fusion.
+  // sigma is 0; ..."); the fields set per run are not judged.
+  absl::Status Validate() const;
+};
+// Canonical JSON (processing/base/options.h).
+void to_json(nlohmann::json& j, const ExperimentOptions& o);
+
+// Runs unit(i) for i < names.size() (a matching, a fusion), possibly in
+// parallel; the pipeline's runs check for cancellation and report progress
+// by name. SerialRunner runs them in order on the caller's thread.
+using UnitRunner =
+    std::function<absl::Status(const std::vector<std::string>& names,
+                               const std::function<absl::Status(int)>& unit)>;
+absl::Status SerialRunner(const std::vector<std::string>& names,
+                          const std::function<absl::Status(int)>& unit);
+
+// The disparity range of a data set whose largest true disparity is
+// `largest` (<= 0: no truth): ceil(largest) + 2, or 64 without truth; at
+// most width - 2 (every disparity must stay inside the image).
+double LargestDisparity(const cv::Mat& truth);  // finite values; 0 if none
+int DisparityRange(double largest, int width);
+
+// 1. The camera response of the left stack: recovered for 8-bit data,
+// linear for 16-bit / float (RAW).
+absl::StatusOr<hdr::CameraResponse> ResponseOf(
+    const hdr::ExposureStack& left, const ExperimentOptions& options);
+// 2. A view's radiance, always BGR (grey stacks are replicated).
+absl::StatusOr<cv::Mat> RadianceOf(const hdr::ExposureStack& stack,
+                                   const hdr::CameraResponse& response,
+                                   const ExperimentOptions& options);
+
+struct StereoPair {
+  cv::Mat left, right;
+};
+// 3. A tone-mapped method's pair from the two radiance maps.
+absl::StatusOr<StereoPair> ToneMapped(Method method, const cv::Mat& left,
+                                      const cv::Mat& right,
+                                      const ExperimentOptions& options);
+
+// 4. Matching. Each matched method's pair: `ldr` the LDR middle exposure,
+// the tone-mapped ones their 8-bit pairs, `hdr` the radiance.
+struct Candidate {
+  cv::Mat disparity;   // CV_32FC1, every pixel filled
+  cv::Mat consistent;  // CV_8UC1, 255 where the left-right check passed
+};
+// Every method of `pairs` (keys of MatchedMethods()) matched over
+// 0 .. max_disparity, one thread a matching, the matchings through
+// `runner`. Errors name the method ("stereo reinhard: ...").
+absl::StatusOr<std::map<Method, Candidate>> MatchAllMethods(
+    const std::map<Method, StereoPair>& pairs, int max_disparity,
+    const ExperimentOptions& options, const UnitRunner& runner = SerialRunner);
+
+// 5. Fusion of the seven tone-mapped candidates (all of ToneMappedMethods()
+// in `candidates`) into mean, median and fused, guided by the LDR middle
+// exposure's left view (Appendix A: left.jpg; made 8-bit).
+struct Fused {
+  std::map<Method, cv::Mat> disparity;  // FusedMethods()
+  fusion::SolverStats stats;            // of fused
+};
+absl::StatusOr<Fused> FuseMethods(const std::map<Method, Candidate>& candidates,
+                                  const cv::Mat& guide, int max_disparity,
+                                  const ExperimentOptions& options,
+                                  const UnitRunner& runner = SerialRunner);
+// Graph-cut fusion of some of the tone-mapped candidates (the table's
+// fused-4 subsets).
+absl::StatusOr<fusion::FusionResult> FuseSome(
+    const std::vector<const Candidate*>& candidates, const cv::Mat& guide,
+    int max_disparity, const ExperimentOptions& options);
+
+// 6. A disparity scored against a truth on its non-occluded pixels
+// (`nonoccluded` empty = every pixel with a true disparity).
+absl::StatusOr<eval::RegionMetrics> Score(const cv::Mat& disparity,
+                                          const cv::Mat& truth,
+                                          const cv::Mat& nonoccluded,
+                                          const ExperimentOptions& options);
+
+}  // namespace hdrstereo::experiment
+
+#endif  // HDRSTEREO_PROCESSING_EXPERIMENT_THESIS_EXPERIMENT_H_
