@@ -7,6 +7,7 @@
 
 #include <optional>
 #include <string>
+#include <string_view>
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
@@ -36,6 +37,16 @@ inline const char* ImageFormatName(ImageFormat format) {
       return "png8";
   }
   return "unknown";
+}
+
+// The format of an ImageFormatName; nullopt for any other text.
+inline std::optional<ImageFormat> ParseImageFormat(std::string_view name) {
+  for (ImageFormat f :
+       {ImageFormat::kJpeg, ImageFormat::kRaw, ImageFormat::kRawAndJpeg,
+        ImageFormat::kTiff16, ImageFormat::kPng8}) {
+    if (name == ImageFormatName(f)) return f;
+  }
+  return std::nullopt;
 }
 
 struct ExposureSettings {

@@ -9,7 +9,9 @@
 #include <memory>
 #include <mutex>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
+#include <string_view>
 
 #include "absl/status/status.h"
 #include "hardware/camera.h"
@@ -18,8 +20,20 @@
 
 namespace hdrstereo::hardware {
 
+// Which devices the rig drives: the simulated world or the lab's.
+enum class HardwareMode { kSim, kReal };
+// "sim", "real" (as in the daemon's configuration).
+inline const char* HardwareModeName(HardwareMode mode) {
+  return mode == HardwareMode::kSim ? "sim" : "real";
+}
+inline std::optional<HardwareMode> ParseHardwareMode(std::string_view name) {
+  if (name == "sim") return HardwareMode::kSim;
+  if (name == "real") return HardwareMode::kReal;
+  return std::nullopt;
+}
+
 struct RigConfig {
-  std::string mode = "sim";  // "sim" or "real"
+  HardwareMode mode = HardwareMode::kSim;
   // The stage position of the left view; views step right from here.
   double home_position_mm = 0;
   double max_baseline_mm = 150;

@@ -5,17 +5,22 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <array>
 #include <iostream>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
 #include "absl/time/clock.h"
 #include "clients/cli/commands.h"
 #include "clients/cli/exposure.h"
 #include "clients/cli/output.h"
 #include "hdrstereo/v1/jobs.grpc.pb.h"
+#include "proto/hdrstereo/v1/capture_defaults.h"
 
 namespace hdrstereo::cli {
 namespace {
@@ -136,6 +141,14 @@ int Submit(const Client& client, const v1::SubmitCaptureRequest& request,
   return watch ? WatchJob(client, job.id()) : kExitOk;
 }
 
+// "1/30,1/125": the daemon's default exposures as --exposures takes them.
+template <size_t N>
+std::string Defaults(const std::array<double, N>& exposures) {
+  std::vector<std::string> out;
+  for (double e : exposures) out.push_back(absl::StrFormat("1/%.0f", 1 / e));
+  return absl::StrJoin(out, ",");
+}
+
 }  // namespace
 
 void AddJobCommands(CLI::App& app, const GlobalOptions& options,
@@ -174,10 +187,14 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
       "stereo", "Bracketed stereo: every exposure at each view");
   common(stereo);
   stereo->add_option("--exposures", args->exposures,
-                     "Comma-separated, e.g. 1/15,1/30 [default: thesis 8]");
+                     absl::StrCat("Comma-separated, e.g. 1/15,1/30 [default: ",
+                                  Defaults(v1::kDefaultStereoExposuresS), "]"));
   stereo->add_option("--baseline-mm", args->baseline_mm,
-                     "Distance between views [default: 150]");
-  stereo->add_option("--views", args->views, "Number of views [default: 2]");
+                     absl::StrCat("Distance between views [default: ",
+                                  v1::kDefaultBaselineMm, "]"));
+  stereo->add_option(
+      "--views", args->views,
+      absl::StrCat("Number of views [default: ", v1::kDefaultViews, "]"));
   stereo->add_option("--iso", args->iso, "ISO [default: camera's]");
   stereo->add_flag("--no-ambient", args->no_ambient,
                    "Skip the ambient frame taken first");
@@ -202,10 +219,14 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
   CLI::App* sl = capture->add_subcommand(
       "sl", "Structured light: Gray codes at each exposure and view");
   common(sl);
-  sl->add_option("--exposures", args->exposures,
-                 "Comma-separated [default: 1/30,1/125]");
-  sl->add_option("--baseline-mm", args->baseline_mm, "[default: 150]");
-  sl->add_option("--views", args->views, "[default: 2]");
+  sl->add_option(
+      "--exposures", args->exposures,
+      absl::StrCat("Comma-separated [default: ",
+                   Defaults(v1::kDefaultStructuredLightExposuresS), "]"));
+  sl->add_option("--baseline-mm", args->baseline_mm,
+                 absl::StrCat("[default: ", v1::kDefaultBaselineMm, "]"));
+  sl->add_option("--views", args->views,
+                 absl::StrCat("[default: ", v1::kDefaultViews, "]"));
   sl->callback([&options, exit_code, args, exposures] {
     Client client(options);
     v1::SubmitCaptureRequest request;

@@ -13,6 +13,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "daemon/store/frame_repository.h"
+#include "processing/base/status_macros.h"
 #include "processing/io/capture_layout.h"
 #include "processing/io/sha256.h"
 
@@ -150,7 +151,7 @@ absl::Status PersistFrame(JobContext& context, store::FrameRepository& frames,
                           const std::string& session, store::FrameRecord record,
                           const std::string& bytes, int64_t done, int64_t total,
                           const std::string& step) {
-  if (record.format != hardware::ImageFormatName(hardware::ImageFormat::kRaw)) {
+  if (record.format != hardware::ImageFormat::kRaw) {
     // A transfer that arrived damaged usually no longer decodes.
     cv::Mat decoded =
         cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1,
@@ -227,8 +228,9 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   hardware::Projector* projector = rig.projector();
 
   store::FrameRepository frames(context.store());
+  ASSIGN_OR_RETURN(const io::CaptureKind kind, PlanKind(plan));
   absl::StatusOr<store::CaptureRecord> capture =
-      frames.CaptureForJob(job.id, PlanKindName(plan), job.request);
+      frames.CaptureForJob(job.id, kind, job.request);
   if (!capture.ok()) return capture.status();
   const fs::path session_dir = context.store().files().SessionDir(job.session);
   const std::vector<FrameSpec> specs = ExpandPlan(plan, *limits, capture->id);
@@ -352,7 +354,7 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
         frame->exposure_s > 0 ? frame->exposure_s : spec.exposure_s;
     record.pattern = spec.pattern.has_value() ? spec.pattern->Id() : "";
     record.inverse = spec.pattern.has_value() && spec.pattern->inverse;
-    record.format = hardware::ImageFormatName(frame->format);
+    record.format = frame->format;
     record.width_px = frame->width_px;
     record.height_px = frame->height_px;
     record.path = absl::StrCat(spec.relative_stem, ".", frame->extension);
@@ -419,11 +421,11 @@ absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
   if (!normal.ok()) return normal.status();
   if (absl::Status s = CheckDevicesFor(*normal, rig); !s.ok()) return s;
   const size_t frames = ExpandPlan(*normal, *limits, 0).size();
-  return engine.Submit(store::JobKind::kCapture, session,
-                       normal->SerializeAsString(),
-                       static_cast<int64_t>(frames),
-                       absl::StrCat("queued ", PlanKindName(*normal),
-                                    " capture of ", frames, " frames"));
+  return engine.Submit(
+      store::JobKind::kCapture, session, normal->SerializeAsString(),
+      static_cast<int64_t>(frames),
+      absl::StrCat("queued ", io::CaptureKindName(*PlanKind(*normal)),
+                   " capture of ", frames, " frames"));
 }
 
 }  // namespace hdrstereo::jobs

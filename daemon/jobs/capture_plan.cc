@@ -69,30 +69,19 @@ absl::Status CheckCamera(int iso, double aperture_f, absl::string_view prefix) {
 
 }  // namespace
 
-const std::vector<double>& DefaultStereoExposures() {
-  static const std::vector<double> kExposures = {
-      1.0 / 15,  1.0 / 30,  1.0 / 60,   1.0 / 125,
-      1.0 / 250, 1.0 / 500, 1.0 / 1000, 1.0 / 2000};
-  return kExposures;
-}
-
-const std::vector<double>& DefaultStructuredLightExposures() {
-  static const std::vector<double> kExposures = {1.0 / 30, 1.0 / 125};
-  return kExposures;
-}
-
-std::string PlanKindName(const v1::CapturePlan& plan) {
+absl::StatusOr<io::CaptureKind> PlanKind(const v1::CapturePlan& plan) {
   switch (plan.plan_case()) {
     case v1::CapturePlan::kBracketedStereo:
-      return "bracketed_stereo";
+      return io::CaptureKind::kBracketedStereo;
     case v1::CapturePlan::kStructuredLight:
-      return "structured_light";
+      return io::CaptureKind::kStructuredLight;
     case v1::CapturePlan::kCalibration:
-      return "calibration";
+      return io::CaptureKind::kCalibration;
     case v1::CapturePlan::PLAN_NOT_SET:
       break;
   }
-  return "none";
+  return absl::InvalidArgumentError(
+      "plan must be one of bracketed_stereo, structured_light, calibration");
 }
 
 absl::StatusOr<v1::CapturePlan> NormalizePlan(const v1::CapturePlan& plan,
@@ -107,10 +96,12 @@ absl::StatusOr<v1::CapturePlan> NormalizePlan(const v1::CapturePlan& plan,
         return s;
       }
       if (p->exposures_s().empty()) {
-        for (double e : DefaultStereoExposures()) p->add_exposures_s(e);
+        for (double e : v1::kDefaultStereoExposuresS) p->add_exposures_s(e);
       }
-      if (p->views() == 0) p->set_views(2);
-      if (p->baseline_mm() == 0 && p->views() > 1) p->set_baseline_mm(150);
+      if (p->views() == 0) p->set_views(v1::kDefaultViews);
+      if (p->baseline_mm() == 0 && p->views() > 1) {
+        p->set_baseline_mm(v1::kDefaultBaselineMm);
+      }
       if (absl::Status s =
               CheckGeometry(p->baseline_mm(), p->views(), p->settle_s(), rig,
                             "bracketed_stereo");
@@ -136,12 +127,14 @@ absl::StatusOr<v1::CapturePlan> NormalizePlan(const v1::CapturePlan& plan,
         return s;
       }
       if (p->exposures_s().empty()) {
-        for (double e : DefaultStructuredLightExposures()) {
+        for (double e : v1::kDefaultStructuredLightExposuresS) {
           p->add_exposures_s(e);
         }
       }
-      if (p->views() == 0) p->set_views(2);
-      if (p->baseline_mm() == 0 && p->views() > 1) p->set_baseline_mm(150);
+      if (p->views() == 0) p->set_views(v1::kDefaultViews);
+      if (p->baseline_mm() == 0 && p->views() > 1) {
+        p->set_baseline_mm(v1::kDefaultBaselineMm);
+      }
       if (absl::Status s =
               CheckGeometry(p->baseline_mm(), p->views(), p->settle_s(), rig,
                             "structured_light");
@@ -162,11 +155,13 @@ absl::StatusOr<v1::CapturePlan> NormalizePlan(const v1::CapturePlan& plan,
             absl::StrCat("calibration.poses is ", p->poses(), "; use 1 to ",
                          kMaxCalibrationPoses));
       }
-      if (p->exposure_s() == 0) p->set_exposure_s(1.0 / 60);
+      if (p->exposure_s() == 0) {
+        p->set_exposure_s(v1::kDefaultCalibrationExposureS);
+      }
       if (!std::isfinite(p->exposure_s()) || p->exposure_s() < 0) {
         return absl::InvalidArgumentError("calibration.exposure_s must be > 0");
       }
-      if (p->baseline_mm() == 0) p->set_baseline_mm(150);
+      if (p->baseline_mm() == 0) p->set_baseline_mm(v1::kDefaultBaselineMm);
       if (absl::Status s =
               CheckGeometry(p->baseline_mm(), 2, 0, rig, "calibration");
           !s.ok()) {

@@ -16,17 +16,13 @@
 #include "hdrstereo/v1/jobs.pb.h"
 #include "processing/io/capture_layout.h"
 #include "processing/structured_light/gray_code.h"
+#include "proto/hdrstereo/v1/capture_defaults.h"
 
 namespace hdrstereo::jobs {
 
 inline constexpr int kMaxExposures = 64;
 inline constexpr int kMaxViews = 16;
 inline constexpr int kMaxCalibrationPoses = 64;
-
-// The thesis' bracket: 1/15 ... 1/2000 s.
-const std::vector<double>& DefaultStereoExposures();
-// Structured light is captured at two exposures by default.
-const std::vector<double>& DefaultStructuredLightExposures();
 
 struct RigLimits {
   double travel_mm = 150;
@@ -57,8 +53,8 @@ absl::StatusOr<v1::CapturePlan> NormalizePlan(const v1::CapturePlan& plan,
 std::vector<FrameSpec> ExpandPlan(const v1::CapturePlan& plan,
                                   const RigLimits& rig, int64_t capture_id);
 
-// "bracketed_stereo", "structured_light" or "calibration".
-std::string PlanKindName(const v1::CapturePlan& plan);
+// What the plan captures; INVALID_ARGUMENT for a plan without one.
+absl::StatusOr<io::CaptureKind> PlanKind(const v1::CapturePlan& plan);
 
 }  // namespace hdrstereo::jobs
 

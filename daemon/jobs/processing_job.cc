@@ -15,6 +15,7 @@
 #include "daemon/store/artifact_repository.h"
 #include "daemon/store/frame_repository.h"
 #include "daemon/store/job_repository.h"
+#include "processing/base/status_macros.h"
 #include "processing/io/capture_layout.h"
 #include "processing/io/middlebury.h"
 #include "processing/pipeline/pipeline.h"
@@ -24,9 +25,6 @@ namespace hdrstereo::jobs {
 namespace {
 
 namespace fs = std::filesystem;
-
-constexpr absl::string_view kStereoKind = "bracketed_stereo";
-constexpr absl::string_view kStructuredLightKind = "structured_light";
 
 // A capture with the frames its plan expects and those recorded.
 struct CaptureState {
@@ -82,7 +80,7 @@ absl::StatusOr<std::vector<CaptureState>> ReadCaptures(
 // The latest complete capture of `kind`; FAILED_PRECONDITION naming what is
 // missing when there is none.
 absl::StatusOr<const CaptureState*> LatestComplete(
-    const std::vector<CaptureState>& captures, absl::string_view kind,
+    const std::vector<CaptureState>& captures, io::CaptureKind kind,
     absl::string_view session, absl::string_view what) {
   const CaptureState* incomplete = nullptr;
   for (auto it = captures.rbegin(); it != captures.rend(); ++it) {
@@ -113,18 +111,20 @@ absl::StatusOr<Inputs> ChooseInputs(const std::vector<CaptureState>& captures,
                                     absl::string_view session,
                                     const std::vector<std::string>& steps) {
   Inputs inputs;
-  absl::StatusOr<const CaptureState*> stereo =
-      LatestComplete(captures, kStereoKind, session, "bracketed-stereo");
+  absl::StatusOr<const CaptureState*> stereo = LatestComplete(
+      captures, io::CaptureKind::kBracketedStereo, session, "bracketed-stereo");
   if (!stereo.ok()) return stereo.status();
   inputs.stereo = *stereo;
   const bool wants_sl =
       std::find(steps.begin(), steps.end(), "sl_groundtruth") != steps.end();
-  const bool has_sl = std::any_of(
-      captures.begin(), captures.end(),
-      [](const auto& c) { return c.capture.kind == kStructuredLightKind; });
+  const bool has_sl =
+      std::any_of(captures.begin(), captures.end(), [](const auto& c) {
+        return c.capture.kind == io::CaptureKind::kStructuredLight;
+      });
   if (wants_sl && has_sl) {
-    absl::StatusOr<const CaptureState*> sl = LatestComplete(
-        captures, kStructuredLightKind, session, "structured-light");
+    absl::StatusOr<const CaptureState*> sl =
+        LatestComplete(captures, io::CaptureKind::kStructuredLight, session,
+                       "structured-light");
     if (!sl.ok()) return sl.status();
     inputs.structured_light = *sl;
   }
@@ -162,12 +162,18 @@ std::optional<io::FrameRole> RoleOf(const std::string& path) {
   return parsed->key.role;
 }
 
-pipeline::FrameInput ToFrameInput(const store::FrameRecord& f) {
-  const std::optional<io::FrameRole> role = RoleOf(f.path);
+// DATA_LOSS for a recorded path outside the capture layout (capture jobs
+// only record io::FrameStem paths).
+absl::StatusOr<pipeline::FrameInput> ToFrameInput(const store::FrameRecord& f) {
+  absl::StatusOr<io::FramePath> parsed = io::ParseFramePath(f.path);
+  if (!parsed.ok()) {
+    return absl::DataLossError(
+        absl::StrCat("frame ", f.id, ": ", parsed.status().message()));
+  }
   return pipeline::FrameInput{.path = f.path,
                               .capture_kind = f.capture_kind,
                               .capture_id = f.capture_id,
-                              .role = role ? io::FrameRoleName(*role) : "",
+                              .role = parsed->key.role,
                               .view_index = f.view_index,
                               .exposure_s = f.exposure_s,
                               .pattern = f.pattern,
@@ -354,7 +360,8 @@ absl::Status RunProcessingJob(const hardware::Rig& rig,
        {inputs->stereo, inputs->structured_light}) {
     if (capture == nullptr) continue;
     for (const store::FrameRecord& f : capture->frames) {
-      input.frames.push_back(ToFrameInput(f));
+      ASSIGN_OR_RETURN(pipeline::FrameInput frame, ToFrameInput(f));
+      input.frames.push_back(std::move(frame));
     }
   }
   const v1::BracketedStereoPlan& stereo_plan =

@@ -206,7 +206,7 @@ void HardwareService::FillProjector(v1::ProjectorStatus* out) {
 grpc::Status HardwareService::GetStatus(grpc::ServerContext*,
                                         const v1::GetHardwareStatusRequest*,
                                         v1::HardwareStatus* response) {
-  response->set_hardware_mode(rig_.config().mode);
+  response->set_hardware_mode(hardware::HardwareModeName(rig_.config().mode));
   std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
   if (!lane.owns_lock()) {
     // A capture owns the devices; report that instead of querying them.

@@ -249,9 +249,9 @@ grpc::Status SessionsService::ListFrames(grpc::ServerContext*,
     v1::Frame* out = response->add_frames();
     out->set_id(f.id);
     out->set_capture_id(f.capture_id);
-    out->set_capture_kind(f.capture_kind == "bracketed_stereo"
+    out->set_capture_kind(f.capture_kind == io::CaptureKind::kBracketedStereo
                               ? v1::CAPTURE_KIND_BRACKETED_STEREO
-                          : f.capture_kind == "structured_light"
+                          : f.capture_kind == io::CaptureKind::kStructuredLight
                               ? v1::CAPTURE_KIND_STRUCTURED_LIGHT
                               : v1::CAPTURE_KIND_CALIBRATION);
     out->set_sequence(f.sequence);
@@ -260,12 +260,12 @@ grpc::Status SessionsService::ListFrames(grpc::ServerContext*,
     out->set_exposure_s(f.exposure_s);
     out->set_pattern(f.pattern);
     out->set_inverse(f.inverse);
-    static const std::map<std::string, v1::ImageFormat> kFormats = {
-        {"jpeg", v1::IMAGE_FORMAT_JPEG},
-        {"raw", v1::IMAGE_FORMAT_RAW},
-        {"raw+jpeg", v1::IMAGE_FORMAT_RAW_AND_JPEG},
-        {"tiff16", v1::IMAGE_FORMAT_TIFF_16},
-        {"png8", v1::IMAGE_FORMAT_PNG_8}};
+    static const std::map<hardware::ImageFormat, v1::ImageFormat> kFormats = {
+        {hardware::ImageFormat::kJpeg, v1::IMAGE_FORMAT_JPEG},
+        {hardware::ImageFormat::kRaw, v1::IMAGE_FORMAT_RAW},
+        {hardware::ImageFormat::kRawAndJpeg, v1::IMAGE_FORMAT_RAW_AND_JPEG},
+        {hardware::ImageFormat::kTiff16, v1::IMAGE_FORMAT_TIFF_16},
+        {hardware::ImageFormat::kPng8, v1::IMAGE_FORMAT_PNG_8}};
     auto format = kFormats.find(f.format);
     out->set_format(format != kFormats.end() ? format->second
                                              : v1::IMAGE_FORMAT_UNSPECIFIED);

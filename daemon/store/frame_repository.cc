@@ -4,6 +4,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::store {
 namespace {
@@ -15,18 +16,34 @@ SELECT f.id, f.capture_id, c.kind, f.sequence, f.view_index,
 FROM frames f JOIN captures c ON c.id = f.capture_id
 )sql";
 
-FrameRecord ReadFrame(const Statement& stmt) {
+absl::StatusOr<io::CaptureKind> KindOf(const std::string& name) {
+  absl::StatusOr<io::CaptureKind> kind = io::ParseCaptureKind(name);
+  if (!kind.ok()) {
+    return absl::DataLossError(
+        absl::StrCat("captures row: ", kind.status().message()));
+  }
+  return kind;
+}
+
+absl::StatusOr<FrameRecord> ReadFrame(const Statement& stmt) {
   FrameRecord f;
   f.id = stmt.ColumnInt(0);
   f.capture_id = stmt.ColumnInt(1);
-  f.capture_kind = stmt.ColumnText(2);
+  ASSIGN_OR_RETURN(f.capture_kind, KindOf(stmt.ColumnText(2)));
   f.sequence = static_cast<int>(stmt.ColumnInt(3));
   f.view_index = static_cast<int>(stmt.ColumnInt(4));
   f.stage_position_mm = stmt.ColumnDouble(5);
   f.exposure_s = stmt.ColumnDouble(6);
   f.pattern = stmt.ColumnText(7);
   f.inverse = stmt.ColumnInt(8) != 0;
-  f.format = stmt.ColumnText(9);
+  const std::string format = stmt.ColumnText(9);
+  const std::optional<hardware::ImageFormat> parsed =
+      hardware::ParseImageFormat(format);
+  if (!parsed) {
+    return absl::DataLossError(
+        absl::StrCat("frame ", f.id, ": format \"", format, "\" is not known"));
+  }
+  f.format = *parsed;
   f.width_px = static_cast<int>(stmt.ColumnInt(10));
   f.height_px = static_cast<int>(stmt.ColumnInt(11));
   f.path = stmt.ColumnText(12);
@@ -41,7 +58,8 @@ absl::StatusOr<std::vector<FrameRecord>> ReadAll(Statement& stmt) {
     absl::StatusOr<bool> row = stmt.Step();
     if (!row.ok()) return row.status();
     if (!*row) break;
-    frames.push_back(ReadFrame(stmt));
+    ASSIGN_OR_RETURN(FrameRecord frame, ReadFrame(stmt));
+    frames.push_back(std::move(frame));
   }
   return frames;
 }
@@ -49,7 +67,7 @@ absl::StatusOr<std::vector<FrameRecord>> ReadAll(Statement& stmt) {
 }  // namespace
 
 absl::StatusOr<CaptureRecord> FrameRepository::CaptureForJob(
-    int64_t job_id, absl::string_view kind, absl::string_view plan) {
+    int64_t job_id, io::CaptureKind kind, absl::string_view plan) {
   Database& db = store_.db();
   absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
   if (!tx.ok()) return tx.status();
@@ -60,10 +78,11 @@ absl::StatusOr<CaptureRecord> FrameRepository::CaptureForJob(
   absl::StatusOr<bool> row = find->Step();
   if (!row.ok()) return row.status();
   if (*row) {
+    ASSIGN_OR_RETURN(const io::CaptureKind found, KindOf(find->ColumnText(2)));
     return CaptureRecord{.id = find->ColumnInt(0),
                          .session_id = find->ColumnInt(1),
                          .job_id = job_id,
-                         .kind = find->ColumnText(2),
+                         .kind = found,
                          .plan = find->ColumnText(3)};
   }
   // A resubmitted plan continues the capture of an earlier job of the same
@@ -76,14 +95,14 @@ UPDATE captures SET job_id = ?1 WHERE id = (
   ORDER BY c.id DESC LIMIT 1)
 RETURNING id, session_id)sql");
   if (!adopt.ok()) return adopt.status();
-  adopt->Bind(1, job_id).Bind(2, kind).Bind(3, plan);
+  adopt->Bind(1, job_id).Bind(2, io::CaptureKindName(kind)).Bind(3, plan);
   row = adopt->Step();
   if (!row.ok()) return row.status();
   if (*row) {
     CaptureRecord capture{.id = adopt->ColumnInt(0),
                           .session_id = adopt->ColumnInt(1),
                           .job_id = job_id,
-                          .kind = std::string(kind),
+                          .kind = kind,
                           .plan = std::string(plan)};
     // Run the statement to its end so that the transaction can commit.
     if (absl::StatusOr<bool> end = adopt->Step(); !end.ok()) {
@@ -97,15 +116,17 @@ INSERT INTO captures (session_id, job_id, kind, plan, create_time_ms)
 SELECT session_id, id, ?2, ?3, ?4 FROM jobs WHERE id = ?1
 RETURNING id, session_id)sql");
   if (!insert.ok()) return insert.status();
-  insert->Bind(1, job_id).Bind(2, kind).Bind(3, plan).Bind(
-      4, absl::ToUnixMillis(absl::Now()));
+  insert->Bind(1, job_id)
+      .Bind(2, io::CaptureKindName(kind))
+      .Bind(3, plan)
+      .Bind(4, absl::ToUnixMillis(absl::Now()));
   row = insert->Step();
   if (!row.ok()) return row.status();
   if (!*row) return absl::NotFoundError(absl::StrCat("no job ", job_id));
   CaptureRecord capture{.id = insert->ColumnInt(0),
                         .session_id = insert->ColumnInt(1),
                         .job_id = job_id,
-                        .kind = std::string(kind),
+                        .kind = kind,
                         .plan = std::string(plan)};
   if (absl::StatusOr<bool> end = insert->Step(); !end.ok()) {
     return end.status();
@@ -169,10 +190,11 @@ WHERE s.name = ?1 ORDER BY c.id
     if (!*row) break;
     found = true;
     if (stmt->ColumnIsNull(1)) continue;  // a session without captures
+    ASSIGN_OR_RETURN(const io::CaptureKind kind, KindOf(stmt->ColumnText(4)));
     out.push_back(CaptureRecord{.id = stmt->ColumnInt(1),
                                 .session_id = stmt->ColumnInt(2),
                                 .job_id = stmt->ColumnInt(3),
-                                .kind = stmt->ColumnText(4),
+                                .kind = kind,
                                 .plan = stmt->ColumnText(5)});
   }
   if (!found) {
@@ -196,7 +218,7 @@ VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13))sql");
       .Bind(5, f.exposure_s)
       .Bind(6, f.pattern)
       .Bind(7, int64_t{f.inverse ? 1 : 0})
-      .Bind(8, f.format)
+      .Bind(8, hardware::ImageFormatName(f.format))
       .Bind(9, int64_t{f.width_px})
       .Bind(10, int64_t{f.height_px})
       .Bind(11, f.path)

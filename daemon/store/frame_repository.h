@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
-// Captures and their frames (tables `captures` and `frames`).
+// Captures and their frames (tables `captures` and `frames`). Kinds and
+// formats are stored by name (io::CaptureKindName,
+// hardware::ImageFormatName); a row with another name is DATA_LOSS.
 #ifndef HDRSTEREO_DAEMON_STORE_FRAME_REPOSITORY_H_
 #define HDRSTEREO_DAEMON_STORE_FRAME_REPOSITORY_H_
 
@@ -12,6 +14,8 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "daemon/store/store.h"
+#include "hardware/camera.h"
+#include "processing/io/capture_layout.h"
 
 namespace hdrstereo::store {
 
@@ -19,21 +23,21 @@ struct CaptureRecord {
   int64_t id = 0;
   int64_t session_id = 0;
   int64_t job_id = 0;
-  std::string kind;  // bracketed_stereo, structured_light, calibration
+  io::CaptureKind kind = io::CaptureKind::kBracketedStereo;
   std::string plan;  // serialized CapturePlan
 };
 
 struct FrameRecord {
   int64_t id = 0;
   int64_t capture_id = 0;
-  std::string capture_kind;
+  io::CaptureKind capture_kind = io::CaptureKind::kBracketedStereo;
   int sequence = 0;
   int view_index = 0;
   double stage_position_mm = 0;
   double exposure_s = 0;
   std::string pattern;  // e.g. "col_b03", "white", "" for none
   bool inverse = false;
-  std::string format;  // hardware::ImageFormatName
+  hardware::ImageFormat format = hardware::ImageFormat::kJpeg;
   int width_px = 0;
   int height_px = 0;
   std::string path;  // relative to the session folder
@@ -49,7 +53,7 @@ class FrameRepository {
   // job resubmitted with the same plan after a failure or cancellation
   // continues the earlier job's capture (only missing frames are taken).
   absl::StatusOr<CaptureRecord> CaptureForJob(int64_t job_id,
-                                              absl::string_view kind,
+                                              io::CaptureKind kind,
                                               absl::string_view plan);
   absl::StatusOr<std::vector<FrameRecord>> FramesOfCapture(int64_t capture_id);
   // The captures of a session ordered by id. NOT_FOUND for an unknown

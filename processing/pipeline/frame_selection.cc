@@ -138,12 +138,13 @@ absl::StatusOr<FrameSelection> SelectFrames(const SessionInput& in) {
   }
   FrameSelection sel;
   for (const FrameInput& f : in.frames) {
-    if (f.capture_kind == "bracketed_stereo" && f.role == "stereo") {
+    if (f.capture_kind == io::CaptureKind::kBracketedStereo &&
+        f.role == io::FrameRole::kStereo) {
       sel.stereo_capture = std::max(sel.stereo_capture, f.capture_id);
-    } else if (f.capture_kind == "structured_light") {
+    } else if (f.capture_kind == io::CaptureKind::kStructuredLight) {
       sel.structured_light_capture =
           std::max(sel.structured_light_capture, f.capture_id);
-    } else if (f.capture_kind == "calibration") {
+    } else if (f.capture_kind == io::CaptureKind::kCalibration) {
       sel.calibration_capture = std::max(sel.calibration_capture, f.capture_id);
     }
   }
@@ -151,10 +152,11 @@ absl::StatusOr<FrameSelection> SelectFrames(const SessionInput& in) {
     if (f.view_index < 0 || f.view_index > 1) continue;
     const size_t v = static_cast<size_t>(f.view_index);
     if (f.capture_id == sel.stereo_capture &&
-        f.capture_kind == "bracketed_stereo" && f.role == "stereo") {
+        f.capture_kind == io::CaptureKind::kBracketedStereo &&
+        f.role == io::FrameRole::kStereo) {
       sel.stereo[v].push_back(f);
     } else if (f.capture_id == sel.structured_light_capture &&
-               f.capture_kind == "structured_light") {
+               f.capture_kind == io::CaptureKind::kStructuredLight) {
       sel.structured_light.push_back(f);
       if (sel.structured_light_view[v].empty()) {
         absl::StatusOr<io::FramePath> path = io::ParseFramePath(f.path);
@@ -164,7 +166,7 @@ absl::StatusOr<FrameSelection> SelectFrames(const SessionInput& in) {
         sel.structured_light_view[v] = path->view;
       }
     } else if (f.capture_id == sel.calibration_capture &&
-               f.capture_kind == "calibration") {
+               f.capture_kind == io::CaptureKind::kCalibration) {
       sel.calibration[v].push_back(f);
     }
   }

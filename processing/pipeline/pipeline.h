@@ -32,6 +32,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "processing/experiment/thesis_experiment.h"
+#include "processing/io/capture_layout.h"
 #include "processing/structured_light/decode.h"
 #include "processing/structured_light/ground_truth.h"
 
@@ -51,12 +52,11 @@ const std::vector<std::string>& StepDependencies(const std::string& step);
 
 // One captured frame (the daemon's frame row).
 struct FrameInput {
-  std::string path;          // relative to the session folder
-  std::string capture_kind;  // "bracketed_stereo", "structured_light", ...
+  std::string path;  // relative to the session folder
+  io::CaptureKind capture_kind = io::CaptureKind::kBracketedStereo;
   int64_t capture_id = 0;
-  // The folder below the view in the capture layout: "ambient", "stereo",
-  // "structured_light", "calibration".
-  std::string role;
+  // The folder below the view in the capture layout.
+  io::FrameRole role = io::FrameRole::kStereo;
   int view_index = 0;  // 0 = left (the reference view), 1 = right
   double exposure_s = 0;
   std::string pattern;  // structured light: "col_b03", "white", ...; else ""

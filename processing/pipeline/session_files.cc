@@ -118,9 +118,9 @@ absl::StatusOr<SessionInput> DiscoverSessionOrThrow(
       if (!p.ok() || p->view_index > 1) continue;
       FrameInput f;
       f.path = rel;
-      f.capture_kind = io::CaptureKindName(io::KindOfRole(p->key.role));
+      f.capture_kind = io::KindOfRole(p->key.role);
       f.capture_id = p->capture_id;
-      f.role = io::FrameRoleName(p->key.role);
+      f.role = p->key.role;
       f.view_index = p->view_index;
       f.exposure_s = p->key.exposure_s;
       f.pattern = p->key.pattern;
@@ -128,8 +128,8 @@ absl::StatusOr<SessionInput> DiscoverSessionOrThrow(
       if (p->key.role == io::FrameRole::kStereo) {
         latest_stereo = std::max(latest_stereo, p->capture_id);
       }
-      found.emplace_back(f.capture_id, f.view_index, f.role, name,
-                         std::move(f));
+      found.emplace_back(f.capture_id, f.view_index, io::FrameRoleName(f.role),
+                         name, std::move(f));
     }
   }
   std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) {

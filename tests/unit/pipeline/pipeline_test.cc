@@ -224,14 +224,14 @@ void FindsFramesTruthAndIntrinsics() {
   int stereo = 0, ambient = 0, sl = 0;
   for (const FrameInput& f : in.frames) {
     EXPECT_TRUE(fs::exists(in.session_dir / f.path)) << f.path;
-    if (f.role == "stereo") {
+    if (f.role == io::FrameRole::kStereo) {
       ++stereo;
-      EXPECT_EQ(f.capture_kind, "bracketed_stereo");
+      EXPECT_EQ(f.capture_kind, io::CaptureKind::kBracketedStereo);
       EXPECT_EQ(f.capture_id, 1);
       EXPECT_GT(f.exposure_s, 0);
-    } else if (f.role == "ambient") {
+    } else if (f.role == io::FrameRole::kAmbient) {
       ++ambient;
-    } else if (f.role == "structured_light") {
+    } else if (f.role == io::FrameRole::kStructuredLight) {
       ++sl;
       EXPECT_EQ(f.capture_id, 2);
       EXPECT_FALSE(f.pattern.empty());
@@ -475,7 +475,9 @@ void NoGroundTruthWarnsAndWritesNoMetrics() {
   in.intrinsics.reset();
   std::vector<FrameInput> frames;
   for (const FrameInput& f : in.frames) {
-    if (f.capture_kind != "structured_light") frames.push_back(f);
+    if (f.capture_kind != io::CaptureKind::kStructuredLight) {
+      frames.push_back(f);
+    }
   }
   in.frames = frames;
   MemoryStore store;
