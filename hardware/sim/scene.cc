@@ -617,6 +617,17 @@ absl::StatusOr<Scene> LoadBundledScene(absl::string_view name) {
       "\" (have: ", absl::StrJoin(BundledSceneNames(), ", "), ")"));
 }
 
+void ScaleCamera(Scene& scene, int width) {
+  CameraIntrinsics& c = scene.camera;
+  const double k = static_cast<double>(width) / c.width;
+  c.height = static_cast<int>(std::lround(c.height * k));
+  c.width = width;
+  c.fx *= k;
+  c.fy *= k;
+  c.cx = (c.width - 1) / 2.0;
+  c.cy = (c.height - 1) / 2.0;
+}
+
 absl::StatusOr<Scene> LoadScene(absl::string_view name_or_path) {
   for (const BundledScene& s : BundledScenes()) {
     if (s.name == name_or_path) return LoadBundledScene(name_or_path);

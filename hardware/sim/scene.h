@@ -223,6 +223,11 @@ absl::StatusOr<Scene> LoadBundledScene(absl::string_view name);
 // A bundled scene name, or else a path to a JSON file.
 absl::StatusOr<Scene> LoadScene(absl::string_view name_or_path);
 
+// The same camera at another resolution: `width` pixels wide, the height
+// keeping the aspect ratio (rounded), the focal lengths scaled alike and the
+// principal point at the centre. Tests and tools render small to be quick.
+void ScaleCamera(Scene& scene, int width);
+
 }  // namespace hdrstereo::sim
 
 #endif  // HDRSTEREO_HARDWARE_SIM_SCENE_H_

@@ -58,14 +58,7 @@ absl::StatusOr<experiment::TableInput> SimInput(const std::string& name,
                                                 int width, double baseline_mm) {
   absl::StatusOr<sim::Scene> scene = sim::LoadScene(name);
   if (!scene.ok()) return scene.status();
-  const double k = static_cast<double>(width) / scene->camera.width;
-  scene->camera.width = width;
-  scene->camera.height =
-      static_cast<int>(std::lround(scene->camera.height * k));
-  scene->camera.fx *= k;
-  scene->camera.fy *= k;
-  scene->camera.cx = (scene->camera.width - 1) / 2.0;
-  scene->camera.cy = (scene->camera.height - 1) / 2.0;
+  sim::ScaleCamera(*scene, width);
   sim::SimWorld world(*scene);
   experiment::TableInput in;
   in.name = name;

@@ -33,14 +33,7 @@ absl::Status RenderSimSession(const fs::path& dir,
                               const SimSessionOptions& options) {
   absl::StatusOr<sim::Scene> scene = sim::LoadBundledScene(options.scene);
   if (!scene.ok()) return scene.status();
-  sim::CameraIntrinsics& c = scene->camera;
-  const double k = static_cast<double>(options.width) / c.width;
-  c.height = static_cast<int>(std::lround(c.height * k));
-  c.width = options.width;
-  c.fx *= k;
-  c.fy *= k;
-  c.cx = (c.width - 1) / 2.0;
-  c.cy = (c.height - 1) / 2.0;
+  sim::ScaleCamera(*scene, options.width);
   scene->projector.width = options.projector_width;
   scene->projector.height = options.projector_height;
   scene->timing.scale = 0;

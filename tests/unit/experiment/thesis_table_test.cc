@@ -16,25 +16,19 @@
 #include "hardware/sim/scene.h"
 #include "hardware/sim/sim_world.h"
 #include "hardware/sim/truth.h"
+#include "processing/base/status_macros.h"
+#include "tests/support/status_matchers.h"
 
 namespace hdrstereo::experiment {
 namespace {
 
-TableInput Render(const std::string& name, int width) {
-  absl::StatusOr<sim::Scene> scene = sim::LoadScene(name);
-  EXPECT_TRUE(scene.ok()) << scene.status();
-  const double k = static_cast<double>(width) / scene->camera.width;
-  scene->camera.width = width;
-  scene->camera.height =
-      static_cast<int>(std::lround(scene->camera.height * k));
-  scene->camera.fx *= k;
-  scene->camera.fy *= k;
-  scene->camera.cx = (scene->camera.width - 1) / 2.0;
-  scene->camera.cy = (scene->camera.height - 1) / 2.0;
+absl::StatusOr<TableInput> Render(const std::string& name, int width) {
+  ASSIGN_OR_RETURN(sim::Scene scene, sim::LoadScene(name));
+  sim::ScaleCamera(scene, width);
   const std::vector<double> times = {1.0 / 15,   1.0 / 30,  1.0 / 60,
                                      1.0 / 125,  1.0 / 250, 1.0 / 500,
                                      1.0 / 1000, 1.0 / 2000};
-  sim::SimWorld world(*scene);
+  sim::SimWorld world(scene);
   TableInput in;
   in.name = name;
   for (double t : times) {
@@ -44,10 +38,9 @@ TableInput Render(const std::string& name, int width) {
     in.right.images.push_back(world.RenderExposure({t, 100}, 8));
   }
   in.left.exposure_s = in.right.exposure_s = times;
-  absl::StatusOr<sim::StereoTruth> truth = world.Truth(0, 150);
-  EXPECT_TRUE(truth.ok()) << truth.status();
-  in.truth = truth->left.disparity;
-  in.nonoccluded = truth->left.nonoccluded;
+  ASSIGN_OR_RETURN(const sim::StereoTruth truth, world.Truth(0, 150));
+  in.truth = truth.left.disparity;
+  in.nonoccluded = truth.left.nonoccluded;
   in.ldr_index = 4;  // 1/250 s
   return in;
 }
@@ -55,7 +48,8 @@ TableInput Render(const std::string& name, int width) {
 TEST(ThesisTable, FusionBeatsLdrTmosMeanAndMedian) {
   std::vector<TableResult> results;
   for (const std::string name : {"lab-lamp", "two-lamps", "desk-lamp"}) {
-    absl::StatusOr<TableResult> r = RunThesisTable(Render(name, 256));
+    ASSERT_OK_AND_ASSIGN(const TableInput in, Render(name, 256));
+    absl::StatusOr<TableResult> r = RunThesisTable(in);
     ASSERT_TRUE(r.ok()) << r.status();
     EXPECT_LE(r->fused_stats.energy_after, r->fused_stats.energy_before);
     results.push_back(*r);

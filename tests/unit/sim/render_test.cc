@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "hardware/sim/sim_world.h"
+#include "tests/support/status_matchers.h"
 #include "tests/unit/sim/test_scenes.h"
 
 namespace hdrstereo::sim {
@@ -222,13 +223,8 @@ TEST(RenderTest, ShadowedSceneHasProjectorShadowsInView) {
 // The checkerboard scene is usable for calibration: OpenCV finds its 9 x 6
 // inner corners.
 TEST(RenderTest, CheckerboardSceneHasNineBySixCorners) {
-  Scene scene = *LoadBundledScene("checkerboard");
-  scene.camera.width /= 2;
-  scene.camera.height /= 2;
-  scene.camera.fx /= 2;
-  scene.camera.fy /= 2;
-  scene.camera.cx = (scene.camera.width - 1) / 2.0;
-  scene.camera.cy = (scene.camera.height - 1) / 2.0;
+  ASSERT_OK_AND_ASSIGN(Scene scene, LoadBundledScene("checkerboard"));
+  ScaleCamera(scene, scene.camera.width / 2);
   SimWorld world(scene);
   cv::Mat gray;
   cv::cvtColor(world.RenderExposure({1.0 / 125, 100}), gray,

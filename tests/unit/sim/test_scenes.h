@@ -41,13 +41,7 @@ inline Scene SmallBundledScene(const std::string& name) {
   absl::StatusOr<Scene> scene = LoadBundledScene(name);
   EXPECT_TRUE(scene.ok()) << scene.status();
   if (!scene.ok()) return Scene();
-  CameraIntrinsics& c = scene->camera;
-  c.width /= 4;
-  c.height /= 4;
-  c.fx /= 4;
-  c.fy /= 4;
-  c.cx = (c.width - 1) / 2.0;
-  c.cy = (c.height - 1) / 2.0;
+  ScaleCamera(*scene, scene->camera.width / 4);
   return *scene;
 }
 

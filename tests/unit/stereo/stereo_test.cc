@@ -35,13 +35,8 @@ namespace {
 sim::Scene SmallScene(const char* name, int width, int height) {
   absl::StatusOr<sim::Scene> scene = sim::LoadScene(name);
   EXPECT_TRUE(scene.ok()) << scene.status();
-  const double k = static_cast<double>(width) / scene->camera.width;
-  scene->camera.width = width;
-  scene->camera.height = height;
-  scene->camera.fx *= k;
-  scene->camera.fy *= k;
-  scene->camera.cx = (width - 1) / 2.0;
-  scene->camera.cy = (height - 1) / 2.0;
+  sim::ScaleCamera(*scene, width);
+  EXPECT_EQ(scene->camera.height, height);
   return *scene;
 }
 

@@ -60,14 +60,7 @@ inline sim::Scene SmallScene(const std::string& name, int width = 256) {
   absl::StatusOr<sim::Scene> scene = sim::LoadBundledScene(name);
   EXPECT_TRUE(scene.ok()) << scene.status();
   if (!scene.ok()) return sim::Scene();
-  sim::CameraIntrinsics& c = scene->camera;
-  const double k = static_cast<double>(width) / c.width;
-  c.height = static_cast<int>(std::lround(c.height * k));
-  c.width = width;
-  c.fx *= k;
-  c.fy *= k;
-  c.cx = (c.width - 1) / 2.0;
-  c.cy = (c.height - 1) / 2.0;
+  sim::ScaleCamera(*scene, width);
   return *scene;
 }
 

@@ -128,14 +128,7 @@ TEST(TableToolTest, StacksMatchTheSimulatedRun) {
   TempDir dir;
   absl::StatusOr<sim::Scene> scene = sim::LoadScene("lab-lamp");
   ASSERT_TRUE(scene.ok());
-  const double k = 128.0 / scene->camera.width;
-  scene->camera.width = 128;
-  scene->camera.height =
-      static_cast<int>(std::lround(scene->camera.height * k));
-  scene->camera.fx *= k;
-  scene->camera.fy *= k;
-  scene->camera.cx = (scene->camera.width - 1) / 2.0;
-  scene->camera.cy = (scene->camera.height - 1) / 2.0;
+  sim::ScaleCamera(*scene, 128);
   sim::SimWorld world(*scene);
   const std::vector<std::pair<std::string, double>> times = {
       {"1/15", 1.0 / 15},     {"1/30", 1.0 / 30},    {"1/60", 1.0 / 60},
