@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <functional>
 
 #include "daemon/store/session_repository.h"
 #include "tests/support/temp_dir.h"
@@ -20,16 +21,25 @@ using store::JobKind;
 using store::JobState;
 using ::testing::ElementsAre;
 
-// Polls the store until job `id` is in `state` (generous bound; the
-// engine's threads decide the timing, not the test).
-bool WaitForState(store::JobRepository& jobs, int64_t id, JobState state) {
+// Waits on the engine's own event signal until `done()` holds (generous
+// bound; the engine's threads decide the timing, not the test). The
+// generation is read before `done()`, so an event in between is not lost.
+bool WaitUntil(JobEngine& engine, const std::function<bool()>& done) {
   const absl::Time deadline = absl::Now() + absl::Seconds(30);
-  while (absl::Now() < deadline) {
-    absl::StatusOr<store::JobRecord> job = jobs.Get(id);
-    if (job.ok() && job->state == state) return true;
-    absl::SleepFor(absl::Milliseconds(5));
+  for (;;) {
+    const int64_t generation = engine.event_generation();
+    if (done()) return true;
+    if (absl::Now() >= deadline) return false;
+    engine.WaitForEvents(generation, deadline);
   }
-  return false;
+}
+
+// Every state change is an event.
+bool WaitForState(JobEngine& engine, int64_t id, JobState state) {
+  return WaitUntil(engine, [&] {
+    absl::StatusOr<store::JobRecord> job = engine.repository().Get(id);
+    return job.ok() && job->state == state;
+  });
 }
 
 class JobEngineTest : public ::testing::Test {
@@ -87,7 +97,7 @@ TEST_F(JobEngineTest, CapturesRunOneAtATimeInSubmissionOrder) {
     ids.push_back(job->id);
   }
   for (int64_t id : ids) {
-    ASSERT_TRUE(WaitForState(engine.repository(), id, JobState::kSucceeded));
+    ASSERT_TRUE(WaitForState(engine, id, JobState::kSucceeded));
   }
   // No interleaving: each job's three steps are contiguous, in order.
   EXPECT_THAT(Log(),
@@ -114,20 +124,18 @@ TEST_F(JobEngineTest, PauseWaitsAtTheNextCheckpointAndResumeContinues) {
   absl::StatusOr<store::JobRecord> job =
       engine.Submit(JobKind::kCapture, "s", "", 0, "test");
   ASSERT_TRUE(job.ok());
-  // Wait until the first step is done and the runner holds after it.
-  const absl::Time deadline = absl::Now() + absl::Seconds(30);
-  while (Log().empty() && absl::Now() < deadline) {
-    absl::SleepFor(absl::Milliseconds(1));
-  }
+  // Wait until the first step is done (logged before its progress event)
+  // and the runner holds after it.
+  ASSERT_TRUE(WaitUntil(engine, [&] { return !Log().empty(); }));
   ASSERT_TRUE(engine.Pause(job->id).ok());
   hold_ = false;
-  ASSERT_TRUE(WaitForState(engine.repository(), job->id, JobState::kPaused));
+  ASSERT_TRUE(WaitForState(engine, job->id, JobState::kPaused));
   const size_t steps_when_paused = Log().size();
   EXPECT_EQ(steps_when_paused, 1u);
   EXPECT_EQ(engine.Pause(job->id).status().code(),
             absl::StatusCode::kFailedPrecondition);
   ASSERT_TRUE(engine.Resume(job->id).ok());
-  ASSERT_TRUE(WaitForState(engine.repository(), job->id, JobState::kSucceeded));
+  ASSERT_TRUE(WaitForState(engine, job->id, JobState::kSucceeded));
   EXPECT_EQ(Log().size(), 5u);
   EXPECT_EQ(engine.Resume(job->id).status().code(),
             absl::StatusCode::kFailedPrecondition);
@@ -142,14 +150,12 @@ TEST_F(JobEngineTest, CancelQueuedAndRunningJobs) {
   absl::StatusOr<store::JobRecord> queued =
       engine.Submit(JobKind::kCapture, "s", "", 0, "second");
   ASSERT_TRUE(running.ok() && queued.ok());
-  ASSERT_TRUE(
-      WaitForState(engine.repository(), running->id, JobState::kRunning));
+  ASSERT_TRUE(WaitForState(engine, running->id, JobState::kRunning));
   ASSERT_TRUE(engine.Cancel(queued->id).ok());
   EXPECT_EQ(engine.repository().Get(queued->id)->state, JobState::kCancelled);
   ASSERT_TRUE(engine.Cancel(running->id).ok());
   hold_ = false;
-  ASSERT_TRUE(
-      WaitForState(engine.repository(), running->id, JobState::kCancelled));
+  ASSERT_TRUE(WaitForState(engine, running->id, JobState::kCancelled));
   EXPECT_LT(Log().size(), 1000u);
   EXPECT_EQ(engine.Cancel(running->id).status().code(),
             absl::StatusCode::kFailedPrecondition);
@@ -164,7 +170,7 @@ TEST_F(JobEngineTest, FailureKeepsTheMessage) {
   ASSERT_TRUE(engine.Start().ok());
   absl::StatusOr<store::JobRecord> job =
       engine.Submit(JobKind::kCapture, "s", "", 0, "test");
-  ASSERT_TRUE(WaitForState(engine.repository(), job->id, JobState::kFailed));
+  ASSERT_TRUE(WaitForState(engine, job->id, JobState::kFailed));
   EXPECT_EQ(engine.repository().Get(job->id)->error, "camera unplugged");
   EXPECT_EQ(
       engine.Submit(JobKind::kCapture, "nope", "", 0, "x").status().code(),
@@ -181,7 +187,7 @@ TEST_F(JobEngineTest, ShutdownInterruptsAndTheNextStartResumes) {
         engine.Submit(JobKind::kCapture, "s", "", 0, "long");
     ASSERT_TRUE(job.ok());
     id = job->id;
-    ASSERT_TRUE(WaitForState(engine.repository(), id, JobState::kRunning));
+    ASSERT_TRUE(WaitForState(engine, id, JobState::kRunning));
     std::thread release([this] {
       absl::SleepFor(absl::Milliseconds(50));
       hold_ = false;
@@ -201,8 +207,8 @@ TEST_F(JobEngineTest, ShutdownInterruptsAndTheNextStartResumes) {
   }
   JobEngine engine(*store_, StepRunner(2), StepRunner(1), {});
   ASSERT_TRUE(engine.Start().ok());
-  ASSERT_TRUE(WaitForState(engine.repository(), id, JobState::kSucceeded));
-  ASSERT_TRUE(WaitForState(engine.repository(), id + 1, JobState::kSucceeded));
+  ASSERT_TRUE(WaitForState(engine, id, JobState::kSucceeded));
+  ASSERT_TRUE(WaitForState(engine, id + 1, JobState::kSucceeded));
   absl::StatusOr<std::vector<store::JobEventRecord>> events =
       engine.repository().Events(id, 0);
   ASSERT_TRUE(events.ok());
