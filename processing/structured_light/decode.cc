@@ -32,8 +32,23 @@ struct Axis1D {
   int offset = 0;
   int extent = 0;
   int required = 0;
-  bool allow_edge = false;  // one bit may straddle its stripe edge
+  // min_bits mode: codes are read down to their last usable bit, one bit
+  // may straddle its stripe edge. Otherwise every bit must count.
+  bool partial = false;
+  // Full codes -> position (-1 = never projected).
+  std::vector<int32_t> lut;
 };
+
+// Position of every full code: FromGray(code) - offset, -1 outside
+// [0, extent) (codes never projected).
+std::vector<int32_t> GrayLut(int bits, int offset, int extent) {
+  std::vector<int32_t> lut(size_t{1} << bits);
+  for (size_t g = 0; g < lut.size(); ++g) {
+    const int v = FromGray(static_cast<int>(g)) - offset;
+    lut[g] = v >= 0 && v < extent ? v : -1;
+  }
+  return lut;
+}
 
 // The projector position a pixel stands for when it read the `k` most
 // significant of the axis' bits of `code` (the middle of the positions
@@ -44,6 +59,7 @@ struct Axis1D {
 // flipped must be the neighbouring one, and the pixel stands for the edge
 // between the two; otherwise it is invalid.
 int32_t Position(uint32_t code, int k, int edge, const Axis1D& axis) {
+  if (k == axis.bits && edge == 0) return axis.lut[code];
   const int free_bits = axis.bits - k;
   const uint32_t prefix = code >> free_bits;
   const int binary = FromGray(static_cast<int>(prefix));
@@ -79,22 +95,39 @@ void DecodeRows(const std::vector<std::vector<cv::Mat>>& grey,
   std::vector<uint8_t> best_e(width), lit(width);
   const T sat = static_cast<T>(th.saturation);
 
-  // Reads the planes of one axis: a bit counts while every more
-  // significant one did (run) and its contrast reaches need[x]; with
-  // allow_edge the first bit that does not may be an edge bit (Position)
-  // as long as finer bits count after it.
-  auto accumulate = [&](const std::vector<cv::Mat>& frames, int first,
-                        const Axis1D& axis, int y, uint16_t* code,
-                        uint8_t* count, uint8_t* edge) {
+  // Every bit must count: the code and the running minimum contrast over
+  // all bits of both axes (compared with need[x] afterwards).
+  auto accumulate_full = [&](const std::vector<cv::Mat>& frames, int first,
+                             int bits, int y, uint16_t* code) {
+    for (int b = 0; b < bits; ++b) {
+      const T* p = frames[first + 2 * b].ptr<T>(y);
+      const T* q = frames[first + 2 * b + 1].ptr<T>(y);
+      uint16_t* m = minc.data();
+      // Branch-free so that it vectorises.
+      for (int x = 0; x < width; ++x) {
+        const T a = p[x], c = q[x];
+        const T hi = a > c ? a : c;
+        const T lo = a > c ? c : a;
+        const uint16_t contrast =
+            lo >= sat ? uint16_t{0} : static_cast<uint16_t>(hi - lo);
+        code[x] = static_cast<uint16_t>((code[x] << 1) | (a > c ? 1 : 0));
+        m[x] = contrast < m[x] ? contrast : m[x];
+      }
+    }
+  };
+  // min_bits mode: a bit counts while every more significant one did (run)
+  // and its contrast reaches need[x]; the first bit that does not may be an
+  // edge bit (Position) as long as finer bits count after it.
+  auto accumulate_partial = [&](const std::vector<cv::Mat>& frames, int first,
+                                int bits, int y, uint16_t* code, uint8_t* count,
+                                uint8_t* edge) {
     std::fill(run.begin(), run.end(), uint8_t{1});
-    const uint8_t allow = axis.allow_edge ? 1 : 0;
-    for (int b = 0; b < axis.bits; ++b) {
+    for (int b = 0; b < bits; ++b) {
       const T* p = frames[first + 2 * b].ptr<T>(y);
       const T* q = frames[first + 2 * b + 1].ptr<T>(y);
       uint16_t* m = minc.data();
       uint8_t* r = run.data();
       const uint16_t* nd = need.data();
-      // Branch-free so that it vectorises.
       for (int x = 0; x < width; ++x) {
         const T a = p[x], c = q[x];
         const T hi = a > c ? a : c;
@@ -104,7 +137,7 @@ void DecodeRows(const std::vector<std::vector<cv::Mat>>& grey,
         code[x] = static_cast<uint16_t>((code[x] << 1) | (a > c ? 1 : 0));
         const uint8_t ok = contrast >= nd[x] ? 1 : 0;
         const uint8_t take_edge =
-            static_cast<uint8_t>(allow & r[x] & (ok ^ 1) & (edge[x] == 0));
+            static_cast<uint8_t>(r[x] & (ok ^ 1) & (edge[x] == 0));
         edge[x] = take_edge ? static_cast<uint8_t>(b + 1) : edge[x];
         const uint8_t counts = static_cast<uint8_t>(r[x] & (ok | take_edge));
         r[x] = counts;
@@ -146,10 +179,21 @@ void DecodeRows(const std::vector<std::vector<cv::Mat>>& grey,
       std::fill(edge_c.begin(), edge_c.end(), uint8_t{0});
       std::fill(edge_r.begin(), edge_r.end(), uint8_t{0});
       std::fill(minc.begin(), minc.end(), uint16_t{0xFFFF});
-      accumulate(frames, 0, cols, y, code_c.data(), bits_c.data(),
-                 edge_c.data());
-      accumulate(frames, 2 * cols.bits, rows_axis, y, code_r.data(),
-                 bits_r.data(), edge_r.data());
+      if (cols.partial) {
+        accumulate_partial(frames, 0, cols.bits, y, code_c.data(),
+                           bits_c.data(), edge_c.data());
+        accumulate_partial(frames, 2 * cols.bits, rows_axis.bits, y,
+                           code_r.data(), bits_r.data(), edge_r.data());
+      } else {
+        accumulate_full(frames, 0, cols.bits, y, code_c.data());
+        accumulate_full(frames, 2 * cols.bits, rows_axis.bits, y,
+                        code_r.data());
+        for (int x = 0; x < width; ++x) {
+          const bool all = minc[x] >= need[x];
+          bits_c[x] = all ? static_cast<uint8_t>(cols.bits) : 0;
+          bits_r[x] = all ? static_cast<uint8_t>(rows_axis.bits) : 0;
+        }
+      }
       for (int x = 0; x < width; ++x) {
         // More bits first, then the weakest counted bit's contrast.
         const bool enough = need[x] != 0xFFFF && bits_c[x] >= cols.required &&
@@ -309,16 +353,20 @@ absl::StatusOr<DecodedView> Decode(const ViewFrames& view,
     auto required = [&](int bits) {
       return options.min_bits == 0 ? bits : std::min(options.min_bits, bits);
     };
-    const Axis1D cols{.bits = col_bits,
-                      .offset = view.column_offset,
-                      .extent = psize.width,
-                      .required = required(col_bits),
-                      .allow_edge = options.min_bits > 0};
-    const Axis1D rows_axis{.bits = row_bits,
-                           .offset = view.row_offset,
-                           .extent = psize.height,
-                           .required = required(row_bits),
-                           .allow_edge = options.min_bits > 0};
+    const Axis1D cols{
+        .bits = col_bits,
+        .offset = view.column_offset,
+        .extent = psize.width,
+        .required = required(col_bits),
+        .partial = options.min_bits > 0,
+        .lut = GrayLut(col_bits, view.column_offset, psize.width)};
+    const Axis1D rows_axis{
+        .bits = row_bits,
+        .offset = view.row_offset,
+        .extent = psize.height,
+        .required = required(row_bits),
+        .partial = options.min_bits > 0,
+        .lut = GrayLut(row_bits, view.row_offset, psize.height)};
 
     DecodedView out;
     out.column.create(size, CV_32SC1);
