@@ -61,7 +61,7 @@ void to_json(nlohmann::json& j, const StereoOptions& o) {
   const auto& [min_disparity, max_disparity, mode, alpha, tau_color,
                tau_gradient, radius, eps, left_right_check, lr_tolerance, fill,
                weighted_median, median_radius, sigma_s, sigma_c, subpixel,
-               hdr_white_percentile, threads] = o;
+               gain_compensation, hdr_white_percentile, threads] = o;
   j = nlohmann::json{{"min_disparity", min_disparity},
                      {"max_disparity", max_disparity},
                      {"mode", CostModeName(mode)},
@@ -78,6 +78,7 @@ void to_json(nlohmann::json& j, const StereoOptions& o) {
                      {"sigma_s", sigma_s},
                      {"sigma_c", sigma_c},
                      {"subpixel", subpixel},
+                     {"gain_compensation", gain_compensation},
                      {"hdr_white_percentile", hdr_white_percentile},
                      {"threads", threads}};
 }

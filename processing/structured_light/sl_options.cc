@@ -25,15 +25,19 @@ absl::Status DecodeOptions::Validate() const {
   RETURN_IF_ERROR(RequireFraction(min_contrast, "min_contrast"));
   RETURN_IF_ERROR(
       RequireFraction(min_relative_contrast, "min_relative_contrast"));
+  RETURN_IF_ERROR(RequireField(min_bits >= 0, "min_bits", min_bits,
+                               ">= 0 (0 = every bit must count)"));
   RETURN_IF_ERROR(RequireFraction(min_lit, "min_lit"));
   return RequireField(saturation > 0 && saturation <= 1, "saturation",
                       saturation, "in (0, 1] (a fraction of full scale)");
 }
 
 void to_json(nlohmann::json& j, const DecodeOptions& o) {
-  const auto& [min_contrast, min_relative_contrast, min_lit, saturation] = o;
+  const auto& [min_contrast, min_relative_contrast, min_bits, min_lit,
+               saturation] = o;
   j = nlohmann::json{{"min_contrast", min_contrast},
                      {"min_relative_contrast", min_relative_contrast},
+                     {"min_bits", min_bits},
                      {"min_lit", min_lit},
                      {"saturation", saturation}};
 }

@@ -79,6 +79,7 @@ TEST(StereoOptionsTest, CanonicalJsonHasEveryField) {
       {"/sigma_s", [](O& o) { o.sigma_s = 3; }},
       {"/sigma_c", [](O& o) { o.sigma_c = 0.2; }},
       {"/subpixel", [](O& o) { o.subpixel = true; }},
+      {"/gain_compensation", [](O& o) { o.gain_compensation = false; }},
       {"/hdr_white_percentile", [](O& o) { o.hdr_white_percentile = 99; }},
       {"/threads", [](O& o) { o.threads = 1; }},
   });

@@ -24,6 +24,7 @@ TEST(DecodeOptionsTest, BadOptionsNameTheField) {
   ExpectRulesNameTheirField<O>({
       {[](O& o) { o.min_contrast = -0.1; }, "min_contrast is -0.1"},
       {[](O& o) { o.min_relative_contrast = 2; }, "min_relative_contrast is 2"},
+      {[](O& o) { o.min_bits = -1; }, "min_bits is -1"},
       {[](O& o) { o.min_lit = 1.5; }, "min_lit is 1.5"},
       {[](O& o) { o.saturation = 0; }, "saturation is 0"},
   });
@@ -39,6 +40,7 @@ TEST(DecodeOptionsTest, CanonicalJsonHasEveryField) {
   ExpectJsonHasEveryField<O>({
       {"/min_contrast", [](O& o) { o.min_contrast = 0.01; }},
       {"/min_relative_contrast", [](O& o) { o.min_relative_contrast = 0.5; }},
+      {"/min_bits", [](O& o) { o.min_bits = 6; }},
       {"/min_lit", [](O& o) { o.min_lit = 0.02; }},
       {"/saturation", [](O& o) { o.saturation = 0.9; }},
   });
