@@ -2,6 +2,7 @@
 //
 // Stereo calibration and rectification on synthetic chessboard views
 // rendered with a known camera (tests/unit/calib/synthetic_rig.h).
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -11,11 +12,15 @@
 #include <vector>
 
 #include "processing/calib/stereo_calibration.h"
+#include "tests/support/status_matchers.h"
 #include "tests/support/temp_dir.h"
 #include "tests/unit/calib/synthetic_rig.h"
 
 namespace hdrstereo::calib {
 namespace {
+
+using ::hdrstereo::testing::StatusIs;
+using ::testing::HasSubstr;
 
 using ::hdrstereo::testing::TempDir;
 
@@ -178,7 +183,10 @@ TEST(CalibTest, RectifyRejectsAWrongImageSize) {
   RectificationMaps maps;
   maps.image_size = cv::Size(10, 10);
   maps.left_x = maps.left_y = cv::Mat::zeros(10, 10, CV_32F);
-  EXPECT_FALSE(Rectify(cv::Mat::zeros(5, 5, CV_8U), maps, View::kLeft).ok());
+  EXPECT_THAT(
+      Rectify(cv::Mat::zeros(5, 5, CV_8U), maps, View::kLeft),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("image is 5x5 but the rig was calibrated at 10x10")));
 }
 
 }  // namespace

@@ -1,4 +1,5 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -7,9 +8,13 @@
 #include <string>
 
 #include "processing/eval/disparity_eval.h"
+#include "tests/support/status_matchers.h"
 
 namespace hdrstereo::eval {
 namespace {
+
+using ::hdrstereo::testing::StatusIs;
+using ::testing::HasSubstr;
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
@@ -71,11 +76,25 @@ TEST(EvaluateDisparity, JsonAndText) {
 
 TEST(EvaluateDisparity, BadInput) {
   const cv::Mat a(4, 4, CV_32FC1, cv::Scalar(1));
-  EXPECT_FALSE(EvaluateDisparity(cv::Mat(), a).ok());
-  EXPECT_FALSE(EvaluateDisparity(a, cv::Mat(4, 5, CV_32FC1)).ok());
-  EXPECT_FALSE(EvaluateDisparity(a, cv::Mat(4, 4, CV_8UC1)).ok());
-  EXPECT_FALSE(EvaluateDisparity(a, a, cv::Mat(3, 4, CV_8UC1)).ok());
-  EXPECT_FALSE(EvaluateDisparity(a, a, {}, cv::Mat(4, 4, CV_32FC1)).ok());
+  EXPECT_THAT(EvaluateDisparity(cv::Mat(), a),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("disparity or ground truth is empty")));
+  EXPECT_THAT(
+      EvaluateDisparity(a, cv::Mat(4, 5, CV_32FC1)),
+      StatusIs(
+          absl::StatusCode::kInvalidArgument,
+          HasSubstr("disparity (4x4) and ground truth (5x4) differ in size")));
+  EXPECT_THAT(
+      EvaluateDisparity(a, cv::Mat(4, 4, CV_8UC1)),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr(
+                   "disparity and ground truth must be single-channel float")));
+  EXPECT_THAT(EvaluateDisparity(a, a, cv::Mat(3, 4, CV_8UC1)),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("non-occlusion mask must be an 8-bit")));
+  EXPECT_THAT(EvaluateDisparity(a, a, {}, cv::Mat(4, 4, CV_32FC1)),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("mask must be an 8-bit")));
 }
 
 TEST(Colorize, InvalidIsBlackValidIsNot) {
@@ -93,8 +112,15 @@ TEST(Colorize, InvalidIsBlackValidIsNot) {
   EXPECT_NE(err->at<cv::Vec3b>(0, 0), cv::Vec3b(0, 0, 0));  // error 0.5
   EXPECT_NE(err->at<cv::Vec3b>(0, 1), cv::Vec3b(0, 0, 0));  // error 0
   EXPECT_EQ(err->at<cv::Vec3b>(0, 2), cv::Vec3b(0, 0, 0));
-  EXPECT_FALSE(ColorizeDisparity(cv::Mat()).ok());
-  EXPECT_FALSE(ColorizeError(d, gt, 0).ok());
+  EXPECT_THAT(
+      ColorizeDisparity(cv::Mat()),
+      StatusIs(
+          absl::StatusCode::kInvalidArgument,
+          HasSubstr(
+              "disparity must be a non-empty single-channel float image")));
+  EXPECT_THAT(ColorizeError(d, gt, 0),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("max_error must be > 0")));
 }
 
 }  // namespace

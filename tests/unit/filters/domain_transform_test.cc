@@ -1,14 +1,19 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "processing/filters/domain_transform.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <opencv2/ximgproc/edge_filter.hpp>
 
+#include "tests/support/status_matchers.h"
 #include "tests/unit/filters/test_images.h"
 
 namespace hdrstereo::filters {
 namespace {
+
+using ::hdrstereo::testing::StatusIs;
+using ::testing::HasSubstr;
 
 using ::hdrstereo::testing::StepImage;
 using ::hdrstereo::testing::TestImage;
@@ -65,14 +70,35 @@ TEST(DomainTransform, ColourGuideAndMultiChannelInput) {
 
 TEST(DomainTransform, RejectsBadInput) {
   const cv::Mat img = TestImage(32, 32, 1, 1);
-  EXPECT_FALSE(DomainTransformFilter(cv::Mat(), cv::Mat(), {}).ok());
-  EXPECT_FALSE(DomainTransformFilter(img, TestImage(31, 32, 1, 1), {}).ok());
-  EXPECT_FALSE(DomainTransformFilter(img, cv::Mat(), {0, 0.3, 3}).ok());
-  EXPECT_FALSE(DomainTransformFilter(img, cv::Mat(), {60, 0, 3}).ok());
-  EXPECT_FALSE(DomainTransformFilter(img, cv::Mat(), {60, 0.3, 0}).ok());
+  EXPECT_THAT(DomainTransformFilter(cv::Mat(), cv::Mat(), {}),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("domain transform input is empty")));
+  EXPECT_THAT(
+      DomainTransformFilter(img, TestImage(31, 32, 1, 1), {}),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("domain transform input and guide differ in size")));
+  EXPECT_THAT(
+      DomainTransformFilter(img, cv::Mat(), {0, 0.3, 3}),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr(
+                   "domain transform: sigma_s is 0; it must be > 0 (pixels)")));
+  EXPECT_THAT(
+      DomainTransformFilter(img, cv::Mat(), {60, 0, 3}),
+      StatusIs(
+          absl::StatusCode::kInvalidArgument,
+          HasSubstr(
+              "domain transform: sigma_r is 0; it must be > 0 (guide units)")));
+  EXPECT_THAT(
+      DomainTransformFilter(img, cv::Mat(), {60, 0.3, 0}),
+      StatusIs(
+          absl::StatusCode::kInvalidArgument,
+          HasSubstr("domain transform: iterations is 0; it must be >= 1")));
   cv::Mat inf = img.clone();
   inf.at<float>(1, 1) = std::numeric_limits<float>::infinity();
-  EXPECT_FALSE(DomainTransformFilter(inf, cv::Mat(), {}).ok());
+  EXPECT_THAT(
+      DomainTransformFilter(inf, cv::Mat(), {}),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("domain transform input contains NaN or Inf")));
 }
 
 }  // namespace

@@ -1,14 +1,19 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "processing/filters/fast_bilateral.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 
+#include "tests/support/status_matchers.h"
 #include "tests/unit/filters/test_images.h"
 
 namespace hdrstereo::filters {
 namespace {
+
+using ::hdrstereo::testing::StatusIs;
+using ::testing::HasSubstr;
 
 using ::hdrstereo::testing::StepImage;
 using ::hdrstereo::testing::TestImage;
@@ -71,9 +76,20 @@ TEST(FastBilateral, ConstantImageUnchanged) {
 }
 
 TEST(FastBilateral, RejectsBadInput) {
-  EXPECT_FALSE(FastBilateralFilter(cv::Mat(), {}).ok());
-  EXPECT_FALSE(FastBilateralFilter(TestImage(8, 8, 3, 1), {}).ok());
-  EXPECT_FALSE(FastBilateralFilter(TestImage(8, 8, 1, 1), {0, 0.4, 0}).ok());
+  EXPECT_THAT(FastBilateralFilter(cv::Mat(), {}),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("bilateral input is empty")));
+  EXPECT_THAT(
+      FastBilateralFilter(TestImage(8, 8, 3, 1), {}),
+      StatusIs(
+          absl::StatusCode::kInvalidArgument,
+          HasSubstr(
+              "bilateral input has an unsupported number of channels (3)")));
+  EXPECT_THAT(
+      FastBilateralFilter(TestImage(8, 8, 1, 1), {0, 0.4, 0}),
+      StatusIs(
+          absl::StatusCode::kInvalidArgument,
+          HasSubstr("bilateral needs sigma_s > 0, sigma_r > 0; got 0, 0.4")));
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "processing/filters/guided_filter.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -10,10 +11,14 @@
 #include <vector>
 
 #include "tests/support/reference_guided_filter.h"
+#include "tests/support/status_matchers.h"
 #include "tests/unit/filters/test_images.h"
 
 namespace hdrstereo::filters {
 namespace {
+
+using ::hdrstereo::testing::StatusIs;
+using ::testing::HasSubstr;
 
 using ::hdrstereo::testing::StepImage;
 using ::hdrstereo::testing::TestImage;
@@ -140,20 +145,47 @@ TEST(GuidedFilter, SmoothsFlatNoise) {
 
 TEST(GuidedFilter, RejectsBadInput) {
   const cv::Mat img = TestImage(32, 32, 1, 1);
-  EXPECT_FALSE(GuidedFilter::Create(cv::Mat(), {}).ok());
-  EXPECT_FALSE(GuidedFilter::Create(TestImage(32, 32, 2, 1), {}).ok());
-  EXPECT_FALSE(GuidedFilter::Create(img, {0, 1e-4, 1}).ok());
-  EXPECT_FALSE(GuidedFilter::Create(img, {2, 0.0, 1}).ok());
-  EXPECT_FALSE(GuidedFilter::Create(img, {2, 1e-4, 0}).ok());
+  EXPECT_THAT(GuidedFilter::Create(cv::Mat(), {}),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("guided filter guide is empty")));
+  EXPECT_THAT(GuidedFilter::Create(TestImage(32, 32, 2, 1), {}),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("guided filter guide has an unsupported "
+                                 "number of channels (2)")));
+  EXPECT_THAT(
+      GuidedFilter::Create(img, {0, 1e-4, 1}),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("guided filter: radius is 0; it must be >= 1")));
+  EXPECT_THAT(GuidedFilter::Create(img, {2, 0.0, 1}),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("guided filter: eps is 0; it must be > 0")));
+  EXPECT_THAT(GuidedFilter::Create(img, {2, 1e-4, 0}),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("guided filter: subsample is 0; it must be >= "
+                                 "1 (1 = exact filter)")));
   cv::Mat nan = img.clone();
   nan.at<float>(3, 3) = std::numeric_limits<float>::quiet_NaN();
-  EXPECT_FALSE(GuidedFilter::Create(nan, {}).ok());
+  EXPECT_THAT(GuidedFilter::Create(nan, {}),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("guided filter guide contains NaN or Inf")));
   absl::StatusOr<GuidedFilter> f = GuidedFilter::Create(img, {});
   ASSERT_TRUE(f.ok());
-  EXPECT_FALSE(f->Filter(TestImage(31, 32, 1, 1)).ok());
-  EXPECT_FALSE(f->Filter(nan).ok());
-  EXPECT_FALSE(f->Filter(cv::Mat()).ok());
-  EXPECT_FALSE(f->Filter(cv::Mat(32, 32, CV_64FC1, cv::Scalar(0))).ok());
+  EXPECT_THAT(
+      f->Filter(TestImage(31, 32, 1, 1)),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("guided filter input and guide differ in size")));
+  EXPECT_THAT(f->Filter(nan),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("guided filter input contains NaN or Inf")));
+  EXPECT_THAT(f->Filter(cv::Mat()),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("guided filter input is empty")));
+  EXPECT_THAT(
+      f->Filter(cv::Mat(32, 32, CV_64FC1, cv::Scalar(0))),
+      StatusIs(
+          absl::StatusCode::kInvalidArgument,
+          HasSubstr(
+              "guided filter input has depth 6; expected CV_32F or CV_8U")));
 }
 
 }  // namespace

@@ -1,16 +1,21 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "processing/filters/wls_filter.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
 #include <opencv2/core.hpp>
 
+#include "tests/support/status_matchers.h"
 #include "tests/unit/filters/test_images.h"
 
 namespace hdrstereo::filters {
 namespace {
+
+using ::hdrstereo::testing::StatusIs;
+using ::testing::HasSubstr;
 
 using ::hdrstereo::testing::StepImage;
 using ::hdrstereo::testing::TestImage;
@@ -148,15 +153,27 @@ TEST(WlsFilter, ZeroLambdaIsIdentity) {
 
 TEST(WlsFilter, RejectsBadInput) {
   const cv::Mat g = TestImage(16, 16, 1, 1);
-  EXPECT_FALSE(WlsFilter(cv::Mat(), cv::Mat(), {}).ok());
-  EXPECT_FALSE(WlsFilter(TestImage(16, 16, 3, 1), cv::Mat(), {}).ok());
-  EXPECT_FALSE(WlsFilter(g, TestImage(15, 16, 1, 1), {}).ok());
+  EXPECT_THAT(WlsFilter(cv::Mat(), cv::Mat(), {}),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("WLS input is empty")));
+  EXPECT_THAT(
+      WlsFilter(TestImage(16, 16, 3, 1), cv::Mat(), {}),
+      StatusIs(
+          absl::StatusCode::kInvalidArgument,
+          HasSubstr("WLS guide has an unsupported number of channels (3)")));
+  EXPECT_THAT(WlsFilter(g, TestImage(15, 16, 1, 1), {}),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("WLS input and guide differ in size")));
   WlsOptions bad;
   bad.alpha = 0;
-  EXPECT_FALSE(WlsFilter(g, cv::Mat(), bad).ok());
+  EXPECT_THAT(WlsFilter(g, cv::Mat(), bad),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("WLS: alpha is 0; it must be > 0")));
   cv::Mat nan = g.clone();
   nan.at<float>(2, 2) = std::numeric_limits<float>::quiet_NaN();
-  EXPECT_FALSE(WlsFilter(nan, cv::Mat(), {}).ok());
+  EXPECT_THAT(WlsFilter(nan, cv::Mat(), {}),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("WLS input contains NaN or Inf")));
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "processing/fusion/fusion.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -12,8 +13,13 @@
 #include <random>
 #include <vector>
 
+#include "tests/support/status_matchers.h"
+
 namespace hdrstereo::fusion {
 namespace {
+
+using ::hdrstereo::testing::StatusIs;
+using ::testing::HasSubstr;
 
 // Random MRF with data costs in [0, max_data] and weights in [0, max_w].
 MrfProblem RandomProblem(std::mt19937& rng, int w, int h, int labels,
@@ -171,19 +177,31 @@ TEST(AlphaExpansion, RejectsMalformedSparseDataTerm) {
   ASSERT_TRUE(AlphaExpansion(sparse, &labels).ok());
   MrfProblem bad = sparse;
   bad.near[0].label = 4;  // out of range
-  EXPECT_FALSE(AlphaExpansion(bad, &labels).ok());
+  EXPECT_THAT(AlphaExpansion(bad, &labels),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("fusion: malformed sparse data view")));
   bad = sparse;
   bad.near[0].cost = bad.far[0];  // not below the constant
-  EXPECT_FALSE(AlphaExpansion(bad, &labels).ok());
+  EXPECT_THAT(AlphaExpansion(bad, &labels),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("fusion: malformed sparse data view")));
   bad = sparse;
   std::swap(bad.near[bad.near_begin[5]], bad.near[bad.near_begin[5] + 1]);
-  EXPECT_FALSE(AlphaExpansion(bad, &labels).ok());  // not by label
+  // not by label
+  EXPECT_THAT(AlphaExpansion(bad, &labels),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("fusion: malformed sparse data view")));
   bad = sparse;
   bad.near_begin.pop_back();
-  EXPECT_FALSE(AlphaExpansion(bad, &labels).ok());
+  EXPECT_THAT(AlphaExpansion(bad, &labels),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("fusion: malformed sparse data view")));
   bad = sparse;
   bad.data.resize(3);  // neither empty nor complete
-  EXPECT_FALSE(AlphaExpansion(bad, &labels).ok());
+  EXPECT_THAT(AlphaExpansion(bad, &labels),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("fusion: the data term needs num_labels costs "
+                                 "per pixel, or the sparse view")));
 }
 
 // With two labels and every pixel at label 0, one expansion on label 1
@@ -240,20 +258,38 @@ TEST(AlphaExpansion, RejectsBadInput) {
   std::mt19937 rng(1);
   const MrfProblem pr = RandomProblem(rng, 3, 3, 3, 5, 5, true, 1);
   std::vector<int32_t> short_labels(4, 0);
-  EXPECT_FALSE(AlphaExpansion(pr, &short_labels).ok());
+  EXPECT_THAT(
+      AlphaExpansion(pr, &short_labels),
+      StatusIs(
+          absl::StatusCode::kInvalidArgument,
+          HasSubstr("fusion: the labelling must have one label per pixel")));
   std::vector<int32_t> bad(9, 3);
-  EXPECT_FALSE(AlphaExpansion(pr, &bad).ok());
-  EXPECT_FALSE(AlphaExpansion(pr, nullptr).ok());
+  EXPECT_THAT(AlphaExpansion(pr, &bad),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("fusion: initial label 3 out of [0, 3)")));
+  EXPECT_THAT(
+      AlphaExpansion(pr, nullptr),
+      StatusIs(
+          absl::StatusCode::kInvalidArgument,
+          HasSubstr("fusion: the labelling must have one label per pixel")));
   MrfProblem broken = pr;
   broken.data.pop_back();
   std::vector<int32_t> ok(9, 0);
-  EXPECT_FALSE(AlphaExpansion(broken, &ok).ok());
+  EXPECT_THAT(AlphaExpansion(broken, &ok),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("fusion: the data term needs num_labels costs "
+                                 "per pixel, or the sparse view")));
   MrfProblem heavy = pr;
   heavy.right[0] = 1 << 30;
-  EXPECT_FALSE(AlphaExpansion(heavy, &ok).ok());
+  EXPECT_THAT(
+      AlphaExpansion(heavy, &ok),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("fusion: smoothness weight x rho cap exceeds 2^26")));
   heavy = pr;
   heavy.down[0] = -1;
-  EXPECT_FALSE(AlphaExpansion(heavy, &ok).ok());
+  EXPECT_THAT(AlphaExpansion(heavy, &ok),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("fusion: negative smoothness weight")));
 }
 
 // A piecewise-constant disparity map (three vertical bands) and a guide with
@@ -397,7 +433,10 @@ TEST(Fuse, EdgeWeightCutsPairsAtGuideEdges) {
     }
   }
   p.edge_weight = 1.5;
-  EXPECT_FALSE(BuildProblem(cands, guide, p).ok());
+  EXPECT_THAT(
+      BuildProblem(cands, guide, p),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("fusion: edge_weight is 1.5; it must be in [0, 1]")));
 }
 
 TEST(Fuse, InvalidCandidatesContributeNothing) {
@@ -461,23 +500,47 @@ TEST(Fuse, RejectsBadInput) {
           .ok());
   cv::Mat as_int;
   truth.convertTo(as_int, CV_32S);
-  EXPECT_FALSE(FuseAlphaExpansion({as_int}, Guide(), p).ok());
-  EXPECT_FALSE(FuseAlphaExpansion({truth}, cv::Mat(), p).ok());
-  EXPECT_FALSE(FuseAlphaExpansion({truth}, cv::Mat(kH, kW, CV_16UC1), p).ok());
-  EXPECT_FALSE(FuseAlphaExpansion({truth}, Guide(), p, {truth, truth}).ok());
+  EXPECT_THAT(
+      FuseAlphaExpansion({as_int}, Guide(), p),
+      StatusIs(
+          absl::StatusCode::kInvalidArgument,
+          HasSubstr("fusion: candidate 0 must be a non-empty CV_32FC1 map")));
+  EXPECT_THAT(FuseAlphaExpansion({truth}, cv::Mat(), p),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("fusion: the guide must be 48x32, got 0x0")));
+  EXPECT_THAT(FuseAlphaExpansion({truth}, cv::Mat(kH, kW, CV_16UC1), p),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("fusion: the guide must be 8-bit or float [0, "
+                                 "1], 1 or 3 channels")));
+  EXPECT_THAT(
+      FuseAlphaExpansion({truth}, Guide(), p, {truth, truth}),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("fusion: 2 confidence maps for 1 candidates")));
   FusionParams bad = p;
   bad.sigma = 0;
-  EXPECT_FALSE(FuseAlphaExpansion({truth}, Guide(), bad).ok());
+  EXPECT_THAT(FuseAlphaExpansion({truth}, Guide(), bad),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("fusion: sigma is 0; it must be > 0")));
   bad = p;
   bad.max_disp = 0;
-  EXPECT_FALSE(FuseAlphaExpansion({truth}, Guide(), bad).ok());
+  EXPECT_THAT(
+      FuseAlphaExpansion({truth}, Guide(), bad),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("fusion: max_disp must be in [1, 4096], got 0")));
   bad = p;
   bad.lambda = 1e9;
-  EXPECT_FALSE(FuseAlphaExpansion({truth}, Guide(), bad).ok());
+  EXPECT_THAT(
+      FuseAlphaExpansion({truth}, Guide(), bad),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("fusion: lambda is 1e+09; it must be in [0, 1e4]")));
   bad = p;
   bad.data_scale = 60000;
-  EXPECT_FALSE(FuseAlphaExpansion({truth, truth}, Guide(), bad).ok());
-  EXPECT_FALSE(FuseMean({}, 10).ok());
+  EXPECT_THAT(FuseAlphaExpansion({truth, truth}, Guide(), bad),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("data_scale too large")));
+  EXPECT_THAT(FuseMean({}, 10),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("fusion: no candidate disparity maps")));
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 
 #include "hardware/gphoto2/gphoto2_camera.h"
 #include "hardware/gphoto2/libgphoto2_api.h"
+#include "tests/support/status_matchers.h"
 #include "tests/support/temp_dir.h"
 
 // Under LeakSanitizer: libgphoto2's port drivers (iolibs, dlopen'ed by
@@ -29,6 +30,8 @@ extern "C" const char* __lsan_default_suppressions() {
 
 namespace hdrstereo::gphoto2 {
 namespace {
+
+using ::hdrstereo::testing::StatusIs;
 
 using ::testing::HasSubstr;
 using ::testing::UnorderedElementsAre;
@@ -91,7 +94,8 @@ TEST(Libgphoto2Test, DirectoryBrowseListsDownloadsAndDeletesFiles) {
   EXPECT_EQ(jpeg->extension, "jpg");
 
   absl::StatusOr<hardware::Frame> missing = browse.Download("/", "NONE.JPG");
-  EXPECT_FALSE(missing.ok());
+  EXPECT_THAT(missing, StatusIs(absl::StatusCode::kNotFound,
+                                HasSubstr("download /NONE.JPG")));
 
   ASSERT_TRUE(browse.DeleteFile("/", "IMG_0001.CR2").ok());
   EXPECT_FALSE(std::filesystem::exists(dir / "IMG_0001.CR2"));

@@ -29,9 +29,12 @@
 #include "absl/status/status.h"
 #include "absl/time/time.h"
 #include "hardware/sim/stage_emulator.h"
+#include "tests/support/status_matchers.h"
 
 namespace hdrstereo::zaber {
 namespace {
+
+using ::hdrstereo::testing::StatusIs;
 
 using ::testing::Contains;
 using ::testing::ElementsAre;
@@ -399,7 +402,8 @@ TEST_F(ZaberStageTest, RejectedCommandsAreErrorsNamingTheReason) {
   ZaberOptions options = Options();
   options.axis = 2;
   absl::StatusOr<std::unique_ptr<ZaberStage>> other = ZaberStage::Open(options);
-  EXPECT_FALSE(other.ok());
+  EXPECT_THAT(other,
+              StatusIs(absl::StatusCode::kUnavailable, HasSubstr("BADAXIS")));
   EXPECT_THAT(Message(other.status()), HasSubstr("rejected \"get maxspeed\""));
   EXPECT_THAT(Message(other.status()), HasSubstr("BADAXIS"));
 }

@@ -3,6 +3,7 @@
 // Camera response and HDR merge scored against exact synthetic truth
 // (tests/unit/hdr/synthetic_scene.h): a known radiance map, a known S-shaped
 // response and the thesis' eight exposures.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -16,12 +17,16 @@
 #include "processing/hdr/response.h"
 #include "processing/hdr/stack.h"
 #include "processing/io/hdr_formats.h"
+#include "tests/support/status_matchers.h"
 #include "tests/support/temp_dir.h"
 #include "tests/unit/hdr/synthetic_scene.h"
 #include "tests/unit/io/exif_testdata.h"
 
 namespace hdrstereo::hdr {
 namespace {
+
+using ::hdrstereo::testing::StatusIs;
+using ::testing::HasSubstr;
 
 using ::hdrstereo::testing::RenderExposures;
 using ::hdrstereo::testing::SyntheticRadiance;
@@ -358,8 +363,14 @@ TEST(StackTest, RejectsASingleExposure) {
   absl::Status st = ValidateStack(s);
   EXPECT_EQ(st.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(st.message().find("img0.png"), absl::string_view::npos) << st;
-  EXPECT_FALSE(MergeStack(s, TrueTable()).ok());
-  EXPECT_FALSE(RecoverResponse(s).ok());
+  EXPECT_THAT(MergeStack(s, TrueTable()),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("an exposure stack needs at least 2 "
+                                 "exposures, got 1 (img0.png)")));
+  EXPECT_THAT(RecoverResponse(s),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("an exposure stack needs at least 2 "
+                                 "exposures, got 1 (img0.png)")));
 }
 
 TEST(StackTest, RejectsMismatchedSizesNamingTheFile) {
@@ -384,19 +395,36 @@ TEST(StackTest, RejectsWrongResponseForTheData) {
   ExposureStack s = SmallStack();
   CameraResponse one_level;
   one_level.log_inverse = cv::Mat::zeros(16, 1, CV_32FC3);
-  EXPECT_FALSE(MergeStack(s, one_level).ok());
+  EXPECT_THAT(
+      MergeStack(s, one_level),
+      StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("16 levels")));
   for (cv::Mat& m : s.images) m.convertTo(m, CV_16U);
-  EXPECT_FALSE(MergeStack(s, TrueTable()).ok());
-  EXPECT_FALSE(RecoverResponse(s).ok());
+  EXPECT_THAT(
+      MergeStack(s, TrueTable()),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("a tabulated camera response needs 8-bit images")));
+  EXPECT_THAT(RecoverResponse(s),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("response recovery needs 8-bit images")));
 }
 
 TEST(StackTest, ParsesExposureTimes) {
   EXPECT_DOUBLE_EQ(*ParseSeconds("1/250"), 0.004);
   EXPECT_DOUBLE_EQ(*ParseSeconds(" 0.5 "), 0.5);
-  EXPECT_FALSE(ParseSeconds("0").ok());
-  EXPECT_FALSE(ParseSeconds("1/0").ok());
-  EXPECT_FALSE(ParseSeconds("-1").ok());
-  EXPECT_FALSE(ParseSeconds("fast").ok());
+  EXPECT_THAT(
+      ParseSeconds("0"),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("exposure time must be > 0 seconds, got '0'")));
+  EXPECT_THAT(ParseSeconds("1/0"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("bad exposure time '1/0'")));
+  EXPECT_THAT(
+      ParseSeconds("-1"),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("exposure time must be > 0 seconds, got '-1'")));
+  EXPECT_THAT(ParseSeconds("fast"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("bad exposure time 'fast'")));
 }
 
 TEST(StackTest, LoadsAFolderWithExposuresTxtLongestFirst) {
@@ -442,7 +470,8 @@ TEST(StackTest, FolderErrorsNameTheFile) {
   std::ofstream(dir / "b.png") << "this is not a png";
   std::ofstream(dir / "exposures.txt") << "a.png 1/30\nb.png 1/60\n";
   absl::Status st = LoadStack(dir.path()).status();
-  EXPECT_FALSE(st.ok());
+  EXPECT_THAT(st, StatusIs(absl::StatusCode::kInvalidArgument,
+                           HasSubstr("b.png (corrupt or unsupported format)")));
   EXPECT_NE(st.message().find("b.png"), absl::string_view::npos) << st;
 
   std::ofstream(dir / "exposures.txt") << "a.png 1/30\nmissing.png 1/60\n";

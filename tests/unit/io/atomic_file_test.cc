@@ -1,16 +1,21 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "processing/io/atomic_file.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <string>
 
+#include "tests/support/status_matchers.h"
 #include "tests/support/temp_dir.h"
 
 namespace hdrstereo::io {
 namespace {
+
+using ::hdrstereo::testing::StatusIs;
+using ::testing::HasSubstr;
 
 using ::hdrstereo::testing::ReadFileOrDie;
 using ::hdrstereo::testing::TempDir;
@@ -90,7 +95,8 @@ TEST(AtomicFileTest, CommitTwiceFails) {
 TEST(AtomicFileTest, MissingFolderIsAClearError) {
   TempDir dir;
   absl::Status status = WriteFileAtomically(dir / "no/such/dir/f", "x");
-  EXPECT_FALSE(status.ok());
+  EXPECT_THAT(status, StatusIs(absl::StatusCode::kNotFound,
+                               HasSubstr("No such file or directory")));
   EXPECT_NE(status.message().find("no/such/dir"), absl::string_view::npos)
       << status;
 }

@@ -1,4 +1,5 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -13,11 +14,15 @@
 #include "processing/io/exif.h"
 #include "processing/io/hdr_formats.h"
 #include "processing/io/image.h"
+#include "tests/support/status_matchers.h"
 #include "tests/support/temp_dir.h"
 #include "tests/unit/io/exif_testdata.h"
 
 namespace hdrstereo::io {
 namespace {
+
+using ::hdrstereo::testing::StatusIs;
+using ::testing::HasSubstr;
 
 using ::hdrstereo::testing::ReadFileOrDie;
 using ::hdrstereo::testing::TempDir;
@@ -108,7 +113,10 @@ TEST(PfmTest, CorruptFilesAreErrorsNamingTheFile) {
   std::ofstream(dir / "m.pfm", std::ios::binary) << "P6\n4 4\n255\n";
   for (const char* name : {"t.pfm", "m.pfm", "none.pfm"}) {
     absl::Status s = ReadPfm(dir / name).status();
-    EXPECT_FALSE(s.ok());
+    EXPECT_THAT(s, StatusIs(std::string(name) == "none.pfm"
+                                ? absl::StatusCode::kNotFound
+                                : absl::StatusCode::kInvalidArgument,
+                            HasSubstr(name)));
     EXPECT_NE(s.message().find(name), absl::string_view::npos) << s;
   }
 }
@@ -157,7 +165,8 @@ TEST(ExrTest, CorruptFileIsAnErrorNamingIt) {
   TempDir dir;
   std::ofstream(dir / "bad.exr", std::ios::binary) << "v/1\x01 not really";
   absl::Status s = ReadExr(dir / "bad.exr").status();
-  EXPECT_FALSE(s.ok());
+  EXPECT_THAT(s, StatusIs(absl::StatusCode::kInvalidArgument,
+                          HasSubstr("cannot read EXR")));
   EXPECT_NE(s.message().find("bad.exr"), absl::string_view::npos) << s;
 }
 
@@ -175,7 +184,8 @@ TEST(RgbeTest, RoundTripsWithinRgbePrecision) {
   std::ofstream(dir / "bad.hdr")
       << "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 4";
   absl::Status s = ReadRgbe(dir / "bad.hdr").status();
-  EXPECT_FALSE(s.ok());
+  EXPECT_THAT(s, StatusIs(absl::StatusCode::kInvalidArgument,
+                          HasSubstr("corrupt RGBE file")));
   EXPECT_NE(s.message().find("bad.hdr"), absl::string_view::npos) << s;
 }
 
@@ -193,7 +203,9 @@ TEST(PngTest, RoundTrips8And16BitExactly) {
   EXPECT_EQ(b->pixels.type(), CV_16UC1);
   EXPECT_EQ(cv::norm(a->pixels, img8, cv::NORM_INF), 0.0);
   EXPECT_EQ(cv::norm(b->pixels, img16, cv::NORM_INF), 0.0);
-  EXPECT_FALSE(WritePng(dir / "f.png", cv::Mat(2, 2, CV_32F)).ok());
+  EXPECT_THAT(WritePng(dir / "f.png", cv::Mat(2, 2, CV_32F)),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("PNG needs an 8- or 16-bit image")));
   absl::Status s = WritePng(dir / "no/dir/x.png", img8);
   EXPECT_NE(s.message().find("no/dir"), absl::string_view::npos) << s;
 }
@@ -224,7 +236,11 @@ TEST(DecodeTest, BadFilesAreErrorsNamingTheFile) {
   std::ofstream(dir / "junk.nef") << "definitely not a raw file";
   for (const char* name : {"cut.png", "empty.jpg", "junk.nef", "missing.tif"}) {
     absl::Status s = DecodeImageFile(dir / name).status();
-    EXPECT_FALSE(s.ok()) << name;
+    EXPECT_THAT(s, StatusIs(std::string(name) == "missing.tif"
+                                ? absl::StatusCode::kNotFound
+                                : absl::StatusCode::kInvalidArgument,
+                            HasSubstr(name)))
+        << name;
     EXPECT_NE(s.message().find(name), absl::string_view::npos) << s;
   }
 }

@@ -1,16 +1,21 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "processing/tonemap/fattal.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
+#include "tests/support/status_matchers.h"
 #include "tests/unit/tonemap/synthetic_scene.h"
 
 namespace hdrstereo::tonemap {
 namespace {
+
+using ::hdrstereo::testing::StatusIs;
+using ::testing::HasSubstr;
 
 using ::hdrstereo::testing::SyntheticScene;
 
@@ -89,9 +94,16 @@ TEST(Fattal, RejectsBadParameters) {
   const cv::Mat h(16, 16, CV_32FC1, cv::Scalar(1));
   FattalParams p;
   p.beta = 1.5;
-  EXPECT_FALSE(FattalCompress({h}, p).ok());
-  EXPECT_FALSE(FattalCompress({}, {}).ok());
-  EXPECT_FALSE(SolvePoissonNeumann(cv::Mat()).ok());
+  EXPECT_THAT(FattalCompress({h}, p),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("Fattal: beta is 1.5; it must be in (0, 1]")));
+  EXPECT_THAT(
+      FattalCompress({}, {}),
+      StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("no views")));
+  EXPECT_THAT(SolvePoissonNeumann(cv::Mat()),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("Poisson right-hand side must be a non-empty "
+                                 "CV_32FC1/CV_64FC1")));
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "processing/tonemap/tonemap.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,10 +12,14 @@
 #include <string>
 #include <vector>
 
+#include "tests/support/status_matchers.h"
 #include "tests/unit/tonemap/synthetic_scene.h"
 
 namespace hdrstereo::tonemap {
 namespace {
+
+using ::hdrstereo::testing::StatusIs;
+using ::testing::HasSubstr;
 
 using ::hdrstereo::testing::SyntheticScene;
 
@@ -65,9 +70,15 @@ TEST(OperatorNames, RoundTripAndAllSeven) {
   EXPECT_EQ(names,
             (std::set<std::string>{"reinhard", "durand", "fattal", "drago",
                                    "guided", "domain-transform", "wls"}));
-  EXPECT_FALSE(OperatorFromName("Reinhard").ok());
-  EXPECT_FALSE(OperatorFromName("mantiuk").ok());
-  EXPECT_FALSE(OperatorFromName("").ok());
+  EXPECT_THAT(OperatorFromName("Reinhard"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("unknown tone-mapping operator 'Reinhard'")));
+  EXPECT_THAT(OperatorFromName("mantiuk"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("unknown tone-mapping operator 'mantiuk'")));
+  EXPECT_THAT(OperatorFromName(""),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("unknown tone-mapping operator ''")));
 }
 
 class EveryOperator : public ::testing::TestWithParam<Operator> {};
@@ -76,8 +87,14 @@ TEST_P(EveryOperator, RejectsInvalidRadiance) {
   const Operator op = GetParam();
   EXPECT_EQ(ToneMap(cv::Mat(), op).status().code(),
             absl::StatusCode::kInvalidArgument);
-  EXPECT_FALSE(ToneMap(cv::Mat(8, 8, CV_8UC3, cv::Scalar(1, 1, 1)), op).ok());
-  EXPECT_FALSE(ToneMap(cv::Mat(8, 8, CV_32FC1, cv::Scalar(1)), op).ok());
+  EXPECT_THAT(ToneMap(cv::Mat(8, 8, CV_8UC3, cv::Scalar(1, 1, 1)), op),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("radiance must be a 2-D CV_32FC3 linear "
+                                 "radiance image, got type 16")));
+  EXPECT_THAT(ToneMap(cv::Mat(8, 8, CV_32FC1, cv::Scalar(1)), op),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("radiance must be a 2-D CV_32FC3 linear "
+                                 "radiance image, got type 5")));
   cv::Mat img = SyntheticScene(32, 24);
   cv::Mat nan = img.clone();
   nan.at<cv::Vec3f>(3, 4)[1] = std::numeric_limits<float>::quiet_NaN();
@@ -86,16 +103,25 @@ TEST_P(EveryOperator, RejectsInvalidRadiance) {
   EXPECT_NE(s.message().find("NaN"), std::string::npos) << s;
   cv::Mat inf = img.clone();
   inf.at<cv::Vec3f>(0, 0)[0] = std::numeric_limits<float>::infinity();
-  EXPECT_FALSE(ToneMap(inf, op).ok());
+  EXPECT_THAT(ToneMap(inf, op),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("radiance contains NaN or Inf at (0, 0)")));
   cv::Mat neg = img.clone();
   neg.at<cv::Vec3f>(5, 6)[2] = -1.0f;
   s = ToneMap(neg, op).status();
   EXPECT_NE(s.message().find("negative"), std::string::npos) << s;
-  EXPECT_FALSE(ToneMap(cv::Mat(8, 8, CV_32FC3, cv::Scalar(0, 0, 0)), op).ok());
-  EXPECT_FALSE(ToneMapPair(img, cv::Mat(), op).ok());
+  EXPECT_THAT(
+      ToneMap(cv::Mat(8, 8, CV_32FC3, cv::Scalar(0, 0, 0)), op),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("radiance is zero everywhere (no luminance to map)")));
+  EXPECT_THAT(ToneMapPair(img, cv::Mat(), op),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("radiance of view 1 is empty")));
   Params bad;
   bad.gamma = 0.0;
-  EXPECT_FALSE(ToneMap(img, op, bad).ok());
+  EXPECT_THAT(ToneMap(img, op, bad),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("tone mapping: gamma is 0; it must be > 0")));
 }
 
 // The synthetic scene (1 .. 8000) must use most of the 8-bit range: the 1st
