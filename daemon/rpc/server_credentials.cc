@@ -132,29 +132,30 @@ absl::StatusOr<TlsMaterial> LoadTlsMaterial(const daemon::TlsConfig& tls) {
   return out;
 }
 
+std::shared_ptr<grpc::ServerCredentials> TlsCredentials(
+    const TlsMaterial& tls) {
+  auto provider =
+      std::make_shared<grpc::experimental::StaticDataCertificateProvider>(
+          tls.client_ca, std::vector<grpc::experimental::IdentityKeyCertPair>{
+                             {tls.private_key, tls.cert_chain}});
+  grpc::experimental::TlsServerCredentialsOptions options(provider);
+  options.watch_root_certs();
+  options.watch_identity_key_cert_pairs();
+  // Requested, and verified when presented: a call without a certificate
+  // may still authenticate with an API key.
+  options.set_cert_request_type(GRPC_SSL_REQUEST_CLIENT_CERTIFICATE_AND_VERIFY);
+  if (!tls.crl_dir.empty()) options.set_crl_directory(tls.crl_dir);
+  return grpc::experimental::TlsServerCredentials(options);
+}
+
 std::shared_ptr<grpc::ServerCredentials> ServerCredentialsFor(
     const std::string& address, const TlsMaterial* tls,
     std::shared_ptr<grpc::AuthMetadataProcessor> guard) {
-  std::shared_ptr<grpc::ServerCredentials> credentials;
-  if (daemon::IsLocalAddress(address) || tls == nullptr) {
-    credentials = grpc::experimental::LocalServerCredentials(
-        absl::StartsWith(address, "unix:") ? UDS : LOCAL_TCP);
-  } else {
-    auto provider =
-        std::make_shared<grpc::experimental::StaticDataCertificateProvider>(
-            tls->client_ca,
-            std::vector<grpc::experimental::IdentityKeyCertPair>{
-                {tls->private_key, tls->cert_chain}});
-    grpc::experimental::TlsServerCredentialsOptions options(provider);
-    options.watch_root_certs();
-    options.watch_identity_key_cert_pairs();
-    // Requested, and verified when presented: a call without a certificate
-    // may still authenticate with an API key.
-    options.set_cert_request_type(
-        GRPC_SSL_REQUEST_CLIENT_CERTIFICATE_AND_VERIFY);
-    if (!tls->crl_dir.empty()) options.set_crl_directory(tls->crl_dir);
-    credentials = grpc::experimental::TlsServerCredentials(options);
-  }
+  std::shared_ptr<grpc::ServerCredentials> credentials =
+      daemon::IsLocalAddress(address) || tls == nullptr
+          ? grpc::experimental::LocalServerCredentials(
+                absl::StartsWith(address, "unix:") ? UDS : LOCAL_TCP)
+          : TlsCredentials(*tls);
   credentials->SetAuthMetadataProcessor(std::move(guard));
   return credentials;
 }

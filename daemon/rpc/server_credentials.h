@@ -32,10 +32,15 @@ struct TlsMaterial {
 absl::StatusOr<TlsMaterial> LoadTlsMaterial(const daemon::TlsConfig& tls);
 
 // Credentials for `address` (TLS unless daemon::IsLocalAddress), with
-// `guard` as their metadata processor.
+// `guard` (not null) as their metadata processor: what the daemon listens
+// with.
 std::shared_ptr<grpc::ServerCredentials> ServerCredentialsFor(
     const std::string& address, const TlsMaterial* tls,
     std::shared_ptr<grpc::AuthMetadataProcessor> guard);
+
+// The TLS part alone, without a processor (for benches that measure what
+// the processor adds).
+std::shared_ptr<grpc::ServerCredentials> TlsCredentials(const TlsMaterial& tls);
 
 }  // namespace hdrstereo::rpc
 
