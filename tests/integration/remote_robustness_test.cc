@@ -280,8 +280,17 @@ TEST_F(RemoteRobustnessTest, GarbageCredentialsNeitherCrashNorGrowTheDaemon) {
   EXPECT_EQ(unauthenticated + unimplemented, 11000);
   EXPECT_GT(unauthenticated, 0);
   EXPECT_GT(unimplemented, 0);
+  std::cout << "daemon RSS before " << before << " kB, after 10,000 calls "
+            << after << " kB\n";
+#if defined(__SANITIZE_ADDRESS__)
+  // AddressSanitizer keeps freed memory in quarantine, so RSS grows by
+  // design; its leak check at the daemon's exit (StopDaemon() == 0 below)
+  // stands in for this one.
+  std::cout << "built with AddressSanitizer: RSS not compared\n";
+#else
   EXPECT_LE(after, before + before / 10)
       << "RSS grew from " << before << " kB to " << after << " kB";
+#endif
   // Still serving, and every refusal is on record.
   EXPECT_EQ(As("bob", {"session", "create", "after"}).exit_code, 0);
   EXPECT_EQ(As("carol", {"audit", "--limit", "1"}).exit_code, 0);

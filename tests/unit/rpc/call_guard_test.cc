@@ -3,8 +3,9 @@
 // CallGuard's decisions, case by case, with the real Authenticator, key
 // store, rig lock and audit log on a real SQLite file; the connection's
 // AuthContext is a stand-in holding the properties gRPC's TLS and local
-// transports set. (tests/integration/remote_test.cc drives the same through
-// the real daemon with real certificates.)
+// transports set (tests/support/fake_auth_context.h).
+// (tests/integration/remote_test.cc drives the same through the real daemon
+// with real certificates.)
 #include "daemon/rpc/call_guard.h"
 
 #include <gmock/gmock.h>
@@ -12,6 +13,7 @@
 
 #include <map>
 
+#include "tests/support/fake_auth_context.h"
 #include "tests/support/status_matchers.h"
 #include "tests/support/temp_dir.h"
 
@@ -22,53 +24,7 @@ using ::hdrstereo::testing::IsOk;
 using ::hdrstereo::testing::StatusIs;
 using ::testing::HasSubstr;
 
-// The properties a connection shows: transport_security_type "tls" (gRPC's
-// TLS credentials, which the daemon uses; "ssl" from its SSL credentials)
-// with x509_* of a verified client certificate, or "local".
-class FakeConnection : public grpc::AuthContext {
- public:
-  static FakeConnection Local() { return FakeConnection("local", false); }
-  static FakeConnection Tls() { return FakeConnection("tls", false); }
-  static FakeConnection Other(const std::string& transport) {
-    return FakeConnection(transport, false);
-  }
-  static FakeConnection Certificate(const std::string& san_uri,
-                                    const std::string& common_name,
-                                    const std::string& transport = "tls") {
-    FakeConnection c(transport, true);
-    if (!san_uri.empty()) {
-      c.properties_.emplace("x509_subject_alternative_name", san_uri);
-    }
-    c.properties_.emplace("x509_common_name", common_name);
-    return c;
-  }
-
-  bool IsPeerAuthenticated() const override { return authenticated_; }
-  std::vector<grpc::string_ref> GetPeerIdentity() const override { return {}; }
-  std::string GetPeerIdentityPropertyName() const override { return ""; }
-  std::vector<grpc::string_ref> FindPropertyValues(
-      const std::string& name) const override {
-    std::vector<grpc::string_ref> values;
-    auto [begin, end] = properties_.equal_range(name);
-    for (auto it = begin; it != end; ++it) values.emplace_back(it->second);
-    return values;
-  }
-  grpc::AuthPropertyIterator begin() const override { return Iterator(); }
-  grpc::AuthPropertyIterator end() const override { return Iterator(); }
-  void AddProperty(const std::string&, const grpc::string_ref&) override {}
-  bool SetPeerIdentityPropertyName(const std::string&) override {
-    return false;
-  }
-
- private:
-  struct Iterator : grpc::AuthPropertyIterator {};
-  FakeConnection(const std::string& transport, bool authenticated)
-      : authenticated_(authenticated) {
-    properties_.emplace("transport_security_type", transport);
-  }
-  bool authenticated_;
-  std::multimap<std::string, std::string> properties_;
-};
+using FakeConnection = ::hdrstereo::testing::FakeAuthContext;
 
 constexpr char kCapture[] = "/hdrstereo.v1.Jobs/SubmitCapture";
 constexpr char kInfo[] = "/hdrstereo.v1.Server/GetInfo";
@@ -162,7 +118,7 @@ TEST_F(CallGuardTest, CertificatesNameTheirPrincipalAndConfigGivesTheRole) {
 
 TEST_F(CallGuardTest, AnUnknownTransportIsRefused) {
   for (const char* transport : {"insecure", "", "alts"}) {
-    EXPECT_THAT(Check(kWhoAmI, FakeConnection::Other(transport)),
+    EXPECT_THAT(Check(kWhoAmI, FakeConnection::Transport(transport)),
                 StatusIs(absl::StatusCode::kUnauthenticated,
                          HasSubstr("is not one hdrstereod serves")))
         << transport;
