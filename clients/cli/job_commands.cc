@@ -48,6 +48,7 @@ void PrintJob(const v1::Job& job) {
         absl::StrCat(job.progress().done(), "/", job.progress().total(), "  ",
                      job.progress().step())},
        {"created", FormatTime(job.create_time())},
+       {"submitted by", job.submitted_by().empty() ? "-" : job.submitted_by()},
        {"error", job.error().empty() ? "-" : job.error()}});
 }
 
@@ -294,14 +295,15 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
             return;
           }
           Table table({"ID", "SESSION", "KIND", "STATE", "PROGRESS", "CREATED",
-                       "ERROR"});
+                       "BY", "ERROR"});
           for (const v1::Job& j : r.jobs()) {
             table.AddRow(
                 {absl::StrCat(j.id()), j.session(),
                  j.kind() == v1::JOB_KIND_CAPTURE ? "capture" : "processing",
                  StateName(j.state()),
                  absl::StrCat(j.progress().done(), "/", j.progress().total()),
-                 FormatTime(j.create_time()), j.error()});
+                 FormatTime(j.create_time()),
+                 j.submitted_by().empty() ? "-" : j.submitted_by(), j.error()});
           }
           table.Print(std::cout);
         });
