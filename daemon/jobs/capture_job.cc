@@ -413,7 +413,8 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
 absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
                                                const hardware::Rig& rig,
                                                absl::string_view session,
-                                               const v1::CapturePlan& plan) {
+                                               const v1::CapturePlan& plan,
+                                               absl::string_view submitted_by) {
   // Limits come from the stage; without one, say so before judging the plan.
   absl::StatusOr<RigLimits> limits = LimitsOf(rig);
   if (!limits.ok()) return limits.status();
@@ -425,7 +426,8 @@ absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
       store::JobKind::kCapture, session, normal->SerializeAsString(),
       static_cast<int64_t>(frames),
       absl::StrCat("queued ", io::CaptureKindName(*PlanKind(*normal)),
-                   " capture of ", frames, " frames"));
+                   " capture of ", frames, " frames"),
+      submitted_by);
 }
 
 }  // namespace hdrstereo::jobs

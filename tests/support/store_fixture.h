@@ -34,7 +34,7 @@ class StoreTest : public ::testing::Test {
       const std::string& session,
       store::JobKind kind = store::JobKind::kCapture) {
     return store::JobRepository(*store_).Create(kind, session, "request", 1,
-                                                "queued");
+                                                "queued", "tester");
   }
 
   TempDir dir_;

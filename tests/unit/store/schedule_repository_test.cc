@@ -27,6 +27,7 @@ ScheduleRecord Nightly(const std::string& name) {
   s.time_zone = "Europe/Berlin";
   s.plan = "serialized plan";
   s.missed_run_policy = MissedRunPolicy::kSkip;
+  s.created_by = "alice";
   return s;
 }
 
@@ -38,6 +39,7 @@ TEST_F(ScheduleRepositoryTest, CreateGetListAndBadNames) {
                        schedules.Create(Nightly("b-nightly"), 1000));
   EXPECT_EQ(b.create_time_ms, 1000);
   EXPECT_EQ(b.enable_time_ms, 1000);
+  EXPECT_EQ(b.enabled_by, "alice");  // the creator, until enabled again
   EXPECT_TRUE(b.enabled);
   ASSERT_OK(schedules.Create(Nightly("a-nightly"), 2000).status());
   ASSERT_OK_AND_ASSIGN(const ScheduleRecord got, schedules.Get("b-nightly"));
@@ -65,16 +67,20 @@ TEST_F(ScheduleRepositoryTest, CreateGetListAndBadNames) {
 TEST_F(ScheduleRepositoryTest, EnablingAgainMovesTheEnableTime) {
   ScheduleRepository schedules(*store_);
   ASSERT_OK(schedules.Create(Nightly("n"), 1000).status());
-  ASSERT_OK_AND_ASSIGN(ScheduleRecord s, schedules.SetEnabled("n", false, 5));
+  ASSERT_OK_AND_ASSIGN(ScheduleRecord s,
+                       schedules.SetEnabled("n", false, 5, "bob"));
   EXPECT_FALSE(s.enabled);
   EXPECT_EQ(s.enable_time_ms, 1000);
-  ASSERT_OK_AND_ASSIGN(s, schedules.SetEnabled("n", true, 9000));
+  ASSERT_OK_AND_ASSIGN(s, schedules.SetEnabled("n", true, 9000, "bob"));
   EXPECT_TRUE(s.enabled);
   EXPECT_EQ(s.enable_time_ms, 9000);
+  EXPECT_EQ(s.enabled_by, "bob");
+  EXPECT_EQ(s.created_by, "alice");
   // Enabling an enabled schedule changes nothing.
-  ASSERT_OK_AND_ASSIGN(s, schedules.SetEnabled("n", true, 12000));
+  ASSERT_OK_AND_ASSIGN(s, schedules.SetEnabled("n", true, 12000, "carol"));
   EXPECT_EQ(s.enable_time_ms, 9000);
-  EXPECT_THAT(schedules.SetEnabled("x", true, 1),
+  EXPECT_EQ(s.enabled_by, "bob");
+  EXPECT_THAT(schedules.SetEnabled("x", true, 1, "bob"),
               StatusIs(absl::StatusCode::kNotFound, HasSubstr("\"x\"")));
 }
 
