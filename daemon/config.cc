@@ -6,11 +6,111 @@
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "daemon/rpc/roles.h"
 #include "hdrstereo_version.h"
 
 namespace hdrstereo::daemon {
+namespace {
 
-absl::Status ValidateListenAddress(const std::string& address) {
+// CLI11's TOML reader maps sections to subcommands; hdrstereod has none, so
+// the [tls] and [auth] sections are turned into the options they stand for
+// before CLI11 sees them: [tls] cert -> tls-cert, [auth] local-role ->
+// local-role, [auth.users] NAME = ROLE -> auth-user = "NAME=ROLE". Any
+// other section stays as it is and is refused by name.
+class SectionedToml : public CLI::ConfigTOML {
+ public:
+  std::vector<CLI::ConfigItem> from_config(std::istream& input) const override {
+    std::vector<CLI::ConfigItem> out;
+    CLI::ConfigItem users;  // all of [auth.users] as one auth-user item
+    users.name = "auth-user";
+    for (CLI::ConfigItem& item : CLI::ConfigTOML::from_config(input)) {
+      const std::vector<std::string>& parents = item.parents;
+      const bool ours =
+          !parents.empty() && (parents[0] == "tls" || parents[0] == "auth");
+      if (!ours) {
+        out.push_back(std::move(item));
+        continue;
+      }
+      if (item.name == "++" || item.name == "--") continue;  // section marks
+      if (parents == std::vector<std::string>{"auth", "users"}) {
+        users.inputs.push_back(absl::StrCat(
+            item.name, "=", item.inputs.empty() ? "" : item.inputs[0]));
+        continue;
+      }
+      if (parents == std::vector<std::string>{"tls"}) {
+        item.name = absl::StrCat("tls-", item.name);
+      } else if (parents != std::vector<std::string>{"auth"}) {
+        out.push_back(std::move(item));  // e.g. [auth.other]: refused
+        continue;
+      }
+      item.parents.clear();
+      out.push_back(std::move(item));
+    }
+    // (An option takes its values from one config item.)
+    if (!users.inputs.empty()) out.push_back(std::move(users));
+    return out;
+  }
+};
+
+absl::Status ParseUsers(const std::vector<std::string>& entries,
+                        std::map<std::string, std::string>& users) {
+  for (const std::string& entry : entries) {
+    const size_t equals = entry.find('=');
+    const std::string name = entry.substr(0, equals);
+    const std::string role =
+        equals == std::string::npos ? "" : entry.substr(equals + 1);
+    if (absl::Status s = rpc::ValidatePrincipalName(name, "[auth.users]");
+        !s.ok()) {
+      return s;
+    }
+    absl::StatusOr<rpc::Role> parsed = rpc::ParseRole(role);
+    if (!parsed.ok() || *parsed == rpc::Role::kNone) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "[auth.users] ", name, " = \"", role,
+          "\": the role must be \"viewer\", \"operator\" or \"admin\""));
+    }
+    if (!users.emplace(name, role).second) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("[auth.users] names ", name, " twice"));
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ValidateTls(const TlsConfig& tls) {
+  const bool any =
+      !tls.cert.empty() || !tls.key.empty() || !tls.client_ca.empty();
+  if (!any) {
+    if (!tls.crl_dir.empty()) {
+      return absl::InvalidArgumentError(
+          "--tls-crl-dir needs --tls-cert, --tls-key and --tls-client-ca");
+    }
+    return absl::OkStatus();
+  }
+  for (const auto& [path, name] :
+       {std::pair{&tls.cert, "--tls-cert ([tls] cert)"},
+        std::pair{&tls.key, "--tls-key ([tls] key)"},
+        std::pair{&tls.client_ca, "--tls-client-ca ([tls] client-ca)"}}) {
+    if (path->empty()) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "TLS needs --tls-cert, --tls-key and --tls-client-ca together; ",
+          name, " is missing"));
+    }
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+bool IsLocalAddress(const std::string& address) {
+  if (absl::StartsWith(address, "unix:")) return true;
+  const std::string host = address.substr(0, address.rfind(':'));
+  return host == "localhost" || host == "[::1]" ||
+         absl::StartsWith(host, "127.");
+}
+
+absl::Status ValidateListenAddress(const std::string& address,
+                                   const TlsConfig& tls) {
   if (absl::StartsWith(address, "unix:")) {
     if (address.size() > 5) return absl::OkStatus();
     return absl::InvalidArgumentError("--listen unix: needs a socket path");
@@ -27,26 +127,32 @@ absl::Status ValidateListenAddress(const std::string& address) {
     return absl::InvalidArgumentError(
         absl::StrCat("--listen \"", address, "\" has no valid port (0-65535)"));
   }
-  if (host == "localhost" || host == "[::1]" ||
-      absl::StartsWith(host, "127.")) {
-    return absl::OkStatus();
+  if (host.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--listen \"", address, "\" has no host; use e.g. 0.0.0.0:", port));
   }
+  if (IsLocalAddress(address) || tls.enabled()) return absl::OkStatus();
   return absl::InvalidArgumentError(absl::StrCat(
       "--listen \"", address,
-      "\" is not a loopback address; remote access needs TLS and client "
-      "authentication, which this version does not offer: listen on "
-      "127.0.0.1 or a unix socket and tunnel (e.g. ssh -L)"));
+      "\" is not a loopback address; remote access needs TLS: give "
+      "--tls-cert, --tls-key and --tls-client-ca (or [tls] in the config; "
+      "deploy/make-certs.sh makes them), or listen on 127.0.0.1 or a unix "
+      "socket"));
 }
 
 absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
   Config config;
+  std::vector<std::string> users;
   CLI::App app{"hdrstereod: HDR stereo acquisition daemon", "hdrstereod"};
   app.set_version_flag("--version", HDRSTEREO_VERSION);
   app.set_config("--config", "", "Read options from a TOML file")
       ->check(CLI::ExistingFile);
+  app.config_formatter(std::make_shared<SectionedToml>());
   app.allow_config_extras(false);
   app.add_option("--listen", config.listen,
-                 "Address to serve gRPC on: HOST:PORT (loopback) or unix:PATH")
+                 "Address(es) to serve gRPC on: HOST:PORT or unix:PATH; "
+                 "loopback and unix without TLS (as principal \"local\"), "
+                 "any other address only with TLS")
       ->capture_default_str();
   app.add_option("--data-root", config.data_root,
                  "Folder holding hdrstereo.db and the session folders")
@@ -121,6 +227,21 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
                  "Simulated hardware time: 0 = instant, 1 = real time")
       ->check(CLI::Range(0.0, 10.0))
       ->capture_default_str();
+  app.add_option("--tls-cert", config.tls.cert,
+                 "Server certificate chain (PEM) for non-local addresses");
+  app.add_option("--tls-key", config.tls.key,
+                 "Its private key (PEM; readable by hdrstereod only)");
+  app.add_option("--tls-client-ca", config.tls.client_ca,
+                 "CA certificate(s) that sign client certificates (PEM)");
+  app.add_option("--tls-crl-dir", config.tls.crl_dir,
+                 "Folder of that CA's revocation lists (<hash>.r0)");
+  app.add_option("--local-role", config.local_role,
+                 "Role of every caller on a loopback address or unix socket")
+      ->check(CLI::IsMember({"viewer", "operator", "admin"}))
+      ->capture_default_str();
+  app.add_option("--auth-user", users,
+                 "NAME=ROLE: the role of a certificate's or key's principal "
+                 "(repeatable; [auth.users] in the config)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForVersion&) {
@@ -131,7 +252,13 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
   } catch (const CLI::ParseError& e) {
     return absl::InvalidArgumentError(e.what());
   }
-  if (absl::Status s = ValidateListenAddress(config.listen); !s.ok()) return s;
+  if (absl::Status s = ValidateTls(config.tls); !s.ok()) return s;
+  for (const std::string& address : config.listen) {
+    if (absl::Status s = ValidateListenAddress(address, config.tls); !s.ok()) {
+      return s;
+    }
+  }
+  if (absl::Status s = ParseUsers(users, config.users); !s.ok()) return s;
   if (!config.camera_dump.empty() && config.hardware != "real") {
     return absl::InvalidArgumentError(
         "--camera-dump replays a real camera for the real camera driver: "

@@ -1,20 +1,40 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
 // hdrstereod's configuration: command-line flags, optionally read from a
-// TOML/INI config file (--config); flags given on the command line win.
+// TOML/INI config file (--config); flags given on the command line win. In
+// the file, the TLS options may also sit in a [tls] section (cert = ... for
+// --tls-cert), --local-role in [auth], and the users' roles in
+// [auth.users] (alice = "viewer" for --auth-user alice=viewer).
 #ifndef HDRSTEREO_DAEMON_CONFIG_H_
 #define HDRSTEREO_DAEMON_CONFIG_H_
 
 #include <filesystem>
+#include <map>
 #include <string>
 #include <variant>
+#include <vector>
 
 #include "absl/status/statusor.h"
 
 namespace hdrstereo::daemon {
 
+// Remote access: the daemon's certificate, and the lab CA that signs the
+// client certificates it accepts.
+struct TlsConfig {
+  std::filesystem::path cert;       // server certificate chain (PEM)
+  std::filesystem::path key;        // its private key (PEM)
+  std::filesystem::path client_ca;  // CA certificate(s) for clients (PEM)
+  // Certificate revocation lists of that CA, as `openssl rehash` names
+  // them (<hash>.r0); empty = no revocation checks.
+  std::filesystem::path crl_dir;
+  bool enabled() const { return !cert.empty(); }
+};
+
 struct Config {
-  std::string listen = "127.0.0.1:50051";
+  // Each address is HOST:PORT or unix:PATH. Loopback addresses and unix
+  // sockets are served without TLS to the principal "local"; any other
+  // address only with TLS.
+  std::vector<std::string> listen = {"127.0.0.1:50051"};
   std::filesystem::path data_root = "data";
   std::string hardware = "sim";    // "sim" or "real"
   std::filesystem::path log_file;  // empty = <data_root>/logs/hdrstereod.log
@@ -52,6 +72,15 @@ struct Config {
   // Simulated devices (--hardware sim).
   std::string sim_scene = "lab-lamp";  // bundled scene name or JSON file
   double sim_time_scale = 0;           // 0 = instant, 1 = real time
+
+  // Security.
+  TlsConfig tls;
+  // The role of a caller on a loopback address or unix socket: anyone who
+  // can reach it has this role.
+  std::string local_role = "admin";
+  // Roles of the principals of client certificates and API keys, by name:
+  // "viewer", "operator" or "admin".
+  std::map<std::string, std::string> users;
 };
 
 // The result of parsing: a config to run with, or a text (help, version) to
@@ -62,12 +91,16 @@ struct ExitWithText {
 using ParsedArgs = std::variant<Config, ExitWithText>;
 
 // INVALID_ARGUMENT with a one-line message for unknown flags, unknown config
-// keys, bad values, or a listen address that is not local.
+// keys, bad values, or a listen address that is not local while TLS is not
+// configured. (The TLS files themselves are checked when the server starts.)
 absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv);
 
-// OK for "unix:PATH" and loopback host:port; remote listening needs TLS,
-// which hdrstereod does not offer yet.
-absl::Status ValidateListenAddress(const std::string& address);
+// True for "unix:PATH" and loopback HOST:PORT (localhost, 127.x, [::1]).
+bool IsLocalAddress(const std::string& address);
+
+// OK for "unix:PATH" and HOST:PORT; a non-local address needs `tls`.
+absl::Status ValidateListenAddress(const std::string& address,
+                                   const TlsConfig& tls);
 
 }  // namespace hdrstereo::daemon
 

@@ -5,23 +5,36 @@
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
 #include <spdlog/spdlog.h>
+#include <sys/stat.h>
 
+#include <cerrno>
 #include <chrono>
+#include <cstring>
+#include <optional>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "absl/time/clock.h"
 #include "daemon/jobs/capture_job.h"
 #include "daemon/jobs/processing_job.h"
+#include "daemon/rpc/audit_interceptor.h"
+#include "daemon/rpc/call_guard.h"
+#include "daemon/rpc/method_roles.h"
+#include "daemon/rpc/server_credentials.h"
 #include "hardware/sim/truth.h"
+#include "processing/base/status_macros.h"
 #include "processing/io/atomic_file.h"
 
 namespace hdrstereo::daemon {
 namespace {
 
 // The scheduler's clock runs `scheduler_clock_rate` times as fast as the
-// wall clock from the daemon's start (1 = the wall clock; tests only).
-jobs::SchedulerOptions SchedulerOptionsFor(const Config& config) {
+// wall clock from the daemon's start (1 = the wall clock; tests only); due
+// runs wait while the rig is locked.
+jobs::SchedulerOptions SchedulerOptionsFor(const Config& config,
+                                           jobs::RigLock& rig_lock) {
   jobs::SchedulerOptions options;
+  options.hold = [&rig_lock] { return rig_lock.CheckUnattended(); };
   if (config.scheduler_clock_rate != 1.0) {
     const absl::Time start = absl::Now();
     const double rate = config.scheduler_clock_rate;
@@ -41,6 +54,25 @@ jobs::TruthWriter TruthWriterFor(const sim::SimWorld* world) {
     if (!truth.ok()) return truth.status();
     return sim::WriteStereoTruth(*truth, dir);
   };
+}
+
+rpc::RoleMap UsersOf(const Config& config) {
+  rpc::RoleMap users;
+  for (const auto& [name, role] : config.users) {
+    // ParseArgs has checked the names.
+    users[name] = rpc::ParseRole(role).value_or(rpc::Role::kNone);
+  }
+  return users;
+}
+
+// The services hdrstereod registers (gRPC's health and reflection
+// services have their rows in the table by name).
+const std::vector<std::string>& ServedServices() {
+  static const auto* const kServices = new std::vector<std::string>{
+      v1::Server::service_full_name(),    v1::Sessions::service_full_name(),
+      v1::Hardware::service_full_name(),  v1::Jobs::service_full_name(),
+      v1::Schedules::service_full_name(), v1::Admin::service_full_name()};
+  return *kServices;
 }
 
 jobs::ProcessingEnvironment ProcessingEnvironmentFor(const Config& config) {
@@ -66,9 +98,18 @@ jobs::ProcessingEnvironment ProcessingEnvironmentFor(const Config& config) {
 }  // namespace
 
 Server::Server(std::unique_ptr<store::Store> store,
-               std::unique_ptr<Hardware> hardware, const Config& config)
+               std::unique_ptr<Hardware> hardware,
+               std::unique_ptr<jobs::RigLock> rig_lock,
+               std::unique_ptr<rpc::ApiKeyStore> api_keys, const Config& config)
     : store_(std::move(store)),
       hardware_(std::move(hardware)),
+      rig_lock_(std::move(rig_lock)),
+      api_keys_(std::move(api_keys)),
+      authenticator_(
+          UsersOf(config),
+          rpc::ParseRole(config.local_role).value_or(rpc::Role::kNone),
+          *api_keys_),
+      audit_log_(*store_),
       engine_(
           *store_,
           [rig = hardware_->rig.get(),
@@ -82,73 +123,118 @@ Server::Server(std::unique_ptr<store::Store> store,
           },
           {.processing_threads = config.processing_threads,
            .resume_interrupted = config.resume_interrupted}),
-      server_service_(*store_, config.hardware, absl::Now()),
+      server_service_(*store_, authenticator_, config.hardware, absl::Now()),
       sessions_service_(*store_),
-      hardware_service_(*hardware_->rig),
-      jobs_service_(engine_, *hardware_->rig),
+      hardware_service_(*hardware_->rig, *rig_lock_, authenticator_),
+      jobs_service_(engine_, *hardware_->rig, authenticator_),
       scheduler_(
           *store_,
-          [this](absl::string_view session,
-                 const v1::CapturePlan& plan) -> absl::StatusOr<int64_t> {
-            absl::StatusOr<store::JobRecord> job =
-                jobs::SubmitCapture(engine_, *hardware_->rig, session, plan);
-            if (!job.ok()) return job.status();
-            return job->id;
+          [this](absl::string_view session, const v1::CapturePlan& plan,
+                 absl::string_view by) -> absl::StatusOr<int64_t> {
+            ASSIGN_OR_RETURN(store::JobRecord job,
+                             jobs::SubmitCapture(engine_, *hardware_->rig,
+                                                 session, plan, by));
+            return job.id;
           },
           [this](absl::string_view session,
-                 const std::vector<std::string>& steps)
-              -> absl::StatusOr<int64_t> {
+                 const std::vector<std::string>& steps,
+                 absl::string_view by) -> absl::StatusOr<int64_t> {
             v1::SubmitProcessingRequest request;
             request.set_session(std::string(session));
             for (const std::string& step : steps) request.add_steps(step);
-            absl::StatusOr<store::JobRecord> job =
-                jobs::SubmitProcessing(engine_, *hardware_->rig, request);
-            if (!job.ok()) return job.status();
-            return job->id;
+            ASSIGN_OR_RETURN(
+                store::JobRecord job,
+                jobs::SubmitProcessing(engine_, *hardware_->rig, request, by));
+            return job.id;
           },
-          SchedulerOptionsFor(config)),
-      schedules_service_(scheduler_, *hardware_->rig) {}
+          SchedulerOptionsFor(config, *rig_lock_)),
+      schedules_service_(scheduler_, *hardware_->rig, authenticator_),
+      admin_service_(authenticator_, *api_keys_, audit_log_) {}
 
 absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
-  absl::StatusOr<std::unique_ptr<store::Store>> store =
-      store::Store::Open(config.data_root);
-  if (!store.ok()) return store.status();
+  if (std::vector<std::string> missing =
+          rpc::MethodsWithoutRule(ServedServices());
+      !missing.empty()) {
+    return absl::InternalError(absl::StrCat("no role table entry for ",
+                                            absl::StrJoin(missing, ", "),
+                                            " (daemon/rpc/method_roles.cc)"));
+  }
+  // TLS files first: a bad one is refused before anything is opened.
+  std::optional<rpc::TlsMaterial> tls;
+  if (config.tls.enabled()) {
+    ASSIGN_OR_RETURN(tls, rpc::LoadTlsMaterial(config.tls));
+  }
+  ASSIGN_OR_RETURN(std::unique_ptr<store::Store> store,
+                   store::Store::Open(config.data_root));
   spdlog::info("data root {} (schema version {})",
-               (*store)->files().root().string(), (*store)->schema_version());
+               store->files().root().string(), store->schema_version());
 
-  absl::StatusOr<std::unique_ptr<Hardware>> hardware = SetUpHardware(config);
-  if (!hardware.ok()) return hardware.status();
+  ASSIGN_OR_RETURN(std::unique_ptr<Hardware> hardware, SetUpHardware(config));
+  ASSIGN_OR_RETURN(std::unique_ptr<jobs::RigLock> rig_lock,
+                   jobs::RigLock::Load(*store));
+  ASSIGN_OR_RETURN(std::unique_ptr<rpc::ApiKeyStore> api_keys,
+                   rpc::ApiKeyStore::Load(*store));
   std::unique_ptr<Server> server(
-      new Server(*std::move(store), *std::move(hardware), config));
-  if (absl::Status s = server->engine_.Start(); !s.ok()) return s;
-  if (absl::Status s = server->scheduler_.Start(); !s.ok()) return s;
+      new Server(std::move(store), std::move(hardware), std::move(rig_lock),
+                 std::move(api_keys), config));
+  RETURN_IF_ERROR(server->engine_.Start());
+  RETURN_IF_ERROR(server->scheduler_.Start());
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
-  int port = 0;
-  builder.AddListeningPort(config.listen, grpc::InsecureServerCredentials(),
-                           &port);
+  auto guard = std::make_shared<rpc::CallGuard>(
+      server->authenticator_, *server->rig_lock_, server->audit_log_);
+  std::vector<int> ports(config.listen.size(), 0);
+  for (size_t i = 0; i < config.listen.size(); ++i) {
+    builder.AddListeningPort(
+        config.listen[i],
+        rpc::ServerCredentialsFor(config.listen[i], tls ? &*tls : nullptr,
+                                  guard),
+        &ports[i]);
+  }
+  std::vector<
+      std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>>
+      interceptors;
+  interceptors.push_back(std::make_unique<rpc::AuditInterceptorFactory>(
+      server->authenticator_, server->audit_log_));
+  builder.experimental().SetInterceptorCreators(std::move(interceptors));
   builder.RegisterService(&server->server_service_);
   builder.RegisterService(&server->sessions_service_);
   builder.RegisterService(&server->hardware_service_);
   builder.RegisterService(&server->jobs_service_);
   builder.RegisterService(&server->schedules_service_);
+  builder.RegisterService(&server->admin_service_);
   server->grpc_server_ = builder.BuildAndStart();
-  if (server->grpc_server_ == nullptr || port == 0) {
-    return absl::UnavailableError(
-        absl::StrCat("cannot listen on ", config.listen,
-                     " (address in use, or not a local address?)"));
+  std::vector<std::string> described;
+  for (size_t i = 0; i < config.listen.size(); ++i) {
+    const std::string& listen = config.listen[i];
+    if (server->grpc_server_ == nullptr || ports[i] == 0) {
+      return absl::UnavailableError(
+          absl::StrCat("cannot listen on ", listen, " (address in use?)"));
+    }
+    if (listen.starts_with("unix:")) {
+      server->addresses_.push_back(listen);
+      // Whoever may connect is local with --local-role: members of the
+      // socket's group (hdrstereo, as installed), not every user.
+      const std::string path = listen.substr(listen.find(':') + 1);
+      if (::chmod(path.c_str(), 0660) != 0) {
+        spdlog::warn("cannot make {} mode 0660: {}", path, strerror(errno));
+      }
+    } else {
+      server->addresses_.push_back(
+          absl::StrCat(listen.substr(0, listen.rfind(':')), ":", ports[i]));
+    }
+    described.push_back(
+        IsLocalAddress(listen)
+            ? absl::StrCat(server->addresses_.back(), " (local, role ",
+                           config.local_role, ")")
+            : absl::StrCat(server->addresses_.back(), " (TLS)"));
   }
-  if (config.listen.starts_with("unix:")) {
-    server->address_ = config.listen;
-  } else {
-    server->address_ = absl::StrCat(
-        config.listen.substr(0, config.listen.rfind(':')), ":", port);
-  }
-  spdlog::info("serving gRPC on {}", server->address_);
+  spdlog::info("serving gRPC on {}", absl::StrJoin(described, ", "));
   if (!config.ready_file.empty()) {
-    if (absl::Status s =
-            io::WriteFileAtomically(config.ready_file, server->address_ + "\n");
+    if (absl::Status s = io::WriteFileAtomically(
+            config.ready_file,
+            absl::StrCat(absl::StrJoin(server->addresses_, "\n"), "\n"));
         !s.ok()) {
       server->Shutdown();
       return s;

@@ -8,12 +8,18 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "daemon/config.h"
 #include "daemon/hardware_setup.h"
 #include "daemon/jobs/job_engine.h"
+#include "daemon/jobs/rig_lock.h"
 #include "daemon/jobs/scheduler.h"
+#include "daemon/rpc/admin_service.h"
+#include "daemon/rpc/api_keys.h"
+#include "daemon/rpc/audit_log.h"
+#include "daemon/rpc/authenticator.h"
 #include "daemon/rpc/hardware_service.h"
 #include "daemon/rpc/jobs_service.h"
 #include "daemon/rpc/schedules_service.h"
@@ -26,12 +32,13 @@ namespace hdrstereo::daemon {
 class Server {
  public:
   // Opens the store and starts serving; fails (and serves nothing) when the
-  // data root, database or listen address is unusable.
+  // data root, database, TLS files or a listen address is unusable.
   static absl::StatusOr<std::unique_ptr<Server>> Start(const Config& config);
   ~Server();
 
-  // The address actually bound (port resolved when 0 was asked for).
-  const std::string& address() const { return address_; }
+  // The addresses actually bound, in --listen order (ports resolved when 0
+  // was asked for).
+  const std::vector<std::string>& addresses() const { return addresses_; }
   // Stops the jobs at their next checkpoint (they resume at the next start),
   // stops accepting calls, lets in-flight calls finish (up to a deadline),
   // then releases the hardware and closes the database.
@@ -39,12 +46,18 @@ class Server {
 
  private:
   Server(std::unique_ptr<store::Store> store,
-         std::unique_ptr<Hardware> hardware, const Config& config);
+         std::unique_ptr<Hardware> hardware,
+         std::unique_ptr<jobs::RigLock> rig_lock,
+         std::unique_ptr<rpc::ApiKeyStore> api_keys, const Config& config);
 
   // Declaration order is destruction order reversed: the services and the
   // engine go before the hardware and the store they use.
   std::unique_ptr<store::Store> store_;
   std::unique_ptr<Hardware> hardware_;
+  std::unique_ptr<jobs::RigLock> rig_lock_;
+  std::unique_ptr<rpc::ApiKeyStore> api_keys_;
+  rpc::Authenticator authenticator_;
+  rpc::AuditLog audit_log_;
   jobs::JobEngine engine_;
   rpc::ServerService server_service_;
   rpc::SessionsService sessions_service_;
@@ -52,8 +65,9 @@ class Server {
   rpc::JobsService jobs_service_;
   jobs::Scheduler scheduler_;
   rpc::SchedulesService schedules_service_;
+  rpc::AdminService admin_service_;
   std::unique_ptr<grpc::Server> grpc_server_;
-  std::string address_;
+  std::vector<std::string> addresses_;
 };
 
 }  // namespace hdrstereo::daemon

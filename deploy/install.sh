@@ -7,8 +7,13 @@
 # the user `hdrstereo` (groups plugdev, dialout) and the data root
 # /var/lib/hdrstereo. Idempotent: run it again after an update.
 #
-# Usage: sudo deploy/install.sh [--no-build] [--uninstall [--purge]]
+# Usage: sudo deploy/install.sh [--no-build] [--tls-from DIR]
+#                               [--uninstall [--purge]]
 #   --no-build   install what is in build/ without building
+#   --tls-from DIR  install the daemon's TLS files from DIR, a folder of
+#                deploy/make-certs.sh (server.pem, server.key, ca.pem, crl/),
+#                into /etc/hdrstereo/tls, 0640 root:hdrstereo; then set
+#                [tls] and listen in the config (see its comments)
 #   --uninstall  stop and remove the service, binaries, unit and udev rules;
 #                keeps the config, user and data unless --purge
 #   --purge      with --uninstall: also remove config, user and data root
@@ -25,15 +30,26 @@ binaries=(hdrstereod hdrstereo hdrstereo-proc hdrstereo-sim)
 build=1
 uninstall=0
 purge=0
-for arg in "$@"; do
-  case "$arg" in
+tls_from=""
+while [[ $# -gt 0 ]]; do
+  case "$1" in
     --no-build) build=0 ;;
+    --tls-from) tls_from=${2:-}; shift
+      [[ -n "$tls_from" ]] || { echo "install.sh: --tls-from needs DIR" >&2; exit 2; } ;;
     --uninstall) uninstall=1 ;;
     --purge) purge=1 ;;
-    -h|--help) sed -n '3,15p' "$0"; exit 0 ;;
-    *) echo "install.sh: unknown argument $arg" >&2; exit 2 ;;
+    -h|--help) sed -n '3,20p' "$0"; exit 0 ;;
+    *) echo "install.sh: unknown argument $1" >&2; exit 2 ;;
   esac
+  shift
 done
+if [[ -n "$tls_from" ]]; then
+  for f in server.pem server.key ca.pem; do
+    [[ -f "$tls_from/$f" ]] || {
+      echo "install.sh: --tls-from $tls_from has no $f (deploy/make-certs.sh" \
+           "makes it)" >&2; exit 2; }
+  done
+fi
 if [[ $(id -u) -ne 0 ]]; then
   echo "install.sh: run as root (sudo)" >&2
   exit 1
@@ -107,6 +123,22 @@ if ! "$prefix/bin/hdrstereod" --config "$config_dir/hdrstereod.toml" \
        --help >/dev/null; then
   echo "install.sh: $config_dir/hdrstereod.toml is refused by hdrstereod" >&2
   exit 1
+fi
+
+# 4b. TLS files: readable by the daemon's group, not by other users; the
+#     CA's private key stays where it was made.
+if [[ -n "$tls_from" ]]; then
+  install -d -m 0750 -o root -g "$user" "$config_dir/tls" "$config_dir/tls/crl"
+  for f in server.pem server.key ca.pem; do
+    install -m 0640 -o root -g "$user" "$tls_from/$f" "$config_dir/tls/$f"
+  done
+  rm -f "$config_dir/tls/crl/"*.r0
+  for crl in "$tls_from"/crl/*.r0; do
+    [[ -e "$crl" ]] && install -m 0640 -o root -g "$user" "$crl" \
+                         "$config_dir/tls/crl/"
+  done
+  echo "install.sh: TLS files in $config_dir/tls; set [tls] and listen in" \
+       "$config_dir/hdrstereod.toml, then systemctl restart hdrstereod"
 fi
 
 # 5. udev rules: the stage symlink, and libgphoto2's camera rules when its

@@ -12,6 +12,7 @@
 #include <memory>
 #include <string>
 
+#include "clients/cli/connection.h"
 #include "clients/cli/output.h"
 
 namespace hdrstereo::cli {
@@ -22,9 +23,12 @@ inline constexpr int kExitError = 1;        // the server refused or failed
 inline constexpr int kExitUsage = 2;        // bad command line or argument
 inline constexpr int kExitUnreachable = 3;  // no daemon at --server
 inline constexpr int kExitNotFound = 4;     // the named thing does not exist
+inline constexpr int kExitUnauthenticated = 5;   // no or bad credentials
+inline constexpr int kExitPermissionDenied = 6;  // the role does not allow it
 
 struct GlobalOptions {
-  std::string server = "localhost:50051";
+  ConnectionOptions flags;  // --server, --profile, --tls-*, --api-key-file
+  Connection connection;    // resolved from them before any command runs
   bool json = false;
   double timeout_s = 10;
 };

@@ -24,6 +24,8 @@ void AddProcessingCommands(CLI::App& app, const GlobalOptions& options,
                            int* exit_code);
 void AddSessionCommands(CLI::App& app, const GlobalOptions& options,
                         int* exit_code);
+void AddAdminCommands(CLI::App& app, const GlobalOptions& options,
+                      int* exit_code);
 
 // Follows a job's events until it ends (a progress bar on a terminal, one
 // line per event otherwise); the exit code says how it ended.

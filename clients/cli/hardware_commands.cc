@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
-// `hdrstereo hw status|camera|stage|projector`: direct control of the rig.
+// `hdrstereo hw status|camera|stage|projector|lock|unlock`: direct control
+// of the rig and its lock.
 #include <fstream>
 #include <iostream>
 #include <map>
@@ -16,6 +17,7 @@
 #include "clients/cli/commands.h"
 #include "clients/cli/exposure.h"
 #include "clients/cli/output.h"
+#include "clients/cli/time_args.h"
 #include "hdrstereo/v1/hardware.grpc.pb.h"
 
 namespace hdrstereo::cli {
@@ -55,10 +57,24 @@ void PrintSettings(const v1::CameraSettings& s) {
        {"format", v1::ImageFormat_Name(s.format())}});
 }
 
+std::string DescribeLock(const v1::RigLock& lock) {
+  if (!lock.locked()) return "free";
+  return absl::StrCat("locked by ", lock.holder(), " until ",
+                      FormatTime(lock.expire_time()),
+                      lock.note().empty() ? "" : ": ", lock.note());
+}
+
+void PrintLock(const v1::RigLock& lock) {
+  std::cout << "rig " << DescribeLock(lock) << "\n";
+}
+
 int RunStatus(const Client& client) {
+  auto stub = v1::Hardware::NewStub(client.channel());
   v1::HardwareStatus status;
-  grpc::Status rpc = v1::Hardware::NewStub(client.channel())
-                         ->GetStatus(client.NewContext().get(), {}, &status);
+  grpc::Status rpc = stub->GetStatus(client.NewContext().get(), {}, &status);
+  if (!rpc.ok()) return client.Fail(rpc);
+  v1::RigLock lock;
+  rpc = stub->GetLock(client.NewContext().get(), {}, &lock);
   if (!rpc.ok()) return client.Fail(rpc);
   if (client.options().json) {
     PrintJson(std::cout, status);
@@ -86,7 +102,8 @@ int RunStatus(const Client& client) {
        {"projector",
         absl::StrCat(StateName(p.state()), "  ", p.width_px(), "x",
                      p.height_px(), "  ", p.showing(),
-                     p.message().empty() ? "" : "  ", p.message())}});
+                     p.message().empty() ? "" : "  ", p.message())},
+       {"lock", DescribeLock(lock)}});
   return kExitOk;
 }
 
@@ -106,6 +123,9 @@ void AddHardwareCommands(CLI::App& app, const GlobalOptions& options,
     std::string png;
     std::string gray;
     int level = -1;
+    std::string ttl = "1h";
+    std::string note;
+    bool force = false;
   };
   auto args = std::make_shared<Args>();
 
@@ -248,6 +268,43 @@ void AddHardwareCommands(CLI::App& app, const GlobalOptions& options,
                 ->BlankProjector(client.NewContext().get(), {}, &status);
         *exit_code = Finish(client, rpc, status, PrintProjector);
       });
+
+  CLI::App* lock = hw->add_subcommand(
+      "lock",
+      "Keep others off the rig while you work at it (not access control)");
+  lock->add_option("--ttl", args->ttl, "How long, e.g. 30m, 2h (at most 7d)")
+      ->capture_default_str();
+  lock->add_option("--note", args->note,
+                   "Why, for the people refused, e.g. \"re-aligning the "
+                   "projector\"");
+  lock->callback([&options, exit_code, args] {
+    Client client(options);
+    absl::StatusOr<absl::Duration> ttl = ParseDurationArg(args->ttl);
+    if (!ttl.ok()) {
+      std::cerr << "hdrstereo: --ttl: " << ttl.status().message() << "\n";
+      *exit_code = kExitUsage;
+      return;
+    }
+    v1::LockRequest request;
+    request.set_note(args->note);
+    request.set_ttl_s(absl::ToInt64Seconds(*ttl));
+    v1::RigLock state;
+    grpc::Status rpc = v1::Hardware::NewStub(client.channel())
+                           ->Lock(client.NewContext().get(), request, &state);
+    *exit_code = Finish(client, rpc, state, PrintLock);
+  });
+  CLI::App* unlock = hw->add_subcommand("unlock", "Release the rig lock");
+  unlock->add_flag("--force", args->force,
+                   "Release another principal's lock (admin)");
+  unlock->callback([&options, exit_code, args] {
+    Client client(options);
+    v1::UnlockRequest request;
+    request.set_force(args->force);
+    v1::RigLock state;
+    grpc::Status rpc = v1::Hardware::NewStub(client.channel())
+                           ->Unlock(client.NewContext().get(), request, &state);
+    *exit_code = Finish(client, rpc, state, PrintLock);
+  });
 }
 
 }  // namespace hdrstereo::cli

@@ -5,6 +5,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <iostream>
 #include <memory>
 
@@ -47,6 +48,7 @@ void PrintJob(const v1::Job& job) {
         absl::StrCat(job.progress().done(), "/", job.progress().total(), "  ",
                      job.progress().step())},
        {"created", FormatTime(job.create_time())},
+       {"submitted by", job.submitted_by().empty() ? "-" : job.submitted_by()},
        {"error", job.error().empty() ? "-" : job.error()}});
 }
 
@@ -64,56 +66,86 @@ void StopWatching(int) {
 int WatchJob(const Client& client, int64_t job_id) {
   signal(SIGINT, StopWatching);
   const bool tty = isatty(STDOUT_FILENO);
-  grpc::ClientContext context;  // no deadline: captures take long
-  v1::WatchJobRequest request;
-  request.set_job_id(job_id);
-  auto reader = v1::Jobs::NewStub(client.channel())->Watch(&context, request);
-  v1::JobEvent event;
+  // A stream cut by the network (or a restart of the daemon) is resumed
+  // after the last event received (after_sequence), with backoff, until the
+  // daemon has been out of reach for kGiveUp.
+  constexpr absl::Duration kFirstRetry = absl::Milliseconds(200);
+  constexpr absl::Duration kMaxRetry = absl::Seconds(5);
+  constexpr absl::Duration kGiveUp = absl::Minutes(5);
+  absl::Duration retry = kFirstRetry;
+  absl::Time last_contact = absl::Now();
+  int64_t last_sequence = 0;
   v1::JobState last_state = v1::JOB_STATE_UNSPECIFIED;
   absl::Time rate_start = absl::InfinitePast();
   int64_t rate_done = 0;
   bool bar_open = false;
-  while (reader->Read(&event)) {
-    const absl::Time t = absl::FromUnixSeconds(event.time().seconds()) +
-                         absl::Nanoseconds(event.time().nanos());
-    const int64_t done = event.progress().done();
-    const int64_t total = event.progress().total();
-    if (client.options().json) {
-      PrintJson(std::cout, event);
-    } else if (tty && event.message().empty() && total > 0) {
-      if (rate_start == absl::InfinitePast() ||
-          event.state() != v1::JOB_STATE_RUNNING) {
-        rate_start = t;
-        rate_done = done;
+  while (true) {
+    grpc::ClientContext context;  // no deadline: captures take long
+    v1::WatchJobRequest request;
+    request.set_job_id(job_id);
+    request.set_after_sequence(last_sequence);
+    auto reader = v1::Jobs::NewStub(client.channel())->Watch(&context, request);
+    v1::JobEvent event;
+    while (reader->Read(&event)) {
+      last_contact = absl::Now();
+      retry = kFirstRetry;
+      last_sequence = event.sequence();
+      const absl::Time t = absl::FromUnixSeconds(event.time().seconds()) +
+                           absl::Nanoseconds(event.time().nanos());
+      const int64_t done = event.progress().done();
+      const int64_t total = event.progress().total();
+      if (client.options().json) {
+        PrintJson(std::cout, event);
+        std::cout << std::flush;
+      } else if (tty && event.message().empty() && total > 0) {
+        if (rate_start == absl::InfinitePast() ||
+            event.state() != v1::JOB_STATE_RUNNING) {
+          rate_start = t;
+          rate_done = done;
+        }
+        const double elapsed = absl::ToDoubleSeconds(t - rate_start);
+        const double rate = elapsed > 0 ? (done - rate_done) / elapsed : 0;
+        constexpr int kWidth = 30;
+        const int filled = static_cast<int>(kWidth * done / total);
+        std::cout << absl::StrFormat(
+                         "\r[%s%s] %d/%d %3.0f%% %5.2f/s ETA %s  %-40.40s",
+                         std::string(filled, '#'),
+                         std::string(kWidth - filled, '-'), done, total,
+                         100.0 * done / total, rate,
+                         rate > 0 ? FormatDuration((total - done) / rate)
+                                  : "--:--",
+                         event.progress().step())
+                  << std::flush;
+        bar_open = true;
+      } else if (!event.message().empty() || event.state() != last_state ||
+                 !tty) {
+        if (bar_open) std::cout << "\n";
+        bar_open = false;
+        std::cout << absl::StrFormat(
+            "%s job %d %s %d/%d %s%s%s\n", FormatTime(event.time()), job_id,
+            StateName(event.state()), done, total, event.progress().step(),
+            event.message().empty() ? "" : "  ", event.message());
       }
-      const double elapsed = absl::ToDoubleSeconds(t - rate_start);
-      const double rate = elapsed > 0 ? (done - rate_done) / elapsed : 0;
-      constexpr int kWidth = 30;
-      const int filled = static_cast<int>(kWidth * done / total);
-      std::cout << absl::StrFormat(
-                       "\r[%s%s] %d/%d %3.0f%% %5.2f/s ETA %s  %-40.40s",
-                       std::string(filled, '#'),
-                       std::string(kWidth - filled, '-'), done, total,
-                       100.0 * done / total, rate,
-                       rate > 0 ? FormatDuration((total - done) / rate)
-                                : "--:--",
-                       event.progress().step())
-                << std::flush;
-      bar_open = true;
-    } else if (!event.message().empty() || event.state() != last_state ||
-               !tty) {
-      if (bar_open) std::cout << "\n";
-      bar_open = false;
-      std::cout << absl::StrFormat(
-          "%s job %d %s %d/%d %s%s%s\n", FormatTime(event.time()), job_id,
-          StateName(event.state()), done, total, event.progress().step(),
-          event.message().empty() ? "" : "  ", event.message());
+      last_state = event.state();
     }
-    last_state = event.state();
+    grpc::Status status = reader->Finish();
+    if (status.ok()) break;
+    // Only a stream that worked is resumed: a daemon that cannot be reached
+    // at all is reported at once.
+    if (status.error_code() != grpc::StatusCode::UNAVAILABLE ||
+        last_sequence == 0 || absl::Now() - last_contact > kGiveUp) {
+      if (bar_open) std::cout << "\n";
+      return client.Fail(status);
+    }
+    if (bar_open) std::cout << "\n";
+    bar_open = false;
+    std::cerr << "hdrstereo: lost the stream of job " << job_id << " ("
+              << status.error_message() << "); resuming after event "
+              << last_sequence << " in " << absl::FormatDuration(retry) << "\n";
+    absl::SleepFor(retry);
+    retry = std::min(retry * 2, kMaxRetry);
   }
   if (bar_open) std::cout << "\n";
-  grpc::Status status = reader->Finish();
-  if (!status.ok()) return client.Fail(status);
   if (!IsFinal(last_state)) return kExitError;
   return last_state == v1::JOB_STATE_SUCCEEDED ? kExitOk : kExitError;
 }
@@ -263,14 +295,15 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
             return;
           }
           Table table({"ID", "SESSION", "KIND", "STATE", "PROGRESS", "CREATED",
-                       "ERROR"});
+                       "BY", "ERROR"});
           for (const v1::Job& j : r.jobs()) {
             table.AddRow(
                 {absl::StrCat(j.id()), j.session(),
                  j.kind() == v1::JOB_KIND_CAPTURE ? "capture" : "processing",
                  StateName(j.state()),
                  absl::StrCat(j.progress().done(), "/", j.progress().total()),
-                 FormatTime(j.create_time()), j.error()});
+                 FormatTime(j.create_time()),
+                 j.submitted_by().empty() ? "-" : j.submitted_by(), j.error()});
           }
           table.Print(std::cout);
         });

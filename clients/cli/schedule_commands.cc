@@ -35,14 +35,16 @@ std::string NextDue(const v1::Schedule& s) {
 }
 
 void PrintSchedule(const v1::Schedule& s) {
-  PrintFields(std::cout, {{"schedule", s.name()},
-                          {"cron", s.cron()},
-                          {"time zone", s.time_zone()},
-                          {"enabled", s.enabled() ? "yes" : "no"},
-                          {"missed runs", PolicyName(s.missed_run_policy())},
-                          {"session pattern", s.plan().session_pattern()},
-                          {"captures", absl::StrCat(s.plan().captures_size())},
-                          {"next due", NextDue(s)}});
+  PrintFields(std::cout,
+              {{"schedule", s.name()},
+               {"cron", s.cron()},
+               {"time zone", s.time_zone()},
+               {"enabled", s.enabled() ? "yes" : "no"},
+               {"missed runs", PolicyName(s.missed_run_policy())},
+               {"session pattern", s.plan().session_pattern()},
+               {"created by", s.created_by().empty() ? "-" : s.created_by()},
+               {"captures", absl::StrCat(s.plan().captures_size())},
+               {"next due", NextDue(s)}});
 }
 
 struct Args {
@@ -107,11 +109,12 @@ int RunList(const Client& client) {
     std::cout << "no schedules\n";
     return kExitOk;
   }
-  Table table(
-      {"NAME", "CRON", "TIME ZONE", "ENABLED", "NEXT DUE", "SESSION PATTERN"});
+  Table table({"NAME", "CRON", "TIME ZONE", "ENABLED", "NEXT DUE",
+               "SESSION PATTERN", "CREATED BY"});
   for (const v1::Schedule& s : all.schedules()) {
     table.AddRow({s.name(), s.cron(), s.time_zone(), s.enabled() ? "yes" : "no",
-                  NextDue(s), s.plan().session_pattern()});
+                  NextDue(s), s.plan().session_pattern(),
+                  s.created_by().empty() ? "-" : s.created_by()});
   }
   table.Print(std::cout);
   return kExitOk;
@@ -138,13 +141,15 @@ int RunRuns(const Client& client, const std::string& name) {
     std::cout << "no runs of " << name << " yet\n";
     return kExitOk;
   }
-  Table table({"DUE", "STARTED", "OUTCOME", "SESSION", "JOBS", "REASON"});
+  Table table(
+      {"DUE", "STARTED", "OUTCOME", "SESSION", "JOBS", "FOR", "REASON"});
   for (const v1::ScheduleRun& r : all.runs()) {
     table.AddRow({FormatTime(r.due_time()),
                   r.has_start_time() ? FormatTime(r.start_time()) : "-",
                   OutcomeName(r.outcome()),
                   r.session().empty() ? "-" : r.session(),
                   r.job_ids().empty() ? "-" : absl::StrJoin(r.job_ids(), ","),
+                  r.caused_by().empty() ? "-" : r.caused_by(),
                   r.reason().empty() ? "-" : r.reason()});
   }
   table.Print(std::cout);

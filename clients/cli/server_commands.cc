@@ -1,8 +1,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
 // `hdrstereo status`: is the daemon serving, and which versions does it run.
+// `hdrstereo whoami`: who the daemon takes the caller to be.
 #include <iostream>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "clients/cli/commands.h"
@@ -34,7 +36,7 @@ int RunStatus(const Client& client) {
   } else {
     PrintFields(std::cout,
                 {
-                    {"server", client.options().server},
+                    {"server", client.options().connection.server},
                     {"health", ServingStatusName(health.status())},
                     {"version", info.version()},
                     {"libraries",
@@ -52,6 +54,30 @@ int RunStatus(const Client& client) {
              : kExitError;
 }
 
+int RunWhoAmI(const Client& client) {
+  v1::Identity identity;
+  grpc::Status status = v1::Server::NewStub(client.channel())
+                            ->WhoAmI(client.NewContext().get(), {}, &identity);
+  return Finish(client, status, identity, [&client](const v1::Identity& i) {
+    std::vector<std::pair<std::string, std::string>> fields = {
+        {"principal", i.principal()},
+        {"role",
+         i.role() == v1::ROLE_UNSPECIFIED
+             ? "none (every call but whoami is refused)"
+             : absl::AsciiStrToLower(v1::Role_Name(i.role()).substr(5))},
+        {"auth", i.auth_method()},
+        {"server", client.options().connection.server},
+        {"seen from", i.peer()}};
+    if (i.has_key_expire_time()) {
+      fields.push_back({"key expires", FormatTime(i.key_expire_time())});
+    }
+    if (!client.options().connection.profile.empty()) {
+      fields.push_back({"profile", client.options().connection.profile});
+    }
+    PrintFields(std::cout, fields);
+  });
+}
+
 }  // namespace
 
 void AddServerCommands(CLI::App& app, const GlobalOptions& options,
@@ -59,6 +85,11 @@ void AddServerCommands(CLI::App& app, const GlobalOptions& options,
   app.add_subcommand("status", "Show whether hdrstereod serves, and versions")
       ->callback(
           [&options, exit_code] { *exit_code = RunStatus(Client(options)); });
+  app.add_subcommand("whoami",
+                     "Show the principal, role and authentication the daemon "
+                     "sees for you")
+      ->callback(
+          [&options, exit_code] { *exit_code = RunWhoAmI(Client(options)); });
 }
 
 }  // namespace hdrstereo::cli

@@ -410,7 +410,8 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
 absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
                                                const hardware::Rig& rig,
                                                absl::string_view session,
-                                               const v1::CapturePlan& plan) {
+                                               const v1::CapturePlan& plan,
+                                               absl::string_view submitted_by) {
   // Limits come from the stage; without one, say so before judging the plan.
   absl::StatusOr<RigLimits> limits = LimitsOf(rig);
   if (!limits.ok()) return limits.status();
@@ -422,7 +423,8 @@ absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
                        normal->SerializeAsString(),
                        static_cast<int64_t>(frames),
                        absl::StrCat("queued ", PlanKindName(*normal),
-                                    " capture of ", frames, " frames"));
+                                    " capture of ", frames, " frames"),
+                       submitted_by);
 }
 
 }  // namespace hdrstereo::jobs

@@ -27,12 +27,13 @@ absl::Status CheckDevicesFor(const v1::CapturePlan& plan,
                              const hardware::Rig& rig);
 
 // Validates and normalises `plan` against the rig, checks its devices and
-// queues a capture job for `session`: what Jobs.SubmitCapture and the
-// scheduler both do.
+// queues a capture job for `session` on behalf of `submitted_by`: what
+// Jobs.SubmitCapture and the scheduler both do.
 absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
                                                const hardware::Rig& rig,
                                                absl::string_view session,
-                                               const v1::CapturePlan& plan);
+                                               const v1::CapturePlan& plan,
+                                               absl::string_view submitted_by);
 
 // Writes the exact truth of a stereo pair taken at `left_mm` and
 // `left_mm + baseline_mm` into `dir` (simulation only).

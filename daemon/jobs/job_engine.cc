@@ -125,20 +125,18 @@ void JobEngine::Enqueue(JobKind kind, int64_t id) {
   work_cv_.notify_all();
 }
 
-absl::StatusOr<JobRecord> JobEngine::Submit(JobKind kind,
-                                            absl::string_view session,
-                                            absl::string_view request,
-                                            int64_t total,
-                                            absl::string_view message) {
+absl::StatusOr<JobRecord> JobEngine::Submit(
+    JobKind kind, absl::string_view session, absl::string_view request,
+    int64_t total, absl::string_view message, absl::string_view submitted_by) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (stopping_) return absl::UnavailableError("the daemon is stopping");
   }
   absl::StatusOr<JobRecord> job =
-      jobs_.Create(kind, session, request, total, message);
+      jobs_.Create(kind, session, request, total, message, submitted_by);
   if (!job.ok()) return job.status();
-  spdlog::info("job {} ({}): queued: {}", job->id, job->session,
-               std::string(message));
+  spdlog::info("job {} ({}): queued by {}: {}", job->id, job->session,
+               std::string(submitted_by), std::string(message));
   Enqueue(kind, job->id);
   NotifyEvent();
   return job;

@@ -77,11 +77,10 @@ class JobEngine {
   // interrupted, to be resumed by the next Start()) and joins the threads.
   void Shutdown();
 
-  absl::StatusOr<store::JobRecord> Submit(store::JobKind kind,
-                                          absl::string_view session,
-                                          absl::string_view request,
-                                          int64_t total,
-                                          absl::string_view message);
+  // Queues a job submitted by the principal `submitted_by`.
+  absl::StatusOr<store::JobRecord> Submit(
+      store::JobKind kind, absl::string_view session, absl::string_view request,
+      int64_t total, absl::string_view message, absl::string_view submitted_by);
   // Pause and resume apply to running jobs; cancel to queued, running and
   // paused ones. FAILED_PRECONDITION for other states, with the reason.
   absl::StatusOr<store::JobRecord> Pause(int64_t id);

@@ -267,7 +267,8 @@ std::string ExposureList(const CaptureState& capture) {
 
 absl::StatusOr<store::JobRecord> SubmitProcessing(
     JobEngine& engine, const hardware::Rig& rig,
-    const v1::SubmitProcessingRequest& request) {
+    const v1::SubmitProcessingRequest& request,
+    absl::string_view submitted_by) {
   std::vector<std::string> requested(request.steps().begin(),
                                      request.steps().end());
   absl::StatusOr<std::vector<std::string>> steps =
@@ -296,7 +297,8 @@ absl::StatusOr<store::JobRecord> SubmitProcessing(
                    pending->empty()
                        ? ""
                        : absl::StrCat(" after capture job(s) ",
-                                      absl::StrJoin(*pending, ", "))));
+                                      absl::StrJoin(*pending, ", "))),
+      submitted_by);
 }
 
 absl::Status RunProcessingJob(const hardware::Rig& rig,

@@ -31,10 +31,10 @@ struct ProcessingEnvironment {
 // has nothing to process: no stereo capture, or only incomplete ones (the
 // error names the capture and its first missing frame). Captures of the
 // session still queued or running count as future input: the job waits for
-// them when it starts.
+// them when it starts. The job records `submitted_by` as its principal.
 absl::StatusOr<store::JobRecord> SubmitProcessing(
     JobEngine& engine, const hardware::Rig& rig,
-    const v1::SubmitProcessingRequest& request);
+    const v1::SubmitProcessingRequest& request, absl::string_view submitted_by);
 
 // The job runner for processing jobs (JobKind::kProcessing).
 absl::Status RunProcessingJob(const hardware::Rig& rig,

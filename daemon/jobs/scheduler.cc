@@ -23,6 +23,12 @@ std::string FormatDue(absl::Time t, absl::TimeZone zone) {
   return absl::FormatTime("%Y-%m-%d %H:%M %Z", t, zone);
 }
 
+// The principal a schedule's runs are for.
+std::string CauseOf(const store::ScheduleRecord& schedule) {
+  return schedule.enabled_by.empty() ? schedule.created_by
+                                     : schedule.enabled_by;
+}
+
 std::string FormatLateness(absl::Duration d) {
   const int64_t minutes = absl::ToInt64Minutes(d);
   if (minutes < 120) return absl::StrCat(minutes, " min");
@@ -251,6 +257,7 @@ absl::Status Scheduler::HandleSchedule(const store::ScheduleRecord& schedule,
   const absl::Duration late = now - *due;
   store::ScheduleRunRecord skip;
   skip.schedule_id = schedule.id;
+  skip.caused_by = CauseOf(schedule);
   skip.schedule = schedule.name;
   skip.due_time_ms = absl::ToUnixMillis(*due);
   skip.outcome = store::RunOutcome::kSkipped;
@@ -290,6 +297,14 @@ absl::Status Scheduler::HandleSchedule(const store::ScheduleRecord& schedule,
                  FormatDue(*due, *zone), skip.reason);
     return schedules_.AddRun(skip).status();
   }
+  if (options_.hold) {
+    if (absl::Status held = options_.hold(); !held.ok()) {
+      skip.reason = join(std::string(held.message()));
+      spdlog::warn("schedule {}: due {} skipped: {}", schedule.name,
+                   FormatDue(*due, *zone), skip.reason);
+      return schedules_.AddRun(skip).status();
+    }
+  }
   return Launch(schedule, *cron, *due, now, note);
 }
 
@@ -303,6 +318,7 @@ absl::Status Scheduler::Launch(const store::ScheduleRecord& schedule,
   run.start_time_ms = absl::ToUnixMillis(now);
   run.outcome = store::RunOutcome::kRunning;
   run.reason = std::move(note);
+  run.caused_by = CauseOf(schedule);
   auto fail = [&](const absl::Status& status) {
     run.outcome = store::RunOutcome::kFailed;
     run.end_time_ms = absl::ToUnixMillis(now);
@@ -332,7 +348,8 @@ absl::Status Scheduler::Launch(const store::ScheduleRecord& schedule,
     return fail(created.status());
   }
   for (int i = 0; i < plan.captures_size(); ++i) {
-    absl::StatusOr<int64_t> job = submit_(*session, plan.captures(i));
+    absl::StatusOr<int64_t> job =
+        submit_(*session, plan.captures(i), run.caused_by);
     if (!job.ok()) {
       return fail(absl::Status(
           job.status().code(),
@@ -343,7 +360,8 @@ absl::Status Scheduler::Launch(const store::ScheduleRecord& schedule,
   if (!plan.processing_steps().empty() && submit_processing_) {
     absl::StatusOr<int64_t> job = submit_processing_(
         *session,
-        {plan.processing_steps().begin(), plan.processing_steps().end()});
+        {plan.processing_steps().begin(), plan.processing_steps().end()},
+        run.caused_by);
     if (!job.ok()) {
       return fail(
           absl::Status(job.status().code(),

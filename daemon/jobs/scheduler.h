@@ -17,6 +17,10 @@
 //  - Never two runs of one schedule at once: a due time that comes while the
 //    previous run's jobs are unfinished is recorded as skipped, with the
 //    reason.
+//  - A due time that comes while the rig is held (the rig lock, through
+//    SchedulerOptions::hold) is recorded as skipped with the hold's reason.
+//  - A run's jobs are submitted on behalf of the principal that created or
+//    last enabled the schedule (recorded as the run's caused_by).
 //  - A run is running until all its jobs are final (or interrupted and not
 //    resumed), then succeeded (all succeeded) or failed (with the first
 //    failure's reason).
@@ -41,21 +45,27 @@
 
 namespace hdrstereo::jobs {
 
-// Submits one capture job for `session`; returns its id.
+// Submits one capture job for `session` on behalf of `submitted_by`;
+// returns its id.
 using CaptureSubmitter = std::function<absl::StatusOr<int64_t>(
-    absl::string_view session, const v1::CapturePlan& plan)>;
+    absl::string_view session, const v1::CapturePlan& plan,
+    absl::string_view submitted_by)>;
 
 // Submits one processing job for `session` (steps as in
-// SubmitProcessingRequest); returns its id. The job waits for the captures
-// submitted before it.
+// SubmitProcessingRequest) on behalf of `submitted_by`; returns its id. The
+// job waits for the captures submitted before it.
 using ProcessingSubmitter = std::function<absl::StatusOr<int64_t>(
-    absl::string_view session, const std::vector<std::string>& steps)>;
+    absl::string_view session, const std::vector<std::string>& steps,
+    absl::string_view submitted_by)>;
 
 struct SchedulerOptions {
   std::function<absl::Time()> clock = [] { return absl::Now(); };
   absl::Duration tick = absl::Milliseconds(500);  // real time between passes
   absl::Duration on_time_slack = absl::Minutes(1);
   absl::Duration max_lateness = absl::Hours(12);
+  // Non-OK while due runs must not start (the rig lock); its message is the
+  // skipped run's reason. Unset = never held.
+  std::function<absl::Status()> hold;
 };
 
 // The session name for a run due at `due`: "{date}" -> YYYY-MM-DD and

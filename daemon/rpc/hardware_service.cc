@@ -1,6 +1,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "daemon/rpc/hardware_service.h"
 
+#include <google/protobuf/util/time_util.h>
+#include <spdlog/spdlog.h>
+
 #include <cmath>
 #include <opencv2/imgcodecs.hpp>
 
@@ -140,6 +143,17 @@ absl::StatusOr<std::pair<cv::Mat, std::string>> PatternFor(
       break;
   }
   return absl::InvalidArgumentError("set one of png, gray_code or solid_level");
+}
+
+void ToProto(const jobs::RigLockState& state, v1::RigLock* out) {
+  using google::protobuf::util::TimeUtil;
+  out->set_locked(true);
+  out->set_holder(state.holder);
+  out->set_note(state.note);
+  *out->mutable_lock_time() =
+      TimeUtil::MillisecondsToTimestamp(absl::ToUnixMillis(state.lock_time));
+  *out->mutable_expire_time() =
+      TimeUtil::MillisecondsToTimestamp(absl::ToUnixMillis(state.expire_time));
 }
 
 }  // namespace
@@ -356,6 +370,50 @@ grpc::Status HardwareService::BlankProjector(grpc::ServerContext*,
     showing_ = "blank";
   }
   FillProjector(response);
+  return grpc::Status::OK;
+}
+
+grpc::Status HardwareService::Lock(grpc::ServerContext* context,
+                                   const v1::LockRequest* request,
+                                   v1::RigLock* response) {
+  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
+  if (!caller.ok()) return ToGrpcStatus(caller.status());
+  absl::StatusOr<jobs::RigLockState> state = lock_.Acquire(
+      caller->name, request->note(), absl::Seconds(request->ttl_s()));
+  if (!state.ok()) return ToGrpcStatus(state.status());
+  spdlog::info("rig locked by {} for {} s: {}", caller->name, request->ttl_s(),
+               request->note());
+  ToProto(*state, response);
+  return grpc::Status::OK;
+}
+
+grpc::Status HardwareService::Unlock(grpc::ServerContext* context,
+                                     const v1::UnlockRequest* request,
+                                     v1::RigLock* response) {
+  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
+  if (!caller.ok()) return ToGrpcStatus(caller.status());
+  if (request->force() && caller->role < Role::kAdmin) {
+    return grpc::Status(
+        grpc::StatusCode::PERMISSION_DENIED,
+        absl::StrCat("force-unlocking needs role admin; ", caller->name,
+                     " has ", RoleName(caller->role),
+                     " (without force, one can unlock one's own lock)"));
+  }
+  absl::StatusOr<jobs::RigLockState> released =
+      lock_.Release(caller->name, request->force());
+  if (!released.ok()) return ToGrpcStatus(released.status());
+  spdlog::info("rig unlocked by {}{} (was locked by {})", caller->name,
+               request->force() ? " (force)" : "", released->holder);
+  response->set_locked(false);
+  return grpc::Status::OK;
+}
+
+grpc::Status HardwareService::GetLock(grpc::ServerContext*,
+                                      const v1::GetLockRequest*,
+                                      v1::RigLock* response) {
+  if (std::optional<jobs::RigLockState> state = lock_.Current()) {
+    ToProto(*state, response);
+  }
   return grpc::Status::OK;
 }
 

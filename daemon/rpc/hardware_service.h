@@ -5,17 +5,22 @@
 #include <mutex>
 #include <string>
 
+#include "daemon/jobs/rig_lock.h"
+#include "daemon/rpc/authenticator.h"
 #include "hardware/rig.h"
 #include "hdrstereo/v1/hardware.grpc.pb.h"
 
 namespace hdrstereo::rpc {
 
-// Direct control of the rig. Every request is validated before any device
-// is touched; calls that act on a device are refused while a capture holds
-// the hardware lane.
+// Direct control of the rig, and its lock. Every request is validated
+// before any device is touched; calls that act on a device are refused
+// while a capture holds the hardware lane (and, by CallGuard, while another
+// principal holds the rig lock).
 class HardwareService final : public v1::Hardware::Service {
  public:
-  explicit HardwareService(hardware::Rig& rig) : rig_(rig) {}
+  HardwareService(hardware::Rig& rig, jobs::RigLock& lock,
+                  Authenticator& authenticator)
+      : rig_(rig), lock_(lock), authenticator_(authenticator) {}
 
   grpc::Status GetStatus(grpc::ServerContext* context,
                          const v1::GetHardwareStatusRequest* request,
@@ -38,6 +43,15 @@ class HardwareService final : public v1::Hardware::Service {
   grpc::Status BlankProjector(grpc::ServerContext* context,
                               const v1::BlankProjectorRequest* request,
                               v1::ProjectorStatus* response) override;
+  grpc::Status Lock(grpc::ServerContext* context,
+                    const v1::LockRequest* request,
+                    v1::RigLock* response) override;
+  grpc::Status Unlock(grpc::ServerContext* context,
+                      const v1::UnlockRequest* request,
+                      v1::RigLock* response) override;
+  grpc::Status GetLock(grpc::ServerContext* context,
+                       const v1::GetLockRequest* request,
+                       v1::RigLock* response) override;
 
  private:
   void FillCamera(v1::CameraStatus* out);
@@ -45,6 +59,8 @@ class HardwareService final : public v1::Hardware::Service {
   void FillProjector(v1::ProjectorStatus* out);
 
   hardware::Rig& rig_;
+  jobs::RigLock& lock_;
+  Authenticator& authenticator_;
   std::mutex showing_mutex_;
   std::string showing_ = "blank";  // what this service last showed
 };

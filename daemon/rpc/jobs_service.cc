@@ -76,6 +76,7 @@ void ToProto(const store::JobRecord& job, v1::Job* out) {
     out->mutable_processing()->ParseFromString(job.request);
   }
   out->set_error(job.error);
+  out->set_submitted_by(job.submitted_by);
   *out->mutable_create_time() =
       TimeUtil::MillisecondsToTimestamp(job.create_time_ms);
   if (job.start_time_ms) {
@@ -127,7 +128,7 @@ grpc::Status Reply(const absl::StatusOr<store::JobRecord>& job,
 
 }  // namespace
 
-grpc::Status JobsService::SubmitCapture(grpc::ServerContext*,
+grpc::Status JobsService::SubmitCapture(grpc::ServerContext* context,
                                         const v1::SubmitCaptureRequest* request,
                                         v1::Job* response) {
   if (absl::Status s = store::ValidateName(request->session(), "session");
@@ -135,13 +136,15 @@ grpc::Status JobsService::SubmitCapture(grpc::ServerContext*,
     return ToGrpcStatus(s);
   }
   if (!request->has_plan()) return InvalidArgument("plan is required");
-  return Reply(
-      jobs::SubmitCapture(engine_, rig_, request->session(), request->plan()),
-      response);
+  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
+  if (!caller.ok()) return ToGrpcStatus(caller.status());
+  return Reply(jobs::SubmitCapture(engine_, rig_, request->session(),
+                                   request->plan(), caller->name),
+               response);
 }
 
 grpc::Status JobsService::SubmitProcessing(
-    grpc::ServerContext*, const v1::SubmitProcessingRequest* request,
+    grpc::ServerContext* context, const v1::SubmitProcessingRequest* request,
     v1::Job* response) {
   if (absl::Status s = store::ValidateName(request->session(), "session");
       !s.ok()) {
@@ -152,7 +155,10 @@ grpc::Status JobsService::SubmitProcessing(
                                         " entries; at most ", kMaxSteps,
                                         " are allowed"));
   }
-  return Reply(jobs::SubmitProcessing(engine_, rig_, *request), response);
+  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
+  if (!caller.ok()) return ToGrpcStatus(caller.status());
+  return Reply(jobs::SubmitProcessing(engine_, rig_, *request, caller->name),
+               response);
 }
 
 grpc::Status JobsService::Get(grpc::ServerContext*,
@@ -202,10 +208,31 @@ grpc::Status JobsService::Watch(grpc::ServerContext* context,
                                 const v1::WatchJobRequest* request,
                                 grpc::ServerWriter<v1::JobEvent>* writer) {
   if (grpc::Status s = CheckJobId(request->job_id()); !s.ok()) return s;
+  if (request->after_sequence() < 0) {
+    return InvalidArgument(
+        "after_sequence must be 0 (the whole history) or the sequence of "
+        "the last event received");
+  }
   absl::StatusOr<store::JobRecord> job =
       engine_.repository().Get(request->job_id());
   if (!job.ok()) return ToGrpcStatus(job.status());
-  int64_t last = 0;
+  int64_t last = request->after_sequence();
+  if (last > 0) {
+    // A watcher resuming after its last event: it must be one there is.
+    absl::StatusOr<std::vector<store::JobEventRecord>> seen =
+        engine_.repository().Events(request->job_id(), last - 1);
+    if (!seen.ok()) return ToGrpcStatus(seen.status());
+    if (seen->empty()) {
+      return grpc::Status(
+          grpc::StatusCode::OUT_OF_RANGE,
+          absl::StrCat("after_sequence ", last, " is beyond job ",
+                       request->job_id(), "'s last event"));
+    }
+    // Resuming after the final event: nothing is left to send.
+    if (seen->size() == 1 && store::IsFinal(seen->front().state)) {
+      return grpc::Status::OK;
+    }
+  }
   while (!context->IsCancelled()) {
     if (engine_.stopping()) {
       return grpc::Status(grpc::StatusCode::UNAVAILABLE,

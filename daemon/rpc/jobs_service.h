@@ -3,16 +3,19 @@
 #define HDRSTEREO_DAEMON_RPC_JOBS_SERVICE_H_
 
 #include "daemon/jobs/job_engine.h"
+#include "daemon/rpc/authenticator.h"
 #include "hardware/rig.h"
 #include "hdrstereo/v1/jobs.grpc.pb.h"
 
 namespace hdrstereo::rpc {
 
-// Jobs: submit captures and processing, follow and steer jobs.
+// Jobs: submit captures and processing (recording who submitted them),
+// follow and steer jobs.
 class JobsService final : public v1::Jobs::Service {
  public:
-  JobsService(jobs::JobEngine& engine, hardware::Rig& rig)
-      : engine_(engine), rig_(rig) {}
+  JobsService(jobs::JobEngine& engine, hardware::Rig& rig,
+              Authenticator& authenticator)
+      : engine_(engine), rig_(rig), authenticator_(authenticator) {}
 
   grpc::Status SubmitCapture(grpc::ServerContext* context,
                              const v1::SubmitCaptureRequest* request,
@@ -42,6 +45,7 @@ class JobsService final : public v1::Jobs::Service {
  private:
   jobs::JobEngine& engine_;
   hardware::Rig& rig_;
+  Authenticator& authenticator_;
 };
 
 }  // namespace hdrstereo::rpc

@@ -16,7 +16,7 @@ namespace {
 
 using google::protobuf::util::TimeUtil;
 
-v1::ScheduleRun::Outcome ToProto(store::RunOutcome outcome) {
+v1::ScheduleRun::Outcome OutcomeToProto(store::RunOutcome outcome) {
   switch (outcome) {
     case store::RunOutcome::kRunning:
       return v1::ScheduleRun::OUTCOME_RUNNING;
@@ -53,9 +53,10 @@ void SchedulesService::ToProto(const store::ScheduleRecord& record,
   }
   *out->mutable_create_time() =
       TimeUtil::MillisecondsToTimestamp(record.create_time_ms);
+  out->set_created_by(record.created_by);
 }
 
-grpc::Status SchedulesService::Create(grpc::ServerContext*,
+grpc::Status SchedulesService::Create(grpc::ServerContext* context,
                                       const v1::CreateScheduleRequest* request,
                                       v1::Schedule* response) {
   if (!request->has_schedule()) return InvalidArgument("schedule is required");
@@ -80,9 +81,10 @@ grpc::Status SchedulesService::Create(grpc::ServerContext*,
                                         "\" is never due after now"));
   }
   if (schedule.next_due_time().seconds() != 0 ||
-      schedule.create_time().seconds() != 0) {
+      schedule.create_time().seconds() != 0 || !schedule.created_by().empty()) {
     return InvalidArgument(
-        "schedule.next_due_time and schedule.create_time are output only");
+        "schedule.next_due_time, schedule.create_time and schedule.created_by "
+        "are output only");
   }
   absl::StatusOr<jobs::RigLimits> limits = jobs::LimitsOf(rig_);
   if (!limits.ok()) return ToGrpcStatus(limits.status());
@@ -91,7 +93,10 @@ grpc::Status SchedulesService::Create(grpc::ServerContext*,
       !s.ok()) {
     return ToGrpcStatus(s);
   }
+  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
+  if (!caller.ok()) return ToGrpcStatus(caller.status());
   store::ScheduleRecord record;
+  record.created_by = caller->name;
   record.name = schedule.name();
   record.cron = schedule.cron();
   record.time_zone = schedule.time_zone();
@@ -145,12 +150,15 @@ grpc::Status SchedulesService::Delete(grpc::ServerContext*,
 }
 
 grpc::Status SchedulesService::SetEnabled(
-    grpc::ServerContext*, const v1::SetScheduleEnabledRequest* request,
+    grpc::ServerContext* context, const v1::SetScheduleEnabledRequest* request,
     v1::Schedule* response) {
   if (grpc::Status s = CheckName(request->name()); !s.ok()) return s;
+  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
+  if (!caller.ok()) return ToGrpcStatus(caller.status());
   absl::StatusOr<store::ScheduleRecord> record =
       scheduler_.repository().SetEnabled(request->name(), request->enabled(),
-                                         absl::ToUnixMillis(scheduler_.Now()));
+                                         absl::ToUnixMillis(scheduler_.Now()),
+                                         caller->name);
   if (!record.ok()) return ToGrpcStatus(record.status());
   scheduler_.Wake();
   ToProto(*record, response);
@@ -186,8 +194,9 @@ grpc::Status SchedulesService::ListRuns(
     }
     out->set_session(run.session);
     for (int64_t id : run.job_ids) out->add_job_ids(id);
-    out->set_outcome(rpc::ToProto(run.outcome));
+    out->set_outcome(OutcomeToProto(run.outcome));
     out->set_reason(run.reason);
+    out->set_caused_by(run.caused_by);
   }
   return grpc::Status::OK;
 }

@@ -6,6 +6,7 @@
 #define HDRSTEREO_DAEMON_RPC_SCHEDULES_SERVICE_H_
 
 #include "daemon/jobs/scheduler.h"
+#include "daemon/rpc/authenticator.h"
 #include "hardware/rig.h"
 #include "hdrstereo/v1/schedules.grpc.pb.h"
 
@@ -13,8 +14,9 @@ namespace hdrstereo::rpc {
 
 class SchedulesService final : public v1::Schedules::Service {
  public:
-  SchedulesService(jobs::Scheduler& scheduler, const hardware::Rig& rig)
-      : scheduler_(scheduler), rig_(rig) {}
+  SchedulesService(jobs::Scheduler& scheduler, const hardware::Rig& rig,
+                   Authenticator& authenticator)
+      : scheduler_(scheduler), rig_(rig), authenticator_(authenticator) {}
 
   grpc::Status Create(grpc::ServerContext* context,
                       const v1::CreateScheduleRequest* request,
@@ -37,6 +39,7 @@ class SchedulesService final : public v1::Schedules::Service {
 
   jobs::Scheduler& scheduler_;
   const hardware::Rig& rig_;
+  Authenticator& authenticator_;
 };
 
 }  // namespace hdrstereo::rpc

@@ -1,12 +1,14 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "daemon/rpc/server_service.h"
 
+#include <google/protobuf/util/time_util.h>
 #include <grpcpp/grpcpp.h>
 #include <sqlite3.h>
 
 #include <opencv2/core/utility.hpp>
 
 #include "absl/time/clock.h"
+#include "daemon/rpc/status.h"
 #include "hdrstereo_version.h"
 
 namespace hdrstereo::rpc {
@@ -22,6 +24,23 @@ grpc::Status ServerService::GetInfo(grpc::ServerContext*,
   response->set_grpc_version(grpc::Version());
   response->set_opencv_version(cv::getVersionString());
   response->set_sqlite_version(sqlite3_libversion());
+  return grpc::Status::OK;
+}
+
+grpc::Status ServerService::WhoAmI(grpc::ServerContext* context,
+                                   const v1::WhoAmIRequest*,
+                                   v1::Identity* response) {
+  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
+  if (!caller.ok()) return ToGrpcStatus(caller.status());
+  response->set_principal(caller->name);
+  response->set_role(ToProto(caller->role));
+  response->set_auth_method(caller->auth_method);
+  if (caller->key_expire_time.has_value()) {
+    *response->mutable_key_expire_time() =
+        google::protobuf::util::TimeUtil::MillisecondsToTimestamp(
+            absl::ToUnixMillis(*caller->key_expire_time));
+  }
+  response->set_peer(context->peer());
   return grpc::Status::OK;
 }
 

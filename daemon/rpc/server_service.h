@@ -5,26 +5,33 @@
 #include <string>
 
 #include "absl/time/time.h"
+#include "daemon/rpc/authenticator.h"
 #include "daemon/store/store.h"
 #include "hdrstereo/v1/server.grpc.pb.h"
 
 namespace hdrstereo::rpc {
 
-// Server.GetInfo: versions, data root, hardware mode, uptime.
+// Server.GetInfo: versions, data root, hardware mode, uptime; WhoAmI: the
+// caller as the daemon sees it.
 class ServerService final : public v1::Server::Service {
  public:
-  ServerService(store::Store& store, std::string hardware_mode,
-                absl::Time start_time)
+  ServerService(store::Store& store, Authenticator& authenticator,
+                std::string hardware_mode, absl::Time start_time)
       : store_(store),
+        authenticator_(authenticator),
         hardware_mode_(std::move(hardware_mode)),
         start_time_(start_time) {}
 
   grpc::Status GetInfo(grpc::ServerContext* context,
                        const v1::GetServerInfoRequest* request,
                        v1::ServerInfo* response) override;
+  grpc::Status WhoAmI(grpc::ServerContext* context,
+                      const v1::WhoAmIRequest* request,
+                      v1::Identity* response) override;
 
  private:
   store::Store& store_;
+  Authenticator& authenticator_;
   std::string hardware_mode_;
   absl::Time start_time_;
 };

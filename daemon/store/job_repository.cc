@@ -45,7 +45,7 @@ int64_t NowMs() { return absl::ToUnixMillis(absl::Now()); }
 constexpr absl::string_view kSelectJob = R"sql(
 SELECT j.id, j.kind, j.session_id, s.name, j.state, j.request,
        j.progress_done, j.progress_total, j.step, j.error, j.create_time_ms,
-       j.start_time_ms, j.end_time_ms
+       j.start_time_ms, j.end_time_ms, j.submitted_by
 FROM jobs j JOIN sessions s ON s.id = j.session_id
 )sql";
 
@@ -67,6 +67,7 @@ absl::StatusOr<JobRecord> ReadJob(const Statement& stmt) {
   job.create_time_ms = stmt.ColumnInt(10);
   if (!stmt.ColumnIsNull(11)) job.start_time_ms = stmt.ColumnInt(11);
   if (!stmt.ColumnIsNull(12)) job.end_time_ms = stmt.ColumnInt(12);
+  job.submitted_by = stmt.ColumnText(13);
   return job;
 }
 
@@ -136,18 +137,16 @@ RETURNING sequence)sql");
   return event;
 }
 
-absl::StatusOr<JobRecord> JobRepository::Create(JobKind kind,
-                                                absl::string_view session,
-                                                absl::string_view request,
-                                                int64_t total,
-                                                absl::string_view message) {
+absl::StatusOr<JobRecord> JobRepository::Create(
+    JobKind kind, absl::string_view session, absl::string_view request,
+    int64_t total, absl::string_view message, absl::string_view submitted_by) {
   Database& db = store_.db();
   absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
   if (!tx.ok()) return tx.status();
   absl::StatusOr<Statement> insert = db.Prepare(R"sql(
 INSERT INTO jobs (kind, session_id, state, request, create_time_ms,
-                  progress_total)
-SELECT ?1, id, 'queued', ?2, ?3, ?5 FROM sessions WHERE name = ?4)sql");
+                  progress_total, submitted_by)
+SELECT ?1, id, 'queued', ?2, ?3, ?5, ?6 FROM sessions WHERE name = ?4)sql");
   if (!insert.ok()) return insert.status();
   if (absl::Status s =
           insert->Bind(1, kind == JobKind::kCapture ? "capture" : "processing")
@@ -155,6 +154,7 @@ SELECT ?1, id, 'queued', ?2, ?3, ?5 FROM sessions WHERE name = ?4)sql");
               .Bind(3, NowMs())
               .Bind(4, session)
               .Bind(5, total)
+              .Bind(6, submitted_by)
               .Run();
       !s.ok()) {
     return s;

@@ -46,6 +46,7 @@ struct JobRecord {
   int64_t create_time_ms = 0;
   std::optional<int64_t> start_time_ms;
   std::optional<int64_t> end_time_ms;
+  std::string submitted_by;  // principal; "" for jobs from before it was kept
 };
 
 enum class EventLevel { kInfo, kWarning, kError };
@@ -74,10 +75,12 @@ class JobRepository {
   explicit JobRepository(Store& store) : store_(store) {}
 
   // Queues a job of `total` units (frames, steps) for an existing session
-  // (NOT_FOUND otherwise) and records its first event.
+  // (NOT_FOUND otherwise), submitted by the principal `submitted_by`, and
+  // records its first event.
   absl::StatusOr<JobRecord> Create(JobKind kind, absl::string_view session,
                                    absl::string_view request, int64_t total,
-                                   absl::string_view message);
+                                   absl::string_view message,
+                                   absl::string_view submitted_by);
   absl::StatusOr<JobRecord> Get(int64_t id);
   absl::StatusOr<std::vector<JobRecord>> List(const JobFilter& filter);
 

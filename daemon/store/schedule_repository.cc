@@ -15,11 +15,12 @@ constexpr char kSelectSchedule[] =
     "s.missed_run_policy, s.create_time_ms, "
     "coalesce(s.enable_time_ms, s.create_time_ms), "
     "(SELECT max(r.due_time_ms) FROM schedule_runs r "
-    "WHERE r.schedule_id = s.id) FROM schedules s ";
+    "WHERE r.schedule_id = s.id), s.created_by, s.enabled_by "
+    "FROM schedules s ";
 
 constexpr char kSelectRun[] =
     "SELECT r.id, r.schedule_id, s.name, r.due_time_ms, r.start_time_ms, "
-    "r.end_time_ms, r.session, r.job_ids, r.outcome, r.reason "
+    "r.end_time_ms, r.session, r.job_ids, r.outcome, r.reason, r.caused_by "
     "FROM schedule_runs r JOIN schedules s ON s.id = r.schedule_id ";
 
 absl::Status NotFound(absl::string_view name) {
@@ -40,6 +41,8 @@ ScheduleRecord ReadSchedule(const Statement& stmt) {
   r.create_time_ms = stmt.ColumnInt(7);
   r.enable_time_ms = stmt.ColumnInt(8);
   if (!stmt.ColumnIsNull(9)) r.last_due_time_ms = stmt.ColumnInt(9);
+  r.created_by = stmt.ColumnText(10);
+  r.enabled_by = stmt.ColumnText(11);
   return r;
 }
 
@@ -66,6 +69,7 @@ ScheduleRunRecord ReadRun(const Statement& stmt) {
   }
   r.outcome = ParseOutcome(stmt.ColumnText(8));
   r.reason = stmt.ColumnText(9);
+  r.caused_by = stmt.ColumnText(10);
   return r;
 }
 
@@ -111,8 +115,8 @@ absl::StatusOr<ScheduleRecord> ScheduleRepository::Create(
   if (!tx.ok()) return tx.status();
   absl::StatusOr<Statement> insert = db.Prepare(
       "INSERT INTO schedules (name, cron, time_zone, enabled, plan, "
-      "missed_run_policy, create_time_ms, enable_time_ms) "
-      "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?7)");
+      "missed_run_policy, create_time_ms, enable_time_ms, created_by, "
+      "enabled_by) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?7, ?8, ?8)");
   if (!insert.ok()) return insert.status();
   absl::Status inserted =
       insert->Bind(1, schedule.name)
@@ -124,6 +128,7 @@ absl::StatusOr<ScheduleRecord> ScheduleRepository::Create(
                        ? "skip"
                        : "run_once_on_start")
           .Bind(7, now_ms)
+          .Bind(8, schedule.created_by)
           .Run();
   if (absl::IsAlreadyExists(inserted)) {
     return absl::AlreadyExistsError(absl::StrCat(
@@ -171,7 +176,8 @@ absl::Status ScheduleRepository::Delete(absl::string_view name) {
 }
 
 absl::StatusOr<ScheduleRecord> ScheduleRepository::SetEnabled(
-    absl::string_view name, bool enabled, int64_t now_ms) {
+    absl::string_view name, bool enabled, int64_t now_ms,
+    absl::string_view by) {
   Database& db = store_.db();
   absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
   if (!tx.ok()) return tx.status();
@@ -179,12 +185,12 @@ absl::StatusOr<ScheduleRecord> ScheduleRepository::SetEnabled(
   if (!current.ok()) return current.status();
   if (current->enabled != enabled) {
     absl::StatusOr<Statement> stmt = db.Prepare(
-        enabled ? "UPDATE schedules SET enabled = 1, enable_time_ms = ?2 "
-                  "WHERE id = ?1"
+        enabled ? "UPDATE schedules SET enabled = 1, enable_time_ms = ?2, "
+                  "enabled_by = ?3 WHERE id = ?1"
                 : "UPDATE schedules SET enabled = 0 WHERE id = ?1");
     if (!stmt.ok()) return stmt.status();
     stmt->Bind(1, current->id);
-    if (enabled) stmt->Bind(2, now_ms);
+    if (enabled) stmt->Bind(2, now_ms).Bind(3, by);
     if (absl::Status s = stmt->Run(); !s.ok()) return s;
   }
   absl::StatusOr<ScheduleRecord> record = GetLocked(db, name);
@@ -200,8 +206,8 @@ absl::StatusOr<ScheduleRunRecord> ScheduleRepository::AddRun(
   if (!tx.ok()) return tx.status();
   absl::StatusOr<Statement> stmt = db.Prepare(
       "INSERT INTO schedule_runs (schedule_id, due_time_ms, start_time_ms, "
-      "end_time_ms, session, job_ids, outcome, reason) "
-      "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)");
+      "end_time_ms, session, job_ids, outcome, reason, caused_by) "
+      "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)");
   if (!stmt.ok()) return stmt.status();
   stmt->Bind(1, run.schedule_id).Bind(2, run.due_time_ms);
   BindOptional(*stmt, 3, run.start_time_ms);
@@ -209,7 +215,8 @@ absl::StatusOr<ScheduleRunRecord> ScheduleRepository::AddRun(
   stmt->Bind(5, run.session)
       .Bind(6, absl::StrJoin(run.job_ids, ","))
       .Bind(7, RunOutcomeName(run.outcome))
-      .Bind(8, run.reason);
+      .Bind(8, run.reason)
+      .Bind(9, run.caused_by);
   if (absl::Status s = stmt->Run(); !s.ok()) return s;
   ScheduleRunRecord out = run;
   out.id = db.LastInsertId();

@@ -30,6 +30,8 @@ struct ScheduleRecord {
   int64_t create_time_ms = 0;
   int64_t enable_time_ms = 0;  // last (re)enabled; create time at first
   std::optional<int64_t> last_due_time_ms;  // newest recorded run
+  std::string created_by;                   // principal
+  std::string enabled_by;  // principal that last enabled it; its runs' cause
 };
 
 enum class RunOutcome { kRunning, kSucceeded, kFailed, kSkipped };
@@ -46,6 +48,7 @@ struct ScheduleRunRecord {
   std::vector<int64_t> job_ids;
   RunOutcome outcome = RunOutcome::kRunning;
   std::string reason;
+  std::string caused_by;  // principal on whose behalf it ran
 };
 
 class ScheduleRepository {
@@ -53,7 +56,8 @@ class ScheduleRepository {
   explicit ScheduleRepository(Store& store) : store_(store) {}
 
   // INVALID_ARGUMENT for a bad name, ALREADY_EXISTS for a taken one. The
-  // caller has validated cron, zone and plan.
+  // caller has validated cron, zone and plan. `created_by` is also stored
+  // as `enabled_by`.
   absl::StatusOr<ScheduleRecord> Create(const ScheduleRecord& schedule,
                                         int64_t now_ms);
   absl::StatusOr<ScheduleRecord> Get(absl::string_view name);
@@ -62,10 +66,11 @@ class ScheduleRepository {
                                                    int limit);
   // Removes the schedule and its run history; its sessions stay.
   absl::Status Delete(absl::string_view name);
-  // Enabling a disabled schedule sets its enable time: due times before it
-  // are not missed runs.
+  // Enabling a disabled schedule sets its enable time (due times before it
+  // are not missed runs) and records `by` as the principal its runs are for.
   absl::StatusOr<ScheduleRecord> SetEnabled(absl::string_view name,
-                                            bool enabled, int64_t now_ms);
+                                            bool enabled, int64_t now_ms,
+                                            absl::string_view by);
 
   // Records a run. ALREADY_EXISTS when this due time is already recorded.
   absl::StatusOr<ScheduleRunRecord> AddRun(const ScheduleRunRecord& run);

@@ -13,7 +13,7 @@ namespace {
 
 // Append only: a released migration is never edited. Times are Unix
 // milliseconds (UTC); lengths in millimetres; exposures in seconds.
-constexpr std::array<absl::string_view, 3> kMigrations = {
+constexpr std::array<absl::string_view, 4> kMigrations = {
     // 1: the tables of DESIGN.md.
     R"sql(
 CREATE TABLE rigs (
@@ -151,6 +151,52 @@ CREATE INDEX schedule_runs_by_outcome ON schedule_runs(outcome);
 ALTER TABLE artifacts ADD COLUMN step TEXT NOT NULL DEFAULT '';
 CREATE INDEX artifacts_by_step ON artifacts(session_id, step);
 CREATE INDEX metrics_by_session ON metrics(session_id);
+)sql",
+    // 4: remote operation. Who submitted each job and created (or last
+    // enabled) each schedule, and on whose behalf a scheduled run ran; API
+    // keys as id + salt + SHA-256 digest of the secret (hex; never the
+    // secret itself);
+    // the audit log; the rig lock (at most one row).
+    R"sql(
+ALTER TABLE jobs ADD COLUMN submitted_by TEXT NOT NULL DEFAULT '';
+ALTER TABLE schedules ADD COLUMN created_by TEXT NOT NULL DEFAULT '';
+ALTER TABLE schedules ADD COLUMN enabled_by TEXT NOT NULL DEFAULT '';
+ALTER TABLE schedule_runs ADD COLUMN caused_by TEXT NOT NULL DEFAULT '';
+CREATE TABLE api_keys (
+  id TEXT PRIMARY KEY,
+  salt TEXT NOT NULL,
+  digest TEXT NOT NULL,
+  user TEXT NOT NULL,
+  role TEXT NOT NULL CHECK (role IN ('viewer', 'operator', 'admin')),
+  note TEXT NOT NULL DEFAULT '',
+  created_by TEXT NOT NULL,
+  create_time_ms INTEGER NOT NULL,
+  expire_time_ms INTEGER NOT NULL,
+  last_used_time_ms INTEGER,
+  revoke_time_ms INTEGER,
+  revoked_by TEXT NOT NULL DEFAULT ''
+);
+CREATE TABLE audit (
+  id INTEGER PRIMARY KEY,
+  time_ms INTEGER NOT NULL,
+  principal TEXT NOT NULL,
+  role TEXT NOT NULL,
+  auth_method TEXT NOT NULL,
+  peer TEXT NOT NULL,
+  method TEXT NOT NULL,
+  subject TEXT NOT NULL DEFAULT '',
+  status_code INTEGER NOT NULL,
+  message TEXT NOT NULL DEFAULT ''
+);
+CREATE INDEX audit_by_time ON audit(time_ms);
+CREATE INDEX audit_by_principal ON audit(principal, time_ms);
+CREATE TABLE rig_lock (
+  id INTEGER PRIMARY KEY CHECK (id = 1),
+  holder TEXT NOT NULL,
+  note TEXT NOT NULL DEFAULT '',
+  lock_time_ms INTEGER NOT NULL,
+  expire_time_ms INTEGER NOT NULL
+);
 )sql",
 };
 

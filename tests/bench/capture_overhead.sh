@@ -5,25 +5,81 @@
 # real time (1: overhead against realistic hardware time). The capture job
 # times its device calls and reports the rest as its own overhead in its
 # last info event, which this script prints.
-# Usage: tests/bench/capture_overhead.sh [BUILD_DIR]
+#
+# With --watchers N the daemon serves TLS (certificates from
+# deploy/make-certs.sh in the temporary folder) and every capture runs
+# twice, first unwatched, then followed by N concurrent TLS clients
+# (`hdrstereo jobs watch`, one process and connection each), so that the two
+# overhead figures can be compared.
+# Usage: tests/bench/capture_overhead.sh [BUILD_DIR] [--watchers N]
+#                                        [--scales "0 1"]
 set -euo pipefail
-build=$(realpath "${1:-build}")
+build=build
+watchers=0
+scales="0 1"
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    --watchers) watchers=$2; shift 2 ;;
+    --scales) scales=$2; shift 2 ;;
+    *) build=$1; shift ;;
+  esac
+done
+build=$(realpath "$build")
+root_dir=$(cd "$(dirname "$0")/../.." && pwd)
 work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-for scale in 0 1; do
+trap 'kill $(jobs -p) 2>/dev/null || true; rm -rf "$work"' EXIT
+
+tls=()
+cli_tls=()
+listen=127.0.0.1:0
+if [[ $watchers -gt 0 ]]; then
+  certs="$work/certs"
+  "$root_dir/deploy/make-certs.sh" "$certs" ca >/dev/null
+  "$root_dir/deploy/make-certs.sh" "$certs" server localhost 127.0.0.1 >/dev/null
+  "$root_dir/deploy/make-certs.sh" "$certs" client bench >/dev/null
+  tls=(--tls-cert "$certs/server.pem" --tls-key "$certs/server.key"
+       --tls-client-ca "$certs/ca.pem" --auth-user bench=operator)
+  cli_tls=(--tls-ca "$certs/ca.pem" --tls-cert "$certs/bench.pem"
+           --tls-key "$certs/bench.key")
+  listen=0.0.0.0:0
+fi
+
+# One capture in session $2 of the daemon at $1; $3 watchers follow it.
+capture() {
+  local cli=("$build/clients/cli/hdrstereo" --server "$1" "${cli_tls[@]}")
+  local job
+  job=$("${cli[@]}" --json capture sl "$2" | sed -n 's/^ *"id": "\([0-9]*\)".*/\1/p')
+  local watchers=() watcher
+  for _ in $(seq "$3"); do
+    "${cli[@]}" jobs watch "$job" >/dev/null 2>&1 &
+    watchers+=($!)
+  done
+  "${cli[@]}" jobs watch "$job" | grep "in the daemon"
+  for watcher in "${watchers[@]}"; do wait "$watcher"; done
+}
+
+for scale in $scales; do
   root="$work/d$scale"
   mkdir -p "$root"
-  "$build/daemon/hdrstereod" --listen 127.0.0.1:0 --data-root "$root" \
-    --ready-file "$root/ready" --sim-time-scale "$scale" >"$root/log" 2>&1 &
+  "$build/daemon/hdrstereod" --listen "$listen" --data-root "$root" \
+    --ready-file "$root/ready" --sim-time-scale "$scale" "${tls[@]}" \
+    >"$root/log" 2>&1 &
   pid=$!
   for _ in $(seq 100); do [[ -s "$root/ready" ]] && break; sleep 0.1; done
-  cli=("$build/clients/cli/hdrstereo" --server "$(cat "$root/ready")")
+  address=$(head -n 1 "$root/ready" | sed 's/^0\.0\.0\.0:/127.0.0.1:/')
+  cli=("$build/clients/cli/hdrstereo" --server "$address" "${cli_tls[@]}")
   "${cli[@]}" hw camera set --exposure 1/60 --format tiff16 >/dev/null
   "${cli[@]}" session create sl >/dev/null
   start=$(date +%s.%N)
-  "${cli[@]}" capture sl sl --watch | grep "in the daemon"
+  echo -n "time scale $scale, unwatched: "
+  capture "$address" sl 0
   end=$(date +%s.%N)
   echo "time scale $scale: $(echo "$end - $start" | bc) s wall for 168 frames"
+  if [[ $watchers -gt 0 ]]; then
+    "${cli[@]}" session create watched >/dev/null
+    echo -n "time scale $scale, $watchers TLS watchers: "
+    capture "$address" watched "$watchers"
+  fi
   kill -TERM $pid
   wait $pid
 done

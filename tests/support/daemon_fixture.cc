@@ -4,6 +4,8 @@
 #include <signal.h>
 
 #include "absl/strings/ascii.h"
+#include "absl/strings/str_replace.h"
+#include "absl/strings/str_split.h"
 #include "absl/time/clock.h"
 #include "daemon/store/database.h"
 #include "hardware/sim/bundled_scenes.h"
@@ -32,21 +34,31 @@ nlohmann::json SmallLabLamp() {
 void DaemonFixture::StartDaemon(const std::vector<std::string>& extra) {
   const fs::path ready = dir_ / "ready";
   fs::remove(ready);
-  std::vector<std::string> argv = {
-      HDRSTEREOD,           "--listen",     "127.0.0.1:0", "--data-root",
-      data_root().string(), "--ready-file", ready.string()};
+  std::vector<std::string> argv = {HDRSTEREOD, "--data-root",
+                                   data_root().string(), "--ready-file",
+                                   ready.string()};
   bool has_hardware = false;
-  for (const std::string& arg : extra) has_hardware |= arg == "--hardware";
+  bool has_listen = false;
+  for (const std::string& arg : extra) {
+    has_hardware |= arg == "--hardware";
+    has_listen |= arg == "--listen";
+  }
   if (!has_hardware) {
     argv.push_back("--hardware");
     argv.push_back("sim");
+  }
+  if (!has_listen) {
+    argv.push_back("--listen");
+    argv.push_back("127.0.0.1:0");
   }
   argv.insert(argv.end(), extra.begin(), extra.end());
   absl::StatusOr<Process> process = Process::Start(argv, dir_ / "daemon.log");
   ASSERT_TRUE(process.ok()) << process.status();
   daemon_.emplace(*std::move(process));
   ASSERT_TRUE(WaitForFile(ready, absl::Seconds(60))) << daemon_log();
-  address_ = std::string(absl::StripAsciiWhitespace(ReadFileOrDie(ready)));
+  addresses_ =
+      absl::StrSplit(absl::StripAsciiWhitespace(ReadFileOrDie(ready)), '\n');
+  address_ = absl::StrReplaceAll(addresses_[0], {{"0.0.0.0:", "127.0.0.1:"}});
 }
 
 int DaemonFixture::StopDaemon() {
@@ -68,6 +80,7 @@ void DaemonFixture::KillDaemon() {
 CommandResult DaemonFixture::Cli(std::vector<std::string> args,
                                  absl::Duration timeout) {
   std::vector<std::string> argv = {HDRSTEREO_CLI, "--server", address_};
+  argv.insert(argv.end(), cli_args_.begin(), cli_args_.end());
   argv.insert(argv.end(), args.begin(), args.end());
   absl::StatusOr<CommandResult> result = RunCommand(argv, timeout);
   EXPECT_TRUE(result.ok()) << result.status();
@@ -116,9 +129,10 @@ bool DaemonFixture::WaitForJobState(int64_t job_id, const std::string& state,
                                     absl::Duration timeout) {
   const absl::Time deadline = absl::Now() + timeout;
   while (absl::Now() < deadline) {
-    absl::StatusOr<CommandResult> result =
-        RunCommand({HDRSTEREO_CLI, "--server", address_, "--json", "jobs",
-                    "show", std::to_string(job_id)});
+    std::vector<std::string> argv = {HDRSTEREO_CLI, "--server", address_};
+    argv.insert(argv.end(), cli_args_.begin(), cli_args_.end());
+    argv.insert(argv.end(), {"--json", "jobs", "show", std::to_string(job_id)});
+    absl::StatusOr<CommandResult> result = RunCommand(argv);
     if (result.ok() && result->exit_code == 0) {
       nlohmann::json job = nlohmann::json::parse(result->out, nullptr, false);
       if (!job.is_discarded() &&

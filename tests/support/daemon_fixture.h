@@ -33,15 +33,17 @@ class DaemonFixture : public ::testing::Test {
  protected:
   std::filesystem::path data_root() const { return dir_ / "data"; }
 
-  // Starts hdrstereod (--hardware sim unless `extra` says otherwise) and
-  // waits until it serves.
+  // Starts hdrstereod (--hardware sim and --listen 127.0.0.1:0 unless
+  // `extra` says otherwise) and waits until it serves. The CLI then talks to
+  // the first address (a wildcard 0.0.0.0 through 127.0.0.1).
   void StartDaemon(const std::vector<std::string>& extra = {});
   // SIGTERM; returns the exit code.
   int StopDaemon();
   // SIGKILL: a crash.
   void KillDaemon();
 
-  // Runs the CLI against the daemon.
+  // Runs the CLI against the daemon, with cli_args_ (e.g. TLS options)
+  // before `args`.
   CommandResult Cli(std::vector<std::string> args,
                     absl::Duration timeout = absl::Seconds(120));
   // Parses the CLI's --json output.
@@ -65,7 +67,9 @@ class DaemonFixture : public ::testing::Test {
 
   TempDir dir_;
   std::optional<Process> daemon_;
-  std::string address_;
+  std::string address_;                 // what the CLI connects to
+  std::vector<std::string> addresses_;  // every address the daemon serves
+  std::vector<std::string> cli_args_;   // given to every CLI call
 };
 
 }  // namespace hdrstereo::testing

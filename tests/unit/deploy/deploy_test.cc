@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_replace.h"
 #include "daemon/config.h"
@@ -49,7 +50,80 @@ TEST(DeployTest, ShippedConfigIsAccepted) {
   EXPECT_EQ(config.data_root, "/var/lib/hdrstereo");
   EXPECT_EQ(config.hardware, "real");
   EXPECT_EQ(config.stage_port, "/dev/hdrstereo-stage");
-  EXPECT_EQ(config.listen, "127.0.0.1:50051");
+  EXPECT_THAT(config.listen,
+              ::testing::ElementsAre("unix:/run/hdrstereo/hdrstereod.sock"));
+  EXPECT_EQ(config.local_role, "admin");
+  EXPECT_FALSE(config.tls.enabled());
+}
+
+TEST(DeployTest, TlsAndAuthSectionsBecomeTheirOptions) {
+  testing::TempDir dir;
+  const std::string path = (dir / "remote.toml").string();
+  std::ofstream(path) << R"(listen = ["unix:/tmp/h.sock", "0.0.0.0:50051"]
+[tls]
+cert = "/etc/hdrstereo/tls/server.pem"
+key = "/etc/hdrstereo/tls/server.key"
+client-ca = "/etc/hdrstereo/tls/ca.pem"
+crl-dir = "/etc/hdrstereo/tls/crl"
+[auth]
+local-role = "viewer"
+[auth.users]
+alice = "viewer"
+bob = "operator"
+)";
+  absl::StatusOr<daemon::ParsedArgs> parsed = Parse({"--config", path});
+  ASSERT_TRUE(parsed.ok()) << parsed.status();
+  const auto& config = std::get<daemon::Config>(*parsed);
+  EXPECT_THAT(config.listen,
+              ::testing::ElementsAre("unix:/tmp/h.sock", "0.0.0.0:50051"));
+  EXPECT_EQ(config.tls.cert, "/etc/hdrstereo/tls/server.pem");
+  EXPECT_EQ(config.tls.key, "/etc/hdrstereo/tls/server.key");
+  EXPECT_EQ(config.tls.client_ca, "/etc/hdrstereo/tls/ca.pem");
+  EXPECT_EQ(config.tls.crl_dir, "/etc/hdrstereo/tls/crl");
+  EXPECT_EQ(config.local_role, "viewer");
+  EXPECT_THAT(config.users, ::testing::UnorderedElementsAre(
+                                ::testing::Pair("alice", "viewer"),
+                                ::testing::Pair("bob", "operator")));
+  // The command line still wins.
+  parsed = Parse({"--config", path, "--tls-cert", "/other.pem"});
+  ASSERT_TRUE(parsed.ok()) << parsed.status();
+  EXPECT_EQ(std::get<daemon::Config>(*parsed).tls.cert, "/other.pem");
+}
+
+TEST(DeployTest, BadTlsAndAuthConfigIsRefusedByName) {
+  testing::TempDir dir;
+  auto refused = [&](const std::string& toml) {
+    const std::string path = (dir / "bad.toml").string();
+    std::ofstream(path) << toml;
+    absl::StatusOr<daemon::ParsedArgs> parsed = Parse({"--config", path});
+    EXPECT_FALSE(parsed.ok()) << toml;
+    return parsed.ok() ? std::string() : std::string(parsed.status().message());
+  };
+  EXPECT_THAT(refused("[tls]\ncertfile = \"x\"\n"), HasSubstr("certfile"));
+  EXPECT_THAT(refused("[auth]\nroles = \"x\"\n"), HasSubstr("roles"));
+  EXPECT_THAT(refused("[auth.users]\nalice = \"boss\"\n"),
+              HasSubstr("[auth.users] alice = \"boss\""));
+  EXPECT_THAT(refused("[auth.users]\n\"a b\" = \"viewer\"\n"),
+              HasSubstr("contains ' '"));
+  EXPECT_THAT(refused("[auth]\nlocal-role = \"root\"\n"),
+              HasSubstr("local-role"));
+  EXPECT_THAT(refused("[tls]\ncert = \"/c.pem\"\nkey = \"/k.pem\"\n"),
+              HasSubstr("--tls-client-ca ([tls] client-ca) is missing"));
+}
+
+TEST(DeployTest, ANonLoopbackAddressNeedsTls) {
+  absl::StatusOr<daemon::ParsedArgs> plain =
+      Parse({"--listen", "0.0.0.0:50051"});
+  ASSERT_FALSE(plain.ok());
+  EXPECT_THAT(std::string(plain.status().message()),
+              HasSubstr("is not a loopback address; remote access needs TLS"));
+  absl::StatusOr<daemon::ParsedArgs> tls =
+      Parse({"--listen", "0.0.0.0:50051", "--tls-cert", "/c.pem", "--tls-key",
+             "/k.pem", "--tls-client-ca", "/ca.pem"});
+  EXPECT_TRUE(tls.ok()) << tls.status();
+  EXPECT_TRUE(
+      Parse({"--listen", "unix:/tmp/x.sock", "--listen", "127.0.0.1:0"}).ok());
+  EXPECT_FALSE(Parse({"--listen", ":50051"}).ok());
 }
 
 TEST(DeployTest, UnknownConfigKeyIsRefusedByName) {
@@ -77,7 +151,20 @@ TEST(DeployTest, EveryOptionIsDocumentedInTheShippedConfig) {
         line.substr(dashes + 2, line.find_first_of(" =", dashes) - dashes - 2);
     if (name == "help" || name == "version" || name == "config") continue;
     ++options;
-    EXPECT_THAT(toml, HasSubstr(absl::StrCat(name, " = "))) << name;
+    // Security options sit in their sections: [tls] cert for --tls-cert,
+    // [auth] local-role, [auth.users] for --auth-user.
+    if (absl::StartsWith(name, "tls-")) {
+      EXPECT_THAT(toml.substr(toml.find("[tls]") + 1),
+                  HasSubstr(absl::StrCat(name.substr(4), " = ")))
+          << name;
+    } else if (name == "auth-user") {
+      EXPECT_THAT(toml, HasSubstr("[auth.users]"));
+    } else if (name == "local-role") {
+      EXPECT_THAT(toml.substr(toml.find("[auth]") + 1),
+                  HasSubstr("local-role = "));
+    } else {
+      EXPECT_THAT(toml, HasSubstr(absl::StrCat(name, " = "))) << name;
+    }
   }
   EXPECT_GT(options, 20);
 }

@@ -82,8 +82,9 @@ TEST_F(JobEngineTest, CapturesRunOneAtATimeInSubmissionOrder) {
   std::vector<int64_t> ids;
   for (int i = 0; i < 3; ++i) {
     absl::StatusOr<store::JobRecord> job =
-        engine.Submit(JobKind::kCapture, "s", "", 0, "test");
+        engine.Submit(JobKind::kCapture, "s", "", 0, "test", "tester");
     ASSERT_TRUE(job.ok()) << job.status();
+    EXPECT_EQ(job->submitted_by, "tester");
     ids.push_back(job->id);
   }
   for (int64_t id : ids) {
@@ -112,7 +113,7 @@ TEST_F(JobEngineTest, PauseWaitsAtTheNextCheckpointAndResumeContinues) {
   ASSERT_TRUE(engine.Start().ok());
   hold_ = true;
   absl::StatusOr<store::JobRecord> job =
-      engine.Submit(JobKind::kCapture, "s", "", 0, "test");
+      engine.Submit(JobKind::kCapture, "s", "", 0, "test", "tester");
   ASSERT_TRUE(job.ok());
   // Wait until the first step is done and the runner holds after it.
   const absl::Time deadline = absl::Now() + absl::Seconds(30);
@@ -138,9 +139,9 @@ TEST_F(JobEngineTest, CancelQueuedAndRunningJobs) {
   ASSERT_TRUE(engine.Start().ok());
   hold_ = true;
   absl::StatusOr<store::JobRecord> running =
-      engine.Submit(JobKind::kCapture, "s", "", 0, "first");
+      engine.Submit(JobKind::kCapture, "s", "", 0, "first", "tester");
   absl::StatusOr<store::JobRecord> queued =
-      engine.Submit(JobKind::kCapture, "s", "", 0, "second");
+      engine.Submit(JobKind::kCapture, "s", "", 0, "second", "tester");
   ASSERT_TRUE(running.ok() && queued.ok());
   ASSERT_TRUE(
       WaitForState(engine.repository(), running->id, JobState::kRunning));
@@ -163,12 +164,13 @@ TEST_F(JobEngineTest, FailureKeepsTheMessage) {
       StepRunner(1), {});
   ASSERT_TRUE(engine.Start().ok());
   absl::StatusOr<store::JobRecord> job =
-      engine.Submit(JobKind::kCapture, "s", "", 0, "test");
+      engine.Submit(JobKind::kCapture, "s", "", 0, "test", "tester");
   ASSERT_TRUE(WaitForState(engine.repository(), job->id, JobState::kFailed));
   EXPECT_EQ(engine.repository().Get(job->id)->error, "camera unplugged");
-  EXPECT_EQ(
-      engine.Submit(JobKind::kCapture, "nope", "", 0, "x").status().code(),
-      absl::StatusCode::kNotFound);
+  EXPECT_EQ(engine.Submit(JobKind::kCapture, "nope", "", 0, "x", "tester")
+                .status()
+                .code(),
+            absl::StatusCode::kNotFound);
 }
 
 TEST_F(JobEngineTest, ShutdownInterruptsAndTheNextStartResumes) {
@@ -178,7 +180,7 @@ TEST_F(JobEngineTest, ShutdownInterruptsAndTheNextStartResumes) {
     ASSERT_TRUE(engine.Start().ok());
     hold_ = true;
     absl::StatusOr<store::JobRecord> job =
-        engine.Submit(JobKind::kCapture, "s", "", 0, "long");
+        engine.Submit(JobKind::kCapture, "s", "", 0, "long", "tester");
     ASSERT_TRUE(job.ok());
     id = job->id;
     ASSERT_TRUE(WaitForState(engine.repository(), id, JobState::kRunning));
@@ -217,7 +219,8 @@ TEST_F(JobEngineTest, WaitForEventsWakesOnProgress) {
   JobEngine engine(*store_, StepRunner(1), StepRunner(1), {});
   ASSERT_TRUE(engine.Start().ok());
   const int64_t generation = engine.event_generation();
-  ASSERT_TRUE(engine.Submit(JobKind::kProcessing, "s", "", 0, "p").ok());
+  ASSERT_TRUE(
+      engine.Submit(JobKind::kProcessing, "s", "", 0, "p", "tester").ok());
   engine.WaitForEvents(generation, absl::Now() + absl::Seconds(30));
   EXPECT_NE(engine.event_generation(), generation);
 }

@@ -53,20 +53,21 @@ class SchedulerTest : public ::testing::Test {
   std::unique_ptr<Scheduler> NewScheduler() {
     SchedulerOptions options;
     options.clock = [this] { return now_; };
+    options.hold = [this] { return hold_; };
     return std::make_unique<Scheduler>(
         *store_,
-        [this](absl::string_view session,
-               const v1::CapturePlan& plan) -> absl::StatusOr<int64_t> {
+        [this](absl::string_view session, const v1::CapturePlan& plan,
+               absl::string_view by) -> absl::StatusOr<int64_t> {
           absl::StatusOr<store::JobRecord> job =
               jobs_->Create(store::JobKind::kCapture, session,
-                            plan.SerializeAsString(), 1, "queued");
+                            plan.SerializeAsString(), 1, "queued", by);
           if (!job.ok()) return job.status();
           return job->id;
         },
-        [this](absl::string_view session,
-               const std::vector<std::string>&) -> absl::StatusOr<int64_t> {
+        [this](absl::string_view session, const std::vector<std::string>&,
+               absl::string_view by) -> absl::StatusOr<int64_t> {
           absl::StatusOr<store::JobRecord> job = jobs_->Create(
-              store::JobKind::kProcessing, session, "", 1, "queued");
+              store::JobKind::kProcessing, session, "", 1, "queued", by);
           if (!job.ok()) return job.status();
           return job->id;
         },
@@ -90,6 +91,7 @@ class SchedulerTest : public ::testing::Test {
     record.time_zone = zone;
     record.plan = plan.SerializeAsString();
     record.missed_run_policy = policy;
+    record.created_by = "carol";
     ASSERT_TRUE(
         scheduler.repository().Create(record, absl::ToUnixMillis(now_)).ok());
   }
@@ -131,6 +133,7 @@ class SchedulerTest : public ::testing::Test {
   std::unique_ptr<store::Store> store_;
   std::unique_ptr<store::JobRepository> jobs_;
   absl::Time now_ = Utc("2026-03-23 12:00");  // Monday
+  absl::Status hold_;  // what SchedulerOptions::hold returns
 };
 
 TEST_F(SchedulerTest, SimulatedWeekAcrossSpringForwardYieldsExactlyTheRuns) {
@@ -327,18 +330,46 @@ INSTANTIATE_TEST_SUITE_P(
 TEST_F(SchedulerTest, DueTimesWhileDisabledDoNotRun) {
   std::unique_ptr<Scheduler> scheduler = NewScheduler();
   AddSchedule(*scheduler, "nightly", "0 2 * * *", "UTC");
-  ASSERT_TRUE(scheduler->repository()
-                  .SetEnabled("nightly", false, absl::ToUnixMillis(now_))
-                  .ok());
+  ASSERT_TRUE(
+      scheduler->repository()
+          .SetEnabled("nightly", false, absl::ToUnixMillis(now_), "dave")
+          .ok());
   RunUntil(*scheduler, Utc("2026-03-25 12:00"));
   EXPECT_TRUE(Runs(*scheduler, "nightly").empty());
   ASSERT_TRUE(scheduler->repository()
-                  .SetEnabled("nightly", true, absl::ToUnixMillis(now_))
+                  .SetEnabled("nightly", true, absl::ToUnixMillis(now_), "erin")
                   .ok());
   RunUntil(*scheduler, Utc("2026-03-26 12:00"));
   std::vector<store::ScheduleRunRecord> runs = Runs(*scheduler, "nightly");
   ASSERT_EQ(runs.size(), 1u);
   EXPECT_EQ(Fmt(runs[0].due_time_ms), "2026-03-26 02:00");
+  // The run, and its job, are on behalf of whoever enabled it last.
+  EXPECT_EQ(runs[0].caused_by, "erin");
+  ASSERT_EQ(runs[0].job_ids.size(), 1u);
+  absl::StatusOr<store::JobRecord> job = jobs_->Get(runs[0].job_ids[0]);
+  ASSERT_TRUE(job.ok()) << job.status();
+  EXPECT_EQ(job->submitted_by, "erin");
+}
+
+TEST_F(SchedulerTest, DueTimesWhileHeldAreSkippedWithTheHoldsReason) {
+  std::unique_ptr<Scheduler> scheduler = NewScheduler();
+  AddSchedule(*scheduler, "nightly", "0 2 * * *", "UTC");
+  hold_ = absl::FailedPreconditionError(
+      "locked by bob until 14:05: re-aligning the projector");
+  RunUntil(*scheduler, Utc("2026-03-24 03:00"));
+  hold_ = absl::OkStatus();
+  RunUntil(*scheduler, Utc("2026-03-25 03:00"));
+  std::vector<store::ScheduleRunRecord> runs = Runs(*scheduler, "nightly");
+  ASSERT_EQ(runs.size(), 2u);
+  EXPECT_EQ(Fmt(runs[0].due_time_ms), "2026-03-24 02:00");
+  EXPECT_EQ(runs[0].outcome, store::RunOutcome::kSkipped);
+  EXPECT_EQ(runs[0].reason,
+            "locked by bob until 14:05: re-aligning the projector");
+  EXPECT_TRUE(runs[0].job_ids.empty());
+  EXPECT_EQ(runs[0].caused_by, "carol");
+  // Released: the next night runs, for the schedule's creator.
+  EXPECT_EQ(runs[1].outcome, store::RunOutcome::kSucceeded);
+  EXPECT_EQ(runs[1].caused_by, "carol");
 }
 
 TEST(SessionPatternTest, ExpandsInTheZoneAndRefusesBadPatterns) {

@@ -1,0 +1,213 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "daemon/rpc/admin_service.h"
+
+#include <google/protobuf/util/time_util.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/escaping.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "daemon/rpc/pagination.h"
+#include "daemon/rpc/status.h"
+
+namespace hdrstereo::rpc {
+namespace {
+
+using google::protobuf::util::TimeUtil;
+
+void ToProto(const store::ApiKeyRecord& key, v1::ApiKey* out) {
+  out->set_id(key.id);
+  out->set_user(key.user);
+  absl::StatusOr<Role> role = ParseRole(key.role);
+  out->set_role(ToProto(role.ok() ? *role : Role::kNone));
+  out->set_note(key.note);
+  out->set_created_by(key.created_by);
+  *out->mutable_create_time() =
+      TimeUtil::MillisecondsToTimestamp(key.create_time_ms);
+  *out->mutable_expire_time() =
+      TimeUtil::MillisecondsToTimestamp(key.expire_time_ms);
+  if (key.last_used_time_ms) {
+    *out->mutable_last_used_time() =
+        TimeUtil::MillisecondsToTimestamp(*key.last_used_time_ms);
+  }
+  if (key.revoke_time_ms) {
+    *out->mutable_revoke_time() =
+        TimeUtil::MillisecondsToTimestamp(*key.revoke_time_ms);
+  }
+}
+
+// A timestamp the caller set, as Unix ms; INVALID_ARGUMENT if out of range.
+absl::StatusOr<int64_t> TimeArgument(const google::protobuf::Timestamp& time,
+                                     const char* field) {
+  // 9999-12-31: the range of google.protobuf.Timestamp.
+  if (time.seconds() < 0 || time.seconds() > 253402300799 || time.nanos() < 0 ||
+      time.nanos() > 999999999) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, " is not a valid time after 1970"));
+  }
+  return TimeUtil::TimestampToMilliseconds(time);
+}
+
+}  // namespace
+
+grpc::Status AdminService::CreateApiKey(grpc::ServerContext* context,
+                                        const v1::CreateApiKeyRequest* request,
+                                        v1::CreateApiKeyResponse* response) {
+  if (absl::Status s = ValidatePrincipalName(request->user(), "user");
+      !s.ok()) {
+    return ToGrpcStatus(s);
+  }
+  const Role role = FromProto(request->role());
+  if (role == Role::kNone) {
+    return InvalidArgument(
+        "role must be ROLE_VIEWER, ROLE_OPERATOR or "
+        "ROLE_ADMIN");
+  }
+  const Role owner = authenticator_.RoleOf(request->user());
+  if (owner == Role::kNone) {
+    return InvalidArgument(
+        absl::StrCat(request->user(),
+                     " has no role in [auth.users] of hdrstereod's config; "
+                     "give it one there (and restart) before making it a key"));
+  }
+  if (role > owner) {
+    return InvalidArgument(
+        absl::StrCat(request->user(), " is ", RoleName(owner), "; a key for ",
+                     request->user(), " can be at most ", RoleName(owner),
+                     ", not ", RoleName(role)));
+  }
+  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
+  if (!caller.ok()) return ToGrpcStatus(caller.status());
+  absl::StatusOr<NewApiKey> key =
+      keys_.Create(request->user(), role, absl::Seconds(request->ttl_s()),
+                   request->note(), caller->name);
+  if (!key.ok()) return ToGrpcStatus(key.status());
+  spdlog::info("API key {} created for {} ({}) by {}", key->record.id,
+               key->record.user, key->record.role, caller->name);
+  ToProto(key->record, response->mutable_key());
+  response->set_api_key(key->token);
+  return grpc::Status::OK;
+}
+
+grpc::Status AdminService::ListApiKeys(grpc::ServerContext*,
+                                       const v1::ListApiKeysRequest* request,
+                                       v1::ListApiKeysResponse* response) {
+  if (!request->user().empty()) {
+    if (absl::Status s = ValidatePrincipalName(request->user(), "user");
+        !s.ok()) {
+      return ToGrpcStatus(s);
+    }
+  }
+  absl::StatusOr<Page> page = ParsePage(request->page());
+  if (!page.ok()) return ToGrpcStatus(page.status());
+  std::vector<store::ApiKeyRecord> keys =
+      keys_.List(request->user(), request->include_revoked());
+  size_t start = 0;
+  if (!page->after.empty()) {
+    while (start < keys.size() && keys[start].id != page->after) ++start;
+    if (start == keys.size()) {
+      return InvalidArgument("page.page_token was not issued by this server");
+    }
+    ++start;
+  }
+  for (size_t i = start; i < keys.size(); ++i) {
+    if (response->keys_size() == page->size) {
+      response->set_next_page_token(EncodePageToken(keys[i - 1].id));
+      break;
+    }
+    ToProto(keys[i], response->add_keys());
+  }
+  return grpc::Status::OK;
+}
+
+grpc::Status AdminService::RevokeApiKey(grpc::ServerContext* context,
+                                        const v1::RevokeApiKeyRequest* request,
+                                        v1::ApiKey* response) {
+  const std::string& id = request->id();
+  if (id.size() != 12 || !std::all_of(id.begin(), id.end(), [](char c) {
+        return absl::ascii_isdigit(c) || (c >= 'a' && c <= 'f');
+      })) {
+    return InvalidArgument(absl::StrCat(
+        "id \"", absl::CHexEscape(id.substr(0, 64)),
+        "\" is not a key id (12 hex digits, as `hdrstereo admin key list` "
+        "shows)"));
+  }
+  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
+  if (!caller.ok()) return ToGrpcStatus(caller.status());
+  absl::StatusOr<store::ApiKeyRecord> revoked = keys_.Revoke(id, caller->name);
+  if (!revoked.ok()) return ToGrpcStatus(revoked.status());
+  spdlog::info("API key {} of {} revoked by {}", id, revoked->user,
+               caller->name);
+  ToProto(*revoked, response);
+  return grpc::Status::OK;
+}
+
+grpc::Status AdminService::ListAuditLog(grpc::ServerContext*,
+                                        const v1::ListAuditLogRequest* request,
+                                        v1::ListAuditLogResponse* response) {
+  store::AuditFilter filter;
+  if (!request->principal().empty()) {
+    if (absl::Status s =
+            ValidatePrincipalName(request->principal(), "principal");
+        !s.ok()) {
+      return ToGrpcStatus(s);
+    }
+    filter.principal = request->principal();
+  }
+  if (request->method().size() > 256) {
+    return InvalidArgument("method is longer than 256 bytes");
+  }
+  filter.method = request->method();
+  if (request->has_start_time()) {
+    absl::StatusOr<int64_t> ms =
+        TimeArgument(request->start_time(), "start_time");
+    if (!ms.ok()) return ToGrpcStatus(ms.status());
+    filter.start_ms = *ms;
+  }
+  if (request->has_end_time()) {
+    absl::StatusOr<int64_t> ms = TimeArgument(request->end_time(), "end_time");
+    if (!ms.ok()) return ToGrpcStatus(ms.status());
+    filter.end_ms = *ms;
+  }
+  if (filter.start_ms > 0 && filter.end_ms > 0 &&
+      filter.end_ms <= filter.start_ms) {
+    return InvalidArgument("end_time must be after start_time");
+  }
+  absl::StatusOr<Page> page = ParsePage(request->page());
+  if (!page.ok()) return ToGrpcStatus(page.status());
+  if (!page->after.empty() &&
+      !absl::SimpleAtoi(page->after, &filter.before_id)) {
+    return InvalidArgument("page.page_token was not issued by this server");
+  }
+  filter.limit = page->size + 1;
+  // Rows of calls made so far are written before they are read.
+  audit_.Flush();
+  absl::StatusOr<std::vector<store::AuditRecord>> rows =
+      audit_.repository().List(filter);
+  if (!rows.ok()) return ToGrpcStatus(rows.status());
+  if (static_cast<int>(rows->size()) > page->size) {
+    rows->pop_back();
+    response->set_next_page_token(
+        EncodePageToken(absl::StrCat(rows->back().id)));
+  }
+  for (const store::AuditRecord& row : *rows) {
+    v1::AuditEntry* out = response->add_entries();
+    out->set_id(row.id);
+    *out->mutable_time() = TimeUtil::MillisecondsToTimestamp(row.time_ms);
+    out->set_principal(row.principal);
+    absl::StatusOr<Role> role = ParseRole(row.role);
+    out->set_role(ToProto(role.ok() ? *role : Role::kNone));
+    out->set_auth_method(row.auth_method);
+    out->set_peer(row.peer);
+    out->set_method(row.method);
+    out->set_subject(row.subject);
+    out->set_status_code(row.status_code);
+    out->set_message(row.message);
+  }
+  return grpc::Status::OK;
+}
+
+}  // namespace hdrstereo::rpc

@@ -1,0 +1,76 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "daemon/rpc/roles.h"
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/str_cat.h"
+
+namespace hdrstereo::rpc {
+
+const char* RoleName(Role role) {
+  switch (role) {
+    case Role::kNone:
+      return "none";
+    case Role::kViewer:
+      return "viewer";
+    case Role::kOperator:
+      return "operator";
+    case Role::kAdmin:
+      return "admin";
+  }
+  return "none";
+}
+
+absl::StatusOr<Role> ParseRole(absl::string_view name) {
+  for (Role role :
+       {Role::kNone, Role::kViewer, Role::kOperator, Role::kAdmin}) {
+    if (name == RoleName(role)) return role;
+  }
+  return absl::InvalidArgumentError(absl::StrCat(
+      "\"", name, "\" is not a role: use viewer, operator or admin"));
+}
+
+v1::Role ToProto(Role role) {
+  switch (role) {
+    case Role::kViewer:
+      return v1::ROLE_VIEWER;
+    case Role::kOperator:
+      return v1::ROLE_OPERATOR;
+    case Role::kAdmin:
+      return v1::ROLE_ADMIN;
+    case Role::kNone:
+      break;
+  }
+  return v1::ROLE_UNSPECIFIED;
+}
+
+Role FromProto(v1::Role role) {
+  switch (role) {
+    case v1::ROLE_VIEWER:
+      return Role::kViewer;
+    case v1::ROLE_OPERATOR:
+      return Role::kOperator;
+    case v1::ROLE_ADMIN:
+      return Role::kAdmin;
+    default:
+      return Role::kNone;
+  }
+}
+
+absl::Status ValidatePrincipalName(absl::string_view name,
+                                   absl::string_view what) {
+  if (name.empty() || name.size() > 64) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        what, ": a user name has 1 to 64 characters, not ", name.size()));
+  }
+  for (char c : name) {
+    if (!absl::ascii_isalnum(c) && c != '.' && c != '_' && c != '@' &&
+        c != '-') {
+      return absl::InvalidArgumentError(absl::StrCat(
+          what, ": user name \"", name, "\" contains '", std::string(1, c),
+          "'; use letters, digits, '.', '_', '@' and '-'"));
+    }
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace hdrstereo::rpc
