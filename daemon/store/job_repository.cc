@@ -259,18 +259,6 @@ absl::StatusOr<JobEventRecord> JobRepository::SetProgressLocked(
   return AppendEventLocked(id, EventLevel::kInfo, "");
 }
 
-absl::StatusOr<JobEventRecord> JobRepository::SetProgress(
-    int64_t id, int64_t done, int64_t total, absl::string_view step) {
-  absl::StatusOr<std::unique_ptr<Transaction>> tx =
-      Transaction::Begin(store_.db());
-  if (!tx.ok()) return tx.status();
-  absl::StatusOr<JobEventRecord> event =
-      SetProgressLocked(id, done, total, step);
-  if (!event.ok()) return event.status();
-  if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
-  return event;
-}
-
 absl::StatusOr<JobEventRecord> JobRepository::AddEvent(
     int64_t id, EventLevel level, absl::string_view message) {
   absl::StatusOr<std::unique_ptr<Transaction>> tx =

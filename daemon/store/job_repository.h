@@ -89,10 +89,6 @@ class JobRepository {
   absl::StatusOr<JobEventRecord> SetState(int64_t id, JobState state,
                                           absl::string_view message,
                                           absl::string_view error = "");
-  // Updates progress and appends an event.
-  absl::StatusOr<JobEventRecord> SetProgress(int64_t id, int64_t done,
-                                             int64_t total,
-                                             absl::string_view step);
   // Appends a warning or info event without changing the job.
   absl::StatusOr<JobEventRecord> AddEvent(int64_t id, EventLevel level,
                                           absl::string_view message);

@@ -26,13 +26,6 @@ inline double UniformFromBits(uint64_t bits) {
   return (static_cast<double>(bits >> 11) + 0.5) * (1.0 / 9007199254740992.0);
 }
 
-// Standard normal value for `key` (Box-Muller on two hashed uniforms).
-inline double GaussianAt(uint64_t key) {
-  const double u1 = UniformFromBits(SplitMix64(key));
-  const double u2 = UniformFromBits(SplitMix64(key ^ 0xda942042e4dd58b5ULL));
-  return std::sqrt(-2.0 * std::log(u1)) * std::cos(6.283185307179586 * u2);
-}
-
 // Smooth value noise in [0, 1] at (x, y) in lattice units; `octaves` layers,
 // each twice as coarse as the previous, equally weighted, contrast-stretched.
 double FractalNoise2d(double x, double y, int octaves, uint64_t seed);

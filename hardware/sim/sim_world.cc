@@ -199,11 +199,6 @@ void SimWorld::ReconnectCamera() {
   disconnected_ = false;
 }
 
-void SimWorld::SetCameraFaults(const CameraFaults& faults) {
-  std::lock_guard<std::mutex> lock(mu_);
-  faults_ = faults;
-}
-
 int64_t SimWorld::capture_calls() const {
   std::lock_guard<std::mutex> lock(mu_);
   return capture_calls_;

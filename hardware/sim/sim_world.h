@@ -5,7 +5,7 @@
 // the exact truth. Every method is thread-safe: a stage emulator thread can
 // move the stage while a capture job renders.
 //
-// Adapters for the hardware interfaces (issue 4) map:
+// Adapters for the hardware interfaces map:
 //   Camera::Configure/Capture -> SimWorld::Capture(ExposureSettings, format)
 //   Stage                     -> StageEmulator (a Zaber device on a pty),
 //                                or SetStagePosition() directly
@@ -79,7 +79,6 @@ class SimWorld {
   absl::StatusOr<SimCapture> Capture(const ExposureSettings& settings,
                                      ImageFormat format);
   void ReconnectCamera();
-  void SetCameraFaults(const CameraFaults& faults);
   int64_t capture_calls() const;
 
   // Exact truth for views at left_mm and left_mm + baseline_mm, lit by the

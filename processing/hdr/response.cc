@@ -233,15 +233,6 @@ CameraResponse LinearResponse(std::string camera) {
   return r;
 }
 
-CameraResponse FromOpenCvResponse(const cv::Mat& response) {
-  CameraResponse r;
-  cv::Mat f;
-  response.convertTo(f, CV_32F);
-  cv::Mat positive = cv::max(f, 1e-30);
-  cv::log(positive, r.log_inverse);
-  return r;
-}
-
 cv::Mat ToOpenCvResponse(const CameraResponse& response) {
   cv::Mat e;
   if (response.linear) {

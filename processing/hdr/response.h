@@ -72,9 +72,8 @@ absl::StatusOr<CameraResponse> RecoverResponse(
 // The response of linear data (RAW decoded by LibRaw).
 CameraResponse LinearResponse(std::string camera = "");
 
-// Conversions to and from cv::CalibrateDebevec/MergeDebevec's response
-// (kLevels x 1 CV_32FC3 of exposure, not its log).
-CameraResponse FromOpenCvResponse(const cv::Mat& response);
+// Conversion to cv::MergeDebevec's response (kLevels x 1 CV_32FC3 of
+// exposure, not its log), for the merge benchmark's OpenCV peer.
 cv::Mat ToOpenCvResponse(const CameraResponse& response);
 
 // Saves/loads a response (OpenCV FileStorage YAML; written atomically).

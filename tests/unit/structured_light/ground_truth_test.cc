@@ -118,7 +118,7 @@ TEST_P(SimGroundTruthTest, MeetsAccuracyTargetsAgainstSimTruth) {
               << 100.0 * s.all_within_one / std::max(1, s.all_valid)
               << "%; unlit valid " << s.unlit_valid << "; lamp valid "
               << s.lamp_valid << " wrong " << s.lamp_wrong << "\n";
-    // Targets (issue 10): coverage >= 98%, >= 99% within 0.5 px,
+    // Targets: coverage >= 98%, >= 99% within 0.5 px,
     // RMSE <= 0.25 px; nothing in projector shadow; the lamp invalid or
     // right; values filled in occluded areas right within 1 px (>= 99%).
     EXPECT_GE(s.coverage(), 0.98);
@@ -143,7 +143,7 @@ TEST_P(SimGroundTruthTest, MeetsAccuracyTargetsAgainstSimTruth) {
   EXPECT_GE(agree, 0.98 * nocc);
 }
 
-// Issue 10: the ground truth must be more accurate than the matchers it
+// The ground truth must be more accurate than the matchers it
 // scores. The matchers get their best case: the projector dark, the
 // mid-exposure LDR pair, and the exact noise-free radiance for HDR. All are
 // scored on the same pixels as above.
