@@ -92,8 +92,10 @@ def test_capture_watch_and_frames(client, daemon) -> None:
     assert events[-1].state == jobs_pb2.JOB_STATE_SUCCEEDED
     assert job.state == "succeeded"
     frames = client.sessions.frames("cap")
-    # Ambient + 3 exposures, two views.
-    assert len(frames) == 2 * (1 + len(EXPOSURES))
+    # Each exposure in both views, and one ambient frame.
+    views = {(f.view_index, round(f.exposure_s, 6)) for f in frames}
+    assert {(v, e) for v in (0, 1) for e in EXPOSURES} <= views
+    assert len(frames) == 2 * len(EXPOSURES) + 1
     assert client.sessions.get("cap").frame_count == len(frames)
     for f in frames:  # the files the daemon wrote, by their sha256
         path = Path(client.sessions.get("cap").path) / f.path
@@ -125,13 +127,16 @@ def test_metrics_match_the_cli_and_the_truth(client, daemon, processed) -> None:
     by_key = {(r["method"], r["ground_truth"]): r for r in rows}
     assert ("fused", "simulation") in by_key
     assert ("fused", "structured_light") in by_key
-    # Same rows as the CLI prints (protobuf JSON: camelCase keys).
+    # The same rows, field for field, as the real CLI prints (its JSON keeps
+    # the proto's field names and writes int64 as a string).
     cli = json.loads(daemon.cli("--json", "metrics", processed).stdout)
     cli_rows = cli["metrics"] if isinstance(cli, dict) else cli
     assert len(cli_rows) == len(rows)
     for c in cli_rows:
-        r = by_key[(c["method"], c.get("groundTruth", ""))]
-        assert r["rmse_px"] == pytest.approx(c.get("rmsePx", 0.0), rel=1e-9)
+        r = by_key[(c["method"], c["ground_truth"])]
+        for field, value in c.items():
+            expected = int(value) if field == "job_id" else value
+            assert r[field] == pytest.approx(expected, rel=1e-12), field
     try:
         import pandas  # noqa: F401
     except ImportError:

@@ -9,6 +9,8 @@ from pathlib import Path
 import nbclient
 import nbformat
 
+import hdrstereo
+
 from conftest import Daemon
 
 NOTEBOOK = Path(__file__).resolve().parents[1] / "examples/first-session.ipynb"
@@ -20,6 +22,9 @@ def test_first_session_notebook_runs(daemon: Daemon, tmp_path: Path,
     # through HDRSTEREO_SERVER, as a user's would; no profile file.
     monkeypatch.setenv("HDRSTEREO_SERVER", daemon.address)
     monkeypatch.setenv("HDRSTEREO_CLIENT_CONFIG", str(tmp_path / "none.toml"))
+    # The package this test imports, wherever it is (build tree or installed).
+    monkeypatch.setenv("PYTHONPATH", str(Path(hdrstereo.__file__).parents[1]))
+    monkeypatch.setenv("PYDEVD_DISABLE_FILE_VALIDATION", "1")
     monkeypatch.setenv("MPLBACKEND", "module://matplotlib_inline.backend_inline")
     notebook = nbformat.read(NOTEBOOK, as_version=4)
     nbclient.NotebookClient(notebook, timeout=300, kernel_name="python3",
