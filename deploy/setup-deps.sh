@@ -26,7 +26,7 @@ packages=(
   # Python client (clients/python) and its tests, notebook included
   python3 python3-grpcio python3-protobuf python3-numpy python3-opencv
   python3-tqdm python3-pytest python3-nbclient python3-nbformat
-  python3-ipykernel python3-matplotlib
+  python3-ipykernel python3-matplotlib python3-pip python3-setuptools
 )
 
 missing=()
