@@ -23,6 +23,10 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev xvfb x11-apps
   # report test: headless browser
   chromium
+  # Python client (clients/python) and its tests, notebook included
+  python3 python3-grpcio python3-protobuf python3-numpy python3-opencv
+  python3-tqdm python3-pytest python3-nbclient python3-nbformat
+  python3-ipykernel python3-matplotlib python3-pip python3-setuptools
 )
 
 missing=()

@@ -1,0 +1,261 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Every verb against the real hdrstereod on simulated hardware (local
+caller on loopback), checked against the daemon's files, the real CLI and
+the simulator's truth."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from pathlib import Path
+
+import grpc
+import numpy as np
+import pytest
+
+import hdrstereo
+from hdrstereo.v1 import jobs_pb2, sessions_pb2
+
+from conftest import Daemon, free_port
+from tcp_proxy import TcpProxy
+
+EXPOSURES = [0.25, 0.06, 0.015]
+
+
+@pytest.fixture(scope="module")
+def client(daemon: Daemon):
+    with hdrstereo.Client(daemon.address, timeout=30) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def processed(client: hdrstereo.Client) -> str:
+    """A session captured (stereo and structured light) and processed."""
+    client.sessions.create("processed", note="python client test")
+    client.capture.stereo("processed", exposures_s=EXPOSURES, wait=True)
+    client.capture.structured_light("processed", wait=True)
+    client.process("processed", wait=True)
+    return "processed"
+
+
+def test_info_and_whoami(client, daemon) -> None:
+    info = client.info()
+    assert info.hardware_mode == "sim"
+    assert Path(info.data_root) == daemon.data_root.resolve()
+    me = client.whoami()
+    assert (me.auth_method, hdrstereo.v1.common_pb2.Role.Name(me.role)) == (
+        "local", "ROLE_ADMIN")
+
+
+def test_sessions_create_get_list_delete(client, daemon) -> None:
+    made = client.sessions.create("s-crud", note="n")
+    assert (made.name, made.note) == ("s-crud", "n")
+    assert client.sessions.get("s-crud").create_time == made.create_time
+    assert "s-crud" in [s.name for s in client.sessions.list()]
+    # The CLI sees what the client made.
+    shown = json.loads(daemon.cli("--json", "session", "show", "s-crud").stdout)
+    assert shown["name"] == "s-crud"
+    with pytest.raises(hdrstereo.AlreadyExists, match="s-crud"):
+        client.sessions.create("s-crud")
+    client.sessions.delete("s-crud")
+    with pytest.raises(hdrstereo.NotFound, match="s-crud") as e:
+        client.sessions.get("s-crud")
+    assert e.value.code == grpc.StatusCode.NOT_FOUND
+
+
+def test_server_message_carried(client) -> None:
+    # A rule only the server knows: the note's length.
+    with pytest.raises(hdrstereo.InvalidArgument, match="4096") as e:
+        client.sessions.create("long-note", note="x" * 5000)
+    assert e.value.code == grpc.StatusCode.INVALID_ARGUMENT
+    assert "long-note" not in [s.name for s in client.sessions.list()]
+
+
+def test_wrong_address_is_unavailable_after_the_timeout() -> None:
+    address = f"127.0.0.1:{free_port()}"
+    with hdrstereo.Client(address, timeout=1.5) as c:
+        start = time.monotonic()
+        with pytest.raises(hdrstereo.Unavailable, match=address) as e:
+            c.sessions.list()
+        assert time.monotonic() - start >= 1.4  # it waited as asked
+    assert "within 1.5 s" in str(e.value)
+
+
+def test_capture_watch_and_frames(client, daemon) -> None:
+    client.sessions.create("cap")
+    job = client.capture.stereo("cap", exposures_s=EXPOSURES)
+    assert job.session == "cap" and job.id > 0
+    events = list(job.watch())
+    sequences = [e.sequence for e in events]
+    assert sequences == sorted(set(sequences)) and sequences[0] == 1
+    assert events[-1].state == jobs_pb2.JOB_STATE_SUCCEEDED
+    assert job.state == "succeeded"
+    frames = client.sessions.frames("cap")
+    # Each exposure in both views, and one ambient frame.
+    views = {(f.view_index, round(f.exposure_s, 6)) for f in frames}
+    assert {(v, e) for v in (0, 1) for e in EXPOSURES} <= views
+    assert len(frames) == 2 * len(EXPOSURES) + 1
+    assert client.sessions.get("cap").frame_count == len(frames)
+    for f in frames:  # the files the daemon wrote, by their sha256
+        path = Path(client.sessions.get("cap").path) / f.path
+        assert hashlib.sha256(path.read_bytes()).hexdigest() == f.sha256
+    assert job.id in [j.id for j in client.jobs.list(session="cap")]
+    assert job.id in [j.id for j in client.jobs.list(states=["succeeded"])]
+    with pytest.raises(hdrstereo.InvalidArgument, match="unknown job state"):
+        client.jobs.list(states=["done"])
+
+
+def test_wait_shows_progress(client, capsys) -> None:
+    client.sessions.create("bar")
+    job = client.capture.stereo("bar", exposures_s=EXPOSURES, wait=True,
+                                progress=True)
+    assert job.state == "succeeded"
+    assert f"job {job.id}" in capsys.readouterr().err
+
+
+def test_failed_job_raises(client) -> None:
+    client.sessions.create("nothing-captured")
+    with pytest.raises(hdrstereo.FailedPrecondition,
+                       match="bracketed-stereo"):
+        client.process("nothing-captured", wait=True)
+
+
+def test_metrics_match_the_cli_and_the_truth(client, daemon, processed) -> None:
+    rows = client.metrics(processed)
+    assert rows and all(isinstance(r, dict) for r in rows)
+    by_key = {(r["method"], r["ground_truth"]): r for r in rows}
+    assert ("fused", "simulation") in by_key
+    assert ("fused", "structured_light") in by_key
+    # The same rows, field for field, as the real CLI prints (its JSON keeps
+    # the proto's field names and writes int64 as a string).
+    cli = json.loads(daemon.cli("--json", "metrics", processed).stdout)
+    cli_rows = cli["metrics"] if isinstance(cli, dict) else cli
+    assert len(cli_rows) == len(rows)
+    for c in cli_rows:
+        r = by_key[(c["method"], c["ground_truth"])]
+        for field, value in c.items():
+            expected = int(value) if field == "job_id" else value
+            assert r[field] == pytest.approx(expected, rel=1e-12), field
+    try:
+        import pandas  # noqa: F401
+    except ImportError:
+        with pytest.raises(ImportError, match="python3-pandas"):
+            client.metrics(processed, as_frame=True)
+    else:
+        assert len(client.metrics(processed, as_frame=True)) == len(rows)
+
+
+def test_artifact_load_matches_the_file_and_the_simulator(client,
+                                                          processed) -> None:
+    folder = Path(client.sessions.get(processed).path)
+    fused = [a for a in client.artifacts(processed, kind="disparity")
+             if a.path.endswith("fused.pfm")]
+    assert len(fused) == 1, client.artifacts(processed, kind="disparity")
+    disparity = fused[0].load()
+    assert disparity.dtype == np.float32 and disparity.shape == (180, 240)
+    on_disk = hdrstereo.images.cv2.imread(str(folder / fused[0].path),
+                                          hdrstereo.images.cv2.IMREAD_UNCHANGED)
+    np.testing.assert_array_equal(disparity, on_disk)
+    # Scored against the simulator's exact disparity (the capture's truth):
+    # the fused map is within 2 px on 80% of the pixels where both exist.
+    truth_file = sorted(folder.glob("captures/*/truth/disp0.pfm"))
+    assert truth_file, sorted(p.relative_to(folder) for p in folder.rglob("*")
+                              if "truth" in str(p))
+    truth = hdrstereo.decode_pfm(truth_file[-1].read_bytes())
+    both = np.isfinite(truth) & np.isfinite(disparity) & (truth > 0)
+    assert both.mean() > 0.5
+    assert (np.abs(disparity - truth)[both] < 2).mean() > 0.8
+    hdr = [a for a in client.artifacts(processed, kind="hdr")
+           if a.path.endswith("im0.pfm")][0].load()
+    assert hdr.dtype == np.float32 and hdr.shape == (180, 240, 3)
+    png = [a for a in client.artifacts(processed) if a.path.endswith(".png")]
+    assert png and png[0].load().dtype in (np.uint8, np.uint16)
+
+
+def test_download_refuses_existing_resumes_and_checks(client, processed,
+                                                      tmp_path) -> None:
+    artifact = [a for a in client.artifacts(processed, kind="disparity")
+                if a.path.endswith("fused.pfm")][0]
+    path = artifact.download(tmp_path)
+    assert path == tmp_path / "fused.pfm"
+    data = path.read_bytes()
+    assert hashlib.sha256(data).hexdigest() == artifact.sha256
+    assert len(data) == artifact.size_bytes
+    with pytest.raises(FileExistsError, match="overwrite=True"):
+        artifact.download(path)
+    assert artifact.download(path, overwrite=True) == path
+
+    # Interrupted: the first half is there as .part; the rest is fetched.
+    resumed = tmp_path / "resumed.pfm"
+    Path(str(resumed) + ".part").write_bytes(data[: len(data) // 2])
+    assert artifact.download(resumed).read_bytes() == data
+    assert not Path(str(resumed) + ".part").exists()
+
+    # A damaged partial file: only the rest is fetched, so the sha256 does
+    # not match; the file is removed and not given its name.
+    damaged = tmp_path / "damaged.pfm"
+    Path(str(damaged) + ".part").write_bytes(b"\xff" * (len(data) // 2))
+    with pytest.raises(hdrstereo.DataLoss, match="sha256 does not match"):
+        artifact.download(damaged)
+    assert not damaged.exists() and not Path(str(damaged) + ".part").exists()
+
+
+def test_missing_artifact_is_not_found(client, processed) -> None:
+    ghost = hdrstereo.Artifact(client, processed, sessions_pb2.Artifact(
+        id=987654, path="ghost.pfm", sha256="0" * 64))
+    with pytest.raises(hdrstereo.NotFound, match="987654"):
+        ghost.load()
+
+
+def test_hardware(client) -> None:
+    status = client.hardware.status()
+    assert status.hardware_mode == "sim"
+    travel = status.stage.travel_mm
+    assert client.hardware.move_stage(travel / 2).position_mm == pytest.approx(
+        travel / 2)
+    assert client.hardware.status().stage.position_mm == pytest.approx(
+        travel / 2)
+    with pytest.raises(hdrstereo.InvalidArgument, match="travel|range|0"):
+        client.hardware.move_stage(travel + 10)
+    assert client.hardware.camera_settings().exposure_s > 0
+    lock = client.hardware.lock("python test", ttl_s=60)
+    assert lock.locked and client.hardware.get_lock().note == "python test"
+    assert not client.hardware.unlock().locked
+
+
+def test_raw_calls_map_errors(client) -> None:
+    listed = client.raw.Schedules.List(
+        hdrstereo.v1.schedules_pb2.ListSchedulesRequest())
+    assert list(listed.schedules) == []
+    with pytest.raises(hdrstereo.NotFound):
+        client.raw.Jobs.Get(jobs_pb2.GetJobRequest(job_id=424242))
+
+
+@pytest.fixture(scope="module")
+def slow_daemon(tmp_path_factory):
+    """Simulated hardware in real time, so a capture lasts a few seconds."""
+    d = Daemon(tmp_path_factory.mktemp("slow"), ["--sim-time-scale", "1"])
+    yield d
+    assert d.stop() == 0, d.log.read_text(errors="replace")
+
+
+def test_watch_survives_a_dropped_stream(slow_daemon) -> None:
+    proxy = TcpProxy(slow_daemon.address)
+    try:
+        with hdrstereo.Client(proxy.address, timeout=30) as c:
+            c.sessions.create("dropped")
+            job = c.capture.stereo("dropped", exposures_s=[0.2, 0.1])
+            events = []
+            for event in job.watch():
+                events.append(event)
+                if len(events) == 1:
+                    proxy.drop()  # mid-stream
+            sequences = [e.sequence for e in events]
+            # Every event once, in order, despite the reconnect.
+            assert sequences == list(range(1, len(sequences) + 1))
+            assert events[-1].state == jobs_pb2.JOB_STATE_SUCCEEDED
+            assert len(events) > 2
+            assert proxy.accepted >= 2  # the watch did reconnect
+    finally:
+        proxy.close()
