@@ -16,7 +16,9 @@ packages=(
   libopencv-dev libopencv-contrib-dev libraw-dev libtiff-dev libopenexr-dev
   libmaxflow-dev
   # daemon and tools
-  libsqlite3-dev sqlite3 libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev
+  zlib1g-dev libsqlite3-dev sqlite3 libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev
+  # webhooks (HTTP client) and the Prometheus endpoint
+  libcurl4-openssl-dev prometheus-cpp-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev xvfb x11-apps
   # report test: headless browser

@@ -17,6 +17,7 @@
 #include "daemon/store/database.h"
 #include "hardware/sim/scene.h"
 #include "hardware/sim/sim_world.h"
+#include "processing/io/exif.h"
 #include "processing/io/sha256.h"
 #include "tests/support/daemon_fixture.h"
 
@@ -93,6 +94,51 @@ class CaptureTest : public ::hdrstereo::testing::DaemonFixture {
     }
     lock.unlock();
     EXPECT_EQ(Sql("PRAGMA integrity_check"), "ok");
+  }
+
+  // Every frame file's own EXIF says what its row says: the exposure that
+  // was set (within the 1/6 stop the check allows) and the camera-reported
+  // values recorded with it. Returns how many frames were checked.
+  int ExpectFilesMatchTheirRows(const std::string& session) {
+    absl::StatusOr<std::unique_ptr<store::Database>> db = store::Database::Open(
+        data_root() / "hdrstereo.db", store::Database::Mode::kReadOnly);
+    EXPECT_TRUE(db.ok());
+    if (!db.ok()) return 0;
+    std::unique_lock<std::mutex> lock = (*db)->Lock();
+    absl::StatusOr<store::Statement> stmt = (*db)->Prepare(
+        "SELECT f.path, f.exposure_s, f.camera_exposure_s, f.iso, "
+        "f.camera_file_name FROM frames f JOIN captures c ON c.id = "
+        "f.capture_id JOIN sessions s ON s.id = c.session_id WHERE s.name = "
+        "?1");
+    EXPECT_TRUE(stmt.ok());
+    stmt->Bind(1, session);
+    int checked = 0;
+    std::set<std::string> names;
+    while (*stmt->Step()) {
+      const std::string path = stmt->ColumnText(0);
+      const io::ExifInfo exif = io::ParseExifFromFile(
+          ReadFileOrDie(data_root() / "sessions" / session / path));
+      EXPECT_TRUE(exif.exposure_s.has_value()) << path;
+      EXPECT_FALSE(stmt->ColumnIsNull(2)) << path;
+      EXPECT_LE(std::abs(std::log2(exif.exposure_s.value_or(0) /
+                                   stmt->ColumnDouble(1))),
+                1.0 / 6)
+          << path << " was exposed " << exif.exposure_s.value_or(0)
+          << " s, its row says " << stmt->ColumnDouble(1) << " s";
+      EXPECT_DOUBLE_EQ(exif.exposure_s.value_or(0), stmt->ColumnDouble(2))
+          << path;
+      EXPECT_DOUBLE_EQ(exif.iso.value_or(0), stmt->ColumnDouble(3)) << path;
+      EXPECT_TRUE(names.insert(stmt->ColumnText(4)).second)
+          << "camera file name " << stmt->ColumnText(4) << " twice";
+      ++checked;
+    }
+    return checked;
+  }
+
+  int64_t EventsLike(const std::string& pattern) {
+    return std::stoll(Sql(
+        absl::StrCat("SELECT count(*) FROM job_events WHERE message LIKE '%",
+                     pattern, "%'")));
   }
 
   fs::path scene_path_;
@@ -332,6 +378,60 @@ TEST_F(CaptureTest, CorruptTransferIsCaughtNotStored) {
   ExpectConsistentStore("c", 2);
   ASSERT_EQ(Cli({"capture", "stereo", "c", "--watch"}).exit_code, 0);
   ExpectConsistentStore("c", 17);
+}
+
+TEST_F(CaptureTest, EveryFrameRecordsWhatTheCameraReported) {
+  StartSim();
+  ASSERT_EQ(Cli({"session", "create", "v"}).exit_code, 0);
+  ASSERT_EQ(Cli({"capture", "stereo", "v", "--watch"}).exit_code, 0);
+  EXPECT_EQ(ExpectFilesMatchTheirRows("v"), 17);
+  EXPECT_EQ(Sql("SELECT count(*) FROM frames WHERE camera_time_ms IS NULL OR "
+                "aperture_f IS NULL OR camera_file_name = ''"),
+            "0");
+  EXPECT_EQ(EventsLike("taking it again"), 0);
+}
+
+// The faults that corrupt a dataset without any error: each one fires once,
+// is caught by the frame check, and the frame is taken again; the capture
+// then holds exactly the planned frames, each exposed as its row says.
+TEST_F(CaptureTest, SilentCameraFaultsAreCaughtAndTheFrameRetaken) {
+  const std::pair<const char*, const char*> faults[] = {
+      {"previous_file", "already taken in this capture"},
+      {"wrong_exposure", "not the 1/"},
+      {"card_target", "on its card, not in RAM"}};
+  for (const auto& [fault, message] : faults) {
+    SCOPED_TRACE(fault);
+    nlohmann::json patch = SmallLabLamp();
+    patch["faults"] = {{"camera", {{fault, {{"calls", {5}}}}}}};
+    StartSim(patch);
+    const std::string session = absl::StrCat("s-", fault);
+    ASSERT_EQ(Cli({"session", "create", session}).exit_code, 0);
+    CommandResult run = Cli({"capture", "stereo", session, "--watch"});
+    EXPECT_EQ(run.exit_code, 0) << run.out << run.err;
+    EXPECT_THAT(run.out, HasSubstr(message));
+    EXPECT_EQ(EventsLike(message), 1);
+    ExpectConsistentStore(session, 17);
+    EXPECT_EQ(ExpectFilesMatchTheirRows(session), 17);
+    StopDaemon();
+  }
+}
+
+TEST_F(CaptureTest, AFaultOnTheRetakeTooFailsTheFrameNamingBothValues) {
+  nlohmann::json patch = SmallLabLamp();
+  patch["faults"] = {{"camera", {{"wrong_exposure", {{"calls", {4, 5}}}}}}};
+  StartSim(patch);
+  ASSERT_EQ(Cli({"session", "create", "w"}).exit_code, 0);
+  EXPECT_EQ(Cli({"capture", "stereo", "w", "--watch"}).exit_code, 1);
+  nlohmann::json failed = Job(1);
+  EXPECT_EQ(failed["state"], "JOB_STATE_FAILED");
+  const std::string error = failed.value("error", "");
+  EXPECT_THAT(error, HasSubstr("failed verification twice"));
+  // Both values: the camera's (twice the set time) and the one set.
+  EXPECT_THAT(error, HasSubstr("not the 1/"));
+  EXPECT_THAT(error, HasSubstr("nothing was recorded for it"));
+  EXPECT_EQ(Sql("SELECT count(*) FROM frames"), "3");
+  ExpectConsistentStore("w", 3);
+  EXPECT_EQ(ExpectFilesMatchTheirRows("w"), 3);
 }
 
 }  // namespace
