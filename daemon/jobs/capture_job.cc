@@ -3,6 +3,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 #include <future>
 #include <map>
@@ -181,8 +182,14 @@ absl::Status PersistFrame(JobContext& context, store::FrameRepository& frames,
       !s.ok()) {
     return s;
   }
-  return context.Progress(done, total, step,
-                          [&] { return frames.InsertLocked(record); });
+  absl::Status recorded = context.Progress(
+      done, total, step, [&] { return frames.InsertLocked(record); });
+  if (!recorded.ok()) {
+    // No file without its row (e.g. the database could not grow).
+    std::error_code ec;
+    fs::remove(context.store().files().SessionDir(session) / record.path, ec);
+  }
+  return recorded;
 }
 
 }  // namespace
@@ -220,7 +227,8 @@ absl::Status CheckDevicesFor(const v1::CapturePlan& plan,
 }
 
 absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
-                           const TruthWriter& write_truth) {
+                           const TruthWriter& write_truth,
+                           const DiskGuard* disk) {
   const store::JobRecord& job = context.job();
   v1::CapturePlan plan;
   if (!plan.ParseFromString(job.request)) {
@@ -315,9 +323,23 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
     if (pending.valid()) pending.wait();
   };
 
+  // The next frame must fit with room to spare, checked before it is taken:
+  // a disk found full by a failing write could not even record the job's
+  // end.
+  int64_t frame_bytes = 0;
+  if (disk != nullptr) {
+    absl::StatusOr<int64_t> per_frame = disk->BytesPerFrame(capture->kind);
+    if (!per_frame.ok()) return per_frame.status();
+    frame_bytes = *per_frame;
+  }
   for (const FrameSpec& spec : specs) {
     if (done->contains(spec.sequence)) continue;
     if (absl::Status s = context.Checkpoint(); !s.ok()) return s;
+    if (disk != nullptr) {
+      if (absl::Status s = disk->CheckRoomForFrame(frame_bytes); !s.ok()) {
+        return s;
+      }
+    }
     if (!(std::abs(position - spec.stage_position_mm) < 1e-6)) {
       moved = true;
       if (absl::Status s =
@@ -390,6 +412,8 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
       if (absl::Status s = prepare_camera(); !s.ok()) return s;
     }
     checker.Remember(report);
+    frame_bytes =
+        std::max(frame_bytes, static_cast<int64_t>(frame->bytes.size()));
 
     store::FrameRecord record;
     record.capture_id = capture->id;
@@ -464,7 +488,8 @@ absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
                                                const hardware::Rig& rig,
                                                absl::string_view session,
                                                const v1::CapturePlan& plan,
-                                               absl::string_view submitted_by) {
+                                               absl::string_view submitted_by,
+                                               const DiskGuard* disk) {
   // Limits come from the stage; without one, say so before judging the plan.
   absl::StatusOr<RigLimits> limits = LimitsOf(rig);
   if (!limits.ok()) return limits.status();
@@ -472,6 +497,13 @@ absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
   if (!normal.ok()) return normal.status();
   if (absl::Status s = CheckDevicesFor(*normal, rig); !s.ok()) return s;
   const size_t frames = ExpandPlan(*normal, *limits, 0).size();
+  if (disk != nullptr) {
+    if (absl::Status s = disk->CheckRoomFor(PlanKindName(*normal),
+                                            static_cast<int64_t>(frames));
+        !s.ok()) {
+      return s;
+    }
+  }
   return engine.Submit(store::JobKind::kCapture, session,
                        normal->SerializeAsString(),
                        static_cast<int64_t>(frames),

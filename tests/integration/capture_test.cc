@@ -8,6 +8,8 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 
+#include <cstdlib>
+#include <fstream>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -432,6 +434,115 @@ TEST_F(CaptureTest, AFaultOnTheRetakeTooFailsTheFrameNamingBothValues) {
   EXPECT_EQ(Sql("SELECT count(*) FROM frames"), "3");
   ExpectConsistentStore("w", 3);
   EXPECT_EQ(ExpectFilesMatchTheirRows("w"), 3);
+}
+
+// The disk guard on a real small filesystem: a tmpfs of a few MB mounted as
+// the data root (CI runs as root; elsewhere the test says why it skips).
+class DiskGuardTest : public CaptureTest {
+ protected:
+  void SetUp() override {
+    fs::create_directories(data_root());
+    const std::string mount =
+        absl::StrCat("mount -t tmpfs -o size=", kSizeBytes, " tmpfs ",
+                     data_root().string(), " 2>&1");
+    if (std::system(mount.c_str()) != 0) {
+      GTEST_SKIP() << "cannot mount a tmpfs (needs root and permission to "
+                      "mount): "
+                   << mount;
+    }
+    mounted_ = true;
+  }
+  void TearDown() override {
+    if (daemon_.has_value()) StopDaemon();
+    if (mounted_) {
+      const std::string umount = "umount " + data_root().string();
+      EXPECT_EQ(std::system(umount.c_str()), 0) << umount;
+    }
+  }
+  void StartSmall(const std::string& frame_guess_mb,
+                  const std::string& margin_mb = "0") {
+    scene_path_ = WriteScene("lab-lamp", SmallLabLamp());
+    StartDaemon({"--sim-scene", scene_path_.string(), "--disk-margin-mb",
+                 margin_mb, "--frame-bytes-guess-mb", frame_guess_mb});
+  }
+  // Fills the filesystem until `leave` bytes are free.
+  void FillLeaving(int64_t leave) {
+    const nlohmann::json info = CliJson({"status"});
+    const int64_t free = JsonInt(info["data_root_free_bytes"]);
+    ASSERT_GT(free, leave);
+    std::ofstream filler(data_root() / "filler", std::ios::binary);
+    filler << std::string(free - leave, 'x');
+    ASSERT_TRUE(filler.good());
+  }
+
+  static constexpr int64_t kSizeBytes = 24 << 20;
+  bool mounted_ = false;
+};
+
+TEST_F(DiskGuardTest, ACaptureThatCannotFitIsRefusedWithBothNumbers) {
+  StartSmall("1");  // 17 frames of 1 MB, twice with processing: 34 MB
+  ASSERT_EQ(Cli({"session", "create", "d"}).exit_code, 0);
+  const nlohmann::json info = CliJson({"status"});
+  const int64_t free = JsonInt(info["data_root_free_bytes"]);
+  EXPECT_GT(free, 0);
+  EXPECT_LE(free, kSizeBytes);
+  CommandResult refused = Cli({"capture", "stereo", "d"});
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_THAT(refused.err, HasSubstr("not enough disk space"));
+  EXPECT_THAT(refused.err, HasSubstr("this capture needs about 35.7 MB"));
+  EXPECT_THAT(refused.err, HasSubstr("MB free"));
+  EXPECT_EQ(Sql("SELECT count(*) FROM jobs"), "0");
+}
+
+// Once a capture of a kind is on disk its real frame size is used: the
+// stereo frames of this scene are far smaller than the 1 MB guess.
+TEST_F(DiskGuardTest, TheLastCaptureOfTheSameKindSetsTheEstimate) {
+  StartSmall("0");
+  ASSERT_EQ(Cli({"session", "create", "d"}).exit_code, 0);
+  ASSERT_EQ(Cli({"capture", "stereo", "d", "--watch"}).exit_code, 0);
+  const int64_t largest = std::stoll(
+      Sql("SELECT max(length(CAST(path AS BLOB))) FROM frames"));  // rows exist
+  ASSERT_GT(largest, 0);
+  StopDaemon();
+  StartSmall("1");
+  // The same plan again fits now (17 frames of their real size, twice).
+  const int64_t job = Submit({"capture", "stereo", "d"});
+  EXPECT_GT(job, 0);
+  ASSERT_TRUE(WaitForJobState(job, "succeeded"));
+  const nlohmann::json info = CliJson({"status"});
+  EXPECT_EQ(JsonInt(info["pending_capture_bytes"]), 0);
+}
+
+// The disk fills up in the middle of a capture: the job stops at a frame
+// boundary, before a write fails, naming both numbers; what was recorded
+// stays intact (no file without its row, no row without its file, no
+// temporary file); once space is freed the same plan takes only the
+// missing frames.
+TEST_F(DiskGuardTest, DiskFillingMidCaptureStopsCleanlyAndResumes) {
+  // A 1 MB margin: what the database needs to record the job's end.
+  StartSmall("0", "1");
+  ASSERT_EQ(Cli({"session", "create", "full"}).exit_code, 0);
+  FillLeaving(2 << 20);
+  CommandResult run = Cli({"capture", "sl", "full", "--watch"});
+  EXPECT_NE(run.exit_code, 0) << run.out;
+  nlohmann::json failed = Job(1);
+  EXPECT_EQ(failed["state"], "JOB_STATE_FAILED");
+  EXPECT_THAT(failed.value("error", ""), HasSubstr("the disk is full"));
+  EXPECT_THAT(failed.value("error", ""), HasSubstr("the next frame needs"));
+  const int recorded = std::stoi(Sql("SELECT count(*) FROM frames"));
+  EXPECT_GT(recorded, 0);
+  EXPECT_LT(recorded, 120);
+  ExpectConsistentStore("full", recorded);
+  for (const auto& entry : fs::recursive_directory_iterator(data_root())) {
+    EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos)
+        << entry.path();
+  }
+  fs::remove(data_root() / "filler");
+  CommandResult again = Cli({"capture", "sl", "full", "--watch"});
+  ASSERT_EQ(again.exit_code, 0) << again.out << again.err;
+  EXPECT_THAT(again.out, HasSubstr(absl::StrCat("resuming: ", recorded,
+                                                " frames already recorded")));
+  ExpectConsistentStore("full", 120);
 }
 
 }  // namespace
