@@ -194,6 +194,11 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
                  "libgphoto2 camera model [default: first found]");
   app.add_option("--camera-port", config.camera_port,
                  "libgphoto2 port, e.g. usb:001,004");
+  app.add_option("--camera-dump", config.camera_dump,
+                 "With --hardware real: replay this `gphoto2 --summary "
+                 "--list-all-config` dump as the camera (frames, stage and "
+                 "projector simulated from --sim-scene)")
+      ->check(CLI::ExistingFile);
   app.add_option("--stage-port", config.stage_port, "Zaber serial port")
       ->capture_default_str();
   app.add_option("--stage-device", config.stage_device, "Zaber device number")
@@ -262,6 +267,11 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
     }
   }
   if (absl::Status s = ParseUsers(users, config.users); !s.ok()) return s;
+  if (!config.camera_dump.empty() && config.hardware != "real") {
+    return absl::InvalidArgumentError(
+        "--camera-dump replays a real camera for the real camera driver: "
+        "use it with --hardware real");
+  }
   if (config.log_file.empty()) {
     config.log_file = config.data_root / "logs" / "hdrstereod.log";
   }

@@ -57,6 +57,11 @@ struct Config {
   // Real devices (--hardware real).
   std::string camera_model;  // empty = first camera found
   std::string camera_port;   // e.g. "usb:001,004"
+  // A `gphoto2 --summary --list-all-config` dump: the real camera driver
+  // configures a replay of that camera, captures are rendered by the
+  // simulator (scene sim_scene), and the stage and projector are the
+  // simulated ones. Needs hardware "real"; empty = a real camera.
+  std::filesystem::path camera_dump;
   std::string stage_port = "/dev/ttyUSB0";
   int stage_device = 1;
   int stage_axis = 1;

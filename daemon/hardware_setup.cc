@@ -3,9 +3,13 @@
 
 #include <spdlog/spdlog.h>
 
+#include <functional>
+
 #include "absl/strings/str_cat.h"
 #include "hardware/display/x11_projector.h"
+#include "hardware/gphoto2/config_dump.h"
 #include "hardware/gphoto2/gphoto2_camera.h"
+#include "hardware/gphoto2/replay_api.h"
 #include "hardware/sim/scene.h"
 #include "hardware/sim/sim_devices.h"
 #include "hardware/zaber/zaber_stage.h"
@@ -28,8 +32,44 @@ hardware::RigConfig RigConfigOf(const Config& config) {
           .max_baseline_mm = config.stage_travel_mm};
 }
 
+// The camera of a simulated rig, made once the world exists.
+using CameraFactory =
+    std::function<hardware::Slot<hardware::Camera>(sim::SimWorld&)>;
+
+hardware::Slot<hardware::Camera> SimulatedCamera(sim::SimWorld& world) {
+  return {.device =
+              std::make_unique<sim::SimCamera>(world, sim::SimCameraOptions{}),
+          .error = {}};
+}
+
+// The real driver over a replay of `dump`; each capture is a frame the
+// simulator renders at the shutter speed (and ISO) the driver chose among
+// the replayed camera's choices, as JPEG or, for a RAW format, DNG.
+hardware::Slot<hardware::Camera> ReplayedCamera(const Config& config,
+                                                const gphoto2::CameraDump& dump,
+                                                sim::SimWorld& world) {
+  gphoto2::FrameSource frames = [&world](const hardware::ExposureSettings& s)
+      -> absl::StatusOr<gphoto2::ReplayFile> {
+    const bool raw = s.format == hardware::ImageFormat::kRaw ||
+                     s.format == hardware::ImageFormat::kRawAndJpeg;
+    absl::StatusOr<sim::SimCapture> capture = world.Capture(
+        {.exposure_s = s.exposure_s, .iso = s.iso > 0 ? double(s.iso) : 100},
+        raw ? sim::ImageFormat::kDng : sim::ImageFormat::kJpeg);
+    if (!capture.ok()) return capture.status();
+    return gphoto2::ReplayFile{.bytes = std::move(capture->bytes),
+                               .extension = raw ? "dng" : "jpg"};
+  };
+  gphoto2::Gphoto2Options options;
+  options.model = config.camera_model;
+  spdlog::info("camera: replay of {} ({})", dump.source, dump.model);
+  return Slot<hardware::Camera>(
+      gphoto2::Gphoto2Camera::OpenWithApi(
+          options, std::make_unique<gphoto2::ReplayApi>(dump, frames)),
+      "camera");
+}
+
 absl::StatusOr<std::unique_ptr<Hardware>> SetUpSimulation(
-    const Config& config) {
+    const Config& config, const CameraFactory& make_camera) {
   absl::StatusOr<sim::Scene> scene = sim::LoadScene(config.sim_scene);
   if (!scene.ok()) {
     return absl::InvalidArgumentError(absl::StrCat(
@@ -54,10 +94,7 @@ absl::StatusOr<std::unique_ptr<Hardware>> SetUpSimulation(
   zaber.travel_mm = stage_options.travel_mm;
   hardware::Slot<hardware::Stage> stage =
       Slot<hardware::Stage>(zaber::ZaberStage::Open(zaber), "stage");
-  hardware::Slot<hardware::Camera> camera = {
-      .device =
-          std::make_unique<sim::SimCamera>(*hw->world, sim::SimCameraOptions{}),
-      .error = {}};
+  hardware::Slot<hardware::Camera> camera = make_camera(*hw->world);
   hardware::Slot<hardware::Projector> projector = Slot<hardware::Projector>(
       sim::SimProjector::Create(*hw->world), "projector");
   hw->rig =
@@ -97,7 +134,21 @@ std::unique_ptr<Hardware> SetUpReal(const Config& config) {
 }  // namespace
 
 absl::StatusOr<std::unique_ptr<Hardware>> SetUpHardware(const Config& config) {
-  if (config.hardware == "sim") return SetUpSimulation(config);
+  if (config.hardware == "sim") {
+    return SetUpSimulation(config, &SimulatedCamera);
+  }
+  if (!config.camera_dump.empty()) {
+    // A dump that cannot be read is a configuration error, like a bad scene.
+    absl::StatusOr<gphoto2::CameraDump> dump =
+        gphoto2::LoadCameraDump(config.camera_dump);
+    if (!dump.ok()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--camera-dump: ", dump.status().message()));
+    }
+    return SetUpSimulation(config, [&](sim::SimWorld& world) {
+      return ReplayedCamera(config, *dump, world);
+    });
+  }
   return SetUpReal(config);
 }
 

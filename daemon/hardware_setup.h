@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
 // Builds the rig the configuration asks for: real drivers, or the simulated
-// world with the real Zaber driver talking to the emulated controller.
+// world with the real Zaber driver talking to the emulated controller, or
+// (--camera-dump) that simulated world with the real camera driver
+// configuring a replayed camera.
 #ifndef HDRSTEREO_DAEMON_HARDWARE_SETUP_H_
 #define HDRSTEREO_DAEMON_HARDWARE_SETUP_H_
 

@@ -56,8 +56,8 @@ jobs::TruthWriter TruthWriterFor(const sim::SimWorld* world) {
   };
 }
 
-std::map<std::string, rpc::Role> UsersOf(const Config& config) {
-  std::map<std::string, rpc::Role> users;
+rpc::RoleMap UsersOf(const Config& config) {
+  rpc::RoleMap users;
   for (const auto& [name, role] : config.users) {
     // ParseArgs has checked the names.
     users[name] = rpc::ParseRole(role).value_or(rpc::Role::kNone);

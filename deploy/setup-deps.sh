@@ -10,6 +10,8 @@ packages=(
   # wire contract
   libgrpc++-dev libgrpc-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
   libabsl-dev libssl-dev
+  # certificates for remote operation (deploy/make-certs.sh, its tests)
+  openssl
   # hardware
   libgphoto2-dev libserialport-dev libx11-dev
   # processing

@@ -37,7 +37,7 @@ std::string CertificatePrincipal(const grpc::AuthContext& context) {
 }  // namespace
 
 Role Authenticator::RoleOf(absl::string_view user) const {
-  auto it = users_.find(std::string(user));
+  auto it = users_.find(user);
   return it == users_.end() ? Role::kNone : it->second;
 }
 
@@ -53,8 +53,7 @@ absl::Status Authenticator::Authenticate(
   if (!tls && transport != "local") {
     return absl::UnauthenticatedError(
         absl::StrCat("the connection's transport \"", transport,
-                     "\" is not one hdrstereod "
-                     "serves"));
+                     "\" is not one hdrstereod serves"));
   }
   if (authorization.has_value()) {
     absl::string_view token = *authorization;

@@ -35,6 +35,9 @@ namespace hdrstereo::rpc {
 
 inline constexpr char kLocalPrincipal[] = "local";
 
+// Roles by principal name, as [auth.users] gives them.
+using RoleMap = std::map<std::string, Role, std::less<>>;
+
 struct Principal {
   std::string name;  // "" when the caller could not be identified
   Role role = Role::kNone;
@@ -44,8 +47,7 @@ struct Principal {
 
 class Authenticator {
  public:
-  Authenticator(std::map<std::string, Role> users, Role local_role,
-                ApiKeyStore& keys)
+  Authenticator(RoleMap users, Role local_role, ApiKeyStore& keys)
       : users_(std::move(users)), local_role_(local_role), keys_(keys) {}
 
   // Fills `principal` with what the call shows of its caller (also when it
@@ -63,7 +65,7 @@ class Authenticator {
   Role RoleOf(absl::string_view user) const;
 
  private:
-  const std::map<std::string, Role> users_;
+  const RoleMap users_;
   const Role local_role_;
   ApiKeyStore& keys_;
 };

@@ -12,49 +12,52 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "absl/time/clock.h"
 #include "hardware/gphoto2/libgphoto2_api.h"
+#include "hardware/gphoto2/widgets.h"
 
 namespace hdrstereo::gphoto2 {
 namespace {
 
-constexpr std::initializer_list<absl::string_view> kShutterWidgets = {
-    "shutterspeed", "shutterspeed2", "exposuretime"};
-constexpr std::initializer_list<absl::string_view> kIsoWidgets = {"iso",
-                                                                  "isospeed"};
-constexpr std::initializer_list<absl::string_view> kApertureWidgets = {
-    "aperture", "f-number", "fnumber"};
-constexpr std::initializer_list<absl::string_view> kFormatWidgets = {
-    "imageformat", "imagequality"};
-
-const ConfigWidget* FindWidget(const std::vector<ConfigWidget>& widgets,
-                               absl::string_view name) {
-  for (const ConfigWidget& widget : widgets) {
-    if (widget.name == name) return &widget;
-  }
-  return nullptr;
+// "iso (/main/imgsettings/iso)": how messages name a widget.
+std::string Named(const ConfigWidget& widget) {
+  return absl::StrCat(widget.name, " (", widget.path, ")");
 }
 
-// The first of `names` the camera has.
-const ConfigWidget* FindWidget(const std::vector<ConfigWidget>& widgets,
-                               std::initializer_list<absl::string_view> names) {
-  for (absl::string_view name : names) {
-    if (const ConfigWidget* widget = FindWidget(widgets, name)) return widget;
+// The choice of `widget` that `match` picks from its choices; a widget
+// without choices (TEXT, or a radio list the camera left empty) cannot be
+// matched that way.
+absl::StatusOr<std::string> MatchChoice(
+    const ConfigWidget& widget, absl::string_view what,
+    const std::function<
+        absl::StatusOr<std::string>(const std::vector<std::string>&)>& match) {
+  if (widget.choices.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        Named(widget), " offers no choices (current value \"", widget.value,
+        "\"): setting the ", what, " through it is not supported"));
   }
-  return nullptr;
+  absl::StatusOr<std::string> choice = match(widget.choices);
+  if (!choice.ok()) {
+    return absl::Status(
+        choice.status().code(),
+        absl::StrCat(Named(widget), ": ", choice.status().message()));
+  }
+  return choice;
 }
 
-// The shutter-speed widget: the first with at least one timed choice.
-const ConfigWidget* FindShutterWidget(
-    const std::vector<ConfigWidget>& widgets) {
-  for (absl::string_view name : kShutterWidgets) {
-    const ConfigWidget* widget = FindWidget(widgets, name);
-    if (widget != nullptr && !TimedShutterChoices(widget->choices).empty()) {
-      return widget;
-    }
+// A number for a range widget (Sony's f-number runs 0 .. 655.35 in steps of
+// 0.01; the camera takes the nearest stop the lens has), as the library
+// reports a range's value.
+absl::StatusOr<std::string> RangeValue(const ConfigWidget& widget,
+                                       double value) {
+  if (value < widget.min || value > widget.max) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(Named(widget), ": ", value, " is outside its range [",
+                     widget.min, ", ", widget.max, "]"));
   }
-  return nullptr;
+  return absl::StrFormat("%g", static_cast<float>(value));
 }
 
 std::string JoinPath(const std::string& folder, const std::string& name) {
@@ -375,19 +378,7 @@ absl::Status Gphoto2Camera::SetLocked(const std::string& name,
 absl::StatusOr<hardware::ExposureSettings> Gphoto2Camera::SettingsLocked() {
   absl::StatusOr<std::vector<ConfigWidget>> widgets = ConfigLocked();
   if (!widgets.ok()) return widgets.status();
-  hardware::ExposureSettings settings;
-  if (const ConfigWidget* shutter = FindShutterWidget(*widgets)) {
-    settings.exposure_s = ParseShutterSpeed(shutter->value).value_or(0);
-  }
-  if (const ConfigWidget* iso = FindWidget(*widgets, kIsoWidgets)) {
-    settings.iso = ParseIso(iso->value).value_or(0);
-  }
-  if (const ConfigWidget* aperture = FindWidget(*widgets, kApertureWidgets)) {
-    settings.aperture_f = ParseAperture(aperture->value).value_or(0);
-  }
-  if (const ConfigWidget* format = FindWidget(*widgets, kFormatWidgets)) {
-    settings.format = ClassifyFormatChoice(format->value);
-  }
+  const hardware::ExposureSettings settings = ReadExposureSettings(*widgets);
   exposure_s_ = settings.exposure_s;
   format_ = settings.format;
   return settings;
@@ -453,20 +444,43 @@ absl::StatusOr<hardware::ExposureSettings> Gphoto2Camera::Configure(
   std::vector<Change> plan;
   const ConfigWidget* shutter = FindShutterWidget(*widgets);
   if (shutter == nullptr) {
+    // Cameras hide the shutter speed, or offer only "auto", outside M.
+    std::string mode_hint = "; is the mode dial on M (manual)?";
+    if (const ConfigWidget* mode = FindWidget(*widgets, kModeWidgets)) {
+      mode_hint =
+          absl::StrCat("; the exposure program ", Named(*mode), " is \"",
+                       mode->value, "\": set the mode dial to M (manual)");
+    }
+    const ConfigWidget* untimed = FindWidget(*widgets, kShutterWidgets);
+    if (untimed != nullptr) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "the camera's shutter-speed setting ", Named(*untimed),
+          " offers no timed exposure (choices: ", JoinChoices(untimed->choices),
+          ")", mode_hint));
+    }
     return absl::FailedPreconditionError(
-        "the camera has no shutter-speed setting (shutterspeed, "
-        "shutterspeed2, exposuretime)");
+        absl::StrCat("the camera has no shutter-speed setting ",
+                     WidgetNames(kShutterWidgets), mode_hint,
+                     " (some compact cameras have none)"));
   }
   absl::StatusOr<ShutterChoice> speed =
       NearestShutterSpeed(shutter->choices, settings.exposure_s);
-  if (!speed.ok()) return speed.status();
+  if (!speed.ok()) {
+    return absl::Status(
+        speed.status().code(),
+        absl::StrCat(Named(*shutter), ": ", speed.status().message()));
+  }
   plan.push_back({shutter, speed->choice});
   if (settings.iso > 0) {
     const ConfigWidget* iso = FindWidget(*widgets, kIsoWidgets);
     if (iso == nullptr) {
-      return absl::InvalidArgumentError("the camera has no ISO setting");
+      return absl::InvalidArgumentError(absl::StrCat(
+          "the camera has no ISO setting ", WidgetNames(kIsoWidgets)));
     }
-    absl::StatusOr<std::string> choice = MatchIso(iso->choices, settings.iso);
+    absl::StatusOr<std::string> choice =
+        MatchChoice(*iso, "ISO", [&](const std::vector<std::string>& c) {
+          return MatchIso(c, settings.iso);
+        });
     if (!choice.ok()) return choice.status();
     plan.push_back({iso, *choice});
   }
@@ -474,10 +488,16 @@ absl::StatusOr<hardware::ExposureSettings> Gphoto2Camera::Configure(
     const ConfigWidget* aperture = FindWidget(*widgets, kApertureWidgets);
     if (aperture == nullptr) {
       return absl::InvalidArgumentError(
-          "the camera has no aperture setting (manual lens?)");
+          absl::StrCat("the camera has no aperture setting ",
+                       WidgetNames(kApertureWidgets), " (manual lens?)"));
     }
     absl::StatusOr<std::string> choice =
-        MatchAperture(aperture->choices, settings.aperture_f);
+        aperture->type == WidgetType::kRange
+            ? RangeValue(*aperture, settings.aperture_f)
+            : MatchChoice(*aperture, "f-number",
+                          [&](const std::vector<std::string>& c) {
+                            return MatchAperture(c, settings.aperture_f);
+                          });
     if (!choice.ok()) return choice.status();
     plan.push_back({aperture, *choice});
   }
@@ -485,11 +505,13 @@ absl::StatusOr<hardware::ExposureSettings> Gphoto2Camera::Configure(
     const ConfigWidget* format = FindWidget(*widgets, kFormatWidgets);
     if (format == nullptr) {
       return absl::InvalidArgumentError(
-          "the camera has no image format setting (imageformat, "
-          "imagequality)");
+          absl::StrCat("the camera has no image format setting ",
+                       WidgetNames(kFormatWidgets)));
     }
-    absl::StatusOr<std::string> choice =
-        MatchFormatChoice(format->choices, *settings.format);
+    absl::StatusOr<std::string> choice = MatchChoice(
+        *format, "image format", [&](const std::vector<std::string>& c) {
+          return MatchFormatChoice(c, *settings.format);
+        });
     if (!choice.ok()) return choice.status();
     plan.push_back({format, *choice});
   }

@@ -14,7 +14,8 @@
 // Settings map onto the camera's widgets, whichever the camera has:
 // exposure -> "shutterspeed" / "shutterspeed2" / "exposuretime" (the nearest
 // timed choice in stops; bulb is never used), ISO -> "iso" / "isospeed",
-// aperture -> "aperture" / "f-number" / "fnumber", format -> "imageformat" /
+// aperture -> "aperture" / "f-number" / "fnumber" (a choice, or a number for
+// a range widget), format -> "imageformat" /
 // "imagequality". Configure validates everything before it sets anything,
 // then reads the settings back and fails if the camera did not take them
 // (FAILED_PRECONDITION: typically the mode dial is not on M).

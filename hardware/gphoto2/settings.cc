@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "hardware/gphoto2/settings.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -34,19 +35,44 @@ std::string Lower(absl::string_view text) {
   return absl::AsciiStrToLower(absl::StripAsciiWhitespace(text));
 }
 
+// Localised gphoto2 output writes decimals with a comma ("0,0400s",
+// "f/3,5"); a number with one comma and no point is read as a decimal.
+std::string PointDecimal(absl::string_view text) {
+  std::string out(text);
+  if (out.find('.') == std::string::npos &&
+      std::count(out.begin(), out.end(), ',') == 1) {
+    std::replace(out.begin(), out.end(), ',', '.');
+  }
+  return out;
+}
+
+// PTP cameras report special shutter codes as numbers: Sony's 0xFFFFFFFx
+// as the fractions "65535/65535" .. "65535/65533", Nikon's 0xFFFFFFFx
+// (in 1/10000 s) as "429496.7295s". Neither is a time; no camera offers a
+// timed exposure longer than an hour (Fuji: "60m").
+constexpr double kSentinelFractionPart = 65533;
+constexpr double kLongestTimedExposureS = 3600;
+
 // 2^(1/2): half a stop.
 const double kHalfStop = std::sqrt(2.0);
 
-}  // namespace
-
-std::optional<double> ParseShutterSpeed(absl::string_view choice) {
-  std::string text = Lower(choice);
+std::optional<double> ParseShutterText(absl::string_view choice) {
+  std::string text = PointDecimal(Lower(choice));
   absl::string_view t = text;
-  // Unit suffixes: "1/125s", "2.5 sec", "30 s".
-  for (absl::string_view suffix : {"sec", "s"}) {
-    if (absl::ConsumeSuffix(&t, suffix)) break;
+  // Unit suffixes: "1/125s", "2.5 sec", "30 s"; minutes (Fuji): "60m".
+  double unit = 1;
+  for (absl::string_view suffix : {"sec", "s", "min", "m"}) {
+    if (absl::ConsumeSuffix(&t, suffix)) {
+      if (suffix == "min" || suffix == "m") unit = 60;
+      break;
+    }
   }
   t = absl::StripAsciiWhitespace(t);
+  if (unit != 1) {
+    std::optional<double> minutes = ParsePositive(t);
+    if (!minutes.has_value()) return std::nullopt;
+    return *minutes * unit;
+  }
   // Seconds mark: 30" = 30 s, 1"3 = 1.3 s, 0"5 = 0.5 s.
   size_t quote = t.find('"');
   if (quote != absl::string_view::npos) {
@@ -66,12 +92,24 @@ std::optional<double> ParseShutterSpeed(absl::string_view choice) {
   if (slash != absl::string_view::npos) {
     std::optional<double> numerator = ParsePositive(t.substr(0, slash));
     std::optional<double> denominator = ParsePositive(t.substr(slash + 1));
-    if (!numerator.has_value() || !denominator.has_value()) {
+    if (!numerator.has_value() || !denominator.has_value() ||
+        *numerator >= kSentinelFractionPart ||
+        *denominator >= kSentinelFractionPart) {
       return std::nullopt;
     }
     return *numerator / *denominator;
   }
   return ParsePositive(t);
+}
+
+}  // namespace
+
+std::optional<double> ParseShutterSpeed(absl::string_view choice) {
+  std::optional<double> seconds = ParseShutterText(choice);
+  if (!seconds.has_value() || *seconds > kLongestTimedExposureS) {
+    return std::nullopt;
+  }
+  return seconds;
 }
 
 bool IsBulb(absl::string_view choice) { return Lower(choice) == "bulb"; }
@@ -158,7 +196,7 @@ absl::StatusOr<std::string> MatchIso(const std::vector<std::string>& choices,
 }
 
 std::optional<double> ParseAperture(absl::string_view choice) {
-  std::string text = Lower(choice);
+  std::string text = PointDecimal(Lower(choice));
   absl::string_view t = text;
   if (!absl::ConsumePrefix(&t, "f/")) absl::ConsumePrefix(&t, "f");
   return ParsePositive(absl::StripAsciiWhitespace(t));
@@ -193,8 +231,9 @@ std::optional<hardware::ImageFormat> ClassifyFormatChoice(
                    absl::StrContains(text, "dng");
   const bool jpeg =
       absl::StrContains(text, "jpeg") || absl::StrContains(text, "jpg") ||
-      absl::StrContains(text, "fine") || absl::StrContains(text, "normal") ||
-      absl::StrContains(text, "basic") || absl::StrContains(text, "standard");
+      absl::StrContains(text, "fine") || absl::StrContains(text, "fein") ||
+      absl::StrContains(text, "normal") || absl::StrContains(text, "basic") ||
+      absl::StrContains(text, "standard");
   if (raw && jpeg) return hardware::ImageFormat::kRawAndJpeg;
   if (raw) return hardware::ImageFormat::kRaw;
   if (jpeg) return hardware::ImageFormat::kJpeg;
@@ -223,7 +262,9 @@ int JpegScore(const std::string& lower) {
   }
   int quality = 1;
   if (absl::StrContains(lower, "basic")) quality = 0;
-  if (absl::StrContains(lower, "fine")) quality = 2;
+  if (absl::StrContains(lower, "fine") || absl::StrContains(lower, "fein")) {
+    quality = 2;
+  }
   if (absl::StrContains(lower, "extra fine")) quality = 3;
   return size * 10 + quality;
 }
@@ -293,13 +334,33 @@ absl::StatusOr<CaptureTarget> ParseCaptureTarget(absl::string_view text) {
       "capture target must be \"ram\", \"card\" or empty, not \"", text, "\""));
 }
 
+namespace {
+
+// Words of capture-target choices, English and German ("Internal RAM",
+// "sdram", "interner Speicher"; "Memory card", "Speicherkarte").
+bool MeansRam(const std::string& lower) {
+  return absl::StrContains(lower, "ram") || absl::StrContains(lower, "intern");
+}
+bool MeansCard(const std::string& lower) {
+  return absl::StrContains(lower, "card") || absl::StrContains(lower, "karte");
+}
+
+}  // namespace
+
 absl::StatusOr<std::string> MatchCaptureTarget(
     const std::vector<std::string>& choices, CaptureTarget target) {
-  absl::string_view wanted =
-      target == CaptureTarget::kInternalRam ? "ram" : "card";
+  const bool ram = target == CaptureTarget::kInternalRam;
+  absl::string_view wanted = ram ? "ram" : "card";
+  // "card+sdram" is both; a choice that is only the one wanted comes first.
+  const std::string* both = nullptr;
   for (const std::string& choice : choices) {
-    if (absl::StrContains(Lower(choice), wanted)) return choice;
+    const std::string lower = Lower(choice);
+    const bool is_ram = MeansRam(lower), is_card = MeansCard(lower);
+    if (ram ? !is_ram : !is_card) continue;
+    if (is_ram != is_card) return choice;
+    if (both == nullptr) both = &choice;
   }
+  if (both != nullptr) return *both;
   return absl::InvalidArgumentError(
       absl::StrCat("the camera offers no capture target like \"", wanted,
                    "\"; choices: ", JoinChoices(choices)));

@@ -41,10 +41,24 @@ absl::StatusOr<MergeResult> Merge8(const ExposureStack& stack,
         response.log_inverse.rows, " levels; the stack (", stack.Name(0),
         ") has ", ch, " channels of 8-bit codes"));
   }
-  const std::vector<float> w =
-      options.weights.empty() ? HatWeights() : options.weights;
-  if (static_cast<int>(w.size()) != kLevels) {
+  if (!options.weights.empty() &&
+      static_cast<int>(options.weights.size()) != kLevels) {
     return absl::InvalidArgumentError("merge weights need 256 entries");
+  }
+  if (!response.floor.empty() &&
+      static_cast<int>(response.floor.size()) != ch) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("camera response has code floors for ",
+                     response.floor.size(), " channels; the stack has ", ch));
+  }
+  // weight[c * kLevels + z]
+  std::vector<float> weight;
+  for (int c = 0; c < ch; ++c) {
+    const std::vector<float> wc =
+        !options.weights.empty()
+            ? options.weights
+            : HatWeights(response.floor.empty() ? 0 : response.floor[c]);
+    weight.insert(weight.end(), wc.begin(), wc.end());
   }
   // LUTs: weight[c][z] and, per exposure, logE[j][c][z] = g_c(z) - ln dt_j.
   const int rch = response.log_inverse.channels();
@@ -82,7 +96,7 @@ absl::StatusOr<MergeResult> Merge8(const ExposureStack& stack,
             for (int c = 0; c < ch; ++c) {
               const int i = x * ch + c;
               const uint8_t z = src[i];
-              const float wz = w[z];
+              const float wz = weight[c * kLevels + z];
               num[i] += wz * lut[c * kLevels + z];
               den[i] += wz;
             }
@@ -92,7 +106,7 @@ absl::StatusOr<MergeResult> Merge8(const ExposureStack& stack,
           for (int x = 0; x < cols; ++x) {
             const uint8_t* p = src + x * ch;
             float wz = 0;
-            for (int c = 0; c < ch; ++c) wz += w[p[c]];
+            for (int c = 0; c < ch; ++c) wz += weight[c * kLevels + p[c]];
             wz *= inv;
             for (int c = 0; c < ch; ++c) {
               num[x * ch + c] += wz * lut[c * kLevels + p[c]];

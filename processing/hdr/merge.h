@@ -23,8 +23,9 @@ inline constexpr uint8_t kSaturatedEverywhere = 1;  // clipped high in all
 inline constexpr uint8_t kDarkEverywhere = 2;       // clipped low in all
 
 struct MergeOptions {
-  // kLevels weights for 8-bit codes; empty = HatWeights(). A code with
-  // weight 0 is treated as clipped.
+  // kLevels weights for 8-bit codes, for every channel; empty =
+  // HatWeights(floor of the channel) with the response's floors. A code
+  // with weight 0 is treated as clipped.
   std::vector<float> weights;
   // true: each channel is weighted by its own code (Debevec & Malik);
   // false: one weight per pixel, the mean of its channels' weights

@@ -64,14 +64,87 @@ std::vector<int> SamplePixels(const ExposureStack& stack, int channel,
   return picked;
 }
 
+// The least-squares curve of a real stack wiggles where few samples speak
+// (misregistration, noise); an exposure's code must still map to a larger
+// radiance for a larger code. Projects g onto non-decreasing curves
+// (pool-adjacent-violators, weighted by each code's support), then makes
+// pooled runs strictly increasing by interpolating linearly between the
+// centres of neighbouring runs. A curve that already increases is kept.
+void MakeIncreasing(const std::vector<double>& support,
+                    std::vector<double>* g) {
+  struct Run {
+    double sum_wv, sum_w;
+    int first, last;
+  };
+  std::vector<Run> runs;
+  for (int z = 0; z < kLevels; ++z) {
+    runs.push_back({support[z] * (*g)[z], support[z], z, z});
+    while (runs.size() > 1) {
+      const Run& hi = runs.back();
+      const Run& lo = runs[runs.size() - 2];
+      if (lo.sum_wv / lo.sum_w < hi.sum_wv / hi.sum_w) break;
+      Run merged{lo.sum_wv + hi.sum_wv, lo.sum_w + hi.sum_w, lo.first, hi.last};
+      runs.pop_back();
+      runs.back() = merged;
+    }
+  }
+  if (runs.size() < 2) return;  // flat: nothing to interpolate between
+  std::vector<double> centre(runs.size()), value(runs.size());
+  for (size_t k = 0; k < runs.size(); ++k) {
+    centre[k] = 0.5 * (runs[k].first + runs[k].last);
+    value[k] = runs[k].sum_wv / runs[k].sum_w;
+  }
+  size_t k = 0;
+  for (int z = 0; z < kLevels; ++z) {
+    while (k + 2 < runs.size() && z > centre[k + 1]) ++k;
+    const double t = (z - centre[k]) / (centre[k + 1] - centre[k]);
+    (*g)[z] = value[k] + t * (value[k + 1] - value[k]);
+  }
+}
+
 }  // namespace
 
-std::vector<float> HatWeights() {
+std::vector<float> HatWeights(int floor) {
+  floor = std::clamp(floor, 0, kLevels - 2);
+  const double mid = 0.5 * (floor + kLevels - 1);
   std::vector<float> w(kLevels);
   for (int z = 0; z < kLevels; ++z) {
-    w[z] = static_cast<float>(z < kMid ? z : kLevels - 1 - z);
+    w[z] = static_cast<float>(z <= floor ? 0
+                              : z < mid  ? z - floor
+                                         : kLevels - 1 - z);
   }
   return w;
+}
+
+std::vector<int> CodeFloors(const ExposureStack& stack) {
+  std::vector<int> floors;
+  if (stack.images.empty() || stack.images[0].depth() != CV_8U) return floors;
+  size_t shortest = 0;
+  for (size_t j = 1; j < stack.exposure_s.size(); ++j) {
+    if (stack.exposure_s[j] < stack.exposure_s[shortest]) shortest = j;
+  }
+  const cv::Mat& image = stack.images[shortest];
+  const int channels = image.channels();
+  for (int c = 0; c < channels; ++c) {
+    std::vector<int64_t> histogram(kLevels, 0);
+    for (int y = 0; y < image.rows; ++y) {
+      const uint8_t* row = image.ptr<uint8_t>(y);
+      for (int x = 0; x < image.cols; ++x) ++histogram[row[x * channels + c]];
+    }
+    int64_t nonzero = 0;
+    for (int z = 1; z < kLevels; ++z) nonzero += histogram[z];
+    int64_t below = 0;
+    int floor = 0;
+    for (int z = 1; z < kLevels; ++z) {
+      below += histogram[z];
+      if (below * 100 >= nonzero) {
+        floor = z;
+        break;
+      }
+    }
+    floors.push_back(floor);
+  }
+  return floors;
 }
 
 absl::StatusOr<CameraResponse> RecoverResponse(const ExposureStack& stack,
@@ -91,11 +164,12 @@ absl::StatusOr<CameraResponse> RecoverResponse(const ExposureStack& stack,
   for (cv::Mat& m : s.images) {
     if (!m.isContinuous()) m = m.clone();
   }
-  const std::vector<float> w = HatWeights();
+  const std::vector<int> floors = CodeFloors(s);
   std::mt19937_64 rng(options.seed);
   cv::Mat result(kLevels, 1, CV_32FC(channels));
   try {
     for (int c = 0; c < channels; ++c) {
+      const std::vector<float> w = HatWeights(floors[c]);
       std::vector<int> pixels = SamplePixels(s, c, options.samples, rng);
       const int n = static_cast<int>(pixels.size());
       const int rows = n * n_images + 1 + (kLevels - 2);
@@ -115,7 +189,9 @@ absl::StatusOr<CameraResponse> RecoverResponse(const ExposureStack& stack,
       }
       a.at<double>(k++, kMid) = 1.0;  // g(128) = 0
       for (int z = 1; z < kLevels - 1; ++z, ++k) {
-        double lw = options.lambda * w[z];
+        // At least weight 1, so that the codes below the floor (weight 0)
+        // are still tied to their neighbours: g is defined everywhere.
+        double lw = options.lambda * std::max(w[z], 1.0f);
         a.at<double>(k, z - 1) = lw;
         a.at<double>(k, z) = -2 * lw;
         a.at<double>(k, z + 1) = lw;
@@ -124,8 +200,19 @@ absl::StatusOr<CameraResponse> RecoverResponse(const ExposureStack& stack,
       if (!cv::solve(a, b, x, cv::DECOMP_SVD)) {
         return absl::InternalError("response least-squares solve failed");
       }
+      // How much data speaks for each code (its equations' weights).
+      std::vector<double> g(kLevels), support(kLevels, 1e-6);
+      for (int z = 0; z < kLevels; ++z) g[z] = x.at<double>(z);
+      for (int i = 0; i < n; ++i) {
+        for (int j = 0; j < n_images; ++j) {
+          const int z =
+              s.images[j].data[static_cast<size_t>(pixels[i]) * channels + c];
+          support[z] += w[z];
+        }
+      }
+      MakeIncreasing(support, &g);
       for (int z = 0; z < kLevels; ++z) {
-        result.ptr<float>(z)[c] = static_cast<float>(x.at<double>(z));
+        result.ptr<float>(z)[c] = static_cast<float>(g[z] - g[kMid]);
       }
     }
   } catch (const cv::Exception& e) {
@@ -135,6 +222,7 @@ absl::StatusOr<CameraResponse> RecoverResponse(const ExposureStack& stack,
   CameraResponse out;
   out.log_inverse = result;
   out.camera = stack.camera;
+  out.floor = floors;
   return out;
 }
 
@@ -179,6 +267,7 @@ absl::Status SaveResponse(const std::filesystem::path& path,
     fs << "camera" << response.camera;
     fs << "linear" << static_cast<int>(response.linear);
     if (!response.linear) fs << "log_inverse" << response.log_inverse;
+    if (!response.floor.empty()) fs << "floor" << response.floor;
     yaml = fs.releaseAndGetString();
   } catch (const cv::Exception& e) {
     return absl::InternalError(absl::StrCat("cannot encode response for ",
@@ -203,6 +292,13 @@ absl::StatusOr<CameraResponse> LoadResponse(const std::filesystem::path& path) {
     fs["camera"] >> r.camera;
     fs["linear"] >> linear;
     r.linear = linear != 0;
+    if (!fs["floor"].empty()) fs["floor"] >> r.floor;
+    for (int f : r.floor) {
+      if (f < 0 || f >= kLevels - 1) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("bad code floor ", f, " in ", path.string()));
+      }
+    }
     if (!r.linear) {
       fs["log_inverse"] >> r.log_inverse;
       if (r.log_inverse.rows != kLevels || r.log_inverse.cols != 1 ||

@@ -30,6 +30,9 @@ struct CameraResponse {
   // the value; no calibration needed.
   bool linear = false;
   std::string camera;  // which camera the response belongs to
+  // Per channel, the lowest code the camera records (CodeFloors); codes at
+  // or below it carry no information and get no weight. Empty = 0.
+  std::vector<int> floor;
 };
 
 struct ResponseOptions {
@@ -38,12 +41,25 @@ struct ResponseOptions {
   uint64_t seed = 1;     // sampling is random but reproducible
 };
 
-// Debevec & Malik's hat weighting: w(z) = z for z <= 127, 255 - z above,
+// Debevec & Malik's hat weighting over the codes a camera really records:
+// 0 at and below `floor` and at 255, rising linearly from both ends to the
+// middle of [floor, 255]. Floor 0: w(z) = z for z <= 127, 255 - z above,
 // so w(0) = w(255) = 0 (clipped codes carry no information).
-std::vector<float> HatWeights();
+std::vector<float> HatWeights(int floor = 0);
 
-// Recovers g per channel from an 8-bit stack (CV_8UC1 or CV_8UC3). Pixels are
-// sampled so that their approximate radiances span the scene's range.
+// The lowest code an 8-bit stack's camera records, per channel: where the
+// codes of the shortest exposure begin, as the 1st percentile of its
+// non-zero codes (zeros are clipped or border pixels). A digital camera
+// records down to 0-2; film has a base fog (Debevec's scanned church series:
+// 15, 16 and 12 in B, G, R), below which no exposure time is told apart, so
+// a hat on [0, 255] would let every short exposure's fog claim a radiance.
+std::vector<int> CodeFloors(const ExposureStack& stack);
+
+// Recovers g per channel from an 8-bit stack (CV_8UC1 or CV_8UC3) with the
+// hat weights above the stack's CodeFloors (kept in the response). Pixels
+// are sampled so that their approximate radiances span the scene's range.
+// The result is strictly increasing in every channel: where the least-
+// squares curve wiggles, it is replaced by its closest increasing curve.
 absl::StatusOr<CameraResponse> RecoverResponse(
     const ExposureStack& stack, const ResponseOptions& options = {});
 

@@ -119,18 +119,35 @@ absl::StatusOr<DecodedImage> DecodeRawFile(const std::filesystem::path& path) {
                                                    path.string(), " (", stage,
                                                    "): ", libraw_strerror(rc)));
   };
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    return absl::NotFoundError(
-        absl::StrCat("no such file (or not a regular file): ", path.string()));
-  }
-  if (int rc = raw->open_file(path.c_str()); rc != LIBRAW_SUCCESS) {
+  absl::StatusOr<std::string> bytes = ReadFileBytes(path);
+  if (!bytes.ok()) return bytes.status();
+  if (int rc = raw->open_buffer(bytes->data(), bytes->size());
+      rc != LIBRAW_SUCCESS) {
     return fail("open", rc);
   }
   if (int rc = raw->unpack(); rc != LIBRAW_SUCCESS) return fail("unpack", rc);
+  const libraw_image_sizes_t& sizes = raw->imgdata.sizes;
+  RawLevels levels;
+  levels.sensor_size = cv::Size(sizes.raw_width, sizes.raw_height);
+  levels.active_area =
+      cv::Rect(sizes.left_margin, sizes.top_margin, sizes.width, sizes.height);
+  for (int y = 0; y < 2; ++y) {
+    for (int x = 0; x < 2; ++x) {
+      const int c = raw->COLOR(y, x);  // index into cdesc ("RGBG")
+      levels.cfa_pattern += c >= 0 && c < 4 ? raw->imgdata.idata.cdesc[c] : '?';
+    }
+  }
   if (int rc = raw->dcraw_process(); rc != LIBRAW_SUCCESS) {
     return fail("demosaic", rc);
   }
+  // The levels dcraw_process scaled by, as read at unpack (processing
+  // folds the black level into the data): the common black, the first
+  // colour's offset and the first entry of a black-level pattern.
+  const libraw_colordata_t& color = raw->imgdata.rawdata.color;
+  const bool pattern = color.cblack[4] > 0 && color.cblack[5] > 0;
+  levels.black = static_cast<int>(color.black + color.cblack[0] +
+                                  (pattern ? color.cblack[6] : 0));
+  levels.white = static_cast<int>(color.maximum);
   int rc = LIBRAW_SUCCESS;
   libraw_processed_image_t* img = raw->dcraw_make_mem_image(&rc);
   if (img == nullptr || rc != LIBRAW_SUCCESS) {
@@ -152,16 +169,27 @@ absl::StatusOr<DecodedImage> DecodeRawFile(const std::filesystem::path& path) {
   } else {
     out.pixels = wrapped.clone();
   }
+  // The file's own EXIF (TIFF-based RAW: DNG, CR2, NEF, ARW, ...) wins:
+  // where it writes 0 for "unknown", LibRaw falls back to the APEX fields,
+  // whose 0 reads as 1 s and f/1 (Magic Lantern's DNGs).
+  const ExifInfo exif = ParseExifFromFile(*bytes);
   const auto& other = raw->imgdata.other;
-  if (other.shutter > 0) out.metadata.exposure_s = other.shutter;
-  if (other.iso_speed > 0) out.metadata.iso = other.iso_speed;
-  if (other.aperture > 0) out.metadata.aperture = other.aperture;
+  auto known = [](std::optional<double> from_exif,
+                  double from_libraw) -> std::optional<double> {
+    const double v = from_exif.has_value() ? *from_exif : from_libraw;
+    if (v > 0) return v;
+    return std::nullopt;
+  };
+  out.metadata.exposure_s = known(exif.exposure_s, other.shutter);
+  out.metadata.iso = known(exif.iso, other.iso_speed);
+  out.metadata.aperture = known(exif.aperture, other.aperture);
   out.metadata.camera =
       absl::StrCat(raw->imgdata.idata.make, " ", raw->imgdata.idata.model);
   out.metadata.linear = true;
   const float* mul = raw->imgdata.color.cam_mul;
   out.metadata.white_balance =
       std::array<float, 4>{mul[0], mul[1], mul[2], mul[3]};
+  out.metadata.raw = levels;
   return out;
 }
 

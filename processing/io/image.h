@@ -16,6 +16,18 @@
 
 namespace hdrstereo::io {
 
+// What LibRaw read of a RAW file's sensor data: the levels it scaled by
+// and the part of the sensor it kept.
+struct RawLevels {
+  int black = 0;  // black level subtracted (the DNG's BlackLevel)
+  int white = 0;  // saturation (the DNG's WhiteLevel)
+  // The decoded image's place on the sensor (the DNG's ActiveArea):
+  // columns and rows of the full raw frame.
+  cv::Rect active_area;
+  cv::Size sensor_size;     // the full raw frame, masked borders included
+  std::string cfa_pattern;  // "RGGB" at the active area's top left
+};
+
 struct ImageMetadata {
   std::optional<double> exposure_s;  // shutter time in seconds
   std::optional<double> iso;
@@ -27,6 +39,7 @@ struct ImageMetadata {
   // Camera white-balance multipliers (R, G, B, G2) as LibRaw reports them
   // (and applied to the decoded RAW); empty for non-RAW files.
   std::optional<std::array<float, 4>> white_balance;
+  std::optional<RawLevels> raw;  // RAW files only
 };
 
 struct DecodedImage {
@@ -43,8 +56,10 @@ bool IsRawExtension(const std::filesystem::path& path);
 // unsupported) are returned as a status that names the file.
 absl::StatusOr<DecodedImage> DecodeImageFile(const std::filesystem::path& path);
 
-// Camera RAW through LibRaw: demosaiced, camera white balance, linear (gamma
-// 1, no auto-brightness), 16-bit BGR, sRGB primaries.
+// Camera RAW through LibRaw: black level subtracted and scaled so that the
+// white level is full scale, demosaiced, camera white balance, linear
+// (gamma 1, no auto-brightness), 16-bit BGR, sRGB primaries; only the
+// sensor's active area. metadata.raw says which levels and area were used.
 absl::StatusOr<DecodedImage> DecodeRawFile(const std::filesystem::path& path);
 
 // Scales integer images to float in [0, 1] (8-bit / 255, 16-bit / 65535);

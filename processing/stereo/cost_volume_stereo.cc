@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "processing/base/status_macros.h"
 #include "processing/filters/guided_filter.h"
 #include "processing/hdr/merge.h"
 
@@ -163,6 +164,86 @@ absl::Status CheckMatchingImages(const MatchingImages& m,
     return absl::InvalidArgumentError("matching images missing or mismatched");
   }
   return CheckOptions(o, m.left.cols);
+}
+
+// The gradient planes of m.left and m.right (step 2's G).
+void ComputeGradients(CostMode mode, MatchingImages& m) {
+  switch (mode) {
+    case CostMode::kLdr:
+      m.left_grad = GradientX(Luma601(m.left));
+      m.right_grad = GradientX(Luma601(m.right));
+      return;
+    case CostMode::kHdrRadianceGradient:
+      m.left_grad = GradientX(hdr::Luminance(m.left));
+      m.right_grad = GradientX(hdr::Luminance(m.right));
+      return;
+    case CostMode::kHdrLogLuminance: {
+      // Eq. 4.2: log10 luminance, rescaled to [0,1] over the pair.
+      cv::Mat ll = hdr::LogLuminance(m.left);
+      cv::Mat lr = hdr::LogLuminance(m.right);
+      double lo_l, hi_l, lo_r, hi_r;
+      cv::minMaxLoc(ll, &lo_l, &hi_l);
+      cv::minMaxLoc(lr, &lo_r, &hi_r);
+      const double lo = std::min(lo_l, lo_r);
+      const double span = std::max(hi_l, hi_r) - lo;
+      const double k = span > 0 ? 1.0 / span : 0.0;
+      ll.convertTo(ll, CV_32F, k, -lo * k);
+      lr.convertTo(lr, CV_32F, k, -lo * k);
+      m.left_grad = GradientX(ll);
+      m.right_grad = GradientX(lr);
+      return;
+    }
+  }
+}
+
+// Step 5a: per channel, the median of left / right over the consistent
+// matches (left labels) where both views are textured (|gradient| >=
+// min_grad: a wrong match in a flat region would "explain" the gain by a
+// shift and bias the ratio to 1) and lie in [kGainLow, kGainHigh] (not
+// dark, not clipped); 1 for a channel with fewer than kGainMinSamples.
+constexpr float kGainLow = 16.0f / 255.0f;
+constexpr float kGainHigh = 240.0f / 255.0f;
+constexpr size_t kGainMinSamples = 1000;
+// Gains closer to 1 than this leave the first pass as it is: 0.5 % is less
+// than one 8-bit level at mid-grey.
+constexpr double kGainTolerance = 0.005;
+
+cv::Scalar EstimateRightGain(const MatchingImages& m, const cv::Mat& labels,
+                             const cv::Mat& consistent, float min_grad) {
+  const int nc = m.left.channels();
+  const int w = m.left.cols;
+  std::vector<std::vector<float>> ratios(static_cast<size_t>(nc));
+  for (int y = 0; y < m.left.rows; ++y) {
+    const float* l = m.left.ptr<float>(y);
+    const float* r = m.right.ptr<float>(y);
+    const float* d = labels.ptr<float>(y);
+    const uint8_t* ok = consistent.ptr<uint8_t>(y);
+    const float* gl = m.left_grad.ptr<float>(y);
+    const float* gr = m.right_grad.ptr<float>(y);
+    for (int x = 0; x < w; ++x) {
+      if (!ok[x]) continue;
+      const int xr = x - static_cast<int>(std::lround(d[x]));
+      if (xr < 0 || xr >= w) continue;
+      if (std::abs(gl[x]) < min_grad || std::abs(gr[xr]) < min_grad) continue;
+      for (int c = 0; c < nc; ++c) {
+        const float a = l[x * nc + c];
+        const float b = r[xr * nc + c];
+        if (a < kGainLow || a > kGainHigh || b < kGainLow || b > kGainHigh) {
+          continue;
+        }
+        ratios[static_cast<size_t>(c)].push_back(a / b);
+      }
+    }
+  }
+  cv::Scalar gain = cv::Scalar::all(1);
+  for (int c = 0; c < nc; ++c) {
+    std::vector<float>& v = ratios[static_cast<size_t>(c)];
+    if (v.size() < kGainMinSamples) continue;
+    const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+    std::nth_element(v.begin(), mid, v.end());
+    gain[c] = *mid;
+  }
+  return gain;
 }
 
 // ---------------------------------------------------------------------------
@@ -820,51 +901,31 @@ KernelOutput FilteredWta(const MatchingImages& images,
 absl::StatusOr<MatchingImages> PrepareMatchingImages(
     const cv::Mat& left, const cv::Mat& right, const StereoOptions& options) {
   const bool hdr = IsHdr(options.mode);
-  if (absl::Status s = CheckInput(left, "left image", hdr); !s.ok()) return s;
-  if (absl::Status s = CheckInput(right, "right image", hdr); !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(CheckInput(left, "left image", hdr));
+  RETURN_IF_ERROR(CheckInput(right, "right image", hdr));
   if (left.size() != right.size() || left.type() != right.type()) {
     return absl::InvalidArgumentError(absl::StrCat(
         "left and right images differ in size or type (", left.cols, "x",
         left.rows, " vs ", right.cols, "x", right.rows, ")"));
   }
-  if (absl::Status s = CheckOptions(options, left.cols); !s.ok()) return s;
+  RETURN_IF_ERROR(CheckOptions(options, left.cols));
   try {
     MatchingImages m;
     if (!hdr) {
       m.left = ToUnitFloat(left);
       m.right = ToUnitFloat(right);
-      m.left_grad = GradientX(Luma601(m.left));
-      m.right_grad = GradientX(Luma601(m.right));
-      return m;
+    } else {
+      const double scale =
+          WhitePoint(left, right, options.hdr_white_percentile);
+      if (!(scale > 0)) {
+        return absl::InvalidArgumentError("HDR pair is black (zero radiance)");
+      }
+      left.convertTo(m.left, CV_32F, 1.0 / scale);
+      right.convertTo(m.right, CV_32F, 1.0 / scale);
+      cv::min(m.left, 1.0, m.left);
+      cv::min(m.right, 1.0, m.right);
     }
-    const double scale = WhitePoint(left, right, options.hdr_white_percentile);
-    if (!(scale > 0)) {
-      return absl::InvalidArgumentError("HDR pair is black (zero radiance)");
-    }
-    left.convertTo(m.left, CV_32F, 1.0 / scale);
-    right.convertTo(m.right, CV_32F, 1.0 / scale);
-    cv::min(m.left, 1.0, m.left);
-    cv::min(m.right, 1.0, m.right);
-    if (options.mode == CostMode::kHdrRadianceGradient) {
-      m.left_grad = GradientX(hdr::Luminance(m.left));
-      m.right_grad = GradientX(hdr::Luminance(m.right));
-      return m;
-    }
-    // Eq. 4.2: log10 luminance, rescaled to [0,1] over the pair.
-    cv::Mat ll = hdr::LogLuminance(m.left);
-    cv::Mat lr = hdr::LogLuminance(m.right);
-    double lo_l, hi_l, lo_r, hi_r;
-    cv::minMaxLoc(ll, &lo_l, &hi_l);
-    cv::minMaxLoc(lr, &lo_r, &hi_r);
-    const double lo = std::min(lo_l, lo_r);
-    const double span = std::max(hi_l, hi_r) - lo;
-    const double k = span > 0 ? 1.0 / span : 0.0;
-    ll.convertTo(ll, CV_32F, k, -lo * k);
-    lr.convertTo(lr, CV_32F, k, -lo * k);
-    m.left_grad = GradientX(ll);
-    m.right_grad = GradientX(lr);
+    ComputeGradients(options.mode, m);
     return m;
   } catch (const cv::Exception& e) {
     return absl::InternalError(absl::StrCat("stereo: ", e.what()));
@@ -1132,41 +1193,70 @@ cv::Mat WeightedMedian(const cv::Mat& disparity, const cv::Mat& valid,
 absl::StatusOr<StereoResult> ComputeDisparity(const cv::Mat& left,
                                               const cv::Mat& right,
                                               const StereoOptions& options) {
-  absl::StatusOr<MatchingImages> images =
-      PrepareMatchingImages(left, right, options);
-  if (!images.ok()) return images.status();
+  ASSIGN_OR_RETURN(MatchingImages images,
+                   PrepareMatchingImages(left, right, options));
   try {
     // The right view's WTA is only needed for the check; sub-pixel refinement
     // only for the left view.
-    absl::StatusOr<WtaResult> wl = ComputeWta(*images, options, View::kLeft);
-    if (!wl.ok()) return wl.status();
-    StereoResult result;
-    result.raw_left = wl->labels;
-    if (!options.left_right_check) {
-      result.consistent = cv::Mat(left.size(), CV_8UC1, cv::Scalar(255));
-      result.disparity = wl->disparity.clone();
-      return result;
-    }
     StereoOptions right_options = options;
     right_options.subpixel = false;
-    absl::StatusOr<WtaResult> wr =
-        ComputeWta(*images, right_options, View::kRight);
-    if (!wr.ok()) return wr.status();
-    result.raw_right = wr->labels;
+    ASSIGN_OR_RETURN(WtaResult wl, ComputeWta(images, options, View::kLeft));
+    StereoResult result;
+    if (!options.left_right_check) {
+      result.raw_left = wl.labels;
+      result.consistent = cv::Mat(left.size(), CV_8UC1, cv::Scalar(255));
+      result.disparity = wl.disparity.clone();
+      return result;
+    }
+    ASSIGN_OR_RETURN(WtaResult wr,
+                     ComputeWta(images, right_options, View::kRight));
     result.consistent = LeftRightCheck(
-        wl->labels, wr->labels, static_cast<float>(options.lr_tolerance));
-    cv::Mat disp = wl->labels.clone();
+        wl.labels, wr.labels, static_cast<float>(options.lr_tolerance));
+    if (options.gain_compensation) {
+      const cv::Scalar gain =
+          EstimateRightGain(images, wl.labels, result.consistent,
+                            static_cast<float>(options.tau_gradient));
+      bool off = false;
+      for (int c = 0; c < 4; ++c) off |= std::abs(gain[c] - 1) > kGainTolerance;
+      if (off) {
+        // The left image (the median's guide) stays as it is.
+        MatchingImages scaled;
+        scaled.left = images.left;
+        cv::multiply(images.right, gain, scaled.right);
+        cv::min(scaled.right, 1.0, scaled.right);
+        ComputeGradients(options.mode, scaled);
+        ASSIGN_OR_RETURN(WtaResult wl2,
+                         ComputeWta(scaled, options, View::kLeft));
+        ASSIGN_OR_RETURN(WtaResult wr2,
+                         ComputeWta(scaled, right_options, View::kRight));
+        cv::Mat consistent2 = LeftRightCheck(
+            wl2.labels, wr2.labels, static_cast<float>(options.lr_tolerance));
+        // Kept only if more pixels pass the check: a gain estimated on the
+        // textured matches can misfit a pair whose views differ locally
+        // (Fattal's tone mapping on low-texture scenes).
+        if (cv::countNonZero(consistent2) >
+            cv::countNonZero(result.consistent)) {
+          result.right_gain = gain;
+          wl = std::move(wl2);
+          wr = std::move(wr2);
+          result.consistent = consistent2;
+        }
+      }
+    }
+    result.raw_left = wl.labels;
+    result.raw_right = wr.labels;
+    cv::Mat disp = wl.labels.clone();
     if (options.fill) {
       FillScanlines(disp, result.consistent,
                     static_cast<float>(options.min_disparity));
       if (options.weighted_median) {
-        disp = WeightedMedian(disp, result.consistent, images->left,
+        disp = WeightedMedian(disp, result.consistent, images.left,
                               options.min_disparity, options.max_disparity,
                               options.median_radius, options.sigma_s,
                               options.sigma_c);
       }
     }
-    if (options.subpixel) wl->disparity.copyTo(disp, result.consistent);
+    if (options.subpixel) wl.disparity.copyTo(disp, result.consistent);
     result.disparity = disp;
     return result;
   } catch (const cv::Exception& e) {

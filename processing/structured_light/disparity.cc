@@ -31,9 +31,10 @@ struct Piece {
   float x0, x1;
   float u0, u1;
   float v0, v1;
+  float h;  // half the row range the ends stand for (coarse codes)
 };
 
-bool Connected(float ua, float va, float ub, float vb, int step) {
+bool Connected(float ua, float va, float ub, float vb, float step) {
   return std::abs(ua - ub) <= step && std::abs(va - vb) <= step;
 }
 
@@ -47,10 +48,15 @@ void BuildPieces(const SubpixelCodes& codes, int y, int step,
   index->clear();
   const float* u = codes.column.ptr<float>(y);
   const float* v = codes.row.ptr<float>(y);
+  const float* h =
+      codes.row_halfwidth.empty() ? nullptr : codes.row_halfwidth.ptr<float>(y);
   const int w = codes.column.cols;
+  auto half = [&](int a, int b) {
+    return h == nullptr ? 0.0f : std::max(h[a], h[b]);
+  };
   auto linked = [&](int a, int b) {
     return a >= 0 && b < w && !std::isnan(u[a]) && !std::isnan(u[b]) &&
-           Connected(u[a], v[a], u[b], v[b], step);
+           Connected(u[a], v[a], u[b], v[b], step + 2 * half(a, b));
   };
   for (int x = 0; x < w; ++x) {
     if (std::isnan(u[x])) continue;
@@ -58,18 +64,19 @@ void BuildPieces(const SubpixelCodes& codes, int y, int step,
     const bool right_link = linked(x, x + 1);
     if (right_link) {
       pieces->push_back({static_cast<float>(x), static_cast<float>(x + 1), u[x],
-                         u[x + 1], v[x], v[x + 1]});
+                         u[x + 1], v[x], v[x + 1], half(x, x + 1)});
     }
     // Half a pixel beyond the ends of a run, with the run's local slope.
     if (left_link && !right_link) {
       const float du = u[x] - u[x - 1], dv = v[x] - v[x - 1];
       pieces->push_back({static_cast<float>(x), x + 0.5f, u[x],
-                         u[x] + 0.5f * du, v[x], v[x] + 0.5f * dv});
+                         u[x] + 0.5f * du, v[x], v[x] + 0.5f * dv,
+                         half(x - 1, x)});
     }
     if (right_link && !left_link) {
       const float du = u[x + 1] - u[x], dv = v[x + 1] - v[x];
       pieces->push_back({x - 0.5f, static_cast<float>(x), u[x] - 0.5f * du,
-                         u[x], v[x] - 0.5f * dv, v[x]});
+                         u[x], v[x] - 0.5f * dv, v[x], half(x, x + 1)});
     }
   }
   for (size_t i = 0; i < pieces->size(); ++i) {
@@ -104,7 +111,10 @@ int MatchScanlines(const SubpixelCodes& from, const SubpixelCodes& to, int sign,
         const int k = static_cast<int>(std::floor(u[x]));
         auto it =
             std::lower_bound(index.begin(), index.end(), std::make_pair(k, -1));
-        double best_dv = o.max_row_difference;
+        const float h_from = from.row_halfwidth.empty()
+                                 ? 0.0f
+                                 : from.row_halfwidth.ptr<float>(y)[x];
+        double best_dv = std::numeric_limits<double>::infinity();
         float best = kInf;
         for (; it != index.end() && it->first == k; ++it) {
           const Piece& p = pieces[it->second];
@@ -116,7 +126,9 @@ int MatchScanlines(const SubpixelCodes& from, const SubpixelCodes& to, int sign,
           const float d = sign * (x - xo);
           if (d < min_d || d > max_d) continue;
           const double dv = std::abs(vo - v[x]);
-          if (dv <= best_dv) {
+          // Coarse rows agree when their ranges come within the tolerance.
+          const double limit = o.max_row_difference + h_from + p.h;
+          if (dv <= limit && dv <= best_dv) {
             best_dv = dv;
             best = d;
           }
@@ -235,15 +247,31 @@ SubpixelCodes ComputeSubpixelCodes(const DecodedView& view,
   SubpixelCodes out;
   out.column = cv::Mat(view.column.size(), CV_32FC1, cv::Scalar(kNaN));
   out.row = cv::Mat(view.column.size(), CV_32FC1, cv::Scalar(kNaN));
+  out.row_halfwidth = cv::Mat(view.column.size(), CV_32FC1, cv::Scalar(0.0f));
   const int k = std::max(0, options.fit_radius);
   const int step = options.max_code_step;
+  // Pixels that read only the coarse bits of a code stand for a range of
+  // 2^(B - bits) projector columns (rows): their codes step by that much.
+  const bool coarse = !view.column_bits.empty() && !view.row_bits.empty();
   cv::parallel_for_(cv::Range(0, view.column.rows), [&](const cv::Range& r) {
+    std::vector<int> qc(view.column.cols, 1), qr(view.column.cols, 1);
     for (int y = r.start; y < r.end; ++y) {
       const int32_t* c = view.column.ptr<int32_t>(y);
       const int32_t* rw = view.row.ptr<int32_t>(y);
       float* u = out.column.ptr<float>(y);
       float* v = out.row.ptr<float>(y);
+      float* hw = out.row_halfwidth.ptr<float>(y);
       const int w = view.column.cols;
+      if (coarse) {
+        const uint8_t* bc = view.column_bits.ptr<uint8_t>(y);
+        const uint8_t* br = view.row_bits.ptr<uint8_t>(y);
+        for (int x = 0; x < w; ++x) {
+          if (c[x] < 0) continue;
+          qc[x] = 1 << std::max(0, view.column_code_bits - bc[x]);
+          qr[x] = 1 << std::max(0, view.row_code_bits - br[x]);
+          hw[x] = 0.5f * static_cast<float>(qr[x] - 1);
+        }
+      }
       int start = 0;
       while (start < w) {
         if (c[start] < 0) {
@@ -252,8 +280,10 @@ SubpixelCodes ComputeSubpixelCodes(const DecodedView& view,
         }
         int end = start;  // inclusive end of the surface run
         while (end + 1 < w && c[end + 1] >= 0 &&
-               std::abs(c[end + 1] - c[end]) <= step &&
-               std::abs(rw[end + 1] - rw[end]) <= step) {
+               std::abs(c[end + 1] - c[end]) <=
+                   step + std::max(qc[end], qc[end + 1]) - 1 &&
+               std::abs(rw[end + 1] - rw[end]) <=
+                   step + std::max(qr[end], qr[end + 1]) - 1) {
           ++end;
         }
         for (int x = start; x <= end; ++x) {

@@ -34,7 +34,8 @@ struct MatchOptions {
   // Half-window of the line fitted through the codes along a scanline.
   int fit_radius = 2;
   // Neighbouring pixels belong to one surface when their projector column
-  // and row differ by at most this many projector pixels.
+  // and row differ by at most this many projector pixels (plus the width
+  // of a coarse code, DecodeOptions::min_bits, less one).
   int max_code_step = 8;
   // A match needs the projector rows to agree within this many rows.
   double max_row_difference = 1.5;
@@ -46,6 +47,11 @@ struct MatchOptions {
 struct SubpixelCodes {
   cv::Mat column;
   cv::Mat row;
+  // CV_32FC1: half the range of projector rows a pixel's row code stands
+  // for beyond one row (0 for full codes; 3.5 for a code 8 rows wide). Rows
+  // of two views agree when they differ by at most max_row_difference plus
+  // both half-widths. Empty = 0 everywhere.
+  cv::Mat row_halfwidth;
 };
 
 SubpixelCodes ComputeSubpixelCodes(const DecodedView& view,

@@ -32,10 +32,13 @@ std::string Pattern::Id() const {
 }
 
 std::vector<Pattern> AllPatterns(cv::Size size) {
+  return AllPatterns(BitCount(size.width), BitCount(size.height));
+}
+
+std::vector<Pattern> AllPatterns(int column_bits, int row_bits) {
   std::vector<Pattern> patterns;
   for (Axis axis : {Axis::kColumns, Axis::kRows}) {
-    const int bits =
-        BitCount(axis == Axis::kColumns ? size.width : size.height);
+    const int bits = axis == Axis::kColumns ? column_bits : row_bits;
     for (int bit = 0; bit < bits; ++bit) {
       for (bool inverse : {false, true}) {
         patterns.push_back({.kind = Pattern::Kind::kBitPlane,

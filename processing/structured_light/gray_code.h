@@ -43,6 +43,8 @@ struct Pattern {
 // columns then rows, each bit followed by its inverse, then white and black.
 // 1024x768 gives 2 * (10 + 10) + 2 = 42 patterns.
 std::vector<Pattern> AllPatterns(cv::Size size);
+// The same for codes of `column_bits` and `row_bits` bits.
+std::vector<Pattern> AllPatterns(int column_bits, int row_bits);
 
 // The CV_8UC1 image of `pattern` (0 or 255) at projector resolution `size`.
 // INVALID_ARGUMENT for a bit outside [0, BitCount) or an empty size.

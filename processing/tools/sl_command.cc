@@ -3,10 +3,14 @@
 // hdrstereo-proc sl decode --capture DIR --out DIR [--projector WxH]
 // hdrstereo-proc sl disparity --capture DIR --out DIR [--projector WxH]
 //     [--min-disparity N] [--max-disparity N] [--max-hole-area N]
-//     [--no-illumination]
+//     [--no-illumination] [--fit-radius N]
+// either with --layout FILE [--min-bits N]
 //
 // DIR holds left/structured_light/ and right/structured_light/ frames as
-// capture jobs write them (sl_col_b03_inv_exp_1-30s.png, ...).
+// capture jobs write them (sl_col_b03_inv_exp_1-30s.png, ...), or, with
+// --layout, a capture laid out by others as the layout file describes
+// (processing/structured_light/frame_layout.h; its first two views are the
+// left and right view).
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <filesystem>
@@ -25,6 +29,7 @@
 #include "processing/io/hdr_formats.h"
 #include "processing/structured_light/capture_io.h"
 #include "processing/structured_light/decode.h"
+#include "processing/structured_light/frame_layout.h"
 #include "processing/structured_light/ground_truth.h"
 #include "processing/tools/command_registry.h"
 
@@ -37,6 +42,9 @@ struct SlArgs {
   std::string capture;
   std::string out;
   std::string projector;  // WxH, empty = from the number of bit planes
+  std::string layout;     // a frame layout file, empty = capture-job layout
+  int min_bits = -1;      // -1 = the layout's (or every bit)
+  int fit_radius = 2;
   std::string view = "both";
   int min_disparity = 0;
   int max_disparity = 0;
@@ -56,15 +64,36 @@ absl::StatusOr<std::optional<cv::Size>> ParseProjector(const std::string& s) {
   return std::optional<cv::Size>(cv::Size(w, h));
 }
 
+// The view names of the capture: the layout's, or left and right.
+absl::StatusOr<std::vector<std::string>> ViewNames(const SlArgs& args) {
+  if (args.layout.empty()) return std::vector<std::string>{"left", "right"};
+  absl::StatusOr<sl::FrameLayout> layout = sl::LoadFrameLayout(args.layout);
+  if (!layout.ok()) return layout.status();
+  return layout->views;
+}
+
 absl::StatusOr<sl::DecodedView> LoadAndDecode(const SlArgs& args,
                                               const std::string& view) {
-  absl::StatusOr<std::optional<cv::Size>> projector =
-      ParseProjector(args.projector);
-  if (!projector.ok()) return projector.status();
-  absl::StatusOr<sl::ViewFrames> frames =
-      sl::LoadCaptureView(args.capture, view, *projector);
+  absl::StatusOr<sl::ViewFrames> frames;
+  sl::DecodeOptions options;
+  if (!args.layout.empty()) {
+    if (!args.projector.empty()) {
+      return absl::InvalidArgumentError(
+          "--projector and --layout: the layout file gives the projector");
+    }
+    absl::StatusOr<sl::FrameLayout> layout = sl::LoadFrameLayout(args.layout);
+    if (!layout.ok()) return layout.status();
+    options.min_bits = layout->min_bits;
+    frames = sl::LoadLayoutView(*layout, args.capture, view);
+  } else {
+    absl::StatusOr<std::optional<cv::Size>> projector =
+        ParseProjector(args.projector);
+    if (!projector.ok()) return projector.status();
+    frames = sl::LoadCaptureView(args.capture, view, *projector);
+  }
   if (!frames.ok()) return frames.status();
-  absl::StatusOr<sl::DecodedView> decoded = sl::Decode(*frames);
+  if (args.min_bits >= 0) options.min_bits = args.min_bits;
+  absl::StatusOr<sl::DecodedView> decoded = sl::Decode(*frames, options);
   if (!decoded.ok()) {
     return absl::Status(decoded.status().code(),
                         absl::StrCat(view, ": ", decoded.status().message()));
@@ -87,12 +116,10 @@ absl::Status RunDecode(const SlArgs& args) {
     return absl::InternalError(
         absl::StrCat("cannot create ", args.out, ": ", ec.message()));
   }
-  std::vector<std::string> views;
-  if (args.view == "both") {
-    views = {"left", "right"};
-  } else {
-    views = {args.view};
-  }
+  absl::StatusOr<std::vector<std::string>> names = ViewNames(args);
+  if (!names.ok()) return names.status();
+  std::vector<std::string> views = *names;
+  if (args.view != "both") views = {args.view};
   for (const std::string& view : views) {
     absl::StatusOr<sl::DecodedView> d = LoadAndDecode(args, view);
     if (!d.ok()) return d.status();
@@ -126,11 +153,18 @@ absl::Status RunDecode(const SlArgs& args) {
 }
 
 absl::Status RunDisparity(const SlArgs& args) {
-  absl::StatusOr<sl::DecodedView> left = LoadAndDecode(args, "left");
+  absl::StatusOr<std::vector<std::string>> views = ViewNames(args);
+  if (!views.ok()) return views.status();
+  if (views->size() < 2) {
+    return absl::InvalidArgumentError(
+        "sl disparity needs two views; the layout names one");
+  }
+  absl::StatusOr<sl::DecodedView> left = LoadAndDecode(args, (*views)[0]);
   if (!left.ok()) return left.status();
-  absl::StatusOr<sl::DecodedView> right = LoadAndDecode(args, "right");
+  absl::StatusOr<sl::DecodedView> right = LoadAndDecode(args, (*views)[1]);
   if (!right.ok()) return right.status();
   sl::GroundTruthOptions options;
+  options.match.fit_radius = args.fit_radius;
   options.match.min_disparity = args.min_disparity;
   options.match.max_disparity = args.max_disparity;
   options.max_hole_area = args.max_hole_area;
@@ -151,12 +185,21 @@ absl::Status RunDisparity(const SlArgs& args) {
 
 void AddCommon(CLI::App* cmd, SlArgs* args) {
   cmd->add_option("--capture", args->capture,
-                  "Capture folder with left/ and right/structured_light/")
+                  "Capture folder with left/ and right/structured_light/ "
+                  "(or laid out as --layout says)")
       ->required()
       ->check(CLI::ExistingDirectory);
   cmd->add_option("--out", args->out, "Output folder")->required();
   cmd->add_option("--projector", args->projector,
                   "Projector resolution WxH (default: 2^bits from the frames)");
+  cmd->add_option("--layout", args->layout,
+                  "JSON file saying which file is which pattern, for "
+                  "captures laid out by others")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--min-bits", args->min_bits,
+                  "Keep pixels that read at least N leading bits of each "
+                  "code (0 = every bit; default: the layout's, else 0)")
+      ->check(CLI::Range(0, 16));
 }
 
 void AddSlCommands(CLI::App& app) {
@@ -168,7 +211,9 @@ void AddSlCommands(CLI::App& app) {
   CLI::App* decode = sl->add_subcommand(
       "decode", "Decode projector column/row per pixel of each view");
   AddCommon(decode, decode_args.get());
-  decode->add_option("--view", decode_args->view, "left, right or both")
+  decode
+      ->add_option("--view", decode_args->view,
+                   "left, right (or a layout's view name) or both")
       ->capture_default_str();
   decode->callback([decode_args] { SetOutcome(RunDecode(*decode_args)); });
 
@@ -191,6 +236,12 @@ void AddSlCommands(CLI::App& app) {
       ->capture_default_str();
   disparity->add_flag("--no-illumination", disp_args->no_illumination,
                       "View disparities only (no projector matrix)");
+  disparity
+      ->add_option("--fit-radius", disp_args->fit_radius,
+                   "Half-window of the line fitted through the codes along "
+                   "a scanline, px")
+      ->check(CLI::Range(0, 32))
+      ->capture_default_str();
   disparity->callback([disp_args] { SetOutcome(RunDisparity(*disp_args)); });
 }
 

@@ -109,8 +109,8 @@ World& TheWorld() {
     w->lock = *jobs::RigLock::Load(*w->store);
     w->audit = std::make_unique<rpc::AuditLog>(*w->store);
     w->authenticator = std::make_unique<rpc::Authenticator>(
-        std::map<std::string, rpc::Role>{{"bob", rpc::Role::kOperator}},
-        rpc::Role::kAdmin, *w->keys);
+        rpc::RoleMap{{"bob", rpc::Role::kOperator}}, rpc::Role::kAdmin,
+        *w->keys);
     const std::string key = w->keys
                                 ->Create("bob", rpc::Role::kOperator,
                                          absl::Hours(1), "bench", "bench")

@@ -580,5 +580,24 @@ TEST_F(RemoteTest, LocalCallersAreLocalWithTheirRole) {
   EXPECT_EQ(StopDaemon(), 0);
 }
 
+TEST_F(RemoteTest, AUnixSocketIsLocalAndOpenToItsGroupOnly) {
+  const fs::path socket = dir_ / "hdrstereod.sock";
+  StartDaemon({"--listen", "unix:" + socket.string()});
+  struct stat st {};
+  ASSERT_EQ(::stat(socket.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISSOCK(st.st_mode));
+  EXPECT_EQ(st.st_mode & 0777, 0660u);
+  CommandResult whoami = Cli({"whoami"});
+  ASSERT_EQ(whoami.exit_code, 0) << whoami.err;
+  EXPECT_THAT(whoami.out, HasSubstr("principal  local"));
+  EXPECT_THAT(whoami.out, HasSubstr("role       admin"));
+  ASSERT_EQ(Cli({"session", "create", "u"}).exit_code, 0);
+  ASSERT_EQ(Cli({"audit"}).exit_code, 0);  // which writes what is queued
+  EXPECT_EQ(Sql("SELECT principal || ' ' || auth_method FROM audit WHERE "
+                "method = '/hdrstereo.v1.Sessions/Create'"),
+            "local local");
+  EXPECT_EQ(StopDaemon(), 0);
+}
+
 }  // namespace
 }  // namespace hdrstereo

@@ -47,6 +47,42 @@ TEST(ShutterSpeedTest, BulbTimeAutoAndGarbageAreNotTimed) {
   EXPECT_FALSE(IsBulb("30"));
 }
 
+// Spellings of the real dumps in ../shared/data/gphoto2-config-dumps.
+TEST(ShutterSpeedTest, ParsesLocalisedAndMinuteSpellings) {
+  struct Case {
+    const char* text;
+    double seconds;
+  };
+  for (const Case& c : std::vector<Case>{
+           {"0,0002s", 0.0002},      // German Nikon D750
+           {"30,0000s", 30},         //
+           {"0,0400s", 0.04},        //
+           {"3,2000s", 3.2},         //
+           {"32/10", 3.2},           // Sony
+           {"60m", 3600},            // Fuji X-T4
+           {"2m", 120},              //
+           {"2.5s", 2.5},            //
+           {"10.3", 10.3},           // Canon EOS R5
+           {"1/32000", 1.0 / 32000}  // Fuji electronic shutter
+       }) {
+    EXPECT_THAT(ParseShutterSpeed(c.text),
+                Optional(DoubleNear(c.seconds, 1e-9)))
+        << c.text;
+  }
+}
+
+TEST(ShutterSpeedTest, SpecialCodesOfRealCamerasAreNotTimed) {
+  // Sony 0xFFFFFFFx and Nikon 0xFFFFFFFF / 10000 s stand for bulb, time or
+  // auto, as do the words; none of them may ever be set as an exposure.
+  for (const char* text :
+       {"65535/65535", "65535/65534", "65535/65533", "429496.7295s",
+        "429496,7295s", "429496.7293s", "x 200", "Composite", "Time", "auto",
+        "Unknown value 1500", "Unknown value 00a8", "1,000,0s"}) {
+    EXPECT_EQ(ParseShutterSpeed(text), std::nullopt) << text;
+  }
+  EXPECT_EQ(NearestShutterSpeed({"65535/65533", "1/2", "2"}, 1)->choice, "1/2");
+}
+
 TEST(ShutterSpeedTest, FormatsSeconds) {
   EXPECT_EQ(FormatSeconds(1.0 / 125), "1/125 s");
   EXPECT_EQ(FormatSeconds(1.0 / 8000), "1/8000 s");
@@ -121,6 +157,10 @@ TEST(IsoTest, ParsesAndMatchesExactly) {
   EXPECT_THAT(ParseIso("ISO 200"), Optional(200));
   EXPECT_EQ(ParseIso("Auto"), std::nullopt);
   EXPECT_EQ(ParseIso("-100"), std::nullopt);
+  EXPECT_EQ(ParseIso("Unknown value 007b"), std::nullopt);
+  EXPECT_EQ(ParseIso("Unbekannter Wert 0002"), std::nullopt);
+  EXPECT_EQ(ParseIso("100 Multi Frame Noise Reduction"), std::nullopt);
+  EXPECT_EQ(*MatchIso({"100 Multi Frame Noise Reduction", "100"}, 100), "100");
   std::vector<std::string> choices = {"Auto", "100", "200", "400"};
   EXPECT_EQ(*MatchIso(choices, 200), "200");
   absl::StatusOr<std::string> missing = MatchIso(choices, 250);
@@ -134,6 +174,9 @@ TEST(ApertureTest, ParsesAndMatchesNominalValues) {
   EXPECT_THAT(ParseAperture("F8"), Optional(DoubleNear(8, 1e-9)));
   EXPECT_THAT(ParseAperture("2.8"), Optional(DoubleNear(2.8, 1e-9)));
   EXPECT_EQ(ParseAperture("implicit auto"), std::nullopt);
+  EXPECT_THAT(ParseAperture("f/3,5"), Optional(DoubleNear(3.5, 1e-9)));
+  EXPECT_THAT(ParseAperture("22.0"), Optional(DoubleNear(22, 1e-9)));
+  EXPECT_EQ(ParseAperture("Unknown value 0f00"), std::nullopt);
   std::vector<std::string> choices = {"f/4", "f/5.6", "f/8", "f/11"};
   EXPECT_EQ(*MatchAperture(choices, 5.6), "f/5.6");
   EXPECT_EQ(*MatchAperture(choices, 5.66), "f/5.6");
@@ -159,6 +202,8 @@ TEST(FormatChoiceTest, ClassifiesVendorNames) {
            {"RAW + Large Fine JPEG", ImageFormat::kRawAndJpeg},
            {"cRAW + Large Fine JPEG", ImageFormat::kRawAndJpeg},
            {"NEF+Fine", ImageFormat::kRawAndJpeg},
+           {"NEF+Fein", ImageFormat::kRawAndJpeg},
+           {"JPEG Fein", ImageFormat::kJpeg},
            {"RAW+JPEG", ImageFormat::kRawAndJpeg},
            {"TIFF (RGB)", std::nullopt},
            {"", std::nullopt},
@@ -220,6 +265,16 @@ TEST(CaptureTargetTest, MatchesRamAndCard) {
   EXPECT_EQ(
       MatchCaptureTarget({"SDRAM"}, CaptureTarget::kMemoryCard).status().code(),
       absl::StatusCode::kInvalidArgument);
+  // German Nikon dumps, and Nikon's "card+sdram" (both) after the one meant.
+  const std::vector<std::string> german = {"interner Speicher",
+                                           "Speicherkarte"};
+  EXPECT_EQ(*MatchCaptureTarget(german, CaptureTarget::kInternalRam),
+            "interner Speicher");
+  EXPECT_EQ(*MatchCaptureTarget(german, CaptureTarget::kMemoryCard),
+            "Speicherkarte");
+  const std::vector<std::string> nikon = {"card+sdram", "sdram", "card"};
+  EXPECT_EQ(*MatchCaptureTarget(nikon, CaptureTarget::kInternalRam), "sdram");
+  EXPECT_EQ(*MatchCaptureTarget(nikon, CaptureTarget::kMemoryCard), "card");
 }
 
 TEST(CaptureTargetTest, ParsesConfigText) {

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <iostream>
 #include <opencv2/imgcodecs.hpp>
 #include <vector>
 
@@ -242,14 +243,90 @@ TEST(MergeTest, LuminanceAndLogLuminance) {
   EXPECT_NEAR(ly.at<float>(0, 1), std::log10(21.26), 1e-5);
 }
 
+TEST(ResponseTest, HatWeightsStartAtTheFloor) {
+  const std::vector<float> plain = HatWeights();
+  EXPECT_EQ(plain[0], 0);
+  EXPECT_EQ(plain[1], 1);
+  EXPECT_EQ(plain[127], 127);
+  EXPECT_EQ(plain[128], 127);
+  EXPECT_EQ(plain[255], 0);
+  const std::vector<float> fog = HatWeights(16);
+  EXPECT_EQ(fog[16], 0);
+  EXPECT_EQ(fog[17], 1);
+  EXPECT_EQ(fog[254], 1);
+  EXPECT_EQ(fog[255], 0);
+  for (int z = 0; z <= 16; ++z) EXPECT_EQ(fog[z], 0) << z;
+}
+
+// A film-like camera: every code is lifted by a base fog of 20 (codes
+// below never occur), as in Debevec's scanned series. The floor is found,
+// and with it the merge keeps its accuracy where a hat on [0, 255] lets
+// the short exposures' fog claim radiance in the dark.
+TEST(ResponseTest, FindsAFogFloorAndMergesDarkPixelsWithoutIt) {
+  Scene s = MakeScene();
+  ExposureStack fogged = s.stack;
+  for (cv::Mat& image : fogged.images) {
+    cv::Mat lifted;
+    image.convertTo(lifted, CV_8UC3, (255.0 - 20) / 255, 20);
+    image = lifted;
+  }
+  EXPECT_EQ(CodeFloors(s.stack), (std::vector<int>{1, 1, 1}));
+  const std::vector<int> floors = CodeFloors(fogged);
+  ASSERT_EQ(floors.size(), 3u);
+  for (int f : floors) {
+    EXPECT_GE(f, 20);
+    EXPECT_LE(f, 22);
+  }
+  absl::StatusOr<CameraResponse> r = RecoverResponse(fogged);
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_EQ(r->floor, floors);
+  absl::StatusOr<MergeResult> with_floor = MergeStack(fogged, *r);
+  CameraResponse no_floor = *r;
+  no_floor.floor.clear();
+  absl::StatusOr<MergeResult> without = MergeStack(fogged, no_floor);
+  ASSERT_TRUE(with_floor.ok() && without.ok());
+  // Median |ln error| after one scale over the darkest tenth of the scene.
+  auto dark_error = [&](const cv::Mat& radiance) {
+    std::vector<std::pair<float, float>> v;  // truth, estimate (green)
+    for (int y = 0; y < kHeight; ++y) {
+      for (int x = 0; x < kWidth; ++x) {
+        v.emplace_back(s.radiance.at<cv::Vec3f>(y, x)[1],
+                       radiance.at<cv::Vec3f>(y, x)[1]);
+      }
+    }
+    std::vector<double> ratio;
+    for (const auto& [t, e] : v) ratio.push_back(std::log(e / t));
+    std::vector<double> sorted = ratio;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2,
+                     sorted.end());
+    const double scale = sorted[sorted.size() / 2];
+    std::sort(v.begin(), v.end());
+    std::vector<double> err;
+    for (size_t i = 0; i < v.size() / 10; ++i) {
+      err.push_back(std::abs(std::log(v[i].second / v[i].first) - scale));
+    }
+    std::nth_element(err.begin(), err.begin() + err.size() / 2, err.end());
+    return err[err.size() / 2];
+  };
+  const double e_floor = dark_error(with_floor->radiance);
+  const double e_plain = dark_error(without->radiance);
+  std::cout << "darkest tenth, median |ln error|: with the floor " << e_floor
+            << ", without " << e_plain << "\n";
+  // Measured 0.011 with the floor, 0.38 without.
+  EXPECT_LE(e_floor, 0.03);
+  EXPECT_LT(e_floor, e_plain / 5);
+}
+
 TEST(ResponseTest, SaveAndLoadRoundTrip) {
   TempDir dir;
   CameraResponse r = TrueTable();
   r.camera = "Nikon D700";
+  r.floor = {3, 4, 5};
   ASSERT_TRUE(SaveResponse(dir / "resp.yml", r).ok());
   absl::StatusOr<CameraResponse> back = LoadResponse(dir / "resp.yml");
   ASSERT_TRUE(back.ok()) << back.status();
   EXPECT_EQ(back->camera, "Nikon D700");
+  EXPECT_EQ(back->floor, (std::vector<int>{3, 4, 5}));
   EXPECT_FALSE(back->linear);
   EXPECT_EQ(cv::norm(back->log_inverse, r.log_inverse, cv::NORM_INF), 0.0);
   ASSERT_TRUE(SaveResponse(dir / "lin.yml", LinearResponse("raw")).ok());

@@ -46,7 +46,7 @@ class CallGuardTest : public ::testing::Test {
              Role::kAdmin);
   }
 
-  void NewGuard(std::map<std::string, Role> users, Role local_role) {
+  void NewGuard(RoleMap users, Role local_role) {
     authenticator_ =
         std::make_unique<Authenticator>(std::move(users), local_role, *keys_);
     guard_ = std::make_unique<CallGuard>(*authenticator_, *lock_, *audit_);

@@ -1,0 +1,173 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "hardware/gphoto2/replay_api.h"
+
+#include <gphoto2/gphoto2-port-result.h>
+#include <gphoto2/gphoto2-result.h>
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "hardware/gphoto2/settings.h"
+#include "hardware/gphoto2/widgets.h"
+
+namespace hdrstereo::gphoto2 {
+
+ReplayApi::ReplayApi(CameraDump dump, FrameSource frames)
+    : dump_(std::move(dump)), frames_(std::move(frames)) {
+  widgets_ = dump_.widgets;
+}
+
+std::string ReplayApi::Port() const {
+  return absl::StrCat("replay:", dump_.source);
+}
+
+int ReplayApi::Fail(int code, std::string text) {
+  last_error_ = std::move(text);
+  return code;
+}
+
+int ReplayApi::Autodetect(std::vector<DetectedCamera>* cameras) {
+  cameras->assign(1, {dump_.model, Port()});
+  return GP_OK;
+}
+
+int ReplayApi::Open(const std::string& model, const std::string& port) {
+  if (model != dump_.model || port != Port()) {
+    return Fail(
+        GP_ERROR_MODEL_NOT_FOUND,
+        absl::StrCat("the replay holds \"", dump_.model, "\" on ", Port()));
+  }
+  return GP_OK;
+}
+
+int ReplayApi::GetSummary(std::string* text) {
+  *text = dump_.summary;
+  return GP_OK;
+}
+
+int ReplayApi::GetConfig(std::vector<ConfigWidget>* widgets) {
+  *widgets = widgets_;
+  return GP_OK;
+}
+
+int ReplayApi::SetConfigValue(const std::string& name,
+                              const std::string& value) {
+  auto it = std::find_if(widgets_.begin(), widgets_.end(),
+                         [&](const ConfigWidget& w) { return w.name == name; });
+  if (it == widgets_.end()) {
+    return Fail(GP_ERROR_BAD_PARAMETERS,
+                absl::StrCat("no widget \"", name, "\" in ", dump_.source));
+  }
+  if (it->read_only) {
+    return Fail(GP_ERROR_NOT_SUPPORTED,
+                absl::StrCat(it->path, " is read-only"));
+  }
+  switch (it->type) {
+    case WidgetType::kRadio:
+    case WidgetType::kMenu:
+      if (std::find(it->choices.begin(), it->choices.end(), value) ==
+          it->choices.end()) {
+        return Fail(
+            GP_ERROR_BAD_PARAMETERS,
+            absl::StrCat("\"", value, "\" is not a choice of ", it->path));
+      }
+      break;
+    case WidgetType::kRange: {
+      float number = 0;
+      if (!absl::SimpleAtof(value, &number) || number < it->min ||
+          number > it->max) {
+        return Fail(GP_ERROR_BAD_PARAMETERS,
+                    absl::StrCat("\"", value, "\" is outside ", it->path, " [",
+                                 it->min, ", ", it->max, "]"));
+      }
+      it->value = absl::StrFormat("%g", number);
+      return GP_OK;
+    }
+    case WidgetType::kToggle:
+      if (value != "0" && value != "1") {
+        return Fail(GP_ERROR_BAD_PARAMETERS,
+                    absl::StrCat(it->path, " takes 0 or 1"));
+      }
+      break;
+    case WidgetType::kDate: {
+      int64_t seconds = 0;
+      if (!absl::SimpleAtoi(value, &seconds)) {
+        return Fail(GP_ERROR_BAD_PARAMETERS,
+                    absl::StrCat(it->path, " takes seconds since the epoch"));
+      }
+      break;
+    }
+    case WidgetType::kButton:
+      return Fail(GP_ERROR_NOT_SUPPORTED,
+                  absl::StrCat(it->path, " is a button"));
+    case WidgetType::kText:
+      break;
+  }
+  it->value = value;
+  return GP_OK;
+}
+
+int ReplayApi::Capture(std::string* folder, std::string* name) {
+  if (!frames_) {
+    return Fail(GP_ERROR_NOT_SUPPORTED,
+                "this replay camera has no frame source");
+  }
+  const hardware::ExposureSettings settings = ReadExposureSettings(widgets_);
+  if (!(settings.exposure_s > 0)) {
+    return Fail(GP_ERROR_NOT_SUPPORTED,
+                "the shutter speed is not a timed exposure (bulb or unknown)");
+  }
+  absl::StatusOr<ReplayFile> file = frames_(settings);
+  if (!file.ok()) return Fail(GP_ERROR, std::string(file.status().message()));
+  *folder = kFolder;
+  *name = absl::StrFormat("capt%04d.%s", captures_++, file->extension);
+  files_[*name] = std::move(file->bytes);
+  return GP_OK;
+}
+
+int ReplayApi::WaitForEvent(absl::Duration /*timeout*/, CameraEvent* event) {
+  *event = CameraEvent();  // one file per capture: nothing else happens
+  return GP_OK;
+}
+
+int ReplayApi::ListFiles(const std::string& folder,
+                         std::vector<std::string>* names) {
+  names->clear();
+  if (folder != kFolder) return GP_OK;
+  for (const auto& [name, bytes] : files_) names->push_back(name);
+  return GP_OK;
+}
+
+int ReplayApi::GetFile(const std::string& folder, const std::string& name,
+                       FileData* file) {
+  auto it = files_.find(name);
+  if (folder != kFolder || it == files_.end()) {
+    return Fail(GP_ERROR_FILE_NOT_FOUND,
+                absl::StrCat(folder, "/", name, " is not on the camera"));
+  }
+  file->bytes = it->second;
+  file->mtime = absl::InfinitePast();
+  return GP_OK;
+}
+
+int ReplayApi::DeleteFile(const std::string& folder, const std::string& name) {
+  if (folder != kFolder || files_.erase(name) == 0) {
+    return Fail(GP_ERROR_FILE_NOT_FOUND,
+                absl::StrCat(folder, "/", name, " is not on the camera"));
+  }
+  return GP_OK;
+}
+
+void ReplayApi::BeginCall() { last_error_.clear(); }
+
+std::string ReplayApi::ErrorText(int code) {
+  std::string text = gp_result_as_string(code);
+  if (!last_error_.empty()) absl::StrAppend(&text, " (", last_error_, ")");
+  return text;
+}
+
+}  // namespace hdrstereo::gphoto2

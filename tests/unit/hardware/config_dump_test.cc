@@ -1,0 +1,371 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// The `gphoto2 --list-all-config` reader and the replay camera on small
+// dumps written the way real ones are (the real ones are replayed in
+// gphoto2_dump_test.cc): every widget type, Readonly lines, "(null)",
+// German labels with decimal commas, CRLF, bytes that are not UTF-8.
+#include "hardware/gphoto2/config_dump.h"
+
+#include <gmock/gmock.h>
+#include <gphoto2/gphoto2-result.h>
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_replace.h"
+#include "hardware/gphoto2/gphoto2_camera.h"
+#include "hardware/gphoto2/replay_api.h"
+#include "hardware/gphoto2/widgets.h"
+#include "tests/support/status_matchers.h"
+
+namespace hdrstereo::gphoto2 {
+namespace {
+
+// The settings to configure (format left as is).
+hardware::ExposureSettings Exposure(double seconds, int iso = 0,
+                                    double aperture_f = 0) {
+  hardware::ExposureSettings s;
+  s.exposure_s = seconds;
+  s.iso = iso;
+  s.aperture_f = aperture_f;
+  return s;
+}
+
+using ::hdrstereo::testing::IsOk;
+using ::hdrstereo::testing::StatusIs;
+using ::testing::ElementsAre;
+using ::testing::HasSubstr;
+
+// A German Nikon dump in the newer format (Readonly lines), cut down.
+constexpr char kGermanNikon[] = R"(Kamerazusammenfassung:
+Hersteller: Nikon Corporation
+Modell: D750
+  Seriennummer: 0000000000000000000000000nnnnnnn
+
+/main/actions/bulb
+Label: Langzeit Belichtungsmodus
+Readonly: 0
+Type: TOGGLE
+Current: 2
+/main/settings/datetime
+Label: Kamera Datum und Zeit
+Readonly: 0
+Type: DATE
+Current: 1417637635
+Printable: Mi 03 Dez 2014 21:13:55 CET
+Help: Use 'now' as the current time when setting.
+
+/main/settings/capturetarget
+Label: Aufnahmeziel
+Readonly: 0
+Type: RADIO
+Current: Speicherkarte
+Choice: 0 interner Speicher
+Choice: 1 Speicherkarte
+/main/status/serialnumber
+Label: Seriennummer
+Readonly: 1
+Type: TEXT
+Current: 6012345
+/main/capturesettings/shutterspeed
+Label: Belichtungszeit
+Readonly: 0
+Type: RADIO
+Current: 0,0400s
+Choice: 0 0,0005s
+Choice: 1 0,0010s
+Choice: 2 0,0020s
+Choice: 3 0,0040s
+Choice: 4 0,0080s
+Choice: 5 0,0166s
+Choice: 6 0,0333s
+Choice: 7 0,0400s
+Choice: 8 429496,7295s
+/main/imgsettings/iso
+Label: ISO-Geschwindigkeit
+Readonly: 0
+Type: RADIO
+Current: 200
+Choice: 0 100
+Choice: 1 200
+Choice: 2 Unbekannter Wert 0002
+/main/capturesettings/f-number
+Label: F-Nummer
+Readonly: 0
+Type: RADIO
+Current: f/3,5
+Choice: 0 f/3,5
+Choice: 1 f/5,6
+Choice: 2 f/8
+/main/capturesettings/exposurecompensation
+Label: Belichtungskorrektur
+Readonly: 0
+Type: RANGE
+Current: -0,5
+Bottom: -5,0
+Top: 5,0
+Step: 0,3
+/main/capturesettings/focusmode
+Label: Fokusmodus
+Readonly: 0
+Type: MENU
+Current: (null)
+Choice: 0 AF-S
+Choice: 1 MF
+END
+)";
+
+TEST(ConfigDumpTest, ReadsEveryWidgetTypeOfAGermanDump) {
+  ASSERT_OK_AND_ASSIGN(CameraDump dump,
+                       ParseCameraDump(kGermanNikon, "nikon-d750.txt"));
+  EXPECT_EQ(dump.model, "Nikon Corporation D750");
+  EXPECT_THAT(dump.summary, HasSubstr("Seriennummer"));
+  ASSERT_EQ(dump.widgets.size(), 9u);
+
+  const ConfigWidget* bulb = FindWidget(dump.widgets, "bulb");
+  ASSERT_NE(bulb, nullptr);
+  EXPECT_EQ(bulb->type, WidgetType::kToggle);
+  EXPECT_EQ(bulb->path, "/main/actions/bulb");
+  EXPECT_EQ(bulb->label, "Langzeit Belichtungsmodus");
+  EXPECT_EQ(bulb->value, "2");
+
+  const ConfigWidget* date = FindWidget(dump.widgets, "datetime");
+  ASSERT_NE(date, nullptr);
+  EXPECT_EQ(date->type, WidgetType::kDate);
+  EXPECT_EQ(date->value, "1417637635");
+
+  const ConfigWidget* serial = FindWidget(dump.widgets, "serialnumber");
+  ASSERT_NE(serial, nullptr);
+  EXPECT_EQ(serial->type, WidgetType::kText);
+  EXPECT_TRUE(serial->read_only);
+  EXPECT_FALSE(FindWidget(dump.widgets, "shutterspeed")->read_only);
+
+  const ConfigWidget* shutter = FindWidget(dump.widgets, "shutterspeed");
+  EXPECT_EQ(shutter->type, WidgetType::kRadio);
+  EXPECT_EQ(shutter->value, "0,0400s");
+  EXPECT_EQ(shutter->choices.size(), 9u);
+  EXPECT_EQ(shutter->choices[0], "0,0005s");
+
+  // RANGE: decimal commas read, the value as the library reports it.
+  const ConfigWidget* ev = FindWidget(dump.widgets, "exposurecompensation");
+  ASSERT_NE(ev, nullptr);
+  EXPECT_EQ(ev->type, WidgetType::kRange);
+  EXPECT_FLOAT_EQ(ev->min, -5.0f);
+  EXPECT_FLOAT_EQ(ev->max, 5.0f);
+  EXPECT_FLOAT_EQ(ev->step, 0.3f);
+  EXPECT_EQ(ev->value, "-0.5");
+
+  const ConfigWidget* focus = FindWidget(dump.widgets, "focusmode");
+  ASSERT_NE(focus, nullptr);
+  EXPECT_EQ(focus->type, WidgetType::kMenu);
+  EXPECT_EQ(focus->value, "");  // "(null)"
+  EXPECT_THAT(focus->choices, ElementsAre("AF-S", "MF"));
+}
+
+TEST(ConfigDumpTest, CrlfLineEndsReadTheSame) {
+  const std::string crlf = absl::StrReplaceAll(kGermanNikon, {{"\n", "\r\n"}});
+  ASSERT_OK_AND_ASSIGN(CameraDump dump, ParseCameraDump(crlf, "crlf.txt"));
+  ASSERT_OK_AND_ASSIGN(CameraDump plain,
+                       ParseCameraDump(kGermanNikon, "plain.txt"));
+  ASSERT_EQ(dump.widgets.size(), plain.widgets.size());
+  for (size_t i = 0; i < dump.widgets.size(); ++i) {
+    EXPECT_EQ(dump.widgets[i].value, plain.widgets[i].value);
+    EXPECT_EQ(dump.widgets[i].choices, plain.widgets[i].choices);
+    EXPECT_EQ(dump.widgets[i].label, plain.widgets[i].label);
+  }
+  EXPECT_EQ(dump.model, "Nikon Corporation D750");
+}
+
+TEST(ConfigDumpTest, InvalidUtf8BecomesReplacementCharacters) {
+  // A Latin-1 label and a serial number with a stray 0xD4 byte.
+  const std::string text =
+      "/main/status/serialnumber\nLabel: Num\xe9ro de s\xe9rie\nType: "
+      "TEXT\nCurrent: ABC\xd4\x01\n";
+  ASSERT_OK_AND_ASSIGN(CameraDump dump, ParseCameraDump(text, "fuji.txt"));
+  ASSERT_EQ(dump.widgets.size(), 1u);
+  EXPECT_EQ(dump.widgets[0].label, "Num\xEF\xBF\xBDro de s\xEF\xBF\xBDrie");
+  EXPECT_EQ(dump.widgets[0].value, "ABC\xEF\xBF\xBD\x01");
+  EXPECT_EQ(ValidUtf8("f\xc3\xbcr \xc2\xa0ok"), "f\xc3\xbcr \xc2\xa0ok");
+  EXPECT_EQ(ValidUtf8("\xc0\xaf"), "\xEF\xBF\xBD\xEF\xBF\xBD");  // overlong
+  // Without a summary the model falls back to the cameramodel widget.
+  ASSERT_OK_AND_ASSIGN(
+      CameraDump named,
+      ParseCameraDump("/main/status/cameramodel\nLabel: Model\nType: "
+                      "TEXT\nCurrent: X-T4\n",
+                      "cameras/fuji-xt4.txt"));
+  EXPECT_EQ(named.model, "X-T4");
+}
+
+TEST(ConfigDumpTest, ErrorsNameTheLineAndTheWidget) {
+  EXPECT_THAT(ParseCameraDump("summary only\nModel: X\n", "a.txt"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("a.txt: no --list-all-config tree")));
+  EXPECT_THAT(
+      ParseCameraDump("x\n/main/a/shutterspeed\nLabel: S\nType: SLIDER\n",
+                      "b.txt"),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("b.txt:4: /main/a/shutterspeed: unknown widget Type "
+                         "\"SLIDER\"")));
+  EXPECT_THAT(ParseCameraDump("/main/a/iso\n/main/a/shutterspeed\n", "c"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("c: only paths, no widget types or values")));
+  EXPECT_THAT(
+      ParseCameraDump("/main/a/ev\nType: RANGE\nCurrent: 0\nTop: 5\n", "d"),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("/main/a/ev is a RANGE without numeric Bottom")));
+  EXPECT_THAT(ParseCameraDump("/main/a/iso\nType: RADIO\nChoice: x 100\n", "e"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("e:3: /main/a/iso: malformed Choice line")));
+  EXPECT_THAT(LoadCameraDump("/nonexistent/dump.txt"),
+              StatusIs(absl::StatusCode::kNotFound,
+                       HasSubstr("/nonexistent/dump.txt")));
+}
+
+// Older and odder dumps: tab-indented fields, a blank line and U+00A0
+// padding after the path, entries without a Type (skipped).
+TEST(ConfigDumpTest, ReadsOlderLayouts) {
+  const std::string text =
+      "/main/actions/autofocusdrive\n\tLabel: Drive Nikon DSLR "
+      "Autofocus\n\tType: TOGGLE\n\tCurrent: 0\n"
+      "/main/actions/sync\xc2\xa0\xc2\xa0\n\nLabel: Sync\nType: "
+      "TOGGLE\nCurrent: 1\n"
+      "/main/other/d209\nLabel: PTP \nChoice: 0 1\nEND\n"
+      "/main/imgsettings/iso\n\tLabel: ISO\n\tType: RADIO\n\tCurrent: "
+      "100\n\tChoice: 0 100\n\tChoice: 1 200\n";
+  ASSERT_OK_AND_ASSIGN(CameraDump dump, ParseCameraDump(text, "old.txt"));
+  ASSERT_EQ(dump.widgets.size(), 3u);
+  EXPECT_EQ(dump.widgets[0].label, "Drive Nikon DSLR Autofocus");
+  EXPECT_EQ(dump.widgets[1].path, "/main/actions/sync");
+  EXPECT_EQ(dump.widgets[1].value, "1");
+  EXPECT_THAT(dump.widgets[2].choices, ElementsAre("100", "200"));
+  EXPECT_THAT(dump.skipped, ElementsAre("/main/other/d209 (line 10)"));
+}
+
+TEST(ConfigDumpTest, RepeatedPathsKeepTheFirstDump) {
+  const std::string twice =
+      "/main/i/iso\nType: RADIO\nCurrent: 100\nChoice: 0 100\n"
+      "/main/i/iso\nType: RADIO\nCurrent: 200\nChoice: 0 200\n";
+  ASSERT_OK_AND_ASSIGN(CameraDump dump, ParseCameraDump(twice, "two.txt"));
+  ASSERT_EQ(dump.widgets.size(), 1u);
+  EXPECT_EQ(dump.widgets[0].value, "100");
+}
+
+// The replay answers like a camera: choices, bounds, read-only widgets.
+TEST(ReplayApiTest, SetsValuesAsTheCameraWouldAndRefusesOthers) {
+  ASSERT_OK_AND_ASSIGN(CameraDump dump,
+                       ParseCameraDump(kGermanNikon, "nikon-d750.txt"));
+  ReplayApi api(dump);
+  std::vector<DetectedCamera> found;
+  ASSERT_EQ(api.Autodetect(&found), GP_OK);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0].model, "Nikon Corporation D750");
+  EXPECT_EQ(found[0].port, "replay:nikon-d750.txt");
+  EXPECT_EQ(api.Open(found[0].model, found[0].port), GP_OK);
+  EXPECT_EQ(api.Open("Canon EOS R5", found[0].port), GP_ERROR_MODEL_NOT_FOUND);
+
+  EXPECT_EQ(api.SetConfigValue("shutterspeed", "0,0080s"), GP_OK);
+  EXPECT_EQ(api.SetConfigValue("shutterspeed", "1/125"),
+            GP_ERROR_BAD_PARAMETERS);
+  EXPECT_THAT(api.ErrorText(GP_ERROR_BAD_PARAMETERS),
+              HasSubstr("\"1/125\" is not a choice of "
+                        "/main/capturesettings/shutterspeed"));
+  EXPECT_EQ(api.SetConfigValue("serialnumber", "1"), GP_ERROR_NOT_SUPPORTED);
+  EXPECT_EQ(api.SetConfigValue("exposurecompensation", "1.5"), GP_OK);
+  EXPECT_EQ(api.SetConfigValue("exposurecompensation", "7"),
+            GP_ERROR_BAD_PARAMETERS);
+  EXPECT_EQ(api.SetConfigValue("bulb", "1"), GP_OK);
+  EXPECT_EQ(api.SetConfigValue("bulb", "yes"), GP_ERROR_BAD_PARAMETERS);
+  EXPECT_EQ(api.SetConfigValue("datetime", "now"), GP_ERROR_BAD_PARAMETERS);
+  EXPECT_EQ(api.SetConfigValue("nosuchwidget", "1"), GP_ERROR_BAD_PARAMETERS);
+  std::vector<ConfigWidget> widgets;
+  ASSERT_EQ(api.GetConfig(&widgets), GP_OK);
+  EXPECT_EQ(FindWidget(widgets, "shutterspeed")->value, "0,0080s");
+  EXPECT_EQ(FindWidget(widgets, "exposurecompensation")->value, "1.5");
+  EXPECT_EQ(FindWidget(widgets, "bulb")->value, "1");
+  // No frame source: nothing to capture.
+  std::string folder, name;
+  EXPECT_EQ(api.Capture(&folder, &name), GP_ERROR_NOT_SUPPORTED);
+}
+
+// The real driver over the replay: the German dump configures, the bulb
+// code is never chosen, and a capture downloads and deletes what the frame
+// source made at the chosen exposure.
+TEST(ReplayApiTest, TheDriverConfiguresAndCapturesThroughTheReplay) {
+  ASSERT_OK_AND_ASSIGN(CameraDump dump,
+                       ParseCameraDump(kGermanNikon, "nikon-d750.txt"));
+  std::vector<double> rendered;
+  auto api = std::make_unique<ReplayApi>(
+      dump,
+      [&](const hardware::ExposureSettings& s) -> absl::StatusOr<ReplayFile> {
+        rendered.push_back(s.exposure_s);
+        return ReplayFile{.bytes = "\xff\xd8 jpeg", .extension = "jpg"};
+      });
+  ReplayApi* replay = api.get();
+  ASSERT_OK_AND_ASSIGN(std::unique_ptr<Gphoto2Camera> camera,
+                       Gphoto2Camera::OpenWithApi({}, std::move(api)));
+  EXPECT_EQ(camera->model(), "Nikon Corporation D750");
+  std::vector<ConfigWidget> widgets;
+  replay->GetConfig(&widgets);
+  EXPECT_EQ(FindWidget(widgets, "capturetarget")->value, "interner Speicher");
+
+  // 1/60 s -> "0,0166s"; 1/3 s lies beyond the range.
+  ASSERT_OK_AND_ASSIGN(hardware::ExposureSettings applied,
+                       camera->Configure(Exposure(1.0 / 60, 100, 8)));
+  EXPECT_DOUBLE_EQ(applied.exposure_s, 0.0166);
+  EXPECT_EQ(applied.iso, 100);
+  EXPECT_DOUBLE_EQ(applied.aperture_f, 8);
+  EXPECT_THAT(camera->Configure(Exposure(1.0 / 3)),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("shutterspeed (/main/capturesettings/"
+                                 "shutterspeed): exposure 0.333333 s is "
+                                 "outside the camera's range")));
+  ASSERT_OK_AND_ASSIGN(hardware::Frame frame, camera->Capture());
+  EXPECT_EQ(frame.bytes, "\xff\xd8 jpeg");
+  EXPECT_EQ(frame.extension, "jpg");
+  EXPECT_DOUBLE_EQ(frame.exposure_s, 0.0166);
+  EXPECT_THAT(rendered, ElementsAre(0.0166));
+  std::vector<std::string> left;
+  ASSERT_EQ(replay->ListFiles("/store_00010001/DCIM/100REPLY", &left), GP_OK);
+  EXPECT_TRUE(left.empty()) << "the driver deletes what it downloaded";
+}
+
+TEST(ReplayApiTest, RangeAperturesTakeANumberAndTextOnesAreRefused) {
+  const std::string text =
+      "/main/c/shutterspeed\nType: RADIO\nCurrent: 1/125\nChoice: 0 1/125\n"
+      "/main/c/f-number\nLabel: F-Nummer\nType: RANGE\nCurrent: 2\n"
+      "Bottom: 0\nTop: 655,35\nStep: 0,01\n";
+  ASSERT_OK_AND_ASSIGN(CameraDump dump, ParseCameraDump(text, "sony-a7r.txt"));
+  ASSERT_OK_AND_ASSIGN(
+      std::unique_ptr<Gphoto2Camera> camera,
+      Gphoto2Camera::OpenWithApi({}, std::make_unique<ReplayApi>(dump)));
+  ASSERT_OK_AND_ASSIGN(hardware::ExposureSettings applied,
+                       camera->Configure(Exposure(1.0 / 125, 0, 5.6)));
+  EXPECT_DOUBLE_EQ(applied.aperture_f, 5.6);
+  EXPECT_THAT(camera->Configure(Exposure(1.0 / 125, 0, 700)),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("f-number (/main/c/f-number): 700 is outside "
+                                 "its range [0, 655.35]")));
+  EXPECT_THAT(
+      camera->Configure(Exposure(1.0 / 125, 100)),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("the camera has no ISO setting (iso, isospeed)")));
+
+  // Fuji X-T4: a radio widget without choices, "Current: (null)".
+  ASSERT_OK_AND_ASSIGN(
+      CameraDump fuji,
+      ParseCameraDump("/main/c/shutterspeed\nType: RADIO\nCurrent: "
+                      "1/125\nChoice: 0 1/125\n/main/c/f-number\nType: "
+                      "RADIO\nCurrent: (null)\nEND\n",
+                      "fuji-xt4.txt"));
+  ASSERT_OK_AND_ASSIGN(
+      std::unique_ptr<Gphoto2Camera> xt4,
+      Gphoto2Camera::OpenWithApi({}, std::make_unique<ReplayApi>(fuji)));
+  EXPECT_THAT(xt4->Configure(Exposure(1.0 / 125, 0, 8)),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("f-number (/main/c/f-number) offers no "
+                                 "choices (current value \"\")")));
+}
+
+}  // namespace
+}  // namespace hdrstereo::gphoto2

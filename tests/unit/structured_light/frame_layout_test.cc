@@ -1,0 +1,224 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// Captures laid out by others, on synthetic frames with a known truth: a
+// camera whose pixels each see 3.1 projector columns (2.9 rows) through a
+// blur 1.5 times that wide, so that the finest stripes average out as on a real
+// capture whose projector out-resolves the camera; codes gray(x + offset);
+// frames written in another lab's order and read back through a layout file.
+#include "processing/structured_light/frame_layout.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "processing/io/hdr_formats.h"
+#include "processing/structured_light/decode.h"
+#include "processing/structured_light/disparity.h"
+#include "processing/structured_light/gray_code.h"
+#include "tests/support/status_matchers.h"
+#include "tests/support/temp_dir.h"
+
+namespace hdrstereo::structured_light {
+namespace {
+
+using ::hdrstereo::testing::StatusIs;
+using ::testing::HasSubstr;
+
+constexpr int kBits = 10;  // 1000 columns and 700 rows, codes centred
+constexpr int kColumnOffset = 12, kRowOffset = 162;
+const cv::Size kProjector(1000, 700);
+const cv::Size kCamera(240, 160);
+
+// Projector column and row at the centre of camera pixel (x, y).
+double TrueColumn(int x) { return 100 + 3.1 * x; }
+double TrueRow(int y) { return 80 + 2.9 * y; }
+
+// The camera's view of one code plane: each pixel averages the stripes
+// over 1.5 times its pitch (lens blur; 16 samples), grey 20 .. 200.
+cv::Mat CameraFrame(bool columns, int bit, bool inverse) {
+  const int offset = columns ? kColumnOffset : kRowOffset;
+  cv::Mat out(kCamera, CV_8UC1);
+  for (int y = 0; y < kCamera.height; ++y) {
+    for (int x = 0; x < kCamera.width; ++x) {
+      double lit = 0;
+      for (int s = 0; s < 16; ++s) {
+        const double t = 1.5 * ((s + 0.5) / 16 - 0.5);
+        const double p =
+            columns ? TrueColumn(x) + 3.1 * t : TrueRow(y) + 2.9 * t;
+        const int code = ToGray(static_cast<int>(std::floor(p)) + offset);
+        lit += ((code >> (kBits - 1 - bit)) & 1) != inverse;
+      }
+      out.at<uint8_t>(y, x) = static_cast<uint8_t>(20 + 180 * lit / 16);
+    }
+  }
+  return out;
+}
+
+// Our own order: column planes (each with its inverse), row planes, white,
+// black.
+ViewFrames SyntheticView() {
+  ViewFrames view;
+  view.projector_size = kProjector;
+  view.column_bits = view.row_bits = kBits;
+  view.column_offset = kColumnOffset;
+  view.row_offset = kRowOffset;
+  ExposureFrames e;
+  for (bool columns : {true, false}) {
+    for (int bit = 0; bit < kBits; ++bit) {
+      e.frames.push_back(CameraFrame(columns, bit, false));
+      e.frames.push_back(CameraFrame(columns, bit, true));
+    }
+  }
+  e.frames.push_back(cv::Mat(kCamera, CV_8UC1, cv::Scalar(200)));
+  e.frames.push_back(cv::Mat(kCamera, CV_8UC1, cv::Scalar(20)));
+  view.exposures.push_back(std::move(e));
+  return view;
+}
+
+TEST(CoarseDecodeTest, EveryBitRequiredDecodesNothingWhenFineStripesBlur) {
+  absl::StatusOr<DecodedView> all = Decode(SyntheticView());
+  ASSERT_THAT(all, ::hdrstereo::testing::IsOk());
+  EXPECT_EQ(all->valid_pixels, 0);
+}
+
+// Each pixel reads its code down to its last usable bit and stands for the
+// middle of what those bits allow (or for the stripe edge it straddles):
+// within half that range plus half the blurred footprint of the truth.
+TEST(CoarseDecodeTest, ReadsTheUsableBitsAndStandsForTheirRange) {
+  DecodeOptions options;
+  options.min_bits = 6;
+  ASSERT_OK_AND_ASSIGN(DecodedView d, Decode(SyntheticView(), options));
+  EXPECT_GE(d.valid_pixels, kCamera.area() * 8 / 10);  // measured 85 %
+  EXPECT_EQ(d.column_code_bits, kBits);
+  int worst_bits = 0;
+  double worst_excess = 0;
+  for (int y = 0; y < kCamera.height; ++y) {
+    for (int x = 0; x < kCamera.width; ++x) {
+      const int c = d.column.at<int32_t>(y, x);
+      if (c < 0) continue;
+      const int bits = d.column_bits.at<uint8_t>(y, x);
+      EXPECT_GE(bits, 6);
+      worst_bits = std::max(worst_bits, bits);
+      const double half = 0.5 * (1 << (kBits - bits));
+      worst_excess = std::max(worst_excess,
+                              std::abs(c - TrueColumn(x)) - half - 2.33 - 0.5);
+    }
+  }
+  // Stripes 2 columns wide cannot be seen through 4.65.
+  EXPECT_LE(worst_bits, kBits - 1);
+  EXPECT_LE(worst_excess, 0.0);
+
+  // The sub-pixel codes interpolate the coarse codes back to the truth.
+  const SubpixelCodes codes = ComputeSubpixelCodes(d);
+  std::vector<double> err;
+  for (int y = 0; y < kCamera.height; ++y) {
+    for (int x = 0; x < kCamera.width; ++x) {
+      const float u = codes.column.at<float>(y, x);
+      if (!std::isnan(u)) err.push_back(std::abs(u - TrueColumn(x)));
+    }
+  }
+  ASSERT_GT(err.size(), static_cast<size_t>(kCamera.area() * 8 / 10));
+  std::nth_element(err.begin(), err.begin() + err.size() / 2, err.end());
+  EXPECT_LE(err[err.size() / 2], 1.0) << "median |continuous - true| column";
+}
+
+constexpr char kLayout[] = R"({
+  "format": "hdrstereo-sl-layout-1",
+  "projector": {"width": 1000, "height": 700},
+  "files": "cam_{view}/img{frame:03}.png",
+  "views": ["a"],
+  "white": 0,
+  "black": 41,
+  "columns": {"bits": 10, "first_frame": 1, "bit_order": "lsb-first",
+              "inverse": "blocked", "code_offset": 12},
+  "rows": {"bits": 10, "first_frame": 21, "code_offset": 162},
+  "min_bits": 6
+})";
+
+// Another lab's order (columns LSB first, all normals then all inverses;
+// rows MSB first interleaved; white first, black last) written to files and
+// read back through the layout gives exactly the frames in our order.
+TEST(FrameLayoutTest, LoadsFramesInTheLayoutsOrder) {
+  ASSERT_OK_AND_ASSIGN(FrameLayout layout, ParseFrameLayout(kLayout));
+  EXPECT_EQ(layout.FileName(7, "a"), "cam_a/img007.png");
+  EXPECT_EQ(layout.columns.Frame(0, false), 10);  // MSB, LSB first
+  EXPECT_EQ(layout.columns.Frame(9, false), 1);
+  EXPECT_EQ(layout.columns.Frame(9, true), 11);
+  EXPECT_EQ(layout.rows.Frame(0, true), 22);
+  const ViewFrames ours = SyntheticView();
+  const std::vector<cv::Mat>& f = ours.exposures[0].frames;
+  ::hdrstereo::testing::TempDir dir;
+  std::filesystem::create_directories(dir / "cam_a");
+  auto write = [&](int frame, const cv::Mat& image) {
+    ASSERT_OK(io::WritePng(dir / layout.FileName(frame, "a"), image));
+  };
+  for (int bit = 0; bit < kBits; ++bit) {
+    write(layout.columns.Frame(bit, false), f[2 * bit]);
+    write(layout.columns.Frame(bit, true), f[2 * bit + 1]);
+    write(layout.rows.Frame(bit, false), f[2 * kBits + 2 * bit]);
+    write(layout.rows.Frame(bit, true), f[2 * kBits + 2 * bit + 1]);
+  }
+  write(layout.white, f[4 * kBits]);
+  write(layout.black, f[4 * kBits + 1]);
+  ASSERT_OK_AND_ASSIGN(ViewFrames loaded,
+                       LoadLayoutView(layout, dir.path(), "a"));
+  EXPECT_EQ(loaded.projector_size, kProjector);
+  EXPECT_EQ(loaded.column_offset, kColumnOffset);
+  EXPECT_EQ(loaded.row_offset, kRowOffset);
+  ASSERT_EQ(loaded.exposures[0].frames.size(), f.size());
+  for (size_t i = 0; i < f.size(); ++i) {
+    EXPECT_EQ(cv::norm(loaded.exposures[0].frames[i], f[i], cv::NORM_INF), 0)
+        << "frame " << i;
+  }
+
+  // A missing file is named; an unknown view is refused.
+  std::filesystem::remove(dir / "cam_a" / "img013.png");
+  EXPECT_THAT(LoadLayoutView(layout, dir.path(), "a"),
+              StatusIs(absl::StatusCode::kNotFound, HasSubstr("img013.png")));
+  EXPECT_THAT(LoadLayoutView(layout, dir.path(), "b"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("the layout has no view \"b\"")));
+}
+
+TEST(FrameLayoutTest, BadLayoutsNameTheField) {
+  auto parse = [](const std::string& text) { return ParseFrameLayout(text); };
+  EXPECT_THAT(parse("{"), StatusIs(absl::StatusCode::kInvalidArgument,
+                                   HasSubstr("is not JSON")));
+  EXPECT_THAT(parse(R"({"format": "x"})"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("format: must be \"hdrstereo-sl-layout-1\"")));
+  std::string text = kLayout;
+  auto with = [&](const std::string& from, const std::string& to) {
+    std::string t = text;
+    t.replace(t.find(from), from.size(), to);
+    return parse(t);
+  };
+  EXPECT_THAT(with("\"bits\": 10, \"first_frame\": 1",
+                   "\"bits\": 9, \"first_frame\": 1"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("columns.bits: 9 bits cannot code 1000 "
+                                 "projector columns with code offset 12")));
+  EXPECT_THAT(with("\"black\": 41", "\"black\": 0"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("black: is the same frame as white")));
+  EXPECT_THAT(with("\"first_frame\": 21", "\"first_frame\": 20"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("is already used by another pattern")));
+  EXPECT_THAT(with("\"lsb-first\"", "\"backwards\""),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("columns.bit_order: must be one of")));
+  EXPECT_THAT(with("\"views\": [\"a\"]", "\"views\": []"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("views: missing")));
+  EXPECT_THAT(with("\"min_bits\": 6", "\"min_bits\": 12"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("min_bits: is more than the bits")));
+}
+
+}  // namespace
+}  // namespace hdrstereo::structured_light
