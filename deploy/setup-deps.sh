@@ -16,11 +16,9 @@ packages=(
   libgphoto2-dev libserialport-dev libx11-dev
   # processing
   libopencv-dev libopencv-contrib-dev libraw-dev libtiff-dev libopenexr-dev
-  libmaxflow-dev
+  libmaxflow-dev zlib1g-dev
   # daemon and tools
-  zlib1g-dev libsqlite3-dev sqlite3 libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev
-  # webhooks (HTTP client) and the Prometheus endpoint
-  libcurl4-openssl-dev prometheus-cpp-dev
+  libsqlite3-dev sqlite3 libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev xvfb x11-apps
   # report test: headless browser
