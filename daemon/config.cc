@@ -171,6 +171,14 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
                  "Processing jobs run in parallel")
       ->check(CLI::Range(1, 64))
       ->capture_default_str();
+  app.add_option("--disk-margin-mb", config.disk_margin_mb,
+                 "Free space a capture must leave on the data root")
+      ->check(CLI::Range(int64_t{0}, int64_t{1} << 30))
+      ->capture_default_str();
+  app.add_option("--frame-bytes-guess-mb", config.frame_bytes_guess_mb,
+                 "Frame size assumed before a capture of its kind is on disk")
+      ->check(CLI::Range(int64_t{0}, int64_t{1} << 20))
+      ->capture_default_str();
   app.add_option("--resume-interrupted", config.resume_interrupted,
                  "Resume jobs a stop interrupted")
       ->capture_default_str();

@@ -43,6 +43,10 @@ struct Config {
   // lets scripts and tests use --listen 127.0.0.1:0.
   std::filesystem::path ready_file;
   int processing_threads = 2;
+  // The disk guard (daemon/jobs/disk_guard.h): free space kept in reserve,
+  // and the size of a frame before any capture of its kind is on disk.
+  int64_t disk_margin_mb = 256;
+  int64_t frame_bytes_guess_mb = 32;
   bool resume_interrupted = true;
   // Test only: the scheduler's clock runs this many times as fast as the
   // wall clock, so a test sees "* * * * *" come due within a second.

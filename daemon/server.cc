@@ -113,9 +113,9 @@ Server::Server(std::unique_ptr<store::Store> store,
       engine_(
           *store_,
           [rig = hardware_->rig.get(),
-           truth = TruthWriterFor(hardware_->world.get())](
-              jobs::JobContext& context) {
-            return jobs::RunCaptureJob(*rig, context, truth);
+           truth = TruthWriterFor(hardware_->world.get()),
+           disk = &disk_guard_](jobs::JobContext& context) {
+            return jobs::RunCaptureJob(*rig, context, truth, disk);
           },
           [rig = hardware_->rig.get(), environment = ProcessingEnvironmentFor(
                                            config)](jobs::JobContext& context) {
@@ -123,17 +123,23 @@ Server::Server(std::unique_ptr<store::Store> store,
           },
           {.processing_threads = config.processing_threads,
            .resume_interrupted = config.resume_interrupted}),
-      server_service_(*store_, authenticator_, config.hardware, absl::Now()),
+      disk_guard_(*store_,
+                  {.margin_bytes = config.disk_margin_mb << 20,
+                   .processing_headroom = 1.0,
+                   .frame_bytes_guess = config.frame_bytes_guess_mb << 20}),
+      server_service_(*store_, disk_guard_, authenticator_, config.hardware,
+                      absl::Now()),
       sessions_service_(*store_),
       hardware_service_(*hardware_->rig, *rig_lock_, authenticator_),
-      jobs_service_(engine_, *hardware_->rig, authenticator_),
+      jobs_service_(engine_, *hardware_->rig, disk_guard_, authenticator_),
       scheduler_(
           *store_,
           [this](absl::string_view session, const v1::CapturePlan& plan,
                  absl::string_view by) -> absl::StatusOr<int64_t> {
-            ASSIGN_OR_RETURN(store::JobRecord job,
-                             jobs::SubmitCapture(engine_, *hardware_->rig,
-                                                 session, plan, by));
+            ASSIGN_OR_RETURN(
+                store::JobRecord job,
+                jobs::SubmitCapture(engine_, *hardware_->rig, session, plan, by,
+                                    &disk_guard_));
             return job.id;
           },
           [this](absl::string_view session,

@@ -13,6 +13,7 @@
 #include "absl/status/statusor.h"
 #include "daemon/config.h"
 #include "daemon/hardware_setup.h"
+#include "daemon/jobs/disk_guard.h"
 #include "daemon/jobs/job_engine.h"
 #include "daemon/jobs/rig_lock.h"
 #include "daemon/jobs/scheduler.h"
@@ -59,6 +60,7 @@ class Server {
   rpc::Authenticator authenticator_;
   rpc::AuditLog audit_log_;
   jobs::JobEngine engine_;
+  jobs::DiskGuard disk_guard_;
   rpc::ServerService server_service_;
   rpc::SessionsService sessions_service_;
   rpc::HardwareService hardware_service_;

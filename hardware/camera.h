@@ -65,6 +65,13 @@ struct CameraInfo {
   double max_exposure_s = 0;
 };
 
+// Where the camera put a file before it was downloaded.
+enum class StoredTo {
+  kUnknown,
+  kRam,   // the camera's internal RAM: what captures ask for
+  kCard,  // the memory card: the capture target changed behind our back
+};
+
 // One captured image as the camera delivered it (encoded file bytes).
 struct Frame {
   std::string bytes;
@@ -74,6 +81,9 @@ struct Frame {
   int width_px = 0;       // 0 when the driver does not know without decoding
   int height_px = 0;
   absl::Time camera_time = absl::InfinitePast();  // unknown if InfinitePast
+  // The camera's name for the file ("IMG_0042.JPG"); "" when unknown.
+  std::string camera_file_name;
+  StoredTo stored_to = StoredTo::kUnknown;
 };
 
 // Every call blocks until done or its timeout; none throws. Errors:
@@ -92,6 +102,12 @@ class Camera {
   virtual absl::StatusOr<ExposureSettings> Settings() = 0;
   // Captures with the current settings and downloads the file.
   virtual absl::StatusOr<Frame> Capture() = 0;
+  // Call before a group of captures: points the capture target at the
+  // camera's RAM (where Capture() expects files) and discards the events
+  // and files the camera still holds from before, so that the next Capture()
+  // returns the next image, not an old one. Returns how many files it
+  // discarded.
+  virtual absl::StatusOr<int> PrepareCaptureGroup() = 0;
 };
 
 }  // namespace hdrstereo::hardware

@@ -34,20 +34,25 @@ int RunStatus(const Client& client) {
   if (client.options().json) {
     PrintJson(std::cout, info);
   } else {
-    PrintFields(std::cout,
-                {
-                    {"server", client.options().connection.server},
-                    {"health", ServingStatusName(health.status())},
-                    {"version", info.version()},
-                    {"libraries",
-                     absl::StrFormat("gRPC %s, OpenCV %s, SQLite %s",
-                                     info.grpc_version(), info.opencv_version(),
-                                     info.sqlite_version())},
-                    {"schema", absl::StrCat(info.schema_version())},
-                    {"data root", info.data_root()},
-                    {"hardware", info.hardware_mode()},
-                    {"uptime", absl::StrCat(info.uptime_s(), " s")},
-                });
+    PrintFields(
+        std::cout,
+        {
+            {"server", client.options().connection.server},
+            {"health", ServingStatusName(health.status())},
+            {"version", info.version()},
+            {"libraries",
+             absl::StrFormat("gRPC %s, OpenCV %s, SQLite %s",
+                             info.grpc_version(), info.opencv_version(),
+                             info.sqlite_version())},
+            {"schema", absl::StrCat(info.schema_version())},
+            {"data root", info.data_root()},
+            {"disk", absl::StrFormat("%.1f MB free, %.1f MB promised to "
+                                     "unfinished captures",
+                                     info.data_root_free_bytes() / 1e6,
+                                     info.pending_capture_bytes() / 1e6)},
+            {"hardware", info.hardware_mode()},
+            {"uptime", absl::StrCat(info.uptime_s(), " s")},
+        });
   }
   return health.status() == grpc::health::v1::HealthCheckResponse::SERVING
              ? kExitOk

@@ -3,6 +3,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 #include <future>
 #include <map>
@@ -12,6 +13,7 @@
 #include "absl/cleanup/cleanup.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "daemon/jobs/frame_check.h"
 #include "daemon/store/frame_repository.h"
 #include "processing/base/status_macros.h"
 #include "processing/io/capture_layout.h"
@@ -73,6 +75,18 @@ absl::Status RemoveUnrecordedFiles(
         absl::StrCat("cannot clean ", root.string(), ": ", ec.message()));
   }
   return absl::OkStatus();
+}
+
+// What a recorded frame said of itself when it was taken.
+CameraReport ReportOf(const store::FrameRecord& frame) {
+  CameraReport report;
+  report.exposure_s = frame.camera_exposure_s;
+  report.iso = frame.iso;
+  report.aperture_f = frame.aperture_f;
+  report.time_ms = frame.camera_time_ms;
+  report.file_name = frame.camera_file_name;
+  report.sha256 = frame.sha256;
+  return report;
 }
 
 struct BaseSettings {
@@ -145,8 +159,8 @@ absl::Status FinishPending(std::future<absl::Status>& pending) {
   return pending.get();
 }
 
-// Hashes, checks, writes (atomically) and records one frame; the row and the
-// progress it advances are one transaction.
+// Checks that it decodes, writes (atomically) and records one frame (hashed
+// already); the row and the progress it advances are one transaction.
 absl::Status PersistFrame(JobContext& context, store::FrameRepository& frames,
                           const std::string& session, store::FrameRecord record,
                           const std::string& bytes, int64_t done, int64_t total,
@@ -166,14 +180,19 @@ absl::Status PersistFrame(JobContext& context, store::FrameRepository& frames,
     record.width_px = decoded.cols;
     record.height_px = decoded.rows;
   }
-  record.sha256 = io::Sha256Hex(bytes);
   if (absl::Status s =
           context.store().files().WriteSessionFile(session, record.path, bytes);
       !s.ok()) {
     return s;
   }
-  return context.Progress(done, total, step,
-                          [&] { return frames.InsertLocked(record); });
+  absl::Status recorded = context.Progress(
+      done, total, step, [&] { return frames.InsertLocked(record); });
+  if (!recorded.ok()) {
+    // No file without its row (e.g. the database could not grow).
+    std::error_code ec;
+    fs::remove(context.store().files().SessionDir(session) / record.path, ec);
+  }
+  return recorded;
 }
 
 }  // namespace
@@ -211,7 +230,8 @@ absl::Status CheckDevicesFor(const v1::CapturePlan& plan,
 }
 
 absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
-                           const TruthWriter& write_truth) {
+                           const TruthWriter& write_truth,
+                           const DiskGuard* disk) {
   const store::JobRecord& job = context.job();
   v1::CapturePlan plan;
   if (!plan.ParseFromString(job.request)) {
@@ -264,15 +284,6 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   if (!state->homed) {
     if (absl::Status s = stage.Home(); !s.ok()) return s;
   }
-  const BaseSettings base = SettingsOf(plan);
-  double position = std::nan("");
-  double exposure = std::nan("");
-  std::string showing;  // pattern id on the projector, "" = blank
-  if (projector != nullptr) {
-    if (absl::Status s = projector->Blank(); !s.ok()) return s;
-  }
-  const int views = ViewsOf(plan);
-
   // Time inside device calls versus the whole loop: the rest is the daemon's
   // own overhead (pattern rendering, hashing, writing, recording).
   absl::Duration device_time;
@@ -282,6 +293,31 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
     device_time += absl::Now() - start;
     return result;
   };
+  const BaseSettings base = SettingsOf(plan);
+  double position = std::nan("");
+  double exposure = std::nan("");
+  hardware::ExposureSettings in_effect;  // as Configure last returned them
+  // Every frame is checked against the camera's own report; frames
+  // recorded before a restart count as already seen.
+  FrameChecker checker;
+  for (const auto& [sequence, frame] : *done) checker.Remember(ReportOf(frame));
+  auto prepare_camera = [&]() -> absl::Status {
+    absl::StatusOr<int> discarded =
+        timed([&] { return camera.PrepareCaptureGroup(); });
+    if (!discarded.ok()) return discarded.status();
+    if (*discarded > 0) {
+      context.Warn(absl::StrCat("discarded ", *discarded,
+                                " file(s) the camera still held from before"));
+    }
+    return absl::OkStatus();
+  };
+  std::string showing;  // pattern id on the projector, "" = blank
+  if (projector != nullptr) {
+    if (absl::Status s = projector->Blank(); !s.ok()) return s;
+  }
+  const int views = ViewsOf(plan);
+  if (absl::Status s = prepare_camera(); !s.ok()) return s;
+
   const absl::Time loop_start = absl::Now();
   const int64_t first_count = count;
   // At most one frame is being written while the next is captured; it is
@@ -291,9 +327,23 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
     if (pending.valid()) pending.wait();
   };
 
+  // The next frame must fit with room to spare, checked before it is taken:
+  // a disk found full by a failing write could not even record the job's
+  // end.
+  int64_t frame_bytes = 0;
+  if (disk != nullptr) {
+    absl::StatusOr<int64_t> per_frame = disk->BytesPerFrame(capture->kind);
+    if (!per_frame.ok()) return per_frame.status();
+    frame_bytes = *per_frame;
+  }
   for (const FrameSpec& spec : specs) {
     if (done->contains(spec.sequence)) continue;
     if (absl::Status s = context.Checkpoint(); !s.ok()) return s;
+    if (disk != nullptr) {
+      if (absl::Status s = disk->CheckRoomForFrame(frame_bytes); !s.ok()) {
+        return s;
+      }
+    }
     if (!(std::abs(position - spec.stage_position_mm) < 1e-6)) {
       moved = true;
       if (absl::Status s =
@@ -340,10 +390,34 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
       });
       if (!applied.ok()) return applied.status();
       exposure = spec.exposure_s;
+      in_effect = *applied;
     }
-    absl::StatusOr<hardware::Frame> frame =
-        timed([&] { return camera.Capture(); });
-    if (!frame.ok()) return frame.status();
+    // Taken, then checked against what the camera reports; a frame that
+    // does not match is taken once more (after re-preparing the camera)
+    // before the job fails.
+    absl::StatusOr<hardware::Frame> frame;
+    CameraReport report;
+    std::optional<Mismatch> first_mismatch;
+    for (int attempt = 0;; ++attempt) {
+      frame = timed([&] { return camera.Capture(); });
+      if (!frame.ok()) return frame.status();
+      report = ReadCameraReport(*frame);
+      std::optional<Mismatch> mismatch = checker.Check(in_effect, report);
+      if (!mismatch.has_value()) break;
+      if (attempt > 0) {
+        return absl::DataLossError(absl::StrCat(
+            "frame ", Describe(spec, views),
+            " failed verification twice: ", first_mismatch->message, "; then ",
+            mismatch->message, "; nothing was recorded for it"));
+      }
+      context.Warn(absl::StrCat("frame ", Describe(spec, views), ": ",
+                                mismatch->message, "; taking it again"));
+      first_mismatch = std::move(mismatch);
+      if (absl::Status s = prepare_camera(); !s.ok()) return s;
+    }
+    checker.Remember(report);
+    frame_bytes =
+        std::max(frame_bytes, static_cast<int64_t>(frame->bytes.size()));
 
     store::FrameRecord record;
     record.capture_id = capture->id;
@@ -358,9 +432,12 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
     record.width_px = frame->width_px;
     record.height_px = frame->height_px;
     record.path = absl::StrCat(spec.relative_stem, ".", frame->extension);
-    if (frame->camera_time != absl::InfinitePast()) {
-      record.camera_time_ms = absl::ToUnixMillis(frame->camera_time);
-    }
+    record.camera_time_ms = report.time_ms;
+    record.camera_exposure_s = report.exposure_s;
+    record.iso = report.iso;
+    record.aperture_f = report.aperture_f;
+    record.camera_file_name = report.file_name;
+    record.sha256 = report.sha256;
     // The previous frame must be recorded before this one (progress is
     // sequential); then this one is persisted while the rig takes the next.
     if (absl::Status s = FinishPending(pending); !s.ok()) return s;
@@ -414,7 +491,8 @@ absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
                                                const hardware::Rig& rig,
                                                absl::string_view session,
                                                const v1::CapturePlan& plan,
-                                               absl::string_view submitted_by) {
+                                               absl::string_view submitted_by,
+                                               const DiskGuard* disk) {
   // Limits come from the stage; without one, say so before judging the plan.
   absl::StatusOr<RigLimits> limits = LimitsOf(rig);
   if (!limits.ok()) return limits.status();
@@ -422,12 +500,16 @@ absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
   if (!normal.ok()) return normal.status();
   if (absl::Status s = CheckDevicesFor(*normal, rig); !s.ok()) return s;
   const size_t frames = ExpandPlan(*normal, *limits, 0).size();
-  return engine.Submit(
-      store::JobKind::kCapture, session, normal->SerializeAsString(),
-      static_cast<int64_t>(frames),
-      absl::StrCat("queued ", io::CaptureKindName(*PlanKind(*normal)),
-                   " capture of ", frames, " frames"),
-      submitted_by);
+  const io::CaptureKind kind = *PlanKind(*normal);
+  if (disk != nullptr) {
+    RETURN_IF_ERROR(disk->CheckRoomFor(kind, static_cast<int64_t>(frames)));
+  }
+  return engine.Submit(store::JobKind::kCapture, session,
+                       normal->SerializeAsString(),
+                       static_cast<int64_t>(frames),
+                       absl::StrCat("queued ", io::CaptureKindName(kind),
+                                    " capture of ", frames, " frames"),
+                       submitted_by);
 }
 
 }  // namespace hdrstereo::jobs

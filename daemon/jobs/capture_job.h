@@ -12,6 +12,7 @@
 
 #include "absl/status/status.h"
 #include "daemon/jobs/capture_plan.h"
+#include "daemon/jobs/disk_guard.h"
 #include "daemon/jobs/job_engine.h"
 #include "hardware/rig.h"
 
@@ -27,13 +28,15 @@ absl::Status CheckDevicesFor(const v1::CapturePlan& plan,
                              const hardware::Rig& rig);
 
 // Validates and normalises `plan` against the rig, checks its devices and
-// queues a capture job for `session` on behalf of `submitted_by`: what
-// Jobs.SubmitCapture and the scheduler both do.
+// (with `disk`) that its frames fit on the data root (RESOURCE_EXHAUSTED
+// otherwise), and queues a capture job for `session` on behalf of
+// `submitted_by`: what Jobs.SubmitCapture and the scheduler both do.
 absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
                                                const hardware::Rig& rig,
                                                absl::string_view session,
                                                const v1::CapturePlan& plan,
-                                               absl::string_view submitted_by);
+                                               absl::string_view submitted_by,
+                                               const DiskGuard* disk = nullptr);
 
 // Writes the exact truth of a stereo pair taken at `left_mm` and
 // `left_mm + baseline_mm` into `dir` (simulation only).
@@ -43,8 +46,11 @@ using TruthWriter = std::function<absl::Status(
 // The job runner for capture jobs (JobKind::kCapture); the job's request is
 // a serialized, normalised v1::CapturePlan. With `write_truth`, a finished
 // bracketed-stereo capture also gets its truth in io::TruthDir.
+// With `disk`, each frame is taken only when it fits (see
+// DiskGuard::CheckRoomForFrame); otherwise the job fails RESOURCE_EXHAUSTED.
 absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
-                           const TruthWriter& write_truth = nullptr);
+                           const TruthWriter& write_truth = nullptr,
+                           const DiskGuard* disk = nullptr);
 
 }  // namespace hdrstereo::jobs
 

@@ -139,7 +139,7 @@ grpc::Status JobsService::SubmitCapture(grpc::ServerContext* context,
   absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
   if (!caller.ok()) return ToGrpcStatus(caller.status());
   return Reply(jobs::SubmitCapture(engine_, rig_, request->session(),
-                                   request->plan(), caller->name),
+                                   request->plan(), caller->name, &disk_),
                response);
 }
 

@@ -2,6 +2,7 @@
 #ifndef HDRSTEREO_DAEMON_RPC_JOBS_SERVICE_H_
 #define HDRSTEREO_DAEMON_RPC_JOBS_SERVICE_H_
 
+#include "daemon/jobs/disk_guard.h"
 #include "daemon/jobs/job_engine.h"
 #include "daemon/rpc/authenticator.h"
 #include "hardware/rig.h"
@@ -14,8 +15,11 @@ namespace hdrstereo::rpc {
 class JobsService final : public v1::Jobs::Service {
  public:
   JobsService(jobs::JobEngine& engine, hardware::Rig& rig,
-              Authenticator& authenticator)
-      : engine_(engine), rig_(rig), authenticator_(authenticator) {}
+              const jobs::DiskGuard& disk, Authenticator& authenticator)
+      : engine_(engine),
+        rig_(rig),
+        disk_(disk),
+        authenticator_(authenticator) {}
 
   grpc::Status SubmitCapture(grpc::ServerContext* context,
                              const v1::SubmitCaptureRequest* request,
@@ -45,6 +49,7 @@ class JobsService final : public v1::Jobs::Service {
  private:
   jobs::JobEngine& engine_;
   hardware::Rig& rig_;
+  const jobs::DiskGuard& disk_;
   Authenticator& authenticator_;
 };
 

@@ -24,6 +24,12 @@ grpc::Status ServerService::GetInfo(grpc::ServerContext*,
   response->set_grpc_version(grpc::Version());
   response->set_opencv_version(cv::getVersionString());
   response->set_sqlite_version(sqlite3_libversion());
+  absl::StatusOr<int64_t> free = disk_.FreeBytes();
+  if (!free.ok()) return ToGrpcStatus(free.status());
+  response->set_data_root_free_bytes(*free);
+  absl::StatusOr<int64_t> pending = disk_.PendingCaptureBytes();
+  if (!pending.ok()) return ToGrpcStatus(pending.status());
+  response->set_pending_capture_bytes(*pending);
   return grpc::Status::OK;
 }
 

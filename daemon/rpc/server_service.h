@@ -5,19 +5,23 @@
 #include <string>
 
 #include "absl/time/time.h"
+#include "daemon/jobs/disk_guard.h"
 #include "daemon/rpc/authenticator.h"
 #include "daemon/store/store.h"
 #include "hdrstereo/v1/server.grpc.pb.h"
 
 namespace hdrstereo::rpc {
 
-// Server.GetInfo: versions, data root, hardware mode, uptime; WhoAmI: the
+// Server.GetInfo: versions, data root and its free space, hardware mode,
+// uptime; WhoAmI: the
 // caller as the daemon sees it.
 class ServerService final : public v1::Server::Service {
  public:
-  ServerService(store::Store& store, Authenticator& authenticator,
-                std::string hardware_mode, absl::Time start_time)
+  ServerService(store::Store& store, const jobs::DiskGuard& disk,
+                Authenticator& authenticator, std::string hardware_mode,
+                absl::Time start_time)
       : store_(store),
+        disk_(disk),
         authenticator_(authenticator),
         hardware_mode_(std::move(hardware_mode)),
         start_time_(start_time) {}
@@ -31,6 +35,7 @@ class ServerService final : public v1::Server::Service {
 
  private:
   store::Store& store_;
+  const jobs::DiskGuard& disk_;
   Authenticator& authenticator_;
   std::string hardware_mode_;
   absl::Time start_time_;

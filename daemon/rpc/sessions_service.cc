@@ -277,6 +277,10 @@ grpc::Status SessionsService::ListFrames(grpc::ServerContext*,
       *out->mutable_camera_time() =
           TimeUtil::MillisecondsToTimestamp(*f.camera_time_ms);
     }
+    if (f.camera_exposure_s) out->set_camera_exposure_s(*f.camera_exposure_s);
+    if (f.iso) out->set_iso(*f.iso);
+    if (f.aperture_f) out->set_aperture_f(*f.aperture_f);
+    out->set_camera_file_name(f.camera_file_name);
   }
   return grpc::Status::OK;
 }

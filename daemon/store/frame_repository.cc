@@ -12,7 +12,8 @@ namespace {
 constexpr absl::string_view kSelectFrame = R"sql(
 SELECT f.id, f.capture_id, c.kind, f.sequence, f.view_index,
        f.stage_position_mm, f.exposure_s, f.pattern, f.inverse, f.format,
-       f.width_px, f.height_px, f.path, f.sha256, f.camera_time_ms
+       f.width_px, f.height_px, f.path, f.sha256, f.camera_time_ms,
+       f.camera_exposure_s, f.iso, f.aperture_f, f.camera_file_name
 FROM frames f JOIN captures c ON c.id = f.capture_id
 )sql";
 
@@ -49,6 +50,10 @@ absl::StatusOr<FrameRecord> ReadFrame(const Statement& stmt) {
   f.path = stmt.ColumnText(12);
   f.sha256 = stmt.ColumnText(13);
   if (!stmt.ColumnIsNull(14)) f.camera_time_ms = stmt.ColumnInt(14);
+  if (!stmt.ColumnIsNull(15)) f.camera_exposure_s = stmt.ColumnDouble(15);
+  if (!stmt.ColumnIsNull(16)) f.iso = stmt.ColumnDouble(16);
+  if (!stmt.ColumnIsNull(17)) f.aperture_f = stmt.ColumnDouble(17);
+  f.camera_file_name = stmt.ColumnText(18);
   return f;
 }
 
@@ -208,8 +213,9 @@ absl::Status FrameRepository::InsertLocked(const FrameRecord& f) {
   absl::StatusOr<Statement> insert = store_.db().Prepare(R"sql(
 INSERT INTO frames (capture_id, sequence, view_index, stage_position_mm,
   exposure_s, pattern, inverse, format, width_px, height_px, path, sha256,
-  camera_time_ms)
-VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13))sql");
+  camera_time_ms, camera_exposure_s, iso, aperture_f, camera_file_name)
+VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16,
+  ?17))sql");
   if (!insert.ok()) return insert.status();
   insert->Bind(1, f.capture_id)
       .Bind(2, int64_t{f.sequence})
@@ -228,6 +234,17 @@ VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13))sql");
   } else {
     insert->BindNull(13);
   }
+  int column = 14;
+  for (const std::optional<double>& value :
+       {f.camera_exposure_s, f.iso, f.aperture_f}) {
+    if (value.has_value()) {
+      insert->Bind(column, *value);
+    } else {
+      insert->BindNull(column);
+    }
+    ++column;
+  }
+  insert->Bind(17, f.camera_file_name);
   return insert->Run();
 }
 

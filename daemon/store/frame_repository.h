@@ -43,6 +43,12 @@ struct FrameRecord {
   std::string path;  // relative to the session folder
   std::string sha256;
   std::optional<int64_t> camera_time_ms;
+  // What the camera reported (EXIF, or LibRaw for RAW); nullopt when the
+  // file carries no such field.
+  std::optional<double> camera_exposure_s;
+  std::optional<double> iso;
+  std::optional<double> aperture_f;
+  std::string camera_file_name;  // "" when the camera does not say
 };
 
 class FrameRepository {

@@ -13,7 +13,7 @@ namespace {
 
 // Append only: a released migration is never edited. Times are Unix
 // milliseconds (UTC); lengths in millimetres; exposures in seconds.
-constexpr std::array<absl::string_view, 4> kMigrations = {
+constexpr std::array<absl::string_view, 5> kMigrations = {
     // 1: the tables of DESIGN.md.
     R"sql(
 CREATE TABLE rigs (
@@ -197,6 +197,14 @@ CREATE TABLE rig_lock (
   lock_time_ms INTEGER NOT NULL,
   expire_time_ms INTEGER NOT NULL
 );
+)sql",
+    // 5: unattended runs. What the camera reported for each frame (EXIF or
+    // RAW metadata; NULL when the file carries none) and its own file name.
+    R"sql(
+ALTER TABLE frames ADD COLUMN camera_exposure_s REAL;
+ALTER TABLE frames ADD COLUMN iso REAL;
+ALTER TABLE frames ADD COLUMN aperture_f REAL;
+ALTER TABLE frames ADD COLUMN camera_file_name TEXT NOT NULL DEFAULT '';
 )sql",
 };
 

@@ -633,7 +633,42 @@ absl::StatusOr<hardware::Frame> Gphoto2Camera::DownloadLocked(
   frame.extension = FileExtension(name);
   frame.exposure_s = exposure_s_;
   frame.camera_time = file->mtime;
+  frame.camera_file_name = name;
+  // Card storage shows as /store_XXXXXXXX/...; RAM captures come from "/".
+  frame.stored_to = absl::StartsWith(folder, "/store_")
+                        ? hardware::StoredTo::kCard
+                        : hardware::StoredTo::kRam;
   return frame;
+}
+
+absl::StatusOr<int> Gphoto2Camera::PrepareCaptureGroup() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  absl::Status target = SetCaptureTargetLocked(options_.capture_target);
+  if (!target.ok() && !absl::IsNotFound(target)) return target;
+  // Files the camera announced but nobody took (an earlier capture that
+  // timed out, a shot from the body's button) would otherwise be taken for
+  // the next frame: delete them. Bounded: at most 64 events.
+  int discarded = 0;
+  for (int i = 0; i < 64; ++i) {
+    auto event = std::make_shared<CameraEvent>();
+    const absl::Duration wait = options_.drain_event_wait;
+    absl::Status status =
+        Call("drain pending camera events", wait + options_.call_timeout,
+             [event, wait](Gphoto2Api& api) {
+               return api.WaitForEvent(wait, event.get());
+             });
+    if (!status.ok()) return status;
+    if (event->type == EventType::kTimeout) break;
+    if (event->type != EventType::kFileAdded) continue;
+    Call(absl::StrCat("delete pending ", JoinPath(event->folder, event->name)),
+         options_.call_timeout,
+         [folder = event->folder, name = event->name](Gphoto2Api& api) {
+           return api.DeleteFile(folder, name);
+         })
+        .IgnoreError();
+    ++discarded;
+  }
+  return discarded;
 }
 
 absl::StatusOr<std::vector<ConfigWidget>> Gphoto2Camera::Config() {

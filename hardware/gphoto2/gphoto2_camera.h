@@ -83,6 +83,8 @@ struct Gphoto2Options {
   absl::Duration capture_timeout = absl::Seconds(30);
   // Deadline of one file download.
   absl::Duration download_timeout = absl::Seconds(60);
+  // How long PrepareCaptureGroup waits for each pending event.
+  absl::Duration drain_event_wait = absl::Milliseconds(100);
   // How long to wait for the second file of a RAW+JPEG capture.
   absl::Duration second_file_timeout = absl::Seconds(5);
   // GP_ERROR_CAMERA_BUSY handling (see above).
@@ -124,6 +126,10 @@ class Gphoto2Camera final : public hardware::Camera {
   // through this object (a change on the camera body shows after the next
   // Settings() or Configure()); camera_time the file's time on the camera.
   absl::StatusOr<hardware::Frame> Capture() override;
+  // Sets `capture_target` again (cameras have been seen to switch it), then
+  // waits for camera events up to `drain_event_wait` each, deleting every
+  // announced file, until one wait times out (at most 64 events).
+  absl::StatusOr<int> PrepareCaptureGroup() override;
 
   // The whole current configuration, flattened (e.g. for a status page).
   absl::StatusOr<std::vector<ConfigWidget>> Config();

@@ -22,6 +22,7 @@ namespace hdrstereo::sim {
 struct ExposureSettings {
   double exposure_s = 1.0 / 125;
   double iso = 100;
+  double aperture_f = 8;  // not rendered (pinhole); written to EXIF
 };
 
 // Signal in electrons (CV_32FC3, BGR), noise included, not yet clipped.

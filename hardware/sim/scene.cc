@@ -443,12 +443,17 @@ Scene ParseSceneJson(const Json& root) {
     if (j.contains("camera")) {
       const Json& c = j.at("camera");
       const std::string p = "faults.camera";
-      CheckKeys(c, p, {"busy_first_calls", "timeout", "disconnect", "corrupt"});
+      CheckKeys(c, p,
+                {"busy_first_calls", "timeout", "disconnect", "corrupt",
+                 "previous_file", "wrong_exposure", "card_target"});
       s.camera_faults.busy_first_calls =
           GetInt(c, p, "busy_first_calls", 0, 0, 1000000);
       s.camera_faults.timeout = ParseTrigger(c, p, "timeout");
       s.camera_faults.disconnect = ParseTrigger(c, p, "disconnect");
       s.camera_faults.corrupt = ParseTrigger(c, p, "corrupt");
+      s.camera_faults.previous_file = ParseTrigger(c, p, "previous_file");
+      s.camera_faults.wrong_exposure = ParseTrigger(c, p, "wrong_exposure");
+      s.camera_faults.card_target = ParseTrigger(c, p, "card_target");
     }
     if (j.contains("stage")) {
       const Json& c = j.at("stage");

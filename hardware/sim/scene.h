@@ -183,6 +183,14 @@ struct CameraFaults {
   FaultTrigger disconnect;   // UNAVAILABLE mid-transfer; later calls fail
                              // until SimWorld::ReconnectCamera()
   FaultTrigger corrupt;      // the delivered file has flipped bytes
+  // Faults that corrupt a dataset without an error (the camera "works"):
+  FaultTrigger previous_file;   // delivers the previous file again and keeps
+                                // the new one pending: every later frame is
+                                // one behind until the pending files are
+                                // drained (SimWorld::PrepareCaptureGroup)
+  FaultTrigger wrong_exposure;  // exposes twice as long as set (EXIF says so)
+  FaultTrigger card_target;     // the capture target switches to the card
+                                // until PrepareCaptureGroup sets RAM again
 };
 
 struct StageFaults {

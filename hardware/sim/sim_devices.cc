@@ -97,18 +97,24 @@ absl::StatusOr<hardware::Frame> SimCamera::Capture() {
   const ImageFormat format = ToSim(*settings.format);
   absl::Duration backoff = options_.busy_backoff;
   for (int attempt = 0;; ++attempt) {
-    absl::StatusOr<SimCapture> capture = world_.Capture(
-        {.exposure_s = settings.exposure_s, .iso = double(settings.iso)},
-        format);
+    absl::StatusOr<SimCapture> capture =
+        world_.Capture({.exposure_s = settings.exposure_s,
+                        .iso = double(settings.iso),
+                        .aperture_f = settings.aperture_f},
+                       format);
     if (capture.ok()) {
       const Delivered delivered = Describe(capture->format);
       return hardware::Frame{.bytes = std::move(capture->bytes),
                              .format = delivered.format,
                              .extension = delivered.extension,
-                             .exposure_s = capture->settings.exposure_s,
+                             .exposure_s = settings.exposure_s,  // as set
                              .width_px = capture->image.cols,
                              .height_px = capture->image.rows,
-                             .camera_time = absl::Now()};
+                             .camera_time = capture->camera_time,
+                             .camera_file_name = capture->file_name,
+                             .stored_to = capture->on_card
+                                              ? hardware::StoredTo::kCard
+                                              : hardware::StoredTo::kRam};
     }
     // Only "busy" is transient; everything else is the caller's to handle.
     if (!absl::IsUnavailable(capture.status()) ||
@@ -119,6 +125,10 @@ absl::StatusOr<hardware::Frame> SimCamera::Capture() {
     absl::SleepFor(backoff);
     backoff *= 2;
   }
+}
+
+absl::StatusOr<int> SimCamera::PrepareCaptureGroup() {
+  return world_.PrepareCaptureGroup();
 }
 
 absl::StatusOr<std::unique_ptr<SimProjector>> SimProjector::Create(

@@ -32,6 +32,7 @@ class SimCamera final : public hardware::Camera {
       const hardware::ExposureSettings& settings) override;
   absl::StatusOr<hardware::ExposureSettings> Settings() override;
   absl::StatusOr<hardware::Frame> Capture() override;
+  absl::StatusOr<int> PrepareCaptureGroup() override;
 
  private:
   SimWorld& world_;

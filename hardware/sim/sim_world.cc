@@ -5,8 +5,12 @@
 #include <chrono>
 #include <thread>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/time/clock.h"
 #include "hardware/sim/noise.h"
+#include "processing/io/exif.h"
 
 namespace hdrstereo::sim {
 
@@ -107,6 +111,81 @@ cv::Mat RenderFrame(const Renderer& renderer, const View& view,
   return Digitize(electrons, renderer.scene().sensor, bits);
 }
 
+absl::StatusOr<SimCapture> SimWorld::Render(const ExposureSettings& settings,
+                                            ImageFormat format, double stage,
+                                            const cv::Mat& pattern) {
+  int64_t index = 0;
+  absl::Time camera_time;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    index = frame_index_++;
+    camera_time =
+        std::max(absl::FromUnixMillis(absl::ToUnixMillis(absl::Now())),
+                 last_camera_time_ + absl::Milliseconds(1));
+    last_camera_time_ = camera_time;
+  }
+  SimCapture capture;
+  capture.format = format;
+  capture.settings = settings;
+  capture.stage_mm = stage;
+  capture.frame_index = index;
+  capture.camera_time = camera_time;
+  RadianceFrame frame = renderer_.Render(CameraView(scene(), stage), pattern);
+  cv::Mat electrons =
+      ExposeSensor(frame.radiance, scene().sensor, settings,
+                   HashCombine(scene().seed, static_cast<uint64_t>(index)));
+  absl::StatusOr<std::string> bytes;
+  switch (format) {
+    case ImageFormat::kPng:
+    case ImageFormat::kJpeg:
+      capture.image = Digitize(electrons, scene().sensor, 8);
+      bytes = EncodeImage(capture.image, format);
+      break;
+    case ImageFormat::kTiff16:
+      capture.image = Digitize(electrons, scene().sensor, 16);
+      bytes = EncodeImage(capture.image, format);
+      break;
+    case ImageFormat::kDng:
+      capture.image = MosaicBayer(electrons, scene().sensor);
+      bytes = EncodeDng(capture.image, scene().sensor, settings);
+      break;
+  }
+  if (!bytes.ok()) return bytes.status();
+  capture.bytes = *std::move(bytes);
+  if (format == ImageFormat::kPng || format == ImageFormat::kJpeg) {
+    io::ExifInfo exif;
+    exif.exposure_s = settings.exposure_s;
+    exif.iso = settings.iso;
+    exif.aperture = settings.aperture_f;
+    exif.camera = "hdrstereo sim";
+    exif.date_time_original =
+        absl::FormatTime("%Y:%m:%d %H:%M:%S", camera_time, absl::UTCTimeZone());
+    exif.subsec_time_original = absl::StrFormat(
+        "%03d", static_cast<int>(absl::ToUnixMillis(camera_time) % 1000));
+    absl::StatusOr<std::string> stamped =
+        io::EmbedExif(capture.bytes, io::EncodeExifTiff(exif));
+    if (!stamped.ok()) return stamped.status();
+    capture.bytes = *std::move(stamped);
+  }
+  std::string extension(ImageFormatName(format));
+  if (format == ImageFormat::kJpeg) extension = "jpg";
+  capture.file_name = absl::StrFormat("SIM_%04d.%s", (index % 9999) + 1,
+                                      absl::AsciiStrToUpper(extension));
+  return capture;
+}
+
+absl::StatusOr<int> SimWorld::PrepareCaptureGroup() {
+  std::lock_guard<std::mutex> lock(mu_);
+  if (disconnected_) {
+    return absl::FailedPreconditionError(
+        "camera disconnected (simulated); reconnect first");
+  }
+  target_on_card_ = false;
+  const int drained = held_.has_value() ? 1 : 0;
+  held_.reset();
+  return drained;
+}
+
 absl::StatusOr<SimCapture> SimWorld::Capture(const ExposureSettings& settings,
                                              ImageFormat format) {
   if (!(settings.exposure_s > 0) || !(settings.iso > 0)) {
@@ -114,7 +193,7 @@ absl::StatusOr<SimCapture> SimWorld::Capture(const ExposureSettings& settings,
         absl::StrCat("exposure (", settings.exposure_s, " s) and ISO (",
                      settings.iso, ") must be > 0"));
   }
-  int64_t call = 0, index = 0;
+  int64_t call = 0;
   double stage = 0;
   cv::Mat pattern;
   CameraFaults faults;
@@ -149,37 +228,25 @@ absl::StatusOr<SimCapture> SimWorld::Capture(const ExposureSettings& settings,
         "camera disconnected during transfer (simulated fault, call ", call,
         ")"));
   }
+  ExposureSettings used = settings;
+  if (FaultFires(faults.wrong_exposure, call, seed, 4)) used.exposure_s *= 2;
+  absl::StatusOr<SimCapture> fresh = Render(used, format, stage, pattern);
+  if (!fresh.ok()) return fresh.status();
+  SimCapture capture = *std::move(fresh);
   {
     std::lock_guard<std::mutex> lock(mu_);
-    index = frame_index_++;
+    if (FaultFires(faults.card_target, call, seed, 5)) target_on_card_ = true;
+    capture.on_card = target_on_card_;
+    const bool stale = FaultFires(faults.previous_file, call, seed, 6) &&
+                       last_delivered_.has_value();
+    if (stale || held_.has_value()) {
+      // The camera answers with an older file and keeps the new one.
+      SimCapture older = stale ? *last_delivered_ : *std::move(held_);
+      held_ = std::move(capture);
+      capture = std::move(older);
+    }
+    last_delivered_ = capture;
   }
-  SimCapture capture;
-  capture.format = format;
-  capture.settings = settings;
-  capture.stage_mm = stage;
-  capture.frame_index = index;
-  RadianceFrame frame = renderer_.Render(CameraView(scene(), stage), pattern);
-  cv::Mat electrons =
-      ExposeSensor(frame.radiance, scene().sensor, settings,
-                   HashCombine(seed, static_cast<uint64_t>(index)));
-  absl::StatusOr<std::string> bytes;
-  switch (format) {
-    case ImageFormat::kPng:
-    case ImageFormat::kJpeg:
-      capture.image = Digitize(electrons, scene().sensor, 8);
-      bytes = EncodeImage(capture.image, format);
-      break;
-    case ImageFormat::kTiff16:
-      capture.image = Digitize(electrons, scene().sensor, 16);
-      bytes = EncodeImage(capture.image, format);
-      break;
-    case ImageFormat::kDng:
-      capture.image = MosaicBayer(electrons, scene().sensor);
-      bytes = EncodeDng(capture.image, scene().sensor, settings);
-      break;
-  }
-  if (!bytes.ok()) return bytes.status();
-  capture.bytes = *std::move(bytes);
   if (FaultFires(faults.corrupt, call, seed, 3) && capture.bytes.size() > 64) {
     // Flip bytes after the header so the damage is in the pixel data.
     uint64_t h = HashCombine(seed, 1000 + static_cast<uint64_t>(call));

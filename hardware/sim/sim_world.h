@@ -17,10 +17,12 @@
 #include <memory>
 #include <mutex>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/time/time.h"
 #include "hardware/sim/camera_model.h"
 #include "hardware/sim/render.h"
 #include "hardware/sim/scene.h"
@@ -36,6 +38,12 @@ struct SimCapture {
   double stage_mm = 0;
   int64_t frame_index = 0;  // selects the noise realisation
   bool corrupted = false;   // a corrupt-bytes fault hit this file
+  // As a camera names and stamps its files: "SIM_0001.PNG" (numbered by
+  // exposure), the camera clock (strictly increasing, in milliseconds) in
+  // EXIF DateTimeOriginal + SubSecTimeOriginal of PNG and JPEG files.
+  std::string file_name;
+  absl::Time camera_time;
+  bool on_card = false;  // the card-target fault had switched the target
 };
 
 class SimWorld {
@@ -79,6 +87,10 @@ class SimWorld {
   absl::StatusOr<SimCapture> Capture(const ExposureSettings& settings,
                                      ImageFormat format);
   void ReconnectCamera();
+  // What a capture group starts with: the capture target back to RAM, and
+  // the files a previous-file fault left pending discarded. Returns how
+  // many were discarded; FAILED_PRECONDITION while disconnected.
+  absl::StatusOr<int> PrepareCaptureGroup();
   int64_t capture_calls() const;
 
   // Exact truth for views at left_mm and left_mm + baseline_mm, lit by the
@@ -89,6 +101,11 @@ class SimWorld {
   void SleepModelled(double seconds) const;
 
  private:
+  // Renders, encodes and names one exposure (no faults).
+  absl::StatusOr<SimCapture> Render(const ExposureSettings& settings,
+                                    ImageFormat format, double stage,
+                                    const cv::Mat& pattern);
+
   Renderer renderer_;
   mutable std::mutex mu_;
   double stage_mm_ = 0;
@@ -97,6 +114,10 @@ class SimWorld {
   int64_t capture_calls_ = 0;
   bool disconnected_ = false;
   CameraFaults faults_;
+  bool target_on_card_ = false;
+  absl::Time last_camera_time_ = absl::UnixEpoch();
+  std::optional<SimCapture> last_delivered_;  // for the previous-file fault
+  std::optional<SimCapture> held_;            // pending in the camera
 };
 
 // One camera frame without a SimWorld: render `view` lit by

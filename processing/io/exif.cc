@@ -1,8 +1,21 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "processing/io/exif.h"
 
+#include <libraw/libraw.h>
+#include <zlib.h>
+
+#include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
+#include <memory>
+#include <utility>
+#include <vector>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/time/civil_time.h"
+#include "absl/time/time.h"
 
 namespace hdrstereo::io {
 namespace {
@@ -64,6 +77,12 @@ std::optional<double> EntryNumber(const TiffReader& r, const Entry& e) {
   }
 }
 
+// Cameras write 0 for a field they do not know (e.g. ExposureTime 0/1000000).
+std::optional<double> Positive(std::optional<double> v) {
+  if (v.has_value() && *v > 0) return v;
+  return std::nullopt;
+}
+
 std::string EntryString(const TiffReader& r, const Entry& e) {
   if (e.type != kTypeAscii || e.value_offset + e.count > r.size()) return "";
   std::string s(r.data().substr(e.value_offset, e.count));
@@ -98,13 +117,19 @@ void ReadIfd(const TiffReader& r, size_t ifd, ExifInfo& info, int depth) {
         }
         break;
       case 0x829A:
-        info.exposure_s = EntryNumber(r, e);
+        info.exposure_s = Positive(EntryNumber(r, e));
         break;
       case 0x829D:
-        info.aperture = EntryNumber(r, e);
+        info.aperture = Positive(EntryNumber(r, e));
         break;
       case 0x8827:
-        info.iso = EntryNumber(r, e);
+        info.iso = Positive(EntryNumber(r, e));
+        break;
+      case 0x9003:
+        info.date_time_original = EntryString(r, e);
+        break;
+      case 0x9291:
+        info.subsec_time_original = EntryString(r, e);
         break;
       default:
         break;
@@ -123,7 +148,196 @@ uint32_t BigEndian32(absl::string_view s, size_t off) {
          p[3];
 }
 
+// Little-endian TIFF building blocks for EncodeExifTiff.
+class TiffWriter {
+ public:
+  struct Field {
+    uint16_t tag;
+    uint16_t type;
+    uint32_t count;
+    std::string value;  // the value's bytes, little-endian
+  };
+
+  static std::string U16(uint32_t v) {
+    return {static_cast<char>(v & 0xFF), static_cast<char>((v >> 8) & 0xFF)};
+  }
+  static std::string U32(uint32_t v) { return U16(v & 0xFFFF) + U16(v >> 16); }
+  static Field Ascii(uint16_t tag, const std::string& text) {
+    std::string value = text + '\0';
+    return {tag, kTypeAscii, static_cast<uint32_t>(value.size()), value};
+  }
+  static Field Short(uint16_t tag, uint32_t v) {
+    return {tag, kTypeShort, 1, U16(v)};
+  }
+  static Field Long(uint16_t tag, uint32_t v) {
+    return {tag, kTypeLong, 1, U32(v)};
+  }
+  static Field Rational(uint16_t tag, uint32_t num, uint32_t den) {
+    return {tag, kTypeRational, 1, U32(num) + U32(den)};
+  }
+
+  // Appends an IFD (fields sorted by tag) at the end of `out`, values that
+  // do not fit in 4 bytes right after it; returns the IFD's offset.
+  static uint32_t AppendIfd(std::string& out,
+                            const std::vector<Field>& fields) {
+    const uint32_t at = static_cast<uint32_t>(out.size());
+    uint32_t data = at + 2 + 12 * static_cast<uint32_t>(fields.size()) + 4;
+    std::string entries = U16(static_cast<uint32_t>(fields.size()));
+    std::string blob;
+    for (const Field& f : fields) {
+      entries += U16(f.tag) + U16(f.type) + U32(f.count);
+      if (f.value.size() <= 4) {
+        entries += f.value + std::string(4 - f.value.size(), '\0');
+      } else {
+        entries += U32(data + static_cast<uint32_t>(blob.size()));
+        blob += f.value;
+        if (blob.size() % 2 != 0) blob.push_back('\0');
+      }
+    }
+    entries += U32(0);  // no next IFD
+    out += entries + blob;
+    return at;
+  }
+};
+
+// ExposureTime as a rational: 1/n when the time is (nearly) such a fraction,
+// as cameras write it, else micro-seconds.
+std::pair<uint32_t, uint32_t> ExposureRational(double seconds) {
+  if (seconds > 0 && seconds < 1) {
+    const double n = std::round(1.0 / seconds);
+    if (std::abs(1.0 / n - seconds) < 1e-9 * seconds + 1e-12) {
+      return {1, static_cast<uint32_t>(n)};
+    }
+  }
+  return {static_cast<uint32_t>(std::llround(seconds * 1e6)), 1000000};
+}
+
 }  // namespace
+
+std::optional<int64_t> ExifCaptureTimeMs(const ExifInfo& info) {
+  const std::string& t = info.date_time_original;
+  int y, mo, d, h, mi, s;
+  if (t.size() < 19 || std::sscanf(t.c_str(), "%4d:%2d:%2d %2d:%2d:%2d", &y,
+                                   &mo, &d, &h, &mi, &s) != 6) {
+    return std::nullopt;
+  }
+  const absl::CivilSecond civil(y, mo, d, h, mi, s);
+  if (civil.year() != y || civil.month() != mo || civil.day() != d ||
+      civil.hour() != h || civil.minute() != mi || civil.second() != s) {
+    return std::nullopt;  // e.g. month 13, or a blank "    :  :  " stamp
+  }
+  int64_t ms = absl::ToUnixMillis(absl::FromCivil(civil, absl::UTCTimeZone()));
+  // SubSecTimeOriginal is decimal digits of a fraction: "5" = 0.5 s.
+  const std::string& sub = info.subsec_time_original;
+  if (!sub.empty() && sub.size() <= 9 &&
+      sub.find_first_not_of("0123456789") == std::string::npos) {
+    ms += static_cast<int64_t>(std::stoll(sub) *
+                               std::pow(10.0, 3.0 - sub.size()));
+  }
+  return ms;
+}
+
+ExifInfo ReadRawMetadata(absl::string_view file_bytes) {
+  // Most RAW formats (DNG, CR2, NEF, ARW, PEF, ...) are TIFF structures: read
+  // their EXIF directly. LibRaw reports a missing exposure or aperture as 1,
+  // indistinguishable from a real 1 s or f/1, so it is only asked about the
+  // others (CR3, RAF, ...).
+  ExifInfo info = ParseExifFromFile(file_bytes);
+  if (TiffReader(file_bytes).Valid()) return info;
+  auto raw = std::make_unique<LibRaw>();
+  // LibRaw only reads the buffer; its signature is not const.
+  if (raw->open_buffer(const_cast<char*>(file_bytes.data()),
+                       file_bytes.size()) != LIBRAW_SUCCESS) {
+    return info;
+  }
+  const libraw_imgother_t& other = raw->imgdata.other;
+  if (other.shutter > 0) info.exposure_s = other.shutter;
+  if (other.iso_speed > 0) info.iso = other.iso_speed;
+  if (other.aperture > 0) info.aperture = other.aperture;
+  const std::string make = raw->imgdata.idata.make;
+  const std::string model = raw->imgdata.idata.model;
+  info.camera = make.empty()    ? model
+                : model.empty() ? make
+                                : make + " " + model;
+  if (other.timestamp > 0) {
+    info.date_time_original =
+        absl::FormatTime("%Y:%m:%d %H:%M:%S", absl::FromTimeT(other.timestamp),
+                         absl::UTCTimeZone());
+  }
+  return info;
+}
+
+std::string EncodeExifTiff(const ExifInfo& info) {
+  using W = TiffWriter;
+  std::vector<W::Field> exif;
+  if (info.exposure_s.has_value()) {
+    const auto [num, den] = ExposureRational(*info.exposure_s);
+    exif.push_back(W::Rational(0x829A, num, den));
+  }
+  if (info.aperture.has_value()) {
+    exif.push_back(W::Rational(
+        0x829D, static_cast<uint32_t>(std::llround(*info.aperture * 100)),
+        100));
+  }
+  if (info.iso.has_value()) {
+    exif.push_back(
+        W::Short(0x8827, static_cast<uint32_t>(std::lround(*info.iso))));
+  }
+  if (!info.date_time_original.empty()) {
+    exif.push_back(W::Ascii(0x9003, info.date_time_original));
+  }
+  if (!info.subsec_time_original.empty()) {
+    exif.push_back(W::Ascii(0x9291, info.subsec_time_original));
+  }
+  // IFD0 first (Model, then the pointer to the Exif IFD that follows it).
+  std::string out = "II" + W::U16(42) + W::U32(8);
+  std::vector<W::Field> ifd0;
+  if (!info.camera.empty()) ifd0.push_back(W::Ascii(0x0110, info.camera));
+  ifd0.push_back(W::Long(0x8769, 0));  // patched below
+  W::AppendIfd(out, ifd0);
+  const uint32_t exif_at = W::AppendIfd(out, exif);
+  // The pointer is the last entry of IFD0: 8 + 2 + 12 * (n - 1) + 8.
+  const size_t pointer_at = 8 + 2 + 12 * (ifd0.size() - 1) + 8;
+  out.replace(pointer_at, 4, W::U32(exif_at));
+  return out;
+}
+
+absl::StatusOr<std::string> EmbedExif(absl::string_view f,
+                                      absl::string_view exif_tiff) {
+  if (f.size() >= 2 && static_cast<unsigned char>(f[0]) == 0xFF &&
+      static_cast<unsigned char>(f[1]) == 0xD8) {
+    const size_t length = 2 + 6 + exif_tiff.size();
+    if (length > 0xFFFF) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("an EXIF block of ", exif_tiff.size(),
+                       " bytes does not fit in a JPEG APP1 segment"));
+    }
+    std::string out(f.substr(0, 2));
+    out += "\xFF\xE1";
+    out.push_back(static_cast<char>(length >> 8));
+    out.push_back(static_cast<char>(length & 0xFF));
+    absl::StrAppend(&out, absl::string_view("Exif\0\0", 6), exif_tiff,
+                    f.substr(2));
+    return out;
+  }
+  constexpr size_t kIhdrEnd = 8 + 4 + 4 + 13 + 4;  // signature + IHDR chunk
+  if (f.size() >= kIhdrEnd && f.substr(1, 3) == "PNG" &&
+      f.substr(12, 4) == "IHDR") {
+    const std::string chunk = absl::StrCat("eXIf", exif_tiff);
+    const uLong crc = crc32(0L, reinterpret_cast<const Bytef*>(chunk.data()),
+                            static_cast<uInt>(chunk.size()));
+    auto be32 = [](uint32_t v) {
+      return std::string{
+          static_cast<char>(v >> 24), static_cast<char>((v >> 16) & 0xFF),
+          static_cast<char>((v >> 8) & 0xFF), static_cast<char>(v & 0xFF)};
+    };
+    return absl::StrCat(f.substr(0, kIhdrEnd),
+                        be32(static_cast<uint32_t>(exif_tiff.size())), chunk,
+                        be32(static_cast<uint32_t>(crc)), f.substr(kIhdrEnd));
+  }
+  return absl::InvalidArgumentError(
+      "EXIF can be added to PNG and JPEG files only");
+}
 
 ExifInfo ParseExifTiff(absl::string_view tiff) {
   ExifInfo info;

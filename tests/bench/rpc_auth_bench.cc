@@ -37,6 +37,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
+#include "daemon/jobs/disk_guard.h"
 #include "daemon/jobs/rig_lock.h"
 #include "daemon/rpc/api_keys.h"
 #include "daemon/rpc/audit_log.h"
@@ -73,6 +74,7 @@ class Admit final : public grpc::AuthMetadataProcessor {
 struct World {
   fs::path dir;
   std::unique_ptr<store::Store> store;
+  std::unique_ptr<jobs::DiskGuard> disk;
   std::unique_ptr<rpc::ApiKeyStore> keys;
   std::unique_ptr<jobs::RigLock> lock;
   std::unique_ptr<rpc::AuditLog> audit;
@@ -105,6 +107,8 @@ World& TheWorld() {
         store::Store::Open(w->dir / "data");
     if (!store.ok()) return w;
     w->store = *std::move(store);
+    w->disk =
+        std::make_unique<jobs::DiskGuard>(*w->store, jobs::DiskGuardOptions{});
     w->keys = *rpc::ApiKeyStore::Load(*w->store);
     w->lock = *jobs::RigLock::Load(*w->store);
     w->audit = std::make_unique<rpc::AuditLog>(*w->store);
@@ -166,7 +170,7 @@ World& TheWorld() {
                                    : "0.0.0.0:0",
                                c.server, &port);
       w->services.push_back(std::make_unique<rpc::ServerService>(
-          *w->store, *w->authenticator, "sim", absl::Now()));
+          *w->store, *w->disk, *w->authenticator, "sim", absl::Now()));
       builder.RegisterService(w->services.back().get());
       w->servers.push_back(builder.BuildAndStart());
       if (w->servers.back() == nullptr || port == 0) return w;

@@ -675,6 +675,39 @@ TEST_F(Gphoto2CameraTest, ListsDownloadsAndDeletesFiles) {
   EXPECT_THAT(state_->deleted, ElementsAre("/DCIM/a.JPG"));
 }
 
+// A camera that switched its capture target and still holds a file from
+// before: PrepareCaptureGroup sets RAM again and deletes the stale file, so
+// the next capture is not answered with it.
+TEST_F(Gphoto2CameraTest, PrepareCaptureGroupResetsTheTargetAndDrainsFiles) {
+  std::unique_ptr<Gphoto2Camera> camera = OpenOrDie();
+  ASSERT_NE(camera, nullptr);
+  {
+    std::lock_guard<std::mutex> lock(state_->mutex);
+    SetValue("capturetarget", "Memory card");
+    state_->files["/store_00010001/DCIM/IMG_0007.JPG"] = "stale";
+    CameraEvent stale;
+    stale.type = EventType::kFileAdded;
+    stale.folder = "/store_00010001/DCIM";
+    stale.name = "IMG_0007.JPG";
+    state_->events.push_back(stale);
+    state_->events.push_back(CameraEvent{EventType::kCaptureComplete, "", ""});
+  }
+  absl::StatusOr<int> discarded = camera->PrepareCaptureGroup();
+  ASSERT_TRUE(discarded.ok()) << discarded.status();
+  EXPECT_EQ(*discarded, 1);
+  EXPECT_EQ(Value("capturetarget"), "Internal RAM");
+  EXPECT_THAT(state_->deleted,
+              ElementsAre("/store_00010001/DCIM/IMG_0007.JPG"));
+
+  // Where the file was stored, and its name, come with the frame.
+  state_->capture_produces = {{"/store_00010001/DCIM", "IMG_0008.JPG"}};
+  state_->files["/store_00010001/DCIM/IMG_0008.JPG"] = "\xff\xd8jpeg";
+  absl::StatusOr<hardware::Frame> frame = camera->Capture();
+  ASSERT_TRUE(frame.ok()) << frame.status();
+  EXPECT_EQ(frame->camera_file_name, "IMG_0008.JPG");
+  EXPECT_EQ(frame->stored_to, hardware::StoredTo::kCard);
+}
+
 TEST(Gphoto2ErrorTest, MapsResultCodesToStatusCodes) {
   struct Case {
     int code;
