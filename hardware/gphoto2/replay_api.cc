@@ -123,9 +123,12 @@ int ReplayApi::Capture(std::string* folder, std::string* name) {
   }
   absl::StatusOr<ReplayFile> file = frames_(settings);
   if (!file.ok()) return Fail(GP_ERROR, std::string(file.status().message()));
-  *folder = kFolder;
+  const ConfigWidget* target = FindWidget(widgets_, "capturetarget");
+  *folder = target != nullptr && CaptureTargetIsRam(target->value)
+                ? kRamFolder
+                : kCardFolder;
   *name = absl::StrFormat("capt%04d.%s", captures_++, file->extension);
-  files_[*name] = std::move(file->bytes);
+  files_[{*folder, *name}] = std::move(file->bytes);
   return GP_OK;
 }
 
@@ -137,15 +140,16 @@ int ReplayApi::WaitForEvent(absl::Duration /*timeout*/, CameraEvent* event) {
 int ReplayApi::ListFiles(const std::string& folder,
                          std::vector<std::string>* names) {
   names->clear();
-  if (folder != kFolder) return GP_OK;
-  for (const auto& [name, bytes] : files_) names->push_back(name);
+  for (const auto& [where, bytes] : files_) {
+    if (where.first == folder) names->push_back(where.second);
+  }
   return GP_OK;
 }
 
 int ReplayApi::GetFile(const std::string& folder, const std::string& name,
                        FileData* file) {
-  auto it = files_.find(name);
-  if (folder != kFolder || it == files_.end()) {
+  auto it = files_.find({folder, name});
+  if (it == files_.end()) {
     return Fail(GP_ERROR_FILE_NOT_FOUND,
                 absl::StrCat(folder, "/", name, " is not on the camera"));
   }
@@ -155,7 +159,7 @@ int ReplayApi::GetFile(const std::string& folder, const std::string& name,
 }
 
 int ReplayApi::DeleteFile(const std::string& folder, const std::string& name) {
-  if (folder != kFolder || files_.erase(name) == 0) {
+  if (files_.erase({folder, name}) == 0) {
     return Fail(GP_ERROR_FILE_NOT_FOUND,
                 absl::StrCat(folder, "/", name, " is not on the camera"));
   }

@@ -20,6 +20,7 @@
 #include <functional>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -64,7 +65,10 @@ class ReplayApi final : public Gphoto2Api {
   std::string Port() const;
 
  private:
-  static constexpr const char* kFolder = "/store_00010001/DCIM/100REPLY";
+  // Where a capture lands: RAM captures come from "/", as on a camera;
+  // otherwise the card's folder.
+  static constexpr const char* kRamFolder = "/";
+  static constexpr const char* kCardFolder = "/store_00010001/DCIM/100REPLY";
 
   // Sets last_error_ and returns `code`.
   int Fail(int code, std::string text);
@@ -72,7 +76,8 @@ class ReplayApi final : public Gphoto2Api {
   const CameraDump dump_;
   const FrameSource frames_;
   std::vector<ConfigWidget> widgets_;
-  std::map<std::string, std::string> files_;  // name -> bytes, in kFolder
+  // (folder, name) -> bytes.
+  std::map<std::pair<std::string, std::string>, std::string> files_;
   int captures_ = 0;
   std::string last_error_;
 };

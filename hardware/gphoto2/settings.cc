@@ -366,6 +366,11 @@ absl::StatusOr<std::string> MatchCaptureTarget(
                    "\"; choices: ", JoinChoices(choices)));
 }
 
+bool CaptureTargetIsRam(absl::string_view choice) {
+  const std::string lower = Lower(choice);
+  return MeansRam(lower) && !MeansCard(lower);
+}
+
 int ParseBatteryPercent(absl::string_view value) {
   std::string text = Lower(value);
   absl::string_view t = text;

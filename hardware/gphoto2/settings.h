@@ -88,6 +88,9 @@ absl::StatusOr<CaptureTarget> ParseCaptureTarget(absl::string_view text);
 // INVALID_ARGUMENT listing the choices when none matches.
 absl::StatusOr<std::string> MatchCaptureTarget(
     const std::vector<std::string>& choices, CaptureTarget target);
+// Whether a `capturetarget` choice keeps captures in camera RAM only (not
+// "card", nor "card+sdram").
+bool CaptureTargetIsRam(absl::string_view choice);
 
 // "100%", "75 %", "Full" (100), "Low" (10)...; -1 when unknown.
 int ParseBatteryPercent(absl::string_view value);

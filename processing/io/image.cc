@@ -169,20 +169,13 @@ absl::StatusOr<DecodedImage> DecodeRawFile(const std::filesystem::path& path) {
   } else {
     out.pixels = wrapped.clone();
   }
-  // The file's own EXIF (TIFF-based RAW: DNG, CR2, NEF, ARW, ...) wins:
-  // where it writes 0 for "unknown", LibRaw falls back to the APEX fields,
-  // whose 0 reads as 1 s and f/1 (Magic Lantern's DNGs).
-  const ExifInfo exif = ParseExifFromFile(*bytes);
-  const auto& other = raw->imgdata.other;
-  auto known = [](std::optional<double> from_exif,
-                  double from_libraw) -> std::optional<double> {
-    const double v = from_exif.has_value() ? *from_exif : from_libraw;
-    if (v > 0) return v;
-    return std::nullopt;
-  };
-  out.metadata.exposure_s = known(exif.exposure_s, other.shutter);
-  out.metadata.iso = known(exif.iso, other.iso_speed);
-  out.metadata.aperture = known(exif.aperture, other.aperture);
+  // TIFF-based RAW (DNG, CR2, NEF, ARW, ...): the file's own EXIF, where 0
+  // means unknown (LibRaw would fall back to the APEX fields, whose 0 reads
+  // as 1 s and f/1, as in Magic Lantern's DNGs); other RAW: LibRaw's values.
+  const ExifInfo exif = ReadRawMetadata(*bytes);
+  out.metadata.exposure_s = exif.exposure_s;
+  out.metadata.iso = exif.iso;
+  out.metadata.aperture = exif.aperture;
   out.metadata.camera =
       absl::StrCat(raw->imgdata.idata.make, " ", raw->imgdata.idata.model);
   out.metadata.linear = true;

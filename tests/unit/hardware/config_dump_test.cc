@@ -325,8 +325,10 @@ TEST(ReplayApiTest, TheDriverConfiguresAndCapturesThroughTheReplay) {
   EXPECT_EQ(frame.extension, "jpg");
   EXPECT_DOUBLE_EQ(frame.exposure_s, 0.0166);
   EXPECT_THAT(rendered, ElementsAre(0.0166));
+  // The dump's capture target is "interner Speicher": the file was in RAM.
+  EXPECT_EQ(frame.stored_to, hardware::StoredTo::kRam);
   std::vector<std::string> left;
-  ASSERT_EQ(replay->ListFiles("/store_00010001/DCIM/100REPLY", &left), GP_OK);
+  ASSERT_EQ(replay->ListFiles("/", &left), GP_OK);
   EXPECT_TRUE(left.empty()) << "the driver deletes what it downloaded";
 }
 
