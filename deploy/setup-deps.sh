@@ -19,6 +19,8 @@ packages=(
   libmaxflow-dev zlib1g-dev
   # daemon and tools
   libsqlite3-dev sqlite3 libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev
+  # Slurm processing backend: client tools; the tests' single-node cluster
+  slurm-wlm munge
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev xvfb x11-apps
   # report test: headless browser

@@ -1,0 +1,176 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "daemon/processing/slurm_cli.h"
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "absl/strings/str_replace.h"
+#include "absl/strings/str_split.h"
+#include "absl/strings/strip.h"
+
+namespace hdrstereo::slurm {
+
+absl::StatusOr<std::string> ToClusterPath(const SlurmOptions& options,
+                                          absl::string_view path) {
+  if (options.local_data_root.empty() && options.cluster_data_root.empty()) {
+    return std::string(path);
+  }
+  absl::string_view rest = path;
+  if (!absl::ConsumePrefix(&rest, options.local_data_root) ||
+      !(rest.empty() || rest.front() == '/')) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("slurm.local_data_root: \"", path, "\" is not below \"",
+                     options.local_data_root, "\""));
+  }
+  return absl::StrCat(options.cluster_data_root, rest);
+}
+
+absl::StatusOr<std::vector<std::string>> SbatchArgv(
+    const SlurmOptions& options, const PipelineSubmission& submission) {
+  absl::StatusOr<std::string> session =
+      ToClusterPath(options, submission.session_dir);
+  if (!session.ok()) return session.status();
+  absl::StatusOr<std::string> log_dir =
+      ToClusterPath(options, submission.log_dir);
+  if (!log_dir.ok()) return log_dir.status();
+  std::vector<std::string> argv = {
+      "sbatch", "--parsable", absl::StrCat("--job-name=", submission.job_name),
+      absl::StrCat("--output=", *log_dir, "/slurm-%j.out"),
+      absl::StrCat("--cpus-per-task=", options.cpus_per_task)};
+  if (!options.partition.empty()) {
+    argv.push_back(absl::StrCat("--partition=", options.partition));
+  }
+  if (!options.account.empty()) {
+    argv.push_back(absl::StrCat("--account=", options.account));
+  }
+  if (!options.qos.empty()) argv.push_back(absl::StrCat("--qos=", options.qos));
+  if (!options.memory.empty()) {
+    argv.push_back(absl::StrCat("--mem=", options.memory));
+  }
+  if (!options.time_limit.empty()) {
+    argv.push_back(absl::StrCat("--time=", options.time_limit));
+  }
+  argv.insert(argv.end(), options.extra_sbatch_args.begin(),
+              options.extra_sbatch_args.end());
+  // --wrap takes one shell line: quote every word.
+  std::vector<std::string> words = {
+      options.proc_path, "pipeline",  "--session-dir",
+      *session,          "--threads", absl::StrCat(options.cpus_per_task)};
+  if (!submission.steps.empty()) {
+    words.push_back("--steps");
+    words.push_back(absl::StrJoin(submission.steps, ","));
+  }
+  if (submission.force) words.push_back("--force");
+  std::vector<std::string> quoted;
+  for (const std::string& w : words) {
+    quoted.push_back(
+        absl::StrCat("'", absl::StrReplaceAll(w, {{"'", "'\\''"}}), "'"));
+  }
+  argv.push_back(absl::StrCat("--wrap=exec ", absl::StrJoin(quoted, " ")));
+  return argv;
+}
+
+absl::StatusOr<int64_t> ParseSbatchOutput(absl::string_view out) {
+  absl::string_view line = absl::StripAsciiWhitespace(out);
+  absl::string_view id = line.substr(0, line.find(';'));
+  int64_t job_id = 0;
+  if (!absl::SimpleAtoi(id, &job_id) || job_id <= 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("sbatch printed no job id: \"", line, "\""));
+  }
+  return job_id;
+}
+
+std::vector<std::string> SqueueArgv(int64_t job_id) {
+  return {"squeue", "-h",
+          "-j",     absl::StrCat(job_id),
+          "-o",     std::string(kSqueueFormat)};
+}
+
+absl::StatusOr<JobState> ParseSqueueOutput(absl::string_view out,
+                                           int64_t job_id) {
+  for (absl::string_view line : absl::StrSplit(out, '\n', absl::SkipEmpty())) {
+    std::vector<absl::string_view> fields = absl::StrSplit(line, '|');
+    if (fields.size() != 4) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("squeue line \"", line, "\" does not have 4 fields (",
+                       kSqueueFormat, ")"));
+    }
+    if (fields[0] != absl::StrCat(job_id)) continue;
+    return JobState{.state = std::string(fields[1]),
+                    .reason = std::string(fields[2]),
+                    .nodes = std::string(absl::StripAsciiWhitespace(fields[3])),
+                    .exit_code = "",
+                    .std_out = ""};
+  }
+  return absl::NotFoundError(
+      absl::StrCat("Slurm job ", job_id, " is not in the queue"));
+}
+
+std::vector<std::string> ScontrolArgv(int64_t job_id) {
+  return {"scontrol", "show", "job", "-o", absl::StrCat(job_id)};
+}
+
+absl::StatusOr<JobState> ParseScontrolOutput(absl::string_view out,
+                                             int64_t job_id) {
+  // Values hold no spaces in -o output except Command= and similar paths,
+  // which this parser does not read.
+  std::map<std::string, std::string, std::less<>> fields;
+  for (absl::string_view word : absl::StrSplit(absl::StripAsciiWhitespace(out),
+                                               ' ', absl::SkipEmpty())) {
+    std::pair<std::string, std::string> kv =
+        absl::StrSplit(word, absl::MaxSplits('=', 1));
+    fields.emplace(std::move(kv.first), std::move(kv.second));
+  }
+  auto get = [&](absl::string_view key) {
+    auto it = fields.find(key);
+    return it == fields.end() ? std::string() : it->second;
+  };
+  if (get("JobId") != absl::StrCat(job_id) || get("JobState").empty()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "scontrol show job ", job_id, " printed no JobId/JobState: \"",
+        absl::StripAsciiWhitespace(out).substr(0, 200), "\""));
+  }
+  return JobState{.state = get("JobState"),
+                  .reason = get("Reason"),
+                  .nodes = get("NodeList"),
+                  .exit_code = get("ExitCode"),
+                  .std_out = get("StdOut")};
+}
+
+std::vector<std::string> ScancelArgv(int64_t job_id) {
+  return {"scancel", absl::StrCat(job_id)};
+}
+
+bool IsFinal(absl::string_view state) {
+  static constexpr absl::string_view kFinal[] = {
+      "BOOT_FAIL", "CANCELLED",     "COMPLETED", "DEADLINE", "FAILED",
+      "NODE_FAIL", "OUT_OF_MEMORY", "PREEMPTED", "TIMEOUT"};
+  // scontrol may append a qualifier ("CANCELLED by 0" in sacct).
+  absl::string_view word = state.substr(0, state.find(' '));
+  for (absl::string_view f : kFinal) {
+    if (word == f) return true;
+  }
+  return false;
+}
+
+std::string Describe(const JobState& s) {
+  if (s.state == "RUNNING" || s.state == "COMPLETING") {
+    return absl::StrCat(s.state, " on node ", s.nodes);
+  }
+  std::vector<std::string> details;
+  if (!s.reason.empty() && s.reason != "None") details.push_back(s.reason);
+  if (IsFinal(s.state) && !s.exit_code.empty() && s.exit_code != "0:0") {
+    details.push_back(absl::StrCat("exit ", s.exit_code));
+  }
+  if (details.empty()) return s.state;
+  return absl::StrCat(s.state, " (", absl::StrJoin(details, ", "), ")");
+}
+
+}  // namespace hdrstereo::slurm

@@ -1,0 +1,209 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "tests/support/slurm_cluster.h"
+
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <csignal>
+#include <cstdlib>
+#include <fstream>
+#include <memory>
+#include <random>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
+
+namespace hdrstereo::testing {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr const char* kMunged = "/usr/sbin/munged";
+constexpr const char* kSlurmctld = "/usr/sbin/slurmctld";
+constexpr const char* kSlurmd = "/usr/sbin/slurmd";
+constexpr const char* kSbatch = "/usr/bin/sbatch";
+
+// A port free now on 127.0.0.1 (the kernel's choice).
+absl::StatusOr<int> FreePort() {
+  int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  if (fd < 0) return absl::ErrnoToStatus(errno, "socket");
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t len = sizeof addr;
+  int port = -1;
+  if (::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0 &&
+      ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len) == 0) {
+    port = ntohs(addr.sin_port);
+  }
+  ::close(fd);
+  if (port < 0) return absl::InternalError("no free port on 127.0.0.1");
+  return port;
+}
+
+int64_t MemoryMb() {
+  return static_cast<int64_t>(::sysconf(_SC_PHYS_PAGES)) *
+         ::sysconf(_SC_PAGESIZE) / (1024 * 1024) * 8 / 10;
+}
+
+std::string Tail(const fs::path& path, size_t bytes) {
+  std::ifstream in(path);
+  std::string text((std::istreambuf_iterator<char>(in)),
+                   std::istreambuf_iterator<char>());
+  return text.size() > bytes ? text.substr(text.size() - bytes) : text;
+}
+
+}  // namespace
+
+std::optional<std::string> SlurmCluster::SkipReason() {
+  std::optional<std::string> reason = SkipReasonHere();
+  // CI must run these tests: there a missing cluster fails them.
+  if (reason && std::getenv("HDRSTEREO_REQUIRE_SLURM") != nullptr) {
+    ADD_FAILURE() << "HDRSTEREO_REQUIRE_SLURM is set but " << *reason;
+    return std::nullopt;
+  }
+  return reason;
+}
+
+std::optional<std::string> SlurmCluster::SkipReasonHere() {
+  if (::geteuid() != 0) {
+    return "the single-node Slurm cluster needs root (slurmd runs jobs as "
+           "their user); .ci/run runs as root";
+  }
+  for (const char* tool : {kMunged, kSlurmctld, kSlurmd, kSbatch}) {
+    if (!fs::exists(tool)) {
+      return absl::StrCat(tool,
+                          " is absent: install slurm-wlm and munge "
+                          "(deploy/setup-deps.sh)");
+    }
+  }
+  return std::nullopt;
+}
+
+absl::StatusOr<std::unique_ptr<SlurmCluster>> SlurmCluster::Start(
+    absl::Duration timeout) {
+  std::unique_ptr<SlurmCluster> c(new SlurmCluster());
+  const fs::path& t = c->dir_.path();
+  ::chmod(t.c_str(), 0755);  // munged checks every folder above its socket
+  for (const char* sub : {"munge", "state", "spool", "log"}) {
+    fs::create_directories(t / sub);
+  }
+  // A private key: the cluster never authenticates with the system's munge.
+  {
+    std::random_device random;
+    std::string key(1024, '\0');
+    for (char& ch : key) ch = static_cast<char>(random());
+    std::ofstream(t / "munge/key", std::ios::binary) << key;
+    ::chmod((t / "munge/key").c_str(), 0400);
+  }
+  const fs::path socket = t / "munge/socket";
+  absl::StatusOr<Process> munged = Process::Start(
+      {kMunged, "--foreground",
+       absl::StrCat("--key-file=", (t / "munge/key").string()),
+       absl::StrCat("--socket=", socket.string()),
+       absl::StrCat("--pid-file=", (t / "munge/pid").string()),
+       absl::StrCat("--seed-file=", (t / "munge/seed").string()),
+       absl::StrCat("--log-file=", (t / "log/munged.log").string())},
+      t / "log/munged.out");
+  if (!munged.ok()) return munged.status();
+  c->daemons_.push_back(*std::move(munged));
+  if (!WaitForSocket(socket, absl::Seconds(10))) {
+    return absl::DeadlineExceededError(absl::StrCat(
+        "munged did not create its socket in 10 s: ", c->LogTails()));
+  }
+
+  absl::StatusOr<int> ctld_port = FreePort();
+  if (!ctld_port.ok()) return ctld_port.status();
+  absl::StatusOr<int> slurmd_port = FreePort();
+  if (!slurmd_port.ok()) return slurmd_port.status();
+  c->cpus_ = static_cast<int>(std::thread::hardware_concurrency());
+  c->conf_ = t / "slurm.conf";
+  std::ofstream(c->conf_)
+      << "ClusterName=hdrstereo-test\n"
+      << "SlurmctldHost=localhost\n"
+      << "SlurmUser=root\nSlurmdUser=root\n"
+      << "AuthInfo=socket=" << socket.string() << "\n"
+      << "SlurmctldPort=" << *ctld_port << "\nSlurmdPort=" << *slurmd_port
+      << "\n"
+      << "StateSaveLocation=" << (t / "state").string() << "\n"
+      << "SlurmdSpoolDir=" << (t / "spool").string() << "\n"
+      << "SlurmctldPidFile=" << (t / "slurmctld.pid").string() << "\n"
+      << "SlurmdPidFile=" << (t / "slurmd.pid").string() << "\n"
+      << "SlurmctldLogFile=" << (t / "log/slurmctld.log").string() << "\n"
+      << "SlurmdLogFile=" << (t / "log/slurmd.log").string() << "\n"
+      << "ProctrackType=proctrack/pgid\nTaskPlugin=task/none\n"
+      << "SelectType=select/cons_tres\nSelectTypeParameters=CR_Core\n"
+      << "AccountingStorageType=accounting_storage/none\n"
+      << "JobAcctGatherType=jobacct_gather/none\nMpiDefault=none\n"
+      << "ReturnToService=2\nMinJobAge=600\n"
+      << "NodeName=localhost NodeAddr=127.0.0.1 CPUs=" << c->cpus_
+      << " RealMemory=" << MemoryMb() << " State=UNKNOWN\n"
+      << "PartitionName=test Nodes=localhost Default=YES MaxTime=INFINITE "
+         "State=UP\n";
+  for (std::vector<std::string> argv :
+       {std::vector<std::string>{kSlurmctld, "-D", "-i", "-f",
+                                 c->conf_.string()},
+        std::vector<std::string>{kSlurmd, "-D", "-f", c->conf_.string(), "-N",
+                                 "localhost"}}) {
+    absl::StatusOr<Process> daemon = Process::Start(
+        argv, t / "log" /
+                  absl::StrCat(fs::path(argv[0]).filename().string(), ".out"));
+    if (!daemon.ok()) return daemon.status();
+    c->daemons_.push_back(*std::move(daemon));
+  }
+  const absl::Time deadline = absl::Now() + timeout;
+  std::string last;
+  while (absl::Now() < deadline) {
+    absl::StatusOr<CommandResult> sinfo =
+        c->Run({"sinfo", "-h", "-N", "-o", "%T"}, absl::Seconds(10));
+    if (sinfo.ok()) {
+      last = sinfo->out + sinfo->err;
+      if (absl::StartsWith(sinfo->out, "idle")) return c;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  }
+  return absl::DeadlineExceededError(absl::StrCat(
+      "the Slurm node was not idle within ", absl::FormatDuration(timeout),
+      " (sinfo: \"", last, "\"); ", c->LogTails()));
+}
+
+SlurmCluster::~SlurmCluster() {
+  // Jobs a failed test left behind end with the cluster, not after it.
+  if (daemons_.size() == 3) {
+    Run({"scancel", "--partition=test"}).IgnoreError();
+  }
+  // slurmd first, munged last.
+  for (auto it = daemons_.rbegin(); it != daemons_.rend(); ++it) {
+    it->Signal(SIGTERM);
+    if (!it->Wait(absl::Seconds(15))) {
+      it->Signal(SIGKILL);
+      it->Wait(absl::Seconds(5));
+    }
+  }
+}
+
+absl::StatusOr<CommandResult> SlurmCluster::Run(std::vector<std::string> argv,
+                                                absl::Duration timeout) {
+  argv.insert(argv.begin(),
+              {"/usr/bin/env", absl::StrCat("SLURM_CONF=", conf_.string())});
+  return RunCommand(argv, timeout);
+}
+
+std::string SlurmCluster::LogTails() const {
+  std::string out;
+  for (const char* log : {"munged.log", "munged.out", "slurmctld.log",
+                          "slurmctld.out", "slurmd.log", "slurmd.out"}) {
+    absl::StrAppend(&out, "\n--- ", log, ":\n",
+                    Tail(dir_.path() / "log" / log, 1500));
+  }
+  return out;
+}
+
+}  // namespace hdrstereo::testing

@@ -1,0 +1,140 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// The Slurm output parsers on outputs recorded from Debian 12's Slurm 22.05
+// (the single-node cluster of tests/support/slurm_cluster.h): testdata/.
+#include "daemon/processing/slurm_cli.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "tests/support/status_matchers.h"
+
+namespace hdrstereo::slurm {
+namespace {
+
+using ::hdrstereo::testing::StatusIs;
+using ::testing::ElementsAre;
+using ::testing::HasSubstr;
+
+std::string Recorded(const std::string& name) {
+  std::ifstream in(std::string(HDRSTEREO_SOURCE_DIR) +
+                   "/tests/unit/slurm/testdata/" + name);
+  std::stringstream s;
+  s << in.rdbuf();
+  EXPECT_FALSE(s.str().empty()) << name;
+  return s.str();
+}
+
+TEST(SlurmCliTest, ParsesSbatchParsable) {
+  absl::StatusOr<int64_t> id =
+      ParseSbatchOutput(Recorded("sbatch_parsable.txt"));
+  ASSERT_TRUE(id.ok()) << id.status();
+  EXPECT_EQ(*id, 4);
+  absl::StatusOr<int64_t> federated = ParseSbatchOutput("812;cluster2\n");
+  ASSERT_TRUE(federated.ok()) << federated.status();
+  EXPECT_EQ(*federated, 812);
+  EXPECT_THAT(ParseSbatchOutput("sbatch: error: invalid partition"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("invalid partition")));
+}
+
+TEST(SlurmCliTest, ParsesSqueueLines) {
+  const std::string out = Recorded("squeue.txt");
+  absl::StatusOr<JobState> pending = ParseSqueueOutput(out, 5);
+  ASSERT_TRUE(pending.ok()) << pending.status();
+  EXPECT_EQ(pending->state, "PENDING");
+  EXPECT_EQ(pending->reason, "Resources");
+  EXPECT_EQ(Describe(*pending), "PENDING (Resources)");
+  absl::StatusOr<JobState> running = ParseSqueueOutput(out, 4);
+  ASSERT_TRUE(running.ok()) << running.status();
+  EXPECT_EQ(Describe(*running), "RUNNING on node localhost");
+  EXPECT_THAT(ParseSqueueOutput(out, 6),
+              StatusIs(absl::StatusCode::kNotFound, HasSubstr("job 6")));
+  EXPECT_THAT(ParseSqueueOutput("", 6), StatusIs(absl::StatusCode::kNotFound));
+  EXPECT_THAT(
+      ParseSqueueOutput("4 RUNNING None localhost\n", 4),
+      StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("4 fields")));
+}
+
+TEST(SlurmCliTest, ParsesScontrolStates) {
+  struct Case {
+    std::string file;
+    int64_t id;
+    std::string state, reason, exit_code, described;
+  };
+  for (const Case& c : {
+           Case{"scontrol_pending.txt", 5, "PENDING", "Resources", "0:0",
+                "PENDING (Resources)"},
+           Case{"scontrol_running.txt", 4, "RUNNING", "None", "0:0",
+                "RUNNING on node localhost"},
+           Case{"scontrol_completed.txt", 2, "COMPLETED", "None", "0:0",
+                "COMPLETED"},
+           Case{"scontrol_failed.txt", 3, "FAILED", "NonZeroExitCode", "3:0",
+                "FAILED (NonZeroExitCode, exit 3:0)"},
+           Case{"scontrol_cancelled.txt", 1, "CANCELLED", "None", "0:15",
+                "CANCELLED (exit 0:15)"},
+       }) {
+    absl::StatusOr<JobState> s = ParseScontrolOutput(Recorded(c.file), c.id);
+    ASSERT_TRUE(s.ok()) << c.file << ": " << s.status();
+    EXPECT_EQ(s->state, c.state) << c.file;
+    EXPECT_EQ(s->reason, c.reason) << c.file;
+    EXPECT_EQ(s->exit_code, c.exit_code) << c.file;
+    EXPECT_EQ(Describe(*s), c.described) << c.file;
+    EXPECT_EQ(IsFinal(s->state), c.state != "PENDING" && c.state != "RUNNING")
+        << c.file;
+  }
+  absl::StatusOr<JobState> failed =
+      ParseScontrolOutput(Recorded("scontrol_failed.txt"), 3);
+  ASSERT_TRUE(failed.ok());
+  EXPECT_EQ(failed->std_out, "/tmp/slurm-rec23/out-3.txt");
+  EXPECT_THAT(
+      ParseScontrolOutput(Recorded("scontrol_failed.txt"), 4),
+      StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("show job 4")));
+  EXPECT_THAT(
+      ParseScontrolOutput("slurm_load_jobs error: Invalid job id specified", 9),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("Invalid job id")));
+}
+
+TEST(SlurmCliTest, BuildsSbatchArgvWithOptionsAndPathMapping) {
+  SlurmOptions options;
+  options.partition = "short";
+  options.account = "lab";
+  options.qos = "normal";
+  options.cpus_per_task = 4;
+  options.memory = "8G";
+  options.time_limit = "01:00:00";
+  options.extra_sbatch_args = {"--exclusive"};
+  options.proc_path = "/opt/hdrstereo/bin/hdrstereo-proc";
+  options.local_data_root = "/srv/hdrstereo";
+  options.cluster_data_root = "/cluster/lab/hdrstereo";
+  absl::StatusOr<std::vector<std::string>> argv =
+      SbatchArgv(options, {.job_name = "hdrstereo-7",
+                           .session_dir = "/srv/hdrstereo/sessions/it's",
+                           .log_dir = "/srv/hdrstereo/sessions/it's/jobs/7",
+                           .steps = {"stereo", "fusion"},
+                           .force = true});
+  ASSERT_TRUE(argv.ok()) << argv.status();
+  EXPECT_THAT(
+      *argv,
+      ElementsAre(
+          "sbatch", "--parsable", "--job-name=hdrstereo-7",
+          "--output=/cluster/lab/hdrstereo/sessions/it's/jobs/7/slurm-%j.out",
+          "--cpus-per-task=4", "--partition=short", "--account=lab",
+          "--qos=normal", "--mem=8G", "--time=01:00:00", "--exclusive",
+          "--wrap=exec '/opt/hdrstereo/bin/hdrstereo-proc' 'pipeline' "
+          "'--session-dir' '/cluster/lab/hdrstereo/sessions/it'\\''s' "
+          "'--threads' '4' '--steps' 'stereo,fusion' '--force'"));
+  EXPECT_THAT(SbatchArgv(options, {.job_name = "hdrstereo-8",
+                                   .session_dir = "/srv/hdrstereo-old/s",
+                                   .log_dir = "/srv/hdrstereo-old/s/jobs/8"}),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("slurm.local_data_root")));
+}
+
+}  // namespace
+}  // namespace hdrstereo::slurm
