@@ -131,7 +131,9 @@ TEST(SlurmCliTest, BuildsSbatchArgvWithOptionsAndPathMapping) {
           "'--threads' '4' '--steps' 'stereo,fusion' '--force'"));
   EXPECT_THAT(SbatchArgv(options, {.job_name = "hdrstereo-8",
                                    .session_dir = "/srv/hdrstereo-old/s",
-                                   .log_dir = "/srv/hdrstereo-old/s/jobs/8"}),
+                                   .log_dir = "/srv/hdrstereo-old/s/jobs/8",
+                                   .steps = {},
+                                   .force = false}),
               StatusIs(absl::StatusCode::kInvalidArgument,
                        HasSubstr("slurm.local_data_root")));
 }
