@@ -135,20 +135,20 @@ absl::StatusOr<cv::Mat> GuideGrey8(const cv::Mat& guide, cv::Size size) {
 }
 
 // Per-candidate data cost at offset d = l - z, before confidence and scale.
-double UnitCost(const FusionParams& params, double d) {
+double UnitCost(const FusionOptions& params, double d) {
   if (params.data == DataModel::kGaussian) {
     return 1.0 - std::exp(-d * d / (2.0 * params.sigma * params.sigma));
   }
   return std::min(d * d, params.data_truncation);
 }
 
-double UnitCostMax(const FusionParams& params) {
+double UnitCostMax(const FusionOptions& params) {
   return params.data == DataModel::kGaussian ? 1.0 : params.data_truncation;
 }
 
 absl::StatusOr<MrfProblem> BuildProblemImpl(
     const std::vector<cv::Mat>& candidates, const cv::Mat& guide,
-    const FusionParams& params, const std::vector<cv::Mat>& confidences) {
+    const FusionOptions& params, const std::vector<cv::Mat>& confidences) {
   if (absl::Status s = CheckCandidates(candidates, params.max_disp); !s.ok()) {
     return s;
   }
@@ -473,7 +473,7 @@ absl::Status CheckProblem(const MrfProblem& pr) {
 
 absl::StatusOr<MrfProblem> BuildProblem(
     const std::vector<cv::Mat>& candidates, const cv::Mat& guide,
-    const FusionParams& params, const std::vector<cv::Mat>& confidences) {
+    const FusionOptions& params, const std::vector<cv::Mat>& confidences) {
   try {
     return BuildProblemImpl(candidates, guide, params, confidences);
   } catch (const cv::Exception& e) {
@@ -1025,7 +1025,7 @@ absl::StatusOr<SolverStats> AlphaExpansion(const MrfProblem& pr,
 
 absl::StatusOr<FusionResult> FuseAlphaExpansion(
     const std::vector<cv::Mat>& candidates, const cv::Mat& guide,
-    const FusionParams& params, const std::vector<cv::Mat>& confidences) {
+    const FusionOptions& params, const std::vector<cv::Mat>& confidences) {
   const Clock::time_point t0 = Clock::now();
   absl::StatusOr<MrfProblem> pr =
       BuildProblem(candidates, guide, params, confidences);

@@ -138,8 +138,8 @@ struct FrameConstants {
 // (inverse scotopic luminance).
 void PrepareShin(double lux_src, double lux_dst, bool anchor_white,
                  FrameConstants& k) {
-  const FittingParams f = FittingAt(lux_src);
-  const FittingParams g = FittingAt(lux_dst);
+  const FittingOptions f = FittingAt(lux_src);
+  const FittingOptions g = FittingAt(lux_dst);
   const Mat3 lms = Multiply(kXyzToLms, kRgbToXyz);
   const Vec3 white = Apply(lms, {1.0, 1.0, 1.0});
   const double lmw = white[0] + white[1];

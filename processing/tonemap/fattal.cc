@@ -163,7 +163,7 @@ absl::StatusOr<cv::Mat> SolvePoissonNeumann(const cv::Mat& f) {
 }
 
 absl::StatusOr<std::vector<cv::Mat>> FattalCompress(
-    const std::vector<cv::Mat>& log_lum, const FattalParams& params) {
+    const std::vector<cv::Mat>& log_lum, const FattalOptions& params) {
   if (log_lum.empty()) return absl::InvalidArgumentError("no views");
   if (absl::Status s = params.Validate(); !s.ok()) {
     return absl::InvalidArgumentError(absl::StrCat("Fattal: ", s.message()));

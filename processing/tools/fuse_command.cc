@@ -126,7 +126,7 @@ absl::Status RunFuse(const FuseArgs& args) {
     absl::StatusOr<fusion::SmoothnessModel> model =
         SmoothnessFromName(args.smoothness);
     if (!model.ok()) return model.status();
-    fusion::FusionParams params;
+    fusion::FusionOptions params;
     params.max_disp = args.max_disp;
     params.sigma = args.sigma;
     params.lambda = args.lambda;

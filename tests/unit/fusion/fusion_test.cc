@@ -317,8 +317,8 @@ cv::Mat Guide() {
   return g;
 }
 
-FusionParams Params() {
-  FusionParams p;
+FusionOptions Params() {
+  FusionOptions p;
   p.max_disp = kMaxDisp;
   return p;
 }
@@ -329,7 +329,7 @@ TEST(Fuse, IdenticalCandidatesGiveTheCandidate) {
   for (SmoothnessModel s :
        {SmoothnessModel::kPottsLinear, SmoothnessModel::kPotts,
         SmoothnessModel::kPottsStaticCue, SmoothnessModel::kQuadratic}) {
-    FusionParams p = Params();
+    FusionOptions p = Params();
     p.smoothness = s;
     absl::StatusOr<FusionResult> r = FuseAlphaExpansion(cands, Guide(), p);
     ASSERT_TRUE(r.ok()) << r.status();
@@ -353,7 +353,7 @@ TEST(Fuse, OneCorruptedCandidateAmongSeven) {
   for (float& v : cv::Mat_<float>(bad)) v = garbage(rng);
   cands.insert(cands.begin() + 3, bad);
   for (bool fusion_move : {false, true}) {
-    FusionParams p = Params();
+    FusionOptions p = Params();
     p.candidate_labels_only = fusion_move;
     absl::StatusOr<FusionResult> r = FuseAlphaExpansion(cands, Guide(), p);
     ASSERT_TRUE(r.ok()) << r.status();
@@ -387,7 +387,7 @@ TEST(Fuse, PruningKeepsTheLabellingOfACandidateProblem) {
   }
   for (SmoothnessModel s :
        {SmoothnessModel::kPottsLinear, SmoothnessModel::kQuadratic}) {
-    FusionParams p = Params();
+    FusionOptions p = Params();
     p.smoothness = s;
     absl::StatusOr<MrfProblem> pr = BuildProblem(cands, Guide(), p);
     ASSERT_TRUE(pr.ok()) << pr.status();
@@ -414,7 +414,7 @@ TEST(Fuse, EdgeWeightCutsPairsAtGuideEdges) {
   cv::Mat guide(kH, kW, CV_8UC1, cv::Scalar(40));
   guide.colRange(24, kW).setTo(cv::Scalar(200));
   const std::vector<cv::Mat> cands(3, Truth());
-  FusionParams p = Params();
+  FusionOptions p = Params();
   absl::StatusOr<MrfProblem> plain = BuildProblem(cands, guide, p);
   p.edge_weight = 0;
   absl::StatusOr<MrfProblem> cut = BuildProblem(cands, guide, p);
@@ -492,7 +492,7 @@ TEST(Fuse, MeanAndMedian) {
 
 TEST(Fuse, RejectsBadInput) {
   const cv::Mat truth = Truth();
-  const FusionParams p = Params();
+  const FusionOptions p = Params();
   EXPECT_EQ(FuseAlphaExpansion({}, Guide(), p).status().code(),
             absl::StatusCode::kInvalidArgument);
   EXPECT_FALSE(
@@ -516,7 +516,7 @@ TEST(Fuse, RejectsBadInput) {
       FuseAlphaExpansion({truth}, Guide(), p, {truth, truth}),
       StatusIs(absl::StatusCode::kInvalidArgument,
                HasSubstr("fusion: 2 confidence maps for 1 candidates")));
-  FusionParams bad = p;
+  FusionOptions bad = p;
   bad.sigma = 0;
   EXPECT_THAT(FuseAlphaExpansion({truth}, Guide(), bad),
               StatusIs(absl::StatusCode::kInvalidArgument,

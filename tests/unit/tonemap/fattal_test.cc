@@ -68,7 +68,7 @@ INSTANTIATE_TEST_SUITE_P(EvenOdd, PoissonSizes,
 TEST(Fattal, ReproducesInputWithoutAttenuation) {
   for (const cv::Size size : {cv::Size(256, 192), cv::Size(255, 191)}) {
     const cv::Mat h = LogLuminance(SyntheticScene(size.width, size.height));
-    FattalParams p;
+    FattalOptions p;
     p.beta = 1.0;
     absl::StatusOr<std::vector<cv::Mat>> out = FattalCompress({h}, p);
     ASSERT_TRUE(out.ok()) << out.status();
@@ -92,7 +92,7 @@ TEST(Fattal, CompressesTheDynamicRange) {
 
 TEST(Fattal, RejectsBadParameters) {
   const cv::Mat h(16, 16, CV_32FC1, cv::Scalar(1));
-  FattalParams p;
+  FattalOptions p;
   p.beta = 1.5;
   EXPECT_THAT(FattalCompress({h}, p),
               StatusIs(absl::StatusCode::kInvalidArgument,
