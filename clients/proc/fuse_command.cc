@@ -23,7 +23,7 @@
 #include "processing/fusion/fusion.h"
 #include "processing/io/hdr_formats.h"
 #include "processing/io/image.h"
-#include "processing/tools/command_registry.h"
+#include "clients/proc/command_registry.h"
 
 namespace hdrstereo::proc {
 namespace {

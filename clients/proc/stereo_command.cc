@@ -17,7 +17,7 @@
 #include "processing/io/hdr_formats.h"
 #include "processing/io/image.h"
 #include "processing/stereo/cost_volume_stereo.h"
-#include "processing/tools/command_registry.h"
+#include "clients/proc/command_registry.h"
 
 namespace hdrstereo::proc {
 namespace {

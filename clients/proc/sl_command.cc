@@ -31,7 +31,7 @@
 #include "processing/structured_light/decode.h"
 #include "processing/structured_light/frame_layout.h"
 #include "processing/structured_light/ground_truth.h"
-#include "processing/tools/command_registry.h"
+#include "clients/proc/command_registry.h"
 
 namespace hdrstereo::proc {
 namespace {

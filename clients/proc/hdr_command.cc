@@ -16,7 +16,7 @@
 #include "processing/hdr/response.h"
 #include "processing/hdr/stack.h"
 #include "processing/io/hdr_formats.h"
-#include "processing/tools/command_registry.h"
+#include "clients/proc/command_registry.h"
 
 namespace hdrstereo::proc {
 namespace {

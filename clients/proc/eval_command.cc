@@ -15,7 +15,7 @@
 #include "processing/eval/disparity_eval.h"
 #include "processing/io/hdr_formats.h"
 #include "processing/io/image.h"
-#include "processing/tools/command_registry.h"
+#include "clients/proc/command_registry.h"
 
 namespace hdrstereo::proc {
 namespace {

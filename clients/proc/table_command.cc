@@ -28,7 +28,7 @@
 #include "processing/experiment/thesis_table.h"
 #include "processing/hdr/stack.h"
 #include "processing/io/hdr_formats.h"
-#include "processing/tools/command_registry.h"
+#include "clients/proc/command_registry.h"
 
 namespace hdrstereo::proc {
 namespace {
