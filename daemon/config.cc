@@ -179,6 +179,10 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
                  "Frame size assumed before a capture of its kind is on disk")
       ->check(CLI::Range(int64_t{0}, int64_t{1} << 20))
       ->capture_default_str();
+  app.add_option("--min-battery-percent", config.min_battery_percent,
+                 "A capture suspends while the camera battery is below this")
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
   app.add_option("--resume-interrupted", config.resume_interrupted,
                  "Resume jobs a stop interrupted")
       ->capture_default_str();

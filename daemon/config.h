@@ -47,6 +47,8 @@ struct Config {
   // and the size of a frame before any capture of its kind is on disk.
   int64_t disk_margin_mb = 256;
   int64_t frame_bytes_guess_mb = 32;
+  // A capture suspends while the camera reports less battery (0: never).
+  int min_battery_percent = 0;
   bool resume_interrupted = true;
   // Test only: the scheduler's clock runs this many times as fast as the
   // wall clock, so a test sees "* * * * *" come due within a second.

@@ -114,8 +114,12 @@ Server::Server(std::unique_ptr<store::Store> store,
           *store_,
           [rig = hardware_->rig.get(),
            truth = TruthWriterFor(hardware_->world.get()),
-           disk = &disk_guard_](jobs::JobContext& context) {
-            return jobs::RunCaptureJob(*rig, context, truth, disk);
+           conditions =
+               jobs::CaptureConditions{
+                   .disk = &disk_guard_,
+                   .min_battery_percent = config.min_battery_percent}](
+              jobs::JobContext& context) {
+            return jobs::RunCaptureJob(*rig, context, truth, conditions);
           },
           [rig = hardware_->rig.get(), environment = ProcessingEnvironmentFor(
                                            config)](jobs::JobContext& context) {

@@ -126,6 +126,28 @@ TEST(DeployTest, ANonLoopbackAddressNeedsTls) {
   EXPECT_FALSE(Parse({"--listen", ":50051"}).ok());
 }
 
+TEST(DeployTest, MinBatteryPercentIsAPercentageFromFlagOrConfig) {
+  absl::StatusOr<daemon::ParsedArgs> ok =
+      Parse({"--min-battery-percent", "20"});
+  ASSERT_TRUE(ok.ok()) << ok.status();
+  EXPECT_EQ(std::get<daemon::Config>(*ok).min_battery_percent, 20);
+  for (const char* bad : {"-1", "101", "half"}) {
+    absl::StatusOr<daemon::ParsedArgs> refused =
+        Parse({"--min-battery-percent", bad});
+    ASSERT_FALSE(refused.ok()) << bad;
+    EXPECT_THAT(std::string(refused.status().message()),
+                HasSubstr("--min-battery-percent"))
+        << bad;
+  }
+  testing::TempDir dir;
+  const std::string path = (dir / "battery.toml").string();
+  std::ofstream(path) << "min-battery-percent = 150\n";
+  absl::StatusOr<daemon::ParsedArgs> from_file = Parse({"--config", path});
+  ASSERT_FALSE(from_file.ok());
+  EXPECT_THAT(std::string(from_file.status().message()),
+              HasSubstr("min-battery-percent"));
+}
+
 TEST(DeployTest, UnknownConfigKeyIsRefusedByName) {
   testing::TempDir dir;
   const std::string path = (dir / "bad.toml").string();
