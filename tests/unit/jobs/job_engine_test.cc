@@ -112,8 +112,9 @@ class JobEngineTest : public ::testing::Test {
     absl::StatusOr<std::vector<store::JobEventRecord>> events =
         engine.repository().Events(id, 0);
     EXPECT_TRUE(events.ok());
+    if (!events.ok()) return -1;
     int n = 0;
-    for (const store::JobEventRecord& e : events.value_or({})) {
+    for (const store::JobEventRecord& e : *events) {
       n += e.message.find(text) != std::string::npos;
     }
     return n;
