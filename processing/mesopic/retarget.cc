@@ -14,6 +14,7 @@
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "opencv2/core/utility.hpp"
+#include "processing/base/status_macros.h"
 #include "processing/mesopic/fast_math.h"
 #include "processing/mesopic/shin_model.h"
 #include "processing/mesopic/tone_curve.h"
@@ -514,7 +515,7 @@ absl::Status ValidateOptions(const RetargetOptions& o) {
 absl::StatusOr<cv::Mat> Retarget(const cv::Mat& image,
                                  const RetargetOptions& options) {
   cv::Mat out;
-  if (absl::Status s = RetargetInto(image, options, &out); !s.ok()) return s;
+  RETURN_IF_ERROR(RetargetInto(image, options, &out));
   return out;
 }
 
@@ -535,7 +536,7 @@ absl::Status RetargetInto(const cv::Mat& image, const RetargetOptions& options,
     return absl::InvalidArgumentError(
         "mesopic retarget: need CV_8UC3 (sRGB) or CV_32FC3 (linear) input");
   }
-  if (absl::Status s = ValidateOptions(options); !s.ok()) return s;
+  RETURN_IF_ERROR(ValidateOptions(options));
   try {
     FrameConstants k;
     k.is_8bit = image.depth() == CV_8U;
