@@ -17,11 +17,11 @@
 
 namespace hdrstereo::metrics {
 
+namespace {
+
 // Upper bounds of the frame time histogram's buckets, in seconds.
 constexpr std::array<double, 9> kFrameSecondsBuckets = {0.1, 0.25, 0.5, 1, 2,
                                                         5,   10,   30,  60};
-
-namespace {
 
 prometheus::MetricFamily Family(std::string name, std::string help,
                                 prometheus::MetricType type) {

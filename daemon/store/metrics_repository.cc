@@ -45,21 +45,21 @@ absl::StatusOr<StoreTotals> MetricsRepository::Read() {
                    Count(db,
                          "SELECT count(*) FROM job_events "
                          "WHERE message LIKE 'suspended%'"));
-  // A capture job's progress events count frames; the time between two
-  // that advance the count is one frame's time.
+  // The first event at which a capture job's frame count reached n marks
+  // frame n; the time from frame n-1 to frame n is one frame's time (frame
+  // 1's includes the job's start-up, so it is left out).
   ASSIGN_OR_RETURN(Statement frames, db.Prepare(R"sql(
-SELECT time_ms - prev_ms FROM (
-  SELECT e.time_ms, e.progress_done,
-         LAG(e.time_ms) OVER w AS prev_ms,
-         LAG(e.progress_done) OVER w AS prev_done
+SELECT time_ms - LAG(time_ms) OVER w, done - LAG(done) OVER w FROM (
+  SELECT e.job_id, e.progress_done AS done, MIN(e.time_ms) AS time_ms
   FROM job_events e JOIN jobs j ON j.id = e.job_id
-  WHERE j.kind = 'capture' AND e.state = 'running'
-  WINDOW w AS (PARTITION BY e.job_id ORDER BY e.sequence))
-WHERE prev_done IS NOT NULL AND prev_done > 0 AND progress_done = prev_done + 1
+  WHERE j.kind = 'capture' AND e.progress_done > 0
+  GROUP BY e.job_id, e.progress_done)
+WINDOW w AS (PARTITION BY job_id ORDER BY done)
 )sql"));
   for (;;) {
     ASSIGN_OR_RETURN(bool row, frames.Step());
     if (!row) break;
+    if (frames.ColumnIsNull(1) || frames.ColumnInt(1) != 1) continue;
     totals.frame_seconds.push_back(frames.ColumnDouble(0) / 1000.0);
   }
   return totals;

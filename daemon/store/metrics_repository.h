@@ -22,8 +22,8 @@ struct StoreTotals {
   int64_t frames_verified = 0;
   // Job events that suspended a job: their message starts "suspended".
   int64_t suspensions = 0;
-  // Seconds between consecutive frames of a capture job (from its progress
-  // events), one entry per frame after the first.
+  // Seconds between consecutive frames of a capture job (from its job
+  // events' progress), one entry per frame after the first.
   std::vector<double> frame_seconds;
 };
 
