@@ -12,6 +12,7 @@
 #include <memory>
 #include <string>
 
+#include "absl/time/time.h"
 #include "clients/cli/connection.h"
 #include "clients/cli/output.h"
 
@@ -41,6 +42,9 @@ class Client {
   std::shared_ptr<grpc::Channel> channel() const { return channel_; }
   // A context whose deadline is --timeout from now.
   std::unique_ptr<grpc::ClientContext> NewContext() const;
+  // A context without a deadline, for streams that last as long as the work
+  // (a capture being watched, a large download).
+  std::unique_ptr<grpc::ClientContext> NewStreamContext() const;
 
   // Prints "hdrstereo: <what failed>" to stderr and returns the exit code
   // for `status`.
@@ -49,6 +53,9 @@ class Client {
  private:
   GlobalOptions options_;
   std::shared_ptr<grpc::Channel> channel_;
+  // The deadline of the latest context: Fail() tells a call that ran out of
+  // it from a device timeout the daemon reported with the same code.
+  mutable absl::Time deadline_ = absl::InfiniteFuture();
 };
 
 // Finishes a command: reports a failed call, or prints `response` as JSON

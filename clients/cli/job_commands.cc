@@ -85,11 +85,12 @@ int WatchJob(const Client& client, int64_t job_id) {
   int64_t rate_done = 0;
   bool bar_open = false;
   while (true) {
-    grpc::ClientContext context;  // no deadline: captures take long
+    std::unique_ptr<grpc::ClientContext> context = client.NewStreamContext();
     v1::WatchJobRequest request;
     request.set_job_id(job_id);
     request.set_after_sequence(last_sequence);
-    auto reader = v1::Jobs::NewStub(client.channel())->Watch(&context, request);
+    auto reader =
+        v1::Jobs::NewStub(client.channel())->Watch(context.get(), request);
     v1::JobEvent event;
     while (reader->Read(&event)) {
       last_contact = absl::Now();

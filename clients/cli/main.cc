@@ -18,9 +18,14 @@ Client::Client(const GlobalOptions& options)
 
 std::unique_ptr<grpc::ClientContext> Client::NewContext() const {
   auto context = std::make_unique<grpc::ClientContext>();
-  context->set_deadline(
-      absl::ToChronoTime(absl::Now() + absl::Seconds(options_.timeout_s)));
+  deadline_ = absl::Now() + absl::Seconds(options_.timeout_s);
+  context->set_deadline(absl::ToChronoTime(deadline_));
   return context;
+}
+
+std::unique_ptr<grpc::ClientContext> Client::NewStreamContext() const {
+  deadline_ = absl::InfiniteFuture();
+  return std::make_unique<grpc::ClientContext>();
 }
 
 int Client::Fail(const grpc::Status& status) const {
@@ -44,9 +49,8 @@ int Client::Fail(const grpc::Status& status) const {
     }
     case grpc::StatusCode::DEADLINE_EXCEEDED:
       // A device that timed out (a stalled stage) comes back from the daemon
-      // with this code and the daemon's message; only gRPC's own "Deadline
-      // Exceeded" means that the daemon did not answer within --timeout.
-      if (status.error_message() != "Deadline Exceeded") {
+      // with this code before the call's own deadline has passed.
+      if (absl::Now() < deadline_) {
         std::cerr << "hdrstereo: " << status.error_message() << "\n";
         return kExitError;
       }

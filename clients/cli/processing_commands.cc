@@ -165,17 +165,17 @@ grpc::Status Download(const Client& client, const std::string& session,
     return grpc::Status(grpc::StatusCode::UNKNOWN,
                         absl::StrCat("cannot write ", part.string()));
   }
-  grpc::ClientContext context;  // no deadline: files can be large
+  std::unique_ptr<grpc::ClientContext> context = client.NewStreamContext();
   v1::DownloadArtifactRequest request;
   request.set_session(session);
   request.set_artifact_id(artifact.id());
   request.set_offset_bytes(offset);
   auto reader = v1::Sessions::NewStub(client.channel())
-                    ->DownloadArtifact(&context, request);
+                    ->DownloadArtifact(context.get(), request);
   v1::ArtifactChunk chunk;
   while (reader->Read(&chunk)) {
     if (chunk.offset_bytes() != offset) {
-      context.TryCancel();
+      context->TryCancel();
       return grpc::Status(grpc::StatusCode::DATA_LOSS,
                           absl::StrCat(artifact.path(), ": expected bytes at ",
                                        offset, ", got ", chunk.offset_bytes()));

@@ -176,23 +176,17 @@ grpc::Status AdminService::ListAuditLog(grpc::ServerContext*,
       filter.end_ms <= filter.start_ms) {
     return InvalidArgument("end_time must be after start_time");
   }
-  absl::StatusOr<Page> page = ParsePage(request->page());
+  absl::StatusOr<IdPage> page = ParseIdPage(request->page());
   if (!page.ok()) return ToGrpcStatus(page.status());
-  if (!page->after.empty() &&
-      !absl::SimpleAtoi(page->after, &filter.before_id)) {
-    return InvalidArgument("page.page_token was not issued by this server");
-  }
+  filter.before_id = page->after;
   filter.limit = page->size + 1;
   // Rows of calls made so far are written before they are read.
   audit_.Flush();
   absl::StatusOr<std::vector<store::AuditRecord>> rows =
       audit_.repository().List(filter);
   if (!rows.ok()) return ToGrpcStatus(rows.status());
-  if (static_cast<int>(rows->size()) > page->size) {
-    rows->pop_back();
-    response->set_next_page_token(
-        EncodePageToken(absl::StrCat(rows->back().id)));
-  }
+  response->set_next_page_token(FinishIdPage(
+      *page, *rows, [](const store::AuditRecord& row) { return row.id; }));
   for (const store::AuditRecord& row : *rows) {
     v1::AuditEntry* out = response->add_entries();
     out->set_id(row.id);

@@ -185,21 +185,15 @@ grpc::Status JobsService::List(grpc::ServerContext*,
     if (!parsed.ok()) return ToGrpcStatus(parsed.status());
     filter.states.push_back(*parsed);
   }
-  absl::StatusOr<Page> page = ParsePage(request->page());
+  absl::StatusOr<IdPage> page = ParseIdPage(request->page());
   if (!page.ok()) return ToGrpcStatus(page.status());
-  if (!page->after.empty() &&
-      !absl::SimpleAtoi(page->after, &filter.after_id)) {
-    return InvalidArgument("page.page_token was not issued by this server");
-  }
+  filter.after_id = page->after;
   filter.limit = page->size + 1;
   absl::StatusOr<std::vector<store::JobRecord>> jobs =
       engine_.repository().List(filter);
   if (!jobs.ok()) return ToGrpcStatus(jobs.status());
-  if (static_cast<int>(jobs->size()) > page->size) {
-    jobs->pop_back();
-    response->set_next_page_token(
-        EncodePageToken(absl::StrCat(jobs->back().id)));
-  }
+  response->set_next_page_token(FinishIdPage(
+      *page, *jobs, [](const store::JobRecord& job) { return job.id; }));
   for (const store::JobRecord& job : *jobs) ToProto(job, response->add_jobs());
   return grpc::Status::OK;
 }

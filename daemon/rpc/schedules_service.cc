@@ -169,20 +169,15 @@ grpc::Status SchedulesService::ListRuns(
     grpc::ServerContext*, const v1::ListScheduleRunsRequest* request,
     v1::ListScheduleRunsResponse* response) {
   if (grpc::Status s = CheckName(request->name()); !s.ok()) return s;
-  absl::StatusOr<Page> page = ParsePage(request->page());
+  absl::StatusOr<IdPage> page = ParseIdPage(request->page());
   if (!page.ok()) return ToGrpcStatus(page.status());
-  int64_t before = 0;
-  if (!page->after.empty() && !absl::SimpleAtoi(page->after, &before)) {
-    return InvalidArgument("page.page_token was not issued by this server");
-  }
   absl::StatusOr<std::vector<store::ScheduleRunRecord>> runs =
-      scheduler_.repository().Runs(request->name(), before, page->size + 1);
+      scheduler_.repository().Runs(request->name(), page->after,
+                                   page->size + 1);
   if (!runs.ok()) return ToGrpcStatus(runs.status());
-  if (static_cast<int>(runs->size()) > page->size) {
-    runs->pop_back();
-    response->set_next_page_token(
-        EncodePageToken(absl::StrCat(runs->back().due_time_ms)));
-  }
+  response->set_next_page_token(FinishIdPage(
+      *page, *runs,
+      [](const store::ScheduleRunRecord& run) { return run.due_time_ms; }));
   for (const store::ScheduleRunRecord& run : *runs) {
     v1::ScheduleRun* out = response->add_runs();
     out->set_schedule(run.schedule);

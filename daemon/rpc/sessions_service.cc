@@ -91,21 +91,14 @@ grpc::Status SessionsService::ListArtifacts(
   if (request->kind().size() > 64) {
     return InvalidArgument("kind is longer than 64 bytes");
   }
-  absl::StatusOr<Page> page = ParsePage(request->page());
+  absl::StatusOr<IdPage> page = ParseIdPage(request->page());
   if (!page.ok()) return ToGrpcStatus(page.status());
-  int64_t after = 0;
-  if (!page->after.empty() && !absl::SimpleAtoi(page->after, &after)) {
-    return InvalidArgument("page.page_token was not issued by this server");
-  }
   absl::StatusOr<std::vector<store::ArtifactRecord>> artifacts =
       store::ArtifactRepository(store_).List(
-          request->session(), request->kind(), after, page->size + 1);
+          request->session(), request->kind(), page->after, page->size + 1);
   if (!artifacts.ok()) return ToGrpcStatus(artifacts.status());
-  if (static_cast<int>(artifacts->size()) > page->size) {
-    artifacts->pop_back();
-    response->set_next_page_token(
-        EncodePageToken(absl::StrCat(artifacts->back().id)));
-  }
+  response->set_next_page_token(FinishIdPage(
+      *page, *artifacts, [](const store::ArtifactRecord& a) { return a.id; }));
   for (const store::ArtifactRecord& a : *artifacts) {
     v1::Artifact* out = response->add_artifacts();
     out->set_id(a.id);
@@ -230,21 +223,15 @@ grpc::Status SessionsService::ListFrames(grpc::ServerContext*,
   if (request->capture_id() < 0) {
     return InvalidArgument("capture_id must be 0 (all) or a capture id");
   }
-  absl::StatusOr<Page> page = ParsePage(request->page());
+  absl::StatusOr<IdPage> page = ParseIdPage(request->page());
   if (!page.ok()) return ToGrpcStatus(page.status());
-  int64_t after = 0;
-  if (!page->after.empty() && !absl::SimpleAtoi(page->after, &after)) {
-    return InvalidArgument("page.page_token was not issued by this server");
-  }
   absl::StatusOr<std::vector<store::FrameRecord>> frames =
       store::FrameRepository(store_).FramesOfSession(
-          request->session(), request->capture_id(), after, page->size + 1);
+          request->session(), request->capture_id(), page->after,
+          page->size + 1);
   if (!frames.ok()) return ToGrpcStatus(frames.status());
-  if (static_cast<int>(frames->size()) > page->size) {
-    frames->pop_back();
-    response->set_next_page_token(
-        EncodePageToken(absl::StrCat(frames->back().id)));
-  }
+  response->set_next_page_token(FinishIdPage(
+      *page, *frames, [](const store::FrameRecord& f) { return f.id; }));
   for (const store::FrameRecord& f : *frames) {
     v1::Frame* out = response->add_frames();
     out->set_id(f.id);

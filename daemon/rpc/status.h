@@ -13,8 +13,32 @@
 
 namespace hdrstereo::rpc {
 
+// absl and gRPC share the canonical code numbering; ToGrpcStatus casts one
+// to the other, so the build proves it for every code.
+#define HDRSTEREO_SAME_CODE(absl_name, grpc_name)                  \
+  static_assert(static_cast<int>(absl::StatusCode::absl_name) ==   \
+                    static_cast<int>(grpc::StatusCode::grpc_name), \
+                #absl_name " and " #grpc_name " differ")
+HDRSTEREO_SAME_CODE(kOk, OK);
+HDRSTEREO_SAME_CODE(kCancelled, CANCELLED);
+HDRSTEREO_SAME_CODE(kUnknown, UNKNOWN);
+HDRSTEREO_SAME_CODE(kInvalidArgument, INVALID_ARGUMENT);
+HDRSTEREO_SAME_CODE(kDeadlineExceeded, DEADLINE_EXCEEDED);
+HDRSTEREO_SAME_CODE(kNotFound, NOT_FOUND);
+HDRSTEREO_SAME_CODE(kAlreadyExists, ALREADY_EXISTS);
+HDRSTEREO_SAME_CODE(kPermissionDenied, PERMISSION_DENIED);
+HDRSTEREO_SAME_CODE(kResourceExhausted, RESOURCE_EXHAUSTED);
+HDRSTEREO_SAME_CODE(kFailedPrecondition, FAILED_PRECONDITION);
+HDRSTEREO_SAME_CODE(kAborted, ABORTED);
+HDRSTEREO_SAME_CODE(kOutOfRange, OUT_OF_RANGE);
+HDRSTEREO_SAME_CODE(kUnimplemented, UNIMPLEMENTED);
+HDRSTEREO_SAME_CODE(kInternal, INTERNAL);
+HDRSTEREO_SAME_CODE(kUnavailable, UNAVAILABLE);
+HDRSTEREO_SAME_CODE(kDataLoss, DATA_LOSS);
+HDRSTEREO_SAME_CODE(kUnauthenticated, UNAUTHENTICATED);
+#undef HDRSTEREO_SAME_CODE
+
 inline grpc::Status ToGrpcStatus(const absl::Status& status) {
-  // absl and gRPC share the canonical code numbering.
   return grpc::Status(static_cast<grpc::StatusCode>(status.code()),
                       std::string(status.message()));
 }

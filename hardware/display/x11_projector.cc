@@ -13,6 +13,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/time/clock.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::display {
 
@@ -88,7 +89,7 @@ absl::StatusOr<std::unique_ptr<X11Projector>> X11Projector::Open(
 
   auto projector = std::unique_ptr<X11Projector>(
       new X11Projector(options, size, std::move(x)));
-  if (absl::Status s = projector->Blank(); !s.ok()) return s;
+  RETURN_IF_ERROR(projector->Blank());
   return projector;
 }
 
@@ -99,9 +100,7 @@ X11Projector::X11Projector(const X11ProjectorOptions& options, cv::Size size,
 X11Projector::~X11Projector() = default;
 
 absl::Status X11Projector::Show(const cv::Mat& pattern) {
-  if (absl::Status s = hardware::ValidatePattern(pattern, size_); !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(hardware::ValidatePattern(pattern, size_));
   // 24-bit TrueColor ZPixmaps are 32 bits per pixel, B G R X in memory on
   // little-endian servers (checked against the visual's masks below).
   cv::Mat bgra;

@@ -9,6 +9,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/time/clock.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::zaber {
 namespace {
@@ -24,10 +25,9 @@ absl::StatusOr<std::unique_ptr<ZaberStage>> ZaberStage::Open(
     return absl::InvalidArgumentError(
         "zaber: microstep_um and travel_mm must be positive");
   }
-  absl::StatusOr<std::unique_ptr<SerialLine>> line =
-      OpenSerialLine(options.port, options.baud_rate);
-  if (!line.ok()) return line.status();
-  std::unique_ptr<ZaberStage> stage(new ZaberStage(options, *std::move(line)));
+  ASSIGN_OR_RETURN(std::unique_ptr<SerialLine> line,
+                   OpenSerialLine(options.port, options.baud_rate));
+  std::unique_ptr<ZaberStage> stage(new ZaberStage(options, std::move(line)));
 
   absl::StatusOr<Reply> speed = stage->Command("get maxspeed");
   if (!speed.ok()) {
@@ -65,17 +65,14 @@ absl::StatusOr<std::string> ZaberStage::ReadLine(absl::Time deadline) {
     if (left <= absl::ZeroDuration()) {
       return absl::DeadlineExceededError("no reply");
     }
-    absl::StatusOr<std::string> bytes = line_->Read(left);
-    if (!bytes.ok()) return bytes.status();
-    pending_ += *bytes;
+    ASSIGN_OR_RETURN(std::string bytes, line_->Read(left));
+    pending_ += bytes;
   }
 }
 
 absl::StatusOr<Reply> ZaberStage::CommandOnce(absl::string_view command) {
   std::string text = FormatCommand(options_.device, options_.axis, command);
-  if (absl::Status s = line_->Write(text, options_.reply_timeout); !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(line_->Write(text, options_.reply_timeout));
   const absl::Time deadline = absl::Now() + options_.reply_timeout;
   std::string info;  // the last "#" line seen instead of a reply
   while (true) {
@@ -94,9 +91,8 @@ absl::StatusOr<Reply> ZaberStage::CommandOnce(absl::string_view command) {
       continue;
     }
     if (absl::StartsWith(*line, "!")) continue;
-    absl::StatusOr<Reply> reply = ParseReply(*line);
-    if (!reply.ok()) return reply.status();
-    if (reply->device != options_.device || reply->axis != options_.axis) {
+    ASSIGN_OR_RETURN(Reply reply, ParseReply(*line));
+    if (reply.device != options_.device || reply.axis != options_.axis) {
       continue;  // another device on the chain
     }
     return reply;
@@ -147,15 +143,14 @@ absl::Status ZaberStage::WaitUntilIdle(absl::Duration timeout,
   const absl::Time deadline = absl::Now() + timeout;
   while (true) {
     // An empty command returns the status without doing anything.
-    absl::StatusOr<Reply> reply = Command("");
-    if (!reply.ok()) return reply.status();
-    if (IsFault(reply->warning)) {
+    ASSIGN_OR_RETURN(Reply reply, Command(""));
+    if (IsFault(reply.warning)) {
       Stop().IgnoreError();
       return absl::AbortedError(absl::StrCat(what, " failed: stage reports ",
-                                             DescribeWarning(reply->warning)));
+                                             DescribeWarning(reply.warning)));
     }
-    if (!reply->busy) {
-      if (reply->warning == "NI") {
+    if (!reply.busy) {
+      if (reply.warning == "NI") {
         return absl::AbortedError(absl::StrCat(what, " was interrupted (",
                                                DescribeWarning("NI"), ")"));
       }
@@ -176,8 +171,7 @@ absl::Status ZaberStage::WaitUntilIdle(absl::Duration timeout,
 }
 
 absl::Status ZaberStage::Home() {
-  absl::StatusOr<Reply> reply = Command("home");
-  if (!reply.ok()) return reply.status();
+  ASSIGN_OR_RETURN(Reply reply, Command("home"));
   absl::Duration ideal = absl::Seconds(options_.travel_mm / speed_mm_per_s_);
   return WaitUntilIdle(
       ideal * options_.move_time_factor + options_.move_time_margin, "homing",
@@ -191,32 +185,28 @@ absl::Status ZaberStage::MoveTo(double position_mm) {
         absl::StrFormat("stage target %g mm is outside the travel [0, %g] mm",
                         position_mm, options_.travel_mm));
   }
-  absl::StatusOr<hardware::StageState> before = State();
-  if (!before.ok()) return before.status();
-  absl::StatusOr<Reply> reply =
-      Command(absl::StrCat("move abs ", ToMicrosteps(position_mm)));
-  if (!reply.ok()) return reply.status();
+  ASSIGN_OR_RETURN(hardware::StageState before, State());
+  ASSIGN_OR_RETURN(Reply reply, Command(absl::StrCat(
+                                    "move abs ", ToMicrosteps(position_mm))));
   absl::Duration ideal = absl::Seconds(
-      std::abs(position_mm - before->position_mm) / speed_mm_per_s_);
+      std::abs(position_mm - before.position_mm) / speed_mm_per_s_);
   return WaitUntilIdle(
       ideal * options_.move_time_factor + options_.move_time_margin,
       absl::StrFormat("move to %.3f mm", position_mm), position_mm);
 }
 
 absl::StatusOr<hardware::StageState> ZaberStage::State() {
-  absl::StatusOr<Reply> position = Command("get pos");
-  if (!position.ok()) return position.status();
+  ASSIGN_OR_RETURN(Reply position, Command("get pos"));
   int64_t microsteps = 0;
-  if (!absl::SimpleAtoi(position->data, &microsteps)) {
-    return absl::DataLossError(absl::StrCat("stage position \"", position->data,
-                                            "\" is not a number"));
+  if (!absl::SimpleAtoi(position.data, &microsteps)) {
+    return absl::DataLossError(
+        absl::StrCat("stage position \"", position.data, "\" is not a number"));
   }
-  absl::StatusOr<Reply> warnings = Command("warnings");
-  if (!warnings.ok()) return warnings.status();
+  ASSIGN_OR_RETURN(Reply warnings, Command("warnings"));
   hardware::StageState state;
   state.position_mm = ToMillimetres(microsteps);
-  state.busy = position->busy;
-  state.warning_flags = ParseWarningFlags(warnings->data);
+  state.busy = position.busy;
+  state.warning_flags = ParseWarningFlags(warnings.data);
   state.homed =
       std::find(state.warning_flags.begin(), state.warning_flags.end(), "WR") ==
       state.warning_flags.end();

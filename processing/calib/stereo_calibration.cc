@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "processing/base/status_macros.h"
 #include "processing/io/atomic_file.h"
 #include "processing/io/image.h"
 
@@ -158,14 +159,14 @@ absl::StatusOr<StereoCalibration> CalibrateStereoFromImages(
           "calibration image size differs from ", left_names[0], ": ",
           left[i].size() != size ? left_names[i] : right_names[i]));
     }
-    absl::StatusOr<std::vector<cv::Point2f>> l =
-        FindChessboard(left[i], options.board.inner_corners, left_names[i]);
-    if (!l.ok()) return l.status();
-    absl::StatusOr<std::vector<cv::Point2f>> r =
-        FindChessboard(right[i], options.board.inner_corners, right_names[i]);
-    if (!r.ok()) return r.status();
-    lc.push_back(*std::move(l));
-    rc.push_back(*std::move(r));
+    ASSIGN_OR_RETURN(
+        std::vector<cv::Point2f> l,
+        FindChessboard(left[i], options.board.inner_corners, left_names[i]));
+    ASSIGN_OR_RETURN(
+        std::vector<cv::Point2f> r,
+        FindChessboard(right[i], options.board.inner_corners, right_names[i]));
+    lc.push_back(std::move(l));
+    rc.push_back(std::move(r));
   }
   return CalibrateStereo(lc, rc, size, options);
 }
@@ -254,11 +255,10 @@ absl::Status SaveCalibration(const std::filesystem::path& path,
 
 absl::StatusOr<StereoCalibration> LoadCalibration(
     const std::filesystem::path& path) {
-  absl::StatusOr<std::string> yaml = io::ReadFileBytes(path);
-  if (!yaml.ok()) return yaml.status();
+  ASSIGN_OR_RETURN(std::string yaml, io::ReadFileBytes(path));
   StereoCalibration c;
   try {
-    cv::FileStorage fs(*yaml, cv::FileStorage::READ | cv::FileStorage::MEMORY);
+    cv::FileStorage fs(yaml, cv::FileStorage::READ | cv::FileStorage::MEMORY);
     std::string format;
     fs["format"] >> format;
     if (format != "hdrstereo-stereo-calibration-1") {

@@ -9,6 +9,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "processing/base/options.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::eval {
 
@@ -112,12 +113,8 @@ absl::StatusOr<DisparityEvaluation> EvaluateDisparity(
                      ") and ground truth (", truth.cols, "x", truth.rows,
                      ") differ in size"));
   }
-  if (absl::Status s =
-          CheckMask(nonoccluded, truth.size(), "non-occlusion mask");
-      !s.ok()) {
-    return s;
-  }
-  if (absl::Status s = CheckMask(mask, truth.size(), "mask"); !s.ok()) return s;
+  RETURN_IF_ERROR(CheckMask(nonoccluded, truth.size(), "non-occlusion mask"));
+  RETURN_IF_ERROR(CheckMask(mask, truth.size(), "mask"));
   if (absl::Status s = options.Validate(); !s.ok()) {
     return absl::InvalidArgumentError(
         absl::StrCat("evaluation: ", s.message()));

@@ -34,8 +34,8 @@ cv::Mat ConfidenceOf(const Candidate& c, double inconsistent) {
   return confidence;
 }
 
-fusion::FusionParams FusionOf(const ExperimentOptions& o, int max_disparity) {
-  fusion::FusionParams p = o.fusion;
+fusion::FusionOptions FusionOf(const ExperimentOptions& o, int max_disparity) {
+  fusion::FusionOptions p = o.fusion;
   p.max_disp = max_disparity;
   return p;
 }

@@ -44,7 +44,7 @@ struct ExperimentOptions {
   stereo::StereoOptions ldr_stereo;
   stereo::StereoOptions hdr_stereo = stereo::StereoOptions::Hdr();
   // The graph-cut fusion; max_disp is set per run like the stereo range.
-  fusion::FusionParams fusion;
+  fusion::FusionOptions fusion;
   // Candidates' left-right check: pixels that fail it get this confidence
   // in the fusion's data term (1 = ignore the check). Default 1: on the
   // simulated scenes down-weighting inconsistent pixels made fusion worse

@@ -7,6 +7,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "processing/base/status_macros.h"
 #include "processing/filters/mat_checks.h"
 
 namespace hdrstereo::filters {
@@ -88,17 +89,11 @@ void VerticalPass(cv::Mat& img, const cv::Mat& w) {
 absl::StatusOr<cv::Mat> DomainTransformFilter(
     const cv::Mat& src, const cv::Mat& guide,
     const DomainTransformOptions& options) {
-  if (absl::Status s = CheckImage(src, "domain transform input",
-                                  /*float_only=*/false, {});
-      !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(
+      CheckImage(src, "domain transform input", /*float_only=*/false, {}));
   const cv::Mat& g = guide.empty() ? src : guide;
-  if (absl::Status s = CheckImage(g, "domain transform guide",
-                                  /*float_only=*/false, {1, 3});
-      !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(
+      CheckImage(g, "domain transform guide", /*float_only=*/false, {1, 3}));
   if (g.size() != src.size()) {
     return absl::InvalidArgumentError(
         "domain transform input and guide differ in size");

@@ -9,6 +9,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "processing/base/status_macros.h"
 #include "processing/filters/mat_checks.h"
 
 namespace hdrstereo::filters {
@@ -35,11 +36,8 @@ std::vector<Tap> Taps(int full, int low, int ds) {
 
 absl::StatusOr<cv::Mat> FastBilateralFilter(
     const cv::Mat& src, const FastBilateralOptions& options) {
-  if (absl::Status s =
-          CheckImage(src, "bilateral input", /*float_only=*/false, {1});
-      !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(
+      CheckImage(src, "bilateral input", /*float_only=*/false, {1}));
   if (!(options.sigma_s > 0) || !(options.sigma_r > 0) ||
       !std::isfinite(options.sigma_s) || !std::isfinite(options.sigma_r) ||
       options.downsample < 0) {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "processing/base/status_macros.h"
 #include "processing/filters/mat_checks.h"
 
 namespace hdrstereo::filters {
@@ -56,11 +57,8 @@ cv::Mat GuidedFilter::Box(const cv::Mat& m) const {
 
 absl::StatusOr<GuidedFilter> GuidedFilter::Create(
     const cv::Mat& guide, const GuidedFilterOptions& options) {
-  if (absl::Status s = CheckImage(guide, "guided filter guide",
-                                  /*float_only=*/false, {1, 3});
-      !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(
+      CheckImage(guide, "guided filter guide", /*float_only=*/false, {1, 3}));
   if (absl::Status s = options.Validate(); !s.ok()) {
     return absl::InvalidArgumentError(
         absl::StrCat("guided filter: ", s.message()));
@@ -232,11 +230,8 @@ void GuidedFilter::FilterPlane(const cv::Mat& src_full, cv::Mat& dst,
 }
 
 absl::StatusOr<cv::Mat> GuidedFilter::Filter(const cv::Mat& src) const {
-  if (absl::Status s = CheckImage(src, "guided filter input",
-                                  /*float_only=*/false, {});
-      !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(
+      CheckImage(src, "guided filter input", /*float_only=*/false, {}));
   if (src.size() != size()) {
     return absl::InvalidArgumentError(
         "guided filter input and guide differ in size");
@@ -266,9 +261,8 @@ absl::StatusOr<cv::Mat> GuidedFilter::Filter(const cv::Mat& src) const {
 absl::StatusOr<cv::Mat> ApplyGuidedFilter(const cv::Mat& guide,
                                           const cv::Mat& src,
                                           const GuidedFilterOptions& options) {
-  absl::StatusOr<GuidedFilter> f = GuidedFilter::Create(guide, options);
-  if (!f.ok()) return f.status();
-  return f->Filter(src);
+  ASSIGN_OR_RETURN(GuidedFilter f, GuidedFilter::Create(guide, options));
+  return f.Filter(src);
 }
 
 void InvertGuideCovarianceRow(const float* const mean[3],

@@ -10,6 +10,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "processing/base/status_macros.h"
 #include "processing/filters/mat_checks.h"
 
 namespace hdrstereo::filters {
@@ -536,15 +537,9 @@ WlsReport SolveCg(const WlsSystem& a, const std::vector<float>& b,
 absl::StatusOr<cv::Mat> WlsFilter(const cv::Mat& src, const cv::Mat& guide,
                                   const WlsOptions& options,
                                   WlsReport* report) {
-  if (absl::Status s = CheckImage(src, "WLS input", /*float_only=*/false, {});
-      !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(CheckImage(src, "WLS input", /*float_only=*/false, {}));
   const cv::Mat& g = guide.empty() ? src : guide;
-  if (absl::Status s = CheckImage(g, "WLS guide", /*float_only=*/false, {1});
-      !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(CheckImage(g, "WLS guide", /*float_only=*/false, {1}));
   if (g.size() != src.size()) {
     return absl::InvalidArgumentError("WLS input and guide differ in size");
   }

@@ -17,6 +17,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
+#include "processing/base/status_macros.h"
 
 // libmaxflow's headers come in as SYSTEM (imported target PkgConfig::MAXFLOW).
 #include <maxflow.h>
@@ -135,23 +136,21 @@ absl::StatusOr<cv::Mat> GuideGrey8(const cv::Mat& guide, cv::Size size) {
 }
 
 // Per-candidate data cost at offset d = l - z, before confidence and scale.
-double UnitCost(const FusionParams& params, double d) {
+double UnitCost(const FusionOptions& params, double d) {
   if (params.data == DataModel::kGaussian) {
     return 1.0 - std::exp(-d * d / (2.0 * params.sigma * params.sigma));
   }
   return std::min(d * d, params.data_truncation);
 }
 
-double UnitCostMax(const FusionParams& params) {
+double UnitCostMax(const FusionOptions& params) {
   return params.data == DataModel::kGaussian ? 1.0 : params.data_truncation;
 }
 
 absl::StatusOr<MrfProblem> BuildProblemImpl(
     const std::vector<cv::Mat>& candidates, const cv::Mat& guide,
-    const FusionParams& params, const std::vector<cv::Mat>& confidences) {
-  if (absl::Status s = CheckCandidates(candidates, params.max_disp); !s.ok()) {
-    return s;
-  }
+    const FusionOptions& params, const std::vector<cv::Mat>& confidences) {
+  RETURN_IF_ERROR(CheckCandidates(candidates, params.max_disp));
   if (absl::Status s = params.Validate(); !s.ok()) {
     return absl::InvalidArgumentError(absl::StrCat("fusion: ", s.message()));
   }
@@ -178,8 +177,7 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
     }
   }
   const cv::Size size = candidates[0].size();
-  absl::StatusOr<cv::Mat> grey = GuideGrey8(guide, size);
-  if (!grey.ok()) return grey.status();
+  ASSIGN_OR_RETURN(cv::Mat grey, GuideGrey8(guide, size));
 
   MrfProblem pr;
   pr.width = size.width;
@@ -362,7 +360,7 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
     if (!edges.empty() && edges.ptr<uchar>()[q] != 0) w *= params.edge_weight;
     return static_cast<int32_t>(std::lround(params.lambda * w));
   };
-  const uchar* img = grey->ptr<uchar>();
+  const uchar* img = grey.ptr<uchar>();
   for (int y = 0; y < pr.height; ++y) {
     for (int x = 0; x < pr.width; ++x) {
       const int64_t p = static_cast<int64_t>(y) * pr.width + x;
@@ -473,7 +471,7 @@ absl::Status CheckProblem(const MrfProblem& pr) {
 
 absl::StatusOr<MrfProblem> BuildProblem(
     const std::vector<cv::Mat>& candidates, const cv::Mat& guide,
-    const FusionParams& params, const std::vector<cv::Mat>& confidences) {
+    const FusionOptions& params, const std::vector<cv::Mat>& confidences) {
   try {
     return BuildProblemImpl(candidates, guide, params, confidences);
   } catch (const cv::Exception& e) {
@@ -997,7 +995,7 @@ absl::StatusOr<SolverStats> AlphaExpansion(const MrfProblem& pr,
                                            int max_cycles,
                                            bool prune_dominated) {
   const Clock::time_point t_start = Clock::now();
-  if (absl::Status s = CheckProblem(pr); !s.ok()) return s;
+  RETURN_IF_ERROR(CheckProblem(pr));
   const int64_t n64 = static_cast<int64_t>(pr.width) * pr.height;
   if (labels_ptr == nullptr ||
       static_cast<int64_t>(labels_ptr->size()) != n64) {
@@ -1025,20 +1023,19 @@ absl::StatusOr<SolverStats> AlphaExpansion(const MrfProblem& pr,
 
 absl::StatusOr<FusionResult> FuseAlphaExpansion(
     const std::vector<cv::Mat>& candidates, const cv::Mat& guide,
-    const FusionParams& params, const std::vector<cv::Mat>& confidences) {
+    const FusionOptions& params, const std::vector<cv::Mat>& confidences) {
   const Clock::time_point t0 = Clock::now();
-  absl::StatusOr<MrfProblem> pr =
-      BuildProblem(candidates, guide, params, confidences);
-  if (!pr.ok()) return pr.status();
-  std::vector<int32_t> labels = WinnerTakesAll(*pr);
+  ASSIGN_OR_RETURN(MrfProblem pr,
+                   BuildProblem(candidates, guide, params, confidences));
+  std::vector<int32_t> labels = WinnerTakesAll(pr);
   const double setup = Seconds(t0, Clock::now());
   absl::StatusOr<SolverStats> stats =
-      AlphaExpansion(*pr, &labels, params.max_cycles, params.prune_dominated);
+      AlphaExpansion(pr, &labels, params.max_cycles, params.prune_dominated);
   if (!stats.ok()) return stats.status();
   FusionResult result;
   result.stats = *stats;
   result.stats.setup_seconds = setup;
-  result.disparity.create(pr->height, pr->width, CV_32FC1);
+  result.disparity.create(pr.height, pr.width, CV_32FC1);
   float* out = result.disparity.ptr<float>();
   for (size_t p = 0; p < labels.size(); ++p) {
     out[p] = static_cast<float>(labels[p]);
@@ -1051,9 +1048,7 @@ namespace {
 template <typename Reduce>
 absl::StatusOr<cv::Mat> FuseReduce(const std::vector<cv::Mat>& candidates,
                                    int max_disp, Reduce reduce) {
-  if (absl::Status s = CheckCandidates(candidates, max_disp); !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(CheckCandidates(candidates, max_disp));
   const cv::Size size = candidates[0].size();
   cv::Mat out(size, CV_32FC1);
   std::vector<float> values;

@@ -78,7 +78,7 @@ enum class SmoothnessModel {
   kQuadratic
 };
 
-struct FusionParams {
+struct FusionOptions {
   int max_disp = 64;  // labels 0..max_disp
   DataModel data = DataModel::kGaussian;
   double sigma = 1.0;             // kGaussian, in pixels
@@ -107,7 +107,7 @@ struct FusionParams {
   absl::Status Validate() const;
 };
 // Canonical JSON (processing/base/options.h).
-void to_json(nlohmann::json& j, const FusionParams& o);
+void to_json(nlohmann::json& j, const FusionOptions& o);
 
 // The integer MRF the solver works on. Edge weights: right[p] is the edge
 // (p, p + 1) (0 in the last column), down[p] the edge (p, p + width) (0 in the
@@ -169,7 +169,7 @@ struct FusionResult {
 // CV_32FC1 map in [0, 1] per candidate.
 absl::StatusOr<MrfProblem> BuildProblem(
     const std::vector<cv::Mat>& candidates, const cv::Mat& guide,
-    const FusionParams& params, const std::vector<cv::Mat>& confidences = {});
+    const FusionOptions& params, const std::vector<cv::Mat>& confidences = {});
 
 int64_t Energy(const MrfProblem& problem, const std::vector<int32_t>& labels);
 
@@ -186,7 +186,7 @@ absl::StatusOr<SolverStats> AlphaExpansion(const MrfProblem& problem,
 // BuildProblem + WinnerTakesAll + AlphaExpansion.
 absl::StatusOr<FusionResult> FuseAlphaExpansion(
     const std::vector<cv::Mat>& candidates, const cv::Mat& guide,
-    const FusionParams& params, const std::vector<cv::Mat>& confidences = {});
+    const FusionOptions& params, const std::vector<cv::Mat>& confidences = {});
 
 // Baselines: per-pixel mean / median of the valid candidates (same validity
 // rule); NaN where no candidate is valid. CV_32FC1.

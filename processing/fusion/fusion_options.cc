@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
-// FusionParams' rules and canonical JSON.
+// FusionOptions' rules and canonical JSON.
 #include <nlohmann/json.hpp>
 
 #include "processing/base/options.h"
@@ -35,7 +35,7 @@ const char* SmoothnessModelName(SmoothnessModel model) {
 
 }  // namespace
 
-absl::Status FusionParams::Validate() const {
+absl::Status FusionOptions::Validate() const {
   RETURN_IF_ERROR(RequireField(max_disp >= 1 && max_disp <= 4096, "max_disp",
                                max_disp, "in [1, 4096]"));
   RETURN_IF_ERROR(RequireField(sigma > 0, "sigma", sigma, "> 0"));
@@ -59,7 +59,7 @@ absl::Status FusionParams::Validate() const {
                       candidate_label_radius, ">= 0");
 }
 
-void to_json(nlohmann::json& j, const FusionParams& o) {
+void to_json(nlohmann::json& j, const FusionOptions& o) {
   const auto& [max_disp, data, sigma, data_scale, data_truncation, smoothness,
                lambda, linear_model_thr, static_cue, quadratic_c,
                quadratic_truncation, edge_weight, max_cycles, prune_dominated,

@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::hdr {
 namespace {
@@ -217,7 +218,7 @@ absl::StatusOr<MergeResult> MergeLinear(const ExposureStack& stack,
 absl::StatusOr<MergeResult> MergeStack(const ExposureStack& stack,
                                        const CameraResponse& response,
                                        const MergeOptions& options) {
-  if (absl::Status s = ValidateStack(stack); !s.ok()) return s;
+  RETURN_IF_ERROR(ValidateStack(stack));
   if (absl::Status s = options.Validate(); !s.ok()) {
     return absl::InvalidArgumentError(absl::StrCat("merge: ", s.message()));
   }

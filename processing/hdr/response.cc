@@ -7,6 +7,7 @@
 #include <random>
 
 #include "absl/strings/str_cat.h"
+#include "processing/base/status_macros.h"
 #include "processing/io/atomic_file.h"
 #include "processing/io/image.h"
 
@@ -149,7 +150,7 @@ std::vector<int> CodeFloors(const ExposureStack& stack) {
 
 absl::StatusOr<CameraResponse> RecoverResponse(const ExposureStack& stack,
                                                const ResponseOptions& options) {
-  if (absl::Status s = ValidateStack(stack); !s.ok()) return s;
+  RETURN_IF_ERROR(ValidateStack(stack));
   if (stack.images[0].depth() != CV_8U) {
     return absl::InvalidArgumentError(absl::StrCat(
         "response recovery needs 8-bit images; ", stack.Name(0),
@@ -268,11 +269,10 @@ absl::Status SaveResponse(const std::filesystem::path& path,
 }
 
 absl::StatusOr<CameraResponse> LoadResponse(const std::filesystem::path& path) {
-  absl::StatusOr<std::string> yaml = io::ReadFileBytes(path);
-  if (!yaml.ok()) return yaml.status();
+  ASSIGN_OR_RETURN(std::string yaml, io::ReadFileBytes(path));
   CameraResponse r;
   try {
-    cv::FileStorage fs(*yaml, cv::FileStorage::READ | cv::FileStorage::MEMORY);
+    cv::FileStorage fs(yaml, cv::FileStorage::READ | cv::FileStorage::MEMORY);
     std::string format;
     fs["format"] >> format;
     if (format != "hdrstereo-camera-response-1") {

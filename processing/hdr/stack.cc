@@ -12,6 +12,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
+#include "processing/base/status_macros.h"
 #include "processing/io/image.h"
 
 namespace hdrstereo::hdr {
@@ -109,10 +110,9 @@ absl::StatusOr<ExposureStack> LoadStack(const std::filesystem::path& dir) {
   std::vector<std::pair<std::filesystem::path, std::optional<double>>> entries;
   const std::filesystem::path list = dir / "exposures.txt";
   if (std::filesystem::exists(list, ec)) {
-    absl::StatusOr<std::string> text = io::ReadFileBytes(list);
-    if (!text.ok()) return text.status();
+    ASSIGN_OR_RETURN(std::string text, io::ReadFileBytes(list));
     int line_no = 0;
-    for (absl::string_view line : absl::StrSplit(*text, '\n')) {
+    for (absl::string_view line : absl::StrSplit(text, '\n')) {
       ++line_no;
       line = line.substr(0, line.find('#'));
       std::vector<std::string> fields =
@@ -145,16 +145,15 @@ absl::StatusOr<ExposureStack> LoadStack(const std::filesystem::path& dir) {
   }
   ExposureStack stack;
   for (const auto& [path, time] : entries) {
-    absl::StatusOr<io::DecodedImage> img = io::DecodeImageFile(path);
-    if (!img.ok()) return img.status();
-    std::optional<double> t = time ? time : img->metadata.exposure_s;
+    ASSIGN_OR_RETURN(io::DecodedImage img, io::DecodeImageFile(path));
+    std::optional<double> t = time ? time : img.metadata.exposure_s;
     if (!t || *t <= 0) {
       return absl::InvalidArgumentError(absl::StrCat(
           "missing exposure time for ", path.string(), ": no exposures.txt in ",
           dir.string(), " and no ExposureTime in the file's metadata"));
     }
-    if (stack.camera.empty()) stack.camera = img->metadata.camera;
-    stack.images.push_back(std::move(img->pixels));
+    if (stack.camera.empty()) stack.camera = img.metadata.camera;
+    stack.images.push_back(std::move(img.pixels));
     stack.exposure_s.push_back(*t);
     stack.names.push_back(path.string());
   }
@@ -176,7 +175,7 @@ absl::StatusOr<ExposureStack> LoadStack(const std::filesystem::path& dir) {
     sorted.exposure_s.push_back(stack.exposure_s[i]);
     sorted.names.push_back(stack.names[i]);
   }
-  if (absl::Status s = ValidateStack(sorted); !s.ok()) return s;
+  RETURN_IF_ERROR(ValidateStack(sorted));
   return sorted;
 }
 

@@ -14,6 +14,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/string_view.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::io {
 namespace {
@@ -105,10 +106,9 @@ absl::Status AtomicFileWriter::Commit() {
 
 absl::Status WriteFileAtomically(const std::filesystem::path& path,
                                  absl::string_view data) {
-  absl::StatusOr<AtomicFileWriter> writer = AtomicFileWriter::Open(path);
-  if (!writer.ok()) return writer.status();
-  if (absl::Status s = writer->Append(data); !s.ok()) return s;
-  return writer->Commit();
+  ASSIGN_OR_RETURN(AtomicFileWriter writer, AtomicFileWriter::Open(path));
+  RETURN_IF_ERROR(writer.Append(data));
+  return writer.Commit();
 }
 
 absl::Status SyncDirectory(const std::filesystem::path& dir) {

@@ -23,6 +23,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
+#include "processing/base/status_macros.h"
 #include "processing/io/atomic_file.h"
 #include "processing/io/image.h"
 
@@ -80,7 +81,7 @@ uint32_t ByteSwap32(uint32_t v) {
 }  // namespace
 
 absl::Status WritePfm(const std::filesystem::path& path, const cv::Mat& image) {
-  if (absl::Status s = CheckFloatImage(path, image); !s.ok()) return s;
+  RETURN_IF_ERROR(CheckFloatImage(path, image));
   cv::Mat rgb = ToRgbFloat(image);
   const int channels = rgb.channels();
   std::string out = absl::StrCat(channels == 3 ? "PF" : "Pf", "\n", rgb.cols,
@@ -106,21 +107,20 @@ absl::Status WritePfm(const std::filesystem::path& path, const cv::Mat& image) {
 }
 
 absl::StatusOr<cv::Mat> ReadPfm(const std::filesystem::path& path) {
-  absl::StatusOr<std::string> bytes = ReadFileBytes(path);
-  if (!bytes.ok()) return bytes.status();
+  ASSIGN_OR_RETURN(std::string bytes, ReadFileBytes(path));
   auto bad = [&](absl::string_view why) {
     return absl::InvalidArgumentError(
         absl::StrCat("corrupt PFM ", path.string(), ": ", why));
   };
   size_t at = 0;
   std::string magic, w_s, h_s, scale_s;
-  if (!NextToken(*bytes, at, magic) || (magic != "PF" && magic != "Pf")) {
+  if (!NextToken(bytes, at, magic) || (magic != "PF" && magic != "Pf")) {
     return bad("missing PF/Pf magic");
   }
   int width = 0, height = 0;
   double scale = 0;
-  if (!NextToken(*bytes, at, w_s) || !NextToken(*bytes, at, h_s) ||
-      !NextToken(*bytes, at, scale_s) || !absl::SimpleAtoi(w_s, &width) ||
+  if (!NextToken(bytes, at, w_s) || !NextToken(bytes, at, h_s) ||
+      !NextToken(bytes, at, scale_s) || !absl::SimpleAtoi(w_s, &width) ||
       !absl::SimpleAtoi(h_s, &height) || !absl::SimpleAtod(scale_s, &scale) ||
       width <= 0 || height <= 0 || scale == 0) {
     return bad("bad header");
@@ -128,7 +128,7 @@ absl::StatusOr<cv::Mat> ReadPfm(const std::filesystem::path& path) {
   ++at;  // the single whitespace after the scale
   const int channels = magic == "PF" ? 3 : 1;
   const size_t row_bytes = sizeof(float) * size_t(width) * channels;
-  if (bytes->size() < at || bytes->size() - at < row_bytes * height) {
+  if (bytes.size() < at || bytes.size() - at < row_bytes * height) {
     return bad(absl::StrCat("truncated: need ", row_bytes * height,
                             " bytes of pixels"));
   }
@@ -137,7 +137,7 @@ absl::StatusOr<cv::Mat> ReadPfm(const std::filesystem::path& path) {
   cv::Mat img(height, width, CV_32FC(channels));
   for (int y = 0; y < height; ++y) {
     float* dst = img.ptr<float>(height - 1 - y);
-    const char* src = bytes->data() + at + row_bytes * y;
+    const char* src = bytes.data() + at + row_bytes * y;
     std::memcpy(dst, src, row_bytes);
     if (swap) {
       auto* words = reinterpret_cast<uint32_t*>(dst);
@@ -151,7 +151,7 @@ absl::StatusOr<cv::Mat> ReadPfm(const std::filesystem::path& path) {
 
 absl::Status WriteExr(const std::filesystem::path& path, const cv::Mat& image,
                       ExrPixelType type) {
-  if (absl::Status s = CheckFloatImage(path, image); !s.ok()) return s;
+  RETURN_IF_ERROR(CheckFloatImage(path, image));
   cv::Mat rgb = ToRgbFloat(image);
   if (!rgb.isContinuous()) rgb = rgb.clone();
   const int channels = rgb.channels();
@@ -195,11 +195,10 @@ absl::Status WriteExr(const std::filesystem::path& path, const cv::Mat& image,
 }
 
 absl::StatusOr<cv::Mat> ReadExr(const std::filesystem::path& path) {
-  absl::StatusOr<std::string> bytes = ReadFileBytes(path);
-  if (!bytes.ok()) return bytes.status();
+  ASSIGN_OR_RETURN(std::string bytes, ReadFileBytes(path));
   try {
     Imf::StdISStream stream;
-    stream.str(*bytes);
+    stream.str(bytes);
     Imf::InputFile file(stream);
     const Imath::Box2i dw = file.header().dataWindow();
     const int width = dw.max.x - dw.min.x + 1;
@@ -253,7 +252,7 @@ absl::Status WriteEncoded(const std::filesystem::path& path,
 
 absl::Status WriteRgbe(const std::filesystem::path& path,
                        const cv::Mat& image) {
-  if (absl::Status s = CheckFloatImage(path, image); !s.ok()) return s;
+  RETURN_IF_ERROR(CheckFloatImage(path, image));
   cv::Mat f;
   image.convertTo(f, CV_32F);
   if (f.channels() == 1) cv::cvtColor(f, f, cv::COLOR_GRAY2BGR);
@@ -273,15 +272,14 @@ absl::Status WriteRgbe(const std::filesystem::path& path,
 }
 
 absl::StatusOr<cv::Mat> ReadRgbe(const std::filesystem::path& path) {
-  absl::StatusOr<std::string> bytes = ReadFileBytes(path);
-  if (!bytes.ok()) return bytes.status();
-  if (bytes->rfind("#?", 0) != 0) {
+  ASSIGN_OR_RETURN(std::string bytes, ReadFileBytes(path));
+  if (bytes.rfind("#?", 0) != 0) {
     return absl::InvalidArgumentError(
         absl::StrCat("not a Radiance RGBE file: ", path.string()));
   }
   cv::Mat img;
   try {
-    std::vector<uchar> buf(bytes->begin(), bytes->end());
+    std::vector<uchar> buf(bytes.begin(), bytes.end());
     img = cv::imdecode(buf, cv::IMREAD_ANYDEPTH | cv::IMREAD_COLOR);
   } catch (const cv::Exception& e) {
     return absl::InvalidArgumentError(

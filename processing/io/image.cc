@@ -14,6 +14,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "processing/base/status_macros.h"
 #include "processing/io/exif.h"
 #include "processing/io/hdr_formats.h"
 
@@ -62,24 +63,22 @@ absl::StatusOr<DecodedImage> DecodeImageFile(
   if (IsRawExtension(path)) return DecodeRawFile(path);
   const std::string ext = LowerExtension(path);
   if (ext == ".pfm" || ext == ".exr" || ext == ".hdr") {
-    absl::StatusOr<cv::Mat> f = ext == ".pfm"   ? ReadPfm(path)
+    ASSIGN_OR_RETURN(cv::Mat f, ext == ".pfm"   ? ReadPfm(path)
                                 : ext == ".exr" ? ReadExr(path)
-                                                : ReadRgbe(path);
-    if (!f.ok()) return f.status();
+                                                : ReadRgbe(path));
     DecodedImage out;
-    out.pixels = *std::move(f);
+    out.pixels = std::move(f);
     out.metadata.linear = true;
     return out;
   }
-  absl::StatusOr<std::string> bytes = ReadFileBytes(path);
-  if (!bytes.ok()) return bytes.status();
-  if (bytes->empty()) {
+  ASSIGN_OR_RETURN(std::string bytes, ReadFileBytes(path));
+  if (bytes.empty()) {
     return absl::InvalidArgumentError(
         absl::StrCat("empty image file: ", path.string()));
   }
   DecodedImage out;
   try {
-    std::vector<uchar> buf(bytes->begin(), bytes->end());
+    std::vector<uchar> buf(bytes.begin(), bytes.end());
     out.pixels = cv::imdecode(buf, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
   } catch (const cv::Exception& e) {
     return absl::InvalidArgumentError(
@@ -96,7 +95,7 @@ absl::StatusOr<DecodedImage> DecodeImageFile(
   if (out.pixels.channels() == 4) {
     cv::cvtColor(out.pixels, out.pixels, cv::COLOR_BGRA2BGR);
   }
-  ExifInfo exif = ParseExifFromFile(*bytes);
+  ExifInfo exif = ParseExifFromFile(bytes);
   out.metadata.exposure_s = exif.exposure_s;
   out.metadata.iso = exif.iso;
   out.metadata.aperture = exif.aperture;
@@ -119,9 +118,8 @@ absl::StatusOr<DecodedImage> DecodeRawFile(const std::filesystem::path& path) {
                                                    path.string(), " (", stage,
                                                    "): ", libraw_strerror(rc)));
   };
-  absl::StatusOr<std::string> bytes = ReadFileBytes(path);
-  if (!bytes.ok()) return bytes.status();
-  if (int rc = raw->open_buffer(bytes->data(), bytes->size());
+  ASSIGN_OR_RETURN(std::string bytes, ReadFileBytes(path));
+  if (int rc = raw->open_buffer(bytes.data(), bytes.size());
       rc != LIBRAW_SUCCESS) {
     return fail("open", rc);
   }
@@ -172,7 +170,7 @@ absl::StatusOr<DecodedImage> DecodeRawFile(const std::filesystem::path& path) {
   // TIFF-based RAW (DNG, CR2, NEF, ARW, ...): the file's own EXIF, where 0
   // means unknown (LibRaw would fall back to the APEX fields, whose 0 reads
   // as 1 s and f/1, as in Magic Lantern's DNGs); other RAW: LibRaw's values.
-  const ExifInfo exif = ReadRawMetadata(*bytes);
+  const ExifInfo exif = ReadRawMetadata(bytes);
   out.metadata.exposure_s = exif.exposure_s;
   out.metadata.iso = exif.iso;
   out.metadata.aperture = exif.aperture;

@@ -14,6 +14,7 @@
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "opencv2/core/utility.hpp"
+#include "processing/base/status_macros.h"
 #include "processing/mesopic/fast_math.h"
 #include "processing/mesopic/shin_model.h"
 #include "processing/mesopic/tone_curve.h"
@@ -138,8 +139,8 @@ struct FrameConstants {
 // (inverse scotopic luminance).
 void PrepareShin(double lux_src, double lux_dst, bool anchor_white,
                  FrameConstants& k) {
-  const FittingParams f = FittingAt(lux_src);
-  const FittingParams g = FittingAt(lux_dst);
+  const FittingOptions f = FittingAt(lux_src);
+  const FittingOptions g = FittingAt(lux_dst);
   const Mat3 lms = Multiply(kXyzToLms, kRgbToXyz);
   const Vec3 white = Apply(lms, {1.0, 1.0, 1.0});
   const double lmw = white[0] + white[1];
@@ -514,7 +515,7 @@ absl::Status ValidateOptions(const RetargetOptions& o) {
 absl::StatusOr<cv::Mat> Retarget(const cv::Mat& image,
                                  const RetargetOptions& options) {
   cv::Mat out;
-  if (absl::Status s = RetargetInto(image, options, &out); !s.ok()) return s;
+  RETURN_IF_ERROR(RetargetInto(image, options, &out));
   return out;
 }
 
@@ -535,7 +536,7 @@ absl::Status RetargetInto(const cv::Mat& image, const RetargetOptions& options,
     return absl::InvalidArgumentError(
         "mesopic retarget: need CV_8UC3 (sRGB) or CV_32FC3 (linear) input");
   }
-  if (absl::Status s = ValidateOptions(options); !s.ok()) return s;
+  RETURN_IF_ERROR(ValidateOptions(options));
   try {
     FrameConstants k;
     k.is_8bit = image.depth() == CV_8U;

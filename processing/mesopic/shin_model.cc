@@ -44,7 +44,8 @@ double LarsonScotopic(double x, double y, double z) {
   return y * (1.33 * (1.0 + (y + z) / x) - 1.68);
 }
 
-FittingParams Lerp(const FittingParams& p, const FittingParams& q, double t) {
+FittingOptions Lerp(const FittingOptions& p, const FittingOptions& q,
+                    double t) {
   auto mix = [t](double u, double v) { return u + (v - u) * t; };
   return {mix(p.alpha, q.alpha), mix(p.beta, q.beta), mix(p.l, q.l),
           mix(p.a, q.a),         mix(p.m, q.m),       mix(p.b, q.b)};
@@ -71,7 +72,7 @@ double ScotopicLuminance(const Vec3& rgb) {
   return w[0] * rgb[0] + w[1] * rgb[1] + w[2] * rgb[2];
 }
 
-FittingParams FittingAt(double lux) {
+FittingOptions FittingAt(double lux) {
   const auto& t = kShinFittingTable;
   if (!(lux > t.front().lux)) return t.front().params;
   if (lux >= t.back().lux) return t.back().params;
@@ -144,7 +145,7 @@ constexpr Mat3 kOpp = {{{1.0, 1.0, 0.0}, {1.0, -2.0, 0.0}, {1.0, 1.0, -1.0}}};
 }  // namespace
 
 Opponent ShinForward(const Vec3& rgb, double lux) {
-  const FittingParams f = FittingAt(lux);
+  const FittingOptions f = FittingAt(lux);
   const Vec3 lms = Apply(RgbToLms(), rgb);
   const double y_scot = std::max(ScotopicLuminance(rgb), 0.0);  // Y'/Y'_w
   Opponent o;
@@ -160,7 +161,7 @@ Vec3 PerceivedXyz(const Opponent& opp) {
 }
 
 Vec3 ShinInverse(const Opponent& opp, double lux) {
-  const FittingParams f = FittingAt(lux);
+  const FittingOptions f = FittingAt(lux);
   const double lmw = WhiteLPlusM();
   // rgb = G * [P, Q, R] with P = L+M, Q = L-2M, R = L+M-S; Y' = c . [P,Q,R].
   const Mat3 g = Multiply(Inverse(RgbToLms()), Inverse(kOpp));

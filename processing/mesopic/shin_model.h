@@ -49,7 +49,7 @@ Vec3 ScotopicWeights();
 double ScotopicLuminance(const Vec3& rgb);
 
 // Fitting functions of Eq. 6.2 at one illuminance.
-struct FittingParams {
+struct FittingOptions {
   double alpha = 1.0;  // weight of the cone (photopic) achromatic signal
   double beta = 0.0;   // weight of the rod achromatic signal
   double l = 1.0;      // red/green cone gain
@@ -60,7 +60,7 @@ struct FittingParams {
 
 struct FittingNode {
   double lux;
-  FittingParams params;
+  FittingOptions params;
 };
 
 // The tabulated fitting functions (derived; see docs/mesopic.md), ascending
@@ -70,7 +70,7 @@ inline constexpr int kFittingNodes = 6;
 extern const std::array<FittingNode, kFittingNodes> kShinFittingTable;
 
 // Fitting functions at illuminance `lux` (> 0).
-FittingParams FittingAt(double lux);
+FittingOptions FittingAt(double lux);
 
 // E = pi * L: illuminance on a white Lambertian surface of luminance L.
 double LuxFromWhiteLuminance(double cd_per_m2);

@@ -162,9 +162,8 @@ absl::StatusOr<JsonRunStore> JsonRunStore::OpenOrThrow(fs::path path) {
   JsonRunStore store(std::move(path));
   std::error_code ec;
   if (!fs::exists(store.path_, ec)) return store;
-  absl::StatusOr<std::string> text = io::ReadFileBytes(store.path_);
-  if (!text.ok()) return text.status();
-  const json j = json::parse(*text, nullptr, /*allow_exceptions=*/false);
+  ASSIGN_OR_RETURN(std::string text, io::ReadFileBytes(store.path_));
+  const json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (j.is_discarded() || !j.is_object()) {
     return absl::DataLossError(
         absl::StrCat(store.path_.string(), ": not a pipeline state file"));

@@ -942,7 +942,7 @@ void ComputeCostSlice(const MatchingImages& images,
 absl::StatusOr<cv::Mat> ComputeFilteredCostSlice(const MatchingImages& images,
                                                  const StereoOptions& options,
                                                  View view, int d) {
-  if (absl::Status s = CheckMatchingImages(images, options); !s.ok()) return s;
+  RETURN_IF_ERROR(CheckMatchingImages(images, options));
   try {
     KernelOutput k = FilteredWta(images, options, view, d, d, false);
     cv::Mat out;
@@ -955,7 +955,7 @@ absl::StatusOr<cv::Mat> ComputeFilteredCostSlice(const MatchingImages& images,
 
 absl::StatusOr<WtaResult> ComputeWta(const MatchingImages& images,
                                      const StereoOptions& options, View view) {
-  if (absl::Status s = CheckMatchingImages(images, options); !s.ok()) return s;
+  RETURN_IF_ERROR(CheckMatchingImages(images, options));
   try {
     const bool sub = options.subpixel;
     KernelOutput k = FilteredWta(images, options, view, options.min_disparity,

@@ -12,6 +12,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "processing/base/status_macros.h"
 #include "processing/io/capture_layout.h"
 #include "processing/io/image.h"
 #include "processing/structured_light/gray_code.h"
@@ -105,9 +106,8 @@ absl::StatusOr<ViewFrames> LoadCaptureView(
             absl::StrFormat("%s: exposure %s: sl_%s_exp_%s is missing",
                             folder.string(), tag, id, tag));
       }
-      absl::StatusOr<io::DecodedImage> image = io::DecodeImageFile(it->second);
-      if (!image.ok()) return image.status();
-      e.frames.push_back(std::move(image->pixels));
+      ASSIGN_OR_RETURN(io::DecodedImage image, io::DecodeImageFile(it->second));
+      e.frames.push_back(std::move(image.pixels));
     }
     out.exposures.push_back(std::move(e));
   }

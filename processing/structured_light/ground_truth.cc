@@ -8,6 +8,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "processing/base/status_macros.h"
 #include "processing/io/atomic_file.h"
 #include "processing/io/middlebury.h"
 
@@ -185,13 +186,12 @@ absl::StatusOr<GroundTruth> ComputeGroundTruth(
       s.lit = cv::countNonZero(views[v]->lit);
       s.decoded = cv::countNonZero(views[v]->column >= 0);
     }
-    absl::StatusOr<ViewDisparity> vd =
-        ComputeViewDisparity(codes[0], codes[1], options.match);
-    if (!vd.ok()) return vd.status();
-    out.disp0 = vd->left;
-    out.disp1 = vd->right;
-    out.stats.view[0].lr_rejected = vd->left_rejected;
-    out.stats.view[1].lr_rejected = vd->right_rejected;
+    ASSIGN_OR_RETURN(ViewDisparity vd,
+                     ComputeViewDisparity(codes[0], codes[1], options.match));
+    out.disp0 = vd.left;
+    out.disp1 = vd.right;
+    out.stats.view[0].lr_rejected = vd.left_rejected;
+    out.stats.view[1].lr_rejected = vd.right_rejected;
     out.stats.view[0].view_matched = cv::countNonZero(out.disp0 != kInf);
     out.stats.view[1].view_matched = cv::countNonZero(out.disp1 != kInf);
 
@@ -285,11 +285,8 @@ std::string StatsJson(const GroundTruthStats& stats) {
 
 absl::Status WriteMiddlebury(const GroundTruth& truth,
                              const std::filesystem::path& dir) {
-  if (absl::Status s =
-          io::WriteGroundTruth(dir, truth.disp0, truth.mask0nocc, truth.disp1);
-      !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(
+      io::WriteGroundTruth(dir, truth.disp0, truth.mask0nocc, truth.disp1));
   return io::WriteFileAtomically(dir / kStatsFile, StatsJson(truth.stats));
 }
 

@@ -11,6 +11,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::tonemap {
 namespace {
@@ -163,7 +164,7 @@ absl::StatusOr<cv::Mat> SolvePoissonNeumann(const cv::Mat& f) {
 }
 
 absl::StatusOr<std::vector<cv::Mat>> FattalCompress(
-    const std::vector<cv::Mat>& log_lum, const FattalParams& params) {
+    const std::vector<cv::Mat>& log_lum, const FattalOptions& params) {
   if (log_lum.empty()) return absl::InvalidArgumentError("no views");
   if (absl::Status s = params.Validate(); !s.ok()) {
     return absl::InvalidArgumentError(absl::StrCat("Fattal: ", s.message()));
@@ -255,8 +256,7 @@ absl::StatusOr<std::vector<cv::Mat>> FattalCompress(
           d[x] = s;
         }
       }
-      absl::StatusOr<cv::Mat> solved = SolvePoissonNeumann(div);
-      if (!solved.ok()) return solved.status();
+      ASSIGN_OR_RETURN(cv::Mat solved, SolvePoissonNeumann(div));
       // The Poisson solution is defined up to a constant. Anchor it on the
       // mid-tones: the median of (H - I) over the pixels whose H lies between
       // the pooled 40th and 60th percentiles is made zero. In a stereo pair
@@ -264,7 +264,7 @@ absl::StatusOr<std::vector<cv::Mat>> FattalCompress(
       // get the same constant (a mean or a plain median is pulled by content
       // that enters one view only, e.g. a lamp at the border).
       cv::Mat result;
-      solved->convertTo(result, CV_32F);
+      solved.convertTo(result, CV_32F);
       out[v] = result + MedianDifference(h, result, band_lo, band_hi);
     }
     return out;

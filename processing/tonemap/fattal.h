@@ -26,7 +26,7 @@ absl::StatusOr<cv::Mat> SolvePoissonNeumann(const cv::Mat& f);
 // zero over the mid-tones (pooled 40th..60th percentile of the input). With
 // beta = 1 nothing is attenuated and the input is reproduced.
 absl::StatusOr<std::vector<cv::Mat>> FattalCompress(
-    const std::vector<cv::Mat>& log_lum, const FattalParams& params);
+    const std::vector<cv::Mat>& log_lum, const FattalOptions& params);
 
 }  // namespace hdrstereo::tonemap
 

@@ -12,6 +12,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "processing/base/status_macros.h"
 #include "processing/filters/fast_bilateral.h"
 #include "processing/tonemap/fattal.h"
 
@@ -306,13 +307,12 @@ absl::StatusOr<std::vector<cv::Mat>> ToneMapBaseDetail(
   }
   double b_lo = DBL_MAX, b_hi = -DBL_MAX;
   for (const cv::Mat& l : log_lum) {
-    absl::StatusOr<cv::Mat> b = BaseLayer(op, l, p);
-    if (!b.ok()) return b.status();
+    ASSIGN_OR_RETURN(cv::Mat b, BaseLayer(op, l, p));
     double a, c;
-    cv::minMaxLoc(*b, &a, &c);
+    cv::minMaxLoc(b, &a, &c);
     b_lo = std::min(b_lo, a);
     b_hi = std::max(b_hi, c);
-    base.push_back(*b);
+    base.push_back(b);
   }
   const float compression =
       b_hi - b_lo > 1e-6
@@ -346,11 +346,10 @@ absl::StatusOr<std::vector<cv::Mat>> ToneMapFattal(
     cv::Mat l = Log10Luminance(lum, pl.floor);
     log_lum.push_back(l * kLn10);
   }
-  absl::StatusOr<std::vector<cv::Mat>> compressed =
-      FattalCompress(log_lum, p.fattal);
-  if (!compressed.ok()) return compressed.status();
+  ASSIGN_OR_RETURN(std::vector<cv::Mat> compressed,
+                   FattalCompress(log_lum, p.fattal));
   std::vector<cv::Mat> ld;
-  for (cv::Mat& c : *compressed) {
+  for (cv::Mat& c : compressed) {
     cv::Mat e;
     cv::exp(c, e);
     ld.push_back(e);
@@ -390,27 +389,26 @@ absl::StatusOr<std::vector<cv::Mat>> ToneMapViews(
     const std::string what = radiance.size() == 1
                                  ? std::string("radiance")
                                  : absl::StrCat("radiance of view ", v);
-    if (absl::Status s = ValidateRadiance(radiance[v], what); !s.ok()) return s;
+    RETURN_IF_ERROR(ValidateRadiance(radiance[v], what));
   }
   if (absl::Status s = params.Validate(); !s.ok()) {
     return absl::InvalidArgumentError(
         absl::StrCat("tone mapping: ", s.message()));
   }
   try {
-    absl::StatusOr<PairLuminance> pl = ComputeLuminance(radiance);
-    if (!pl.ok()) return pl.status();
+    ASSIGN_OR_RETURN(PairLuminance pl, ComputeLuminance(radiance));
     switch (op) {
       case Operator::kReinhard:
-        return ToneMapReinhard(radiance, *pl, params);
+        return ToneMapReinhard(radiance, pl, params);
       case Operator::kDrago:
-        return ToneMapDrago(radiance, *pl, params);
+        return ToneMapDrago(radiance, pl, params);
       case Operator::kFattal:
-        return ToneMapFattal(radiance, *pl, params);
+        return ToneMapFattal(radiance, pl, params);
       case Operator::kDurand:
       case Operator::kGuided:
       case Operator::kDomainTransform:
       case Operator::kWls:
-        return ToneMapBaseDetail(radiance, *pl, op, params);
+        return ToneMapBaseDetail(radiance, pl, op, params);
     }
     return absl::InvalidArgumentError("unknown tone-mapping operator");
   } catch (const cv::Exception& e) {
@@ -421,20 +419,18 @@ absl::StatusOr<std::vector<cv::Mat>> ToneMapViews(
 
 absl::StatusOr<cv::Mat> ToneMap(const cv::Mat& radiance, Operator op,
                                 const Params& params) {
-  absl::StatusOr<std::vector<cv::Mat>> out =
-      ToneMapViews({radiance}, op, params);
-  if (!out.ok()) return out.status();
-  return std::move(out->front());
+  ASSIGN_OR_RETURN(std::vector<cv::Mat> out,
+                   ToneMapViews({radiance}, op, params));
+  return std::move(out.front());
 }
 
 absl::StatusOr<std::pair<cv::Mat, cv::Mat>> ToneMapPair(const cv::Mat& left,
                                                         const cv::Mat& right,
                                                         Operator op,
                                                         const Params& params) {
-  absl::StatusOr<std::vector<cv::Mat>> out =
-      ToneMapViews({left, right}, op, params);
-  if (!out.ok()) return out.status();
-  return std::make_pair(std::move((*out)[0]), std::move((*out)[1]));
+  ASSIGN_OR_RETURN(std::vector<cv::Mat> out,
+                   ToneMapViews({left, right}, op, params));
+  return std::make_pair(std::move((out)[0]), std::move((out)[1]));
 }
 
 }  // namespace hdrstereo::tonemap

@@ -82,7 +82,7 @@ enum class Operator {
   kWls,              // Farbman
 };
 
-struct ReinhardParams {
+struct ReinhardOptions {
   double key = 0.18;
   // White point in scaled luminance units; <= 0 means the largest scaled
   // luminance of the image (pair), which then maps to 1.
@@ -91,27 +91,27 @@ struct ReinhardParams {
   // INVALID_ARGUMENT naming the first field that breaks a rule.
   absl::Status Validate() const;
 };
-void to_json(nlohmann::json& j, const ReinhardParams& o);
+void to_json(nlohmann::json& j, const ReinhardOptions& o);
 
-struct DragoParams {
+struct DragoOptions {
   double bias = 0.85;
   double ld_max = 100.0;  // display maximum, cd/m^2 (Ldmax in the paper)
 
   // INVALID_ARGUMENT naming the first field that breaks a rule.
   absl::Status Validate() const;
 };
-void to_json(nlohmann::json& j, const DragoParams& o);
+void to_json(nlohmann::json& j, const DragoOptions& o);
 
-struct DurandParams {
+struct DurandOptions {
   double sigma_s_fraction = 0.02;  // spatial sigma / max(width, height)
   double sigma_r = 0.4;            // range sigma, log10 units
 
   // INVALID_ARGUMENT naming the first field that breaks a rule.
   absl::Status Validate() const;
 };
-void to_json(nlohmann::json& j, const DurandParams& o);
+void to_json(nlohmann::json& j, const DurandOptions& o);
 
-struct FattalParams {
+struct FattalOptions {
   double alpha = 0.1;  // times the pair's mean gradient magnitude per level
   double beta = 0.85;  // < 1 compresses large gradients; 1 = no attenuation
   int min_level_size = 32;  // coarsest pyramid level's smaller side
@@ -119,7 +119,7 @@ struct FattalParams {
   // INVALID_ARGUMENT naming the first field that breaks a rule.
   absl::Status Validate() const;
 };
-void to_json(nlohmann::json& j, const FattalParams& o);
+void to_json(nlohmann::json& j, const FattalOptions& o);
 
 struct Params {
   double saturation = 0.6;   // colour exponent, see above
@@ -127,10 +127,10 @@ struct Params {
   double clip_low = 0.001;   // fraction of pixels clipped to black (local ops)
   double clip_high = 0.001;  // fraction clipped to white (local ops)
   double base_contrast = 5.0;  // target contrast of the base layer (Durand)
-  ReinhardParams reinhard;
-  DragoParams drago;
-  DurandParams durand;
-  FattalParams fattal;
+  ReinhardOptions reinhard;
+  DragoOptions drago;
+  DurandOptions durand;
+  FattalOptions fattal;
   filters::GuidedFilterOptions guided;               // r = 9, eps = 1e-4
   filters::DomainTransformOptions domain_transform;  // 60, 0.33, 3 iters
   filters::WlsOptions wls;                           // 1.2, 1

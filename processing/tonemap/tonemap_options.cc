@@ -9,43 +9,43 @@
 
 namespace hdrstereo::tonemap {
 
-absl::Status ReinhardParams::Validate() const {
+absl::Status ReinhardOptions::Validate() const {
   RETURN_IF_ERROR(RequireField(key > 0 && std::isfinite(key), "key", key,
                                "> 0 (the photographic key)"));
   return RequireField(std::isfinite(white), "white", white,
                       "finite (<= 0 = the largest luminance)");
 }
 
-void to_json(nlohmann::json& j, const ReinhardParams& o) {
+void to_json(nlohmann::json& j, const ReinhardOptions& o) {
   const auto& [key, white] = o;
   j = nlohmann::json{{"key", key}, {"white", white}};
 }
 
-absl::Status DragoParams::Validate() const {
+absl::Status DragoOptions::Validate() const {
   RETURN_IF_ERROR(
       RequireField(bias > 0 && bias < 1, "bias", bias, "in (0, 1)"));
   return RequireField(ld_max > 0 && std::isfinite(ld_max), "ld_max", ld_max,
                       "> 0 (cd/m^2)");
 }
 
-void to_json(nlohmann::json& j, const DragoParams& o) {
+void to_json(nlohmann::json& j, const DragoOptions& o) {
   const auto& [bias, ld_max] = o;
   j = nlohmann::json{{"bias", bias}, {"ld_max", ld_max}};
 }
 
-absl::Status DurandParams::Validate() const {
+absl::Status DurandOptions::Validate() const {
   RETURN_IF_ERROR(RequireField(sigma_s_fraction > 0, "sigma_s_fraction",
                                sigma_s_fraction, "> 0"));
   return RequireField(sigma_r > 0, "sigma_r", sigma_r, "> 0 (log10 units)");
 }
 
-void to_json(nlohmann::json& j, const DurandParams& o) {
+void to_json(nlohmann::json& j, const DurandOptions& o) {
   const auto& [sigma_s_fraction, sigma_r] = o;
   j = nlohmann::json{{"sigma_s_fraction", sigma_s_fraction},
                      {"sigma_r", sigma_r}};
 }
 
-absl::Status FattalParams::Validate() const {
+absl::Status FattalOptions::Validate() const {
   RETURN_IF_ERROR(RequireField(alpha > 0, "alpha", alpha, "> 0"));
   RETURN_IF_ERROR(
       RequireField(beta > 0 && beta <= 1, "beta", beta, "in (0, 1]"));
@@ -53,7 +53,7 @@ absl::Status FattalParams::Validate() const {
                       ">= 2");
 }
 
-void to_json(nlohmann::json& j, const FattalParams& o) {
+void to_json(nlohmann::json& j, const FattalOptions& o) {
   const auto& [alpha, beta, min_level_size] = o;
   j = nlohmann::json{
       {"alpha", alpha}, {"beta", beta}, {"min_level_size", min_level_size}};

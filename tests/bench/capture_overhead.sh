@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Daemon overhead of a full structured-light capture (issue 5): 168 frames of
+# Daemon overhead of a full structured-light capture: 168 frames of
 # the lab-lamp scene at 1200x900, 16-bit TIFF, 1024x768 projector, with the
 # simulated devices instant (--sim-time-scale 0: frames per second) and in
 # real time (1: overhead against realistic hardware time). The capture job

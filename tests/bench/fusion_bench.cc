@@ -21,7 +21,7 @@
 
 namespace {
 
-using hdrstereo::fusion::FusionParams;
+using hdrstereo::fusion::FusionOptions;
 
 struct Inputs {
   std::vector<cv::Mat> candidates;
@@ -62,7 +62,7 @@ Inputs MakeInputs(int w, int h, int max_disp, int count) {
 void RunFusion(benchmark::State& state, int w, int h, int max_disp,
                bool fusion_move, bool prune = true) {
   const Inputs in = MakeInputs(w, h, max_disp, 7);
-  FusionParams params;
+  FusionOptions params;
   params.max_disp = max_disp;
   params.candidate_labels_only = fusion_move;
   params.prune_dominated = prune;

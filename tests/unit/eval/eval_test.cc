@@ -19,7 +19,7 @@ using ::testing::HasSubstr;
 constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
-TEST(EvaluateDisparity, HandComputedMetrics) {
+TEST(EvaluateDisparityTest, HandComputedMetrics) {
   // Truth 10 everywhere except one unknown pixel; errors 0, 0.75, 1.5, 3,
   // 5, NaN estimate, and one pixel with unknown truth.
   const cv::Mat gt = (cv::Mat_<float>(1, 7) << 10, 10, 10, 10, 10, 10, kInf);
@@ -52,7 +52,7 @@ TEST(EvaluateDisparity, HandComputedMetrics) {
   EXPECT_NEAR(m->all.rmse, std::sqrt(25 / 2.0), 1e-9);
 }
 
-TEST(EvaluateDisparity, ZeroTruthIsUnknownByDefault) {
+TEST(EvaluateDisparityTest, ZeroTruthIsUnknownByDefault) {
   const cv::Mat gt = (cv::Mat_<float>(1, 2) << 0, 4);
   const cv::Mat d = (cv::Mat_<float>(1, 2) << 1, 4);
   EXPECT_EQ(EvaluateDisparity(d, gt)->all.pixels, 1);
@@ -64,7 +64,7 @@ TEST(EvaluateDisparity, ZeroTruthIsUnknownByDefault) {
               1e-9);
 }
 
-TEST(EvaluateDisparity, JsonAndText) {
+TEST(EvaluateDisparityTest, JsonAndText) {
   const cv::Mat gt(4, 4, CV_32FC1, cv::Scalar(5));
   absl::StatusOr<DisparityEvaluation> e = EvaluateDisparity(gt, gt);
   ASSERT_TRUE(e.ok());
@@ -74,7 +74,7 @@ TEST(EvaluateDisparity, JsonAndText) {
   EXPECT_NE(EvaluationToText(*e).find("valid"), std::string::npos);
 }
 
-TEST(EvaluateDisparity, BadInput) {
+TEST(EvaluateDisparityTest, BadInput) {
   const cv::Mat a(4, 4, CV_32FC1, cv::Scalar(1));
   EXPECT_THAT(EvaluateDisparity(cv::Mat(), a),
               StatusIs(absl::StatusCode::kInvalidArgument,
@@ -97,7 +97,7 @@ TEST(EvaluateDisparity, BadInput) {
                        HasSubstr("mask must be an 8-bit")));
 }
 
-TEST(Colorize, InvalidIsBlackValidIsNot) {
+TEST(ColorizeTest, InvalidIsBlackValidIsNot) {
   const cv::Mat d = (cv::Mat_<float>(1, 4) << 0, 10, kNaN, kInf);
   absl::StatusOr<cv::Mat> c = ColorizeDisparity(d, 0, 10);
   ASSERT_TRUE(c.ok());

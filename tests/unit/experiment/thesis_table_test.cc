@@ -45,7 +45,7 @@ absl::StatusOr<TableInput> Render(const std::string& name, int width) {
   return in;
 }
 
-TEST(ThesisTable, FusionBeatsLdrTmosMeanAndMedian) {
+TEST(ThesisTableTest, FusionBeatsLdrTmosMeanAndMedian) {
   std::vector<TableResult> results;
   for (const std::string name : {"lab-lamp", "two-lamps", "desk-lamp"}) {
     ASSERT_OK_AND_ASSIGN(const TableInput in, Render(name, 256));

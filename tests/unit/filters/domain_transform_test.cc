@@ -18,14 +18,14 @@ using ::testing::HasSubstr;
 using ::hdrstereo::testing::StepImage;
 using ::hdrstereo::testing::TestImage;
 
-TEST(DomainTransform, ConstantImageUnchanged) {
+TEST(DomainTransformTest, ConstantImageUnchanged) {
   const cv::Mat c(48, 64, CV_32FC1, cv::Scalar(0.42));
   absl::StatusOr<cv::Mat> out = DomainTransformFilter(c, cv::Mat(), {});
   ASSERT_TRUE(out.ok()) << out.status();
   EXPECT_LE(cv::norm(*out, c, cv::NORM_INF), 1e-5);
 }
 
-TEST(DomainTransform, KeepsAStepEdge) {
+TEST(DomainTransformTest, KeepsAStepEdge) {
   const cv::Mat step = StepImage(128, 32, 64, 0.2f, 0.8f);
   absl::StatusOr<cv::Mat> out = DomainTransformFilter(step, cv::Mat(), {});
   ASSERT_TRUE(out.ok());
@@ -35,7 +35,7 @@ TEST(DomainTransform, KeepsAStepEdge) {
   EXPECT_LE(cv::norm(*out, step, cv::NORM_INF), 0.03);
 }
 
-TEST(DomainTransform, SmoothsFlatNoise) {
+TEST(DomainTransformTest, SmoothsFlatNoise) {
   cv::Mat noise(128, 128, CV_32FC1);
   cv::RNG(3).fill(noise, cv::RNG::NORMAL, 0.5, 0.005);
   absl::StatusOr<cv::Mat> out = DomainTransformFilter(noise, cv::Mat(), {});
@@ -47,7 +47,7 @@ TEST(DomainTransform, SmoothsFlatNoise) {
 
 // OpenCV's dtFilter (DTF_RF) implements the same recursive filter; ours
 // must agree closely on [0, 1] data.
-TEST(DomainTransform, AgreesWithXimgprocRecursiveFilter) {
+TEST(DomainTransformTest, AgreesWithXimgprocRecursiveFilter) {
   const cv::Mat img = TestImage(256, 192, 1, 5);
   absl::StatusOr<cv::Mat> ours = DomainTransformFilter(img, cv::Mat(), {});
   ASSERT_TRUE(ours.ok());
@@ -60,7 +60,7 @@ TEST(DomainTransform, AgreesWithXimgprocRecursiveFilter) {
   EXPECT_LE(mean_diff, 0.01);
 }
 
-TEST(DomainTransform, ColourGuideAndMultiChannelInput) {
+TEST(DomainTransformTest, ColourGuideAndMultiChannelInput) {
   const cv::Mat guide = TestImage(64, 48, 3, 6);
   const cv::Mat src = TestImage(64, 48, 3, 7);
   absl::StatusOr<cv::Mat> out = DomainTransformFilter(src, guide, {});
@@ -68,7 +68,7 @@ TEST(DomainTransform, ColourGuideAndMultiChannelInput) {
   EXPECT_EQ(out->type(), CV_32FC3);
 }
 
-TEST(DomainTransform, RejectsBadInput) {
+TEST(DomainTransformTest, RejectsBadInput) {
   const cv::Mat img = TestImage(32, 32, 1, 1);
   EXPECT_THAT(DomainTransformFilter(cv::Mat(), cv::Mat(), {}),
               StatusIs(absl::StatusCode::kInvalidArgument,

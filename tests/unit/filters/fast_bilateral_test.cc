@@ -43,7 +43,7 @@ cv::Mat BruteBilateral(const cv::Mat& in, double ss, double sr) {
   return out;
 }
 
-TEST(FastBilateral, ApproximatesBruteForceBilateral) {
+TEST(FastBilateralTest, ApproximatesBruteForceBilateral) {
   // log10-luminance-like data: 0 .. 2.5.
   const cv::Mat img = TestImage(96, 64, 1, 1) * 2.5;
   FastBilateralOptions o;
@@ -59,7 +59,7 @@ TEST(FastBilateral, ApproximatesBruteForceBilateral) {
   EXPECT_LE(mean_diff, 0.02);
 }
 
-TEST(FastBilateral, KeepsAStepEdge) {
+TEST(FastBilateralTest, KeepsAStepEdge) {
   const cv::Mat step = StepImage(128, 32, 64, 1.0f, 3.0f);  // 2 decades
   FastBilateralOptions o;
   o.sigma_s = 10.0;
@@ -68,14 +68,14 @@ TEST(FastBilateral, KeepsAStepEdge) {
   EXPECT_LE(cv::norm(*out, step, cv::NORM_INF), 0.02);
 }
 
-TEST(FastBilateral, ConstantImageUnchanged) {
+TEST(FastBilateralTest, ConstantImageUnchanged) {
   const cv::Mat c(20, 30, CV_32FC1, cv::Scalar(1.5));
   absl::StatusOr<cv::Mat> out = FastBilateralFilter(c, {});
   ASSERT_TRUE(out.ok());
   EXPECT_LE(cv::norm(*out, c, cv::NORM_INF), 1e-6);
 }
 
-TEST(FastBilateral, RejectsBadInput) {
+TEST(FastBilateralTest, RejectsBadInput) {
   EXPECT_THAT(FastBilateralFilter(cv::Mat(), {}),
               StatusIs(absl::StatusCode::kInvalidArgument,
                        HasSubstr("bilateral input is empty")));

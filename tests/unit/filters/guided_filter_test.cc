@@ -38,10 +38,10 @@ cv::Mat Reference(const cv::Mat& guide, const cv::Mat& src, int r, double eps) {
 // eps = 1e-4 the coefficients a = cov / (var + eps) amplify it).
 constexpr double kRefTolerance = 1e-4;
 
-class GuidedVsOpenCv
+class GuidedVsOpenCvTest
     : public ::testing::TestWithParam<std::tuple<int, int, double>> {};
 
-TEST_P(GuidedVsOpenCv, MatchesXimgprocGuidedFilter) {
+TEST_P(GuidedVsOpenCvTest, MatchesXimgprocGuidedFilter) {
   const auto [guide_channels, radius, eps] = GetParam();
   const cv::Mat guide = TestImage(256, 192, guide_channels, 1);
   const cv::Mat src = TestImage(256, 192, 1, 2);
@@ -55,7 +55,7 @@ TEST_P(GuidedVsOpenCv, MatchesXimgprocGuidedFilter) {
   EXPECT_LE(diff, kRefTolerance);
 }
 
-INSTANTIATE_TEST_SUITE_P(GrayAndColour, GuidedVsOpenCv,
+INSTANTIATE_TEST_SUITE_P(GrayAndColour, GuidedVsOpenCvTest,
                          ::testing::Values(std::make_tuple(1, 9, 1e-4),
                                            std::make_tuple(1, 4, 1e-2),
                                            std::make_tuple(3, 9, 1e-2),
@@ -65,7 +65,7 @@ INSTANTIATE_TEST_SUITE_P(GrayAndColour, GuidedVsOpenCv,
 // ximgproc's float implementation is off by up to 0.23 on this image
 // (measured), so the reference is a double-precision evaluation of He's
 // formulas (per-pixel 3x3 solve).
-TEST(GuidedFilter, ColourGuideThesisEpsMatchesDoublePrecision) {
+TEST(GuidedFilterTest, ColourGuideThesisEpsMatchesDoublePrecision) {
   const cv::Mat guide = TestImage(256, 192, 3, 1);
   const cv::Mat src = TestImage(256, 192, 1, 2);
   absl::StatusOr<cv::Mat> ours = ApplyGuidedFilter(guide, src, {9, 1e-4, 1});
@@ -76,14 +76,14 @@ TEST(GuidedFilter, ColourGuideThesisEpsMatchesDoublePrecision) {
   EXPECT_LE(MaxAbsDiff(*ours, reference), 1e-4);
 }
 
-TEST(GuidedFilter, SelfGuidedMatchesReference) {
+TEST(GuidedFilterTest, SelfGuidedMatchesReference) {
   const cv::Mat img = TestImage(256, 192, 1, 3);
   absl::StatusOr<cv::Mat> ours = ApplyGuidedFilter(img, img, {});
   ASSERT_TRUE(ours.ok());
   EXPECT_LE(MaxAbsDiff(*ours, Reference(img, img, 9, 1e-4)), kRefTolerance);
 }
 
-TEST(GuidedFilter, MultiChannelInputFilteredPerChannel) {
+TEST(GuidedFilterTest, MultiChannelInputFilteredPerChannel) {
   const cv::Mat guide = TestImage(128, 96, 3, 4);
   const cv::Mat src = TestImage(128, 96, 3, 5);
   absl::StatusOr<cv::Mat> ours = ApplyGuidedFilter(guide, src, {9, 1e-2, 1});
@@ -92,7 +92,7 @@ TEST(GuidedFilter, MultiChannelInputFilteredPerChannel) {
   EXPECT_LE(MaxAbsDiff(*ours, Reference(guide, src, 9, 1e-2)), kRefTolerance);
 }
 
-TEST(GuidedFilter, ReusedGuideGivesSameResultAsOneShot) {
+TEST(GuidedFilterTest, ReusedGuideGivesSameResultAsOneShot) {
   for (const int channels : {1, 3}) {
     for (const int subsample : {1, 4}) {
       const cv::Mat guide = TestImage(128, 96, channels, 6);
@@ -113,7 +113,7 @@ TEST(GuidedFilter, ReusedGuideGivesSameResultAsOneShot) {
   }
 }
 
-TEST(GuidedFilter, FastPathApproximatesExact) {
+TEST(GuidedFilterTest, FastPathApproximatesExact) {
   const cv::Mat guide = TestImage(256, 192, 1, 7);
   const cv::Mat src = TestImage(256, 192, 1, 8);
   GuidedFilterOptions fast;
@@ -125,7 +125,7 @@ TEST(GuidedFilter, FastPathApproximatesExact) {
   EXPECT_LE(cv::norm(*exact, *approx, cv::NORM_L1) / exact->total(), 0.01);
 }
 
-TEST(GuidedFilter, KeepsAStepEdge) {
+TEST(GuidedFilterTest, KeepsAStepEdge) {
   const cv::Mat step = StepImage(64, 32, 32, 0.2f, 0.8f);
   absl::StatusOr<cv::Mat> out = ApplyGuidedFilter(step, step, {});
   ASSERT_TRUE(out.ok());
@@ -133,7 +133,7 @@ TEST(GuidedFilter, KeepsAStepEdge) {
   EXPECT_LE(MaxAbsDiff(*out, step), 0.01);
 }
 
-TEST(GuidedFilter, SmoothsFlatNoise) {
+TEST(GuidedFilterTest, SmoothsFlatNoise) {
   cv::Mat noise(96, 96, CV_32FC1);
   cv::RNG(9).fill(noise, cv::RNG::NORMAL, 0.5, 0.01);
   absl::StatusOr<cv::Mat> out = ApplyGuidedFilter(noise, noise, {4, 1e-2, 1});
@@ -143,7 +143,7 @@ TEST(GuidedFilter, SmoothsFlatNoise) {
   EXPECT_LT(sd[0], 0.01 / 4);
 }
 
-TEST(GuidedFilter, RejectsBadInput) {
+TEST(GuidedFilterTest, RejectsBadInput) {
   const cv::Mat img = TestImage(32, 32, 1, 1);
   EXPECT_THAT(GuidedFilter::Create(cv::Mat(), {}),
               StatusIs(absl::StatusCode::kInvalidArgument,

@@ -51,7 +51,7 @@ cv::Mat DenseWls(const cv::Mat& g, const cv::Mat& l, double alpha,
   return out;
 }
 
-TEST(WlsFilter, MatchesDenseSolveOfFarbmansSystem) {
+TEST(WlsFilterTest, MatchesDenseSolveOfFarbmansSystem) {
   const cv::Mat g = TestImage(17, 13, 1, 1);  // odd sizes on purpose
   const cv::Mat ref = DenseWls(g, g, 1.2, 1.0, 1e-4);
   for (WlsOptions::Preconditioner pc :
@@ -68,7 +68,7 @@ TEST(WlsFilter, MatchesDenseSolveOfFarbmansSystem) {
   }
 }
 
-TEST(WlsFilter, SeparateGuideMatchesDenseSolve) {
+TEST(WlsFilterTest, SeparateGuideMatchesDenseSolve) {
   const cv::Mat g = TestImage(12, 10, 1, 2);
   const cv::Mat l = TestImage(12, 10, 1, 3);
   WlsOptions o;
@@ -81,7 +81,7 @@ TEST(WlsFilter, SeparateGuideMatchesDenseSolve) {
             1e-4);
 }
 
-TEST(WlsFilter, ConvergesOnALargerImage) {
+TEST(WlsFilterTest, ConvergesOnALargerImage) {
   const cv::Mat g = TestImage(256, 192, 1, 4);
   WlsReport report;
   absl::StatusOr<cv::Mat> out = WlsFilter(g, cv::Mat(), {}, &report);
@@ -91,7 +91,7 @@ TEST(WlsFilter, ConvergesOnALargerImage) {
   EXPECT_LT(report.iterations, 2000);
 }
 
-TEST(WlsFilter, KeepsAStepEdgeAndSmoothsNoise) {
+TEST(WlsFilterTest, KeepsAStepEdgeAndSmoothsNoise) {
   cv::Mat img = StepImage(96, 48, 48, 0.2f, 0.8f);
   cv::Mat noise(img.size(), CV_32FC1);
   cv::RNG(5).fill(noise, cv::RNG::NORMAL, 0.0, 0.002);
@@ -117,7 +117,7 @@ TEST(WlsFilter, KeepsAStepEdgeAndSmoothsNoise) {
 
 // Tall enough (>= 128 rows) for the block-parallel multigrid smoother: both
 // preconditioners must reach the same solution.
-TEST(WlsFilter, PreconditionersAgreeOnATallImage) {
+TEST(WlsFilterTest, PreconditionersAgreeOnATallImage) {
   const cv::Mat g = TestImage(48, 150, 1, 8);
   WlsOptions o;
   o.tolerance = 1e-7;
@@ -130,7 +130,7 @@ TEST(WlsFilter, PreconditionersAgreeOnATallImage) {
 
 // The parallel parts (block Gauss-Seidel, chunked dot products) are
 // deterministic: the result does not depend on the number of threads.
-TEST(WlsFilter, IndependentOfThreadCount) {
+TEST(WlsFilterTest, IndependentOfThreadCount) {
   const cv::Mat g = TestImage(200, 160, 1, 7);
   const int threads = cv::getNumThreads();
   cv::setNumThreads(1);
@@ -142,7 +142,7 @@ TEST(WlsFilter, IndependentOfThreadCount) {
   EXPECT_EQ(cv::norm(*one, *four, cv::NORM_INF), 0.0);
 }
 
-TEST(WlsFilter, ZeroLambdaIsIdentity) {
+TEST(WlsFilterTest, ZeroLambdaIsIdentity) {
   const cv::Mat g = TestImage(40, 30, 1, 6);
   WlsOptions o;
   o.lambda = 0.0;
@@ -151,7 +151,7 @@ TEST(WlsFilter, ZeroLambdaIsIdentity) {
   EXPECT_LE(cv::norm(*out, g, cv::NORM_INF), 1e-6);
 }
 
-TEST(WlsFilter, RejectsBadInput) {
+TEST(WlsFilterTest, RejectsBadInput) {
   const cv::Mat g = TestImage(16, 16, 1, 1);
   EXPECT_THAT(WlsFilter(cv::Mat(), cv::Mat(), {}),
               StatusIs(absl::StatusCode::kInvalidArgument,

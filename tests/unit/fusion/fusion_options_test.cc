@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
-// FusionParams: every rule names its field, the fusion refuses what
+// FusionOptions: every rule names its field, the fusion refuses what
 // Validate() refuses, and the canonical JSON holds every field.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -18,7 +18,7 @@ using ::hdrstereo::testing::ExpectJsonHasEveryField;
 using ::hdrstereo::testing::ExpectRulesNameTheirField;
 using ::hdrstereo::testing::StatusIs;
 using ::testing::HasSubstr;
-using O = FusionParams;
+using O = FusionOptions;
 
 TEST(FusionParamsTest, BadParamsNameTheField) {
   ExpectRulesNameTheirField<O>({

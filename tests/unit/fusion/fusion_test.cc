@@ -62,7 +62,7 @@ int64_t BruteForceMinimum(const MrfProblem& pr) {
 // Potts: alpha-expansion is guaranteed within 2x of the optimum (BVZ 2001,
 // c = 1 for Potts). On 3x3 / 3-label instances (3^9 labellings enumerated)
 // we assert that bound on every instance and exactness on >= 95 % of them.
-TEST(AlphaExpansion, PottsMatchesBruteForceOnTinyProblems) {
+TEST(AlphaExpansionTest, PottsMatchesBruteForceOnTinyProblems) {
   std::mt19937 rng(7);
   int exact = 0;
   constexpr int kInstances = 300;
@@ -87,7 +87,7 @@ TEST(AlphaExpansion, PottsMatchesBruteForceOnTinyProblems) {
 // pixels start, or after a switch end up, far above their minimum cost: a
 // pixel list made from the minimum alone misses some of their moves; such a
 // list gave other labellings on 20 of these 200 instances).
-TEST(AlphaExpansion, PruningDoesNotChangeTheResult) {
+TEST(AlphaExpansionTest, PruningDoesNotChangeTheResult) {
   std::mt19937 rng(9);
   for (int t = 0; t < 200; ++t) {
     const MrfProblem pr = RandomProblem(rng, 10, 8, 6, 100 + 50 * (t % 5),
@@ -136,7 +136,7 @@ MrfProblem Sparse(const MrfProblem& dense) {
 // Dense, sparse, or both: the same energies and labellings, with and without
 // pruning and with allowed labels. Data costs often at the maximum, as in
 // fusion, so the sparse views are really sparse.
-TEST(AlphaExpansion, SparseDataTermGivesTheSameResult) {
+TEST(AlphaExpansionTest, SparseDataTermGivesTheSameResult) {
   std::mt19937 rng(13);
   std::uniform_int_distribution<int> coin(0, 3);
   for (int t = 0; t < 40; ++t) {
@@ -168,7 +168,7 @@ TEST(AlphaExpansion, SparseDataTermGivesTheSameResult) {
   }
 }
 
-TEST(AlphaExpansion, RejectsMalformedSparseDataTerm) {
+TEST(AlphaExpansionTest, RejectsMalformedSparseDataTerm) {
   std::mt19937 rng(2);
   MrfProblem dense = RandomProblem(rng, 3, 3, 4, 30, 5, true, 1);
   dense.data[5] = 31;  // the maximum of pixel 5; its other labels are near
@@ -206,7 +206,7 @@ TEST(AlphaExpansion, RejectsMalformedSparseDataTerm) {
 
 // With two labels and every pixel at label 0, one expansion on label 1
 // spans every labelling: the result is the global optimum.
-TEST(AlphaExpansion, TwoLabelsIsExact) {
+TEST(AlphaExpansionTest, TwoLabelsIsExact) {
   std::mt19937 rng(11);
   for (int t = 0; t < 100; ++t) {
     const MrfProblem pr = RandomProblem(rng, 4, 3, 2, 30, 20, true, 1);
@@ -220,7 +220,7 @@ TEST(AlphaExpansion, TwoLabelsIsExact) {
 // Truncated quadratic smoothness is not a metric (non-submodular moves are
 // truncated); the acceptance test still keeps the energy from increasing
 // and the bookkeeping exact.
-TEST(AlphaExpansion, QuadraticNeverIncreasesEnergy) {
+TEST(AlphaExpansionTest, QuadraticNeverIncreasesEnergy) {
   std::mt19937 rng(3);
   for (int t = 0; t < 30; ++t) {
     const MrfProblem pr = RandomProblem(rng, 3, 3, 4, 40, 6, false, 9);
@@ -237,7 +237,7 @@ TEST(AlphaExpansion, QuadraticNeverIncreasesEnergy) {
   }
 }
 
-TEST(AlphaExpansion, LargerRandomProblemNeverIncreases) {
+TEST(AlphaExpansionTest, LargerRandomProblemNeverIncreases) {
   std::mt19937 rng(5);
   const MrfProblem pr = RandomProblem(rng, 40, 30, 16, 200, 60, true, 1);
   std::vector<int32_t> labels(1200);
@@ -254,7 +254,7 @@ TEST(AlphaExpansion, LargerRandomProblemNeverIncreases) {
   EXPECT_EQ(again->energy_after, stats->energy_after);
 }
 
-TEST(AlphaExpansion, RejectsBadInput) {
+TEST(AlphaExpansionTest, RejectsBadInput) {
   std::mt19937 rng(1);
   const MrfProblem pr = RandomProblem(rng, 3, 3, 3, 5, 5, true, 1);
   std::vector<int32_t> short_labels(4, 0);
@@ -317,19 +317,19 @@ cv::Mat Guide() {
   return g;
 }
 
-FusionParams Params() {
-  FusionParams p;
+FusionOptions Params() {
+  FusionOptions p;
   p.max_disp = kMaxDisp;
   return p;
 }
 
-TEST(Fuse, IdenticalCandidatesGiveTheCandidate) {
+TEST(FuseTest, IdenticalCandidatesGiveTheCandidate) {
   const cv::Mat truth = Truth();
   const std::vector<cv::Mat> cands(7, truth);
   for (SmoothnessModel s :
        {SmoothnessModel::kPottsLinear, SmoothnessModel::kPotts,
         SmoothnessModel::kPottsStaticCue, SmoothnessModel::kQuadratic}) {
-    FusionParams p = Params();
+    FusionOptions p = Params();
     p.smoothness = s;
     absl::StatusOr<FusionResult> r = FuseAlphaExpansion(cands, Guide(), p);
     ASSERT_TRUE(r.ok()) << r.status();
@@ -338,7 +338,7 @@ TEST(Fuse, IdenticalCandidatesGiveTheCandidate) {
   }
 }
 
-TEST(Fuse, OneCorruptedCandidateAmongSeven) {
+TEST(FuseTest, OneCorruptedCandidateAmongSeven) {
   const cv::Mat truth = Truth();
   std::mt19937 rng(42);
   std::normal_distribution<float> noise(0.0f, 0.25f);
@@ -353,7 +353,7 @@ TEST(Fuse, OneCorruptedCandidateAmongSeven) {
   for (float& v : cv::Mat_<float>(bad)) v = garbage(rng);
   cands.insert(cands.begin() + 3, bad);
   for (bool fusion_move : {false, true}) {
-    FusionParams p = Params();
+    FusionOptions p = Params();
     p.candidate_labels_only = fusion_move;
     absl::StatusOr<FusionResult> r = FuseAlphaExpansion(cands, Guide(), p);
     ASSERT_TRUE(r.ok()) << r.status();
@@ -369,7 +369,7 @@ TEST(Fuse, OneCorruptedCandidateAmongSeven) {
 // The fusion MRF of candidates with wrong regions, where most pixels are
 // dominated for most labels: pruning, the neighbour-aware Potts bound and
 // skipped expansions leave the labelling unchanged and the graphs smaller.
-TEST(Fuse, PruningKeepsTheLabellingOfACandidateProblem) {
+TEST(FuseTest, PruningKeepsTheLabellingOfACandidateProblem) {
   const cv::Mat truth = Truth();
   std::mt19937 rng(5);
   std::normal_distribution<float> noise(0.0f, 0.4f);
@@ -387,7 +387,7 @@ TEST(Fuse, PruningKeepsTheLabellingOfACandidateProblem) {
   }
   for (SmoothnessModel s :
        {SmoothnessModel::kPottsLinear, SmoothnessModel::kQuadratic}) {
-    FusionParams p = Params();
+    FusionOptions p = Params();
     p.smoothness = s;
     absl::StatusOr<MrfProblem> pr = BuildProblem(cands, Guide(), p);
     ASSERT_TRUE(pr.ok()) << pr.status();
@@ -410,11 +410,11 @@ TEST(Fuse, PruningKeepsTheLabellingOfACandidateProblem) {
 
 // Appendix A useEdge: pairs whose right / lower pixel is a guide edge lose
 // their smoothness weight; elsewhere the weights are unchanged.
-TEST(Fuse, EdgeWeightCutsPairsAtGuideEdges) {
+TEST(FuseTest, EdgeWeightCutsPairsAtGuideEdges) {
   cv::Mat guide(kH, kW, CV_8UC1, cv::Scalar(40));
   guide.colRange(24, kW).setTo(cv::Scalar(200));
   const std::vector<cv::Mat> cands(3, Truth());
-  FusionParams p = Params();
+  FusionOptions p = Params();
   absl::StatusOr<MrfProblem> plain = BuildProblem(cands, guide, p);
   p.edge_weight = 0;
   absl::StatusOr<MrfProblem> cut = BuildProblem(cands, guide, p);
@@ -439,7 +439,7 @@ TEST(Fuse, EdgeWeightCutsPairsAtGuideEdges) {
                HasSubstr("fusion: edge_weight is 1.5; it must be in [0, 1]")));
 }
 
-TEST(Fuse, InvalidCandidatesContributeNothing) {
+TEST(FuseTest, InvalidCandidatesContributeNothing) {
   const cv::Mat truth = Truth();
   std::vector<cv::Mat> cands(5, truth);
   // Two candidates are wrong everywhere but marked invalid.
@@ -461,7 +461,7 @@ TEST(Fuse, InvalidCandidatesContributeNothing) {
   EXPECT_EQ(median->at<float>(0, 0), 8.0f);
 }
 
-TEST(Fuse, ConfidenceWeightsDecide) {
+TEST(FuseTest, ConfidenceWeightsDecide) {
   const cv::Mat truth = Truth();
   const cv::Mat wrong = truth + 5.0f;
   const std::vector<cv::Mat> cands = {truth, wrong, wrong};
@@ -476,7 +476,7 @@ TEST(Fuse, ConfidenceWeightsDecide) {
   EXPECT_EQ(cv::norm(r->disparity, wrong, cv::NORM_INF), 0.0);
 }
 
-TEST(Fuse, MeanAndMedian) {
+TEST(FuseTest, MeanAndMedian) {
   std::vector<cv::Mat> cands = {cv::Mat(1, 2, CV_32FC1, cv::Scalar(1.0f)),
                                 cv::Mat(1, 2, CV_32FC1, cv::Scalar(2.0f)),
                                 cv::Mat(1, 2, CV_32FC1, cv::Scalar(9.0f))};
@@ -490,9 +490,9 @@ TEST(Fuse, MeanAndMedian) {
   EXPECT_FLOAT_EQ(median->at<float>(0, 1), 1.5f);
 }
 
-TEST(Fuse, RejectsBadInput) {
+TEST(FuseTest, RejectsBadInput) {
   const cv::Mat truth = Truth();
-  const FusionParams p = Params();
+  const FusionOptions p = Params();
   EXPECT_EQ(FuseAlphaExpansion({}, Guide(), p).status().code(),
             absl::StatusCode::kInvalidArgument);
   EXPECT_FALSE(
@@ -516,7 +516,7 @@ TEST(Fuse, RejectsBadInput) {
       FuseAlphaExpansion({truth}, Guide(), p, {truth, truth}),
       StatusIs(absl::StatusCode::kInvalidArgument,
                HasSubstr("fusion: 2 confidence maps for 1 candidates")));
-  FusionParams bad = p;
+  FusionOptions bad = p;
   bad.sigma = 0;
   EXPECT_THAT(FuseAlphaExpansion({truth}, Guide(), bad),
               StatusIs(absl::StatusCode::kInvalidArgument,

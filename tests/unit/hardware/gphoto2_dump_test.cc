@@ -367,7 +367,7 @@ std::string ParamName(const ::testing::TestParamInfo<std::string>& info) {
 INSTANTIATE_TEST_SUITE_P(RealDumps, CameraDumpTest,
                          ::testing::ValuesIn(DumpParams()), ParamName);
 
-TEST(CameraDumpSummary, CountsFullySupportedCameras) {
+TEST(CameraDumpSummaryTest, CountsFullySupportedCameras) {
   const std::vector<std::string> names = DumpsWithTree();
   if (names.empty()) {
     GTEST_SKIP() << "no camera dumps under " << DumpDir();

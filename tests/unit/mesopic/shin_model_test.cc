@@ -49,7 +49,7 @@ TEST(ShinModelTest, ScotopicWeightsArePositiveNormalisedAndBlueHeavy) {
 
 TEST(ShinModelTest, FittingFunctionsArePhotopicAtAndAbove100Lux) {
   for (double lux : {100.0, 314.159, 1000.0, 1e6}) {
-    const FittingParams f = FittingAt(lux);
+    const FittingOptions f = FittingAt(lux);
     EXPECT_EQ(f.alpha, 1.0);
     EXPECT_EQ(f.beta, 0.0);
     EXPECT_EQ(f.l, 1.0);
@@ -61,15 +61,15 @@ TEST(ShinModelTest, FittingFunctionsArePhotopicAtAndAbove100Lux) {
 
 TEST(ShinModelTest, FittingFunctionsInterpolateAndStayPhysical) {
   for (const FittingNode& node : kShinFittingTable) {
-    const FittingParams f = FittingAt(node.lux);
+    const FittingOptions f = FittingAt(node.lux);
     EXPECT_NEAR(f.alpha, node.params.alpha, 1e-12);
     EXPECT_NEAR(f.beta, node.params.beta, 1e-12);
     EXPECT_NEAR(f.l, node.params.l, 1e-12);
     EXPECT_NEAR(f.m, node.params.m, 1e-12);
   }
-  FittingParams prev = FittingAt(1e-6);
+  FittingOptions prev = FittingAt(1e-6);
   for (double lux = 1e-4; lux < 1e4; lux *= 1.1) {
-    const FittingParams f = FittingAt(lux);
+    const FittingOptions f = FittingAt(lux);
     // Cones gain weight and chroma gains grow with light; rods fade.
     EXPECT_GE(f.alpha, prev.alpha - 1e-12);
     EXPECT_LE(f.beta, prev.beta + 1e-12);

@@ -10,7 +10,7 @@
 namespace hdrstereo::report {
 namespace {
 
-TEST(HtmlReport, EscapesEveryText) {
+TEST(HtmlReportTest, EscapesEveryText) {
   EXPECT_EQ(EscapeHtml("<a href=\"x\">'&'</a>"),
             "&lt;a href=&quot;x&quot;&gt;&#39;&amp;&#39;&lt;/a&gt;");
   Page page;
@@ -33,7 +33,7 @@ TEST(HtmlReport, EscapesEveryText) {
   EXPECT_TRUE(absl::StrContains(html, "<table id=\"metrics\">"));
 }
 
-TEST(HtmlReport, LoadsNothingFromElsewhere) {
+TEST(HtmlReportTest, LoadsNothingFromElsewhere) {
   Page page;
   page.title = "x";
   Section s;

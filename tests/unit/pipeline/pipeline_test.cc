@@ -169,7 +169,7 @@ std::set<std::string> AsSet(const std::vector<std::string>& v) {
   return {v.begin(), v.end()};
 }
 
-TEST(PipelineSteps, SubsetsAddTheirDependencies) {
+TEST(PipelineStepsTest, SubsetsAddTheirDependencies) {
   absl::StatusOr<std::vector<std::string>> s = ResolveSteps({"tonemap", "hdr"});
   ASSERT_TRUE(s.ok()) << s.status();
   EXPECT_EQ(*s, (std::vector<std::string>{"decode", "rectify", "response",
@@ -196,7 +196,7 @@ TEST(PipelineSteps, SubsetsAddTheirDependencies) {
   }
 }
 
-TEST(PipelineSteps, UnknownStepListsKnownOnes) {
+TEST(PipelineStepsTest, UnknownStepListsKnownOnes) {
   absl::StatusOr<std::vector<std::string>> s =
       ResolveSteps({"hdr", "tonemapping"});
   ASSERT_EQ(s.status().code(), absl::StatusCode::kInvalidArgument);
@@ -633,7 +633,7 @@ std::set<std::string> StepAndDependants(const std::string& step) {
   return out;
 }
 
-TEST(PipelineOptions, ChangedFieldRecomputesItsStepAndDependants) {
+TEST(PipelineOptionsTest, ChangedFieldRecomputesItsStepAndDependants) {
   TempDir tmp;
   const fs::path base = tmp / "base";
   testing::SimSessionOptions small;
@@ -703,7 +703,7 @@ TEST(PipelineOptions, ChangedFieldRecomputesItsStepAndDependants) {
   EXPECT_EQ(AsSet(s->computed), (std::set<std::string>{"export", "report"}));
 }
 
-TEST(PipelineOptions, BadOptionsNameTheFieldAndChangeNothing) {
+TEST(PipelineOptionsTest, BadOptionsNameTheFieldAndChangeNothing) {
   TempDir tmp;
   ASSERT_TRUE(testing::CopyCachedSimSession(tmp / "s").ok());
   MemoryStore store;
@@ -738,7 +738,7 @@ TEST(PipelineOptions, BadOptionsNameTheFieldAndChangeNothing) {
 
 // One process per TEST under ctest, and each renders the session: the
 // checks are grouped so that the full run is done three times, not twelve.
-TEST(PipelineSession, FullRun) {
+TEST(PipelineSessionTest, FullRun) {
   FindsFramesTruthAndIntrinsics();
   FullRunWritesEveryFileWithItsRecordedHash();
   MetricsAgainstSimulatorAndStructuredLight();
@@ -746,7 +746,7 @@ TEST(PipelineSession, FullRun) {
   LoadsInHeadlessChromium();
 }
 
-TEST(PipelineSession, ReuseAndRecompute) {
+TEST(PipelineSessionTest, ReuseAndRecompute) {
   SecondRunRecomputesNothing();
   DeletedArtifactRecomputesOnlyItsStep();
   ChangedArtifactRecomputesItsDependents();
@@ -755,7 +755,7 @@ TEST(PipelineSession, ReuseAndRecompute) {
   RunsAndReusesThroughTheStateFile();
 }
 
-TEST(PipelineSession, BadInput) {
+TEST(PipelineSessionTest, BadInput) {
   NoFramesIsFailedPrecondition();
   MissingBitPlaneIsFailedPreconditionAndKeepsOutputs();
   NoGroundTruthWarnsAndWritesNoMetrics();

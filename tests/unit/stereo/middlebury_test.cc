@@ -106,7 +106,7 @@ cv::Mat Sgbm(const cv::Mat& left, const cv::Mat& right, bool opencv_defaults) {
 
 // Targets: within 1.5x (non-occluded) and 1.25x (all) of the published
 // 2.7 % / 8.2 %, and better than SGBM_3WAY on the same pixels.
-TEST(MiddleburyCones, MeetsThePublishedAccuracyAndBeatsSgbm) {
+TEST(MiddleburyConesTest, MeetsThePublishedAccuracyAndBeatsSgbm) {
   LOAD_CONES_OR_SKIP(m);
   ASSERT_OK_AND_ASSIGN(const StereoResult ours,
                        ComputeDisparity(m.left, m.right, ConesOptions()));
@@ -135,7 +135,7 @@ TEST(MiddleburyCones, MeetsThePublishedAccuracyAndBeatsSgbm) {
 // The thesis' weights without gain compensation (how the matcher ran before
 // step 5a: reported), and Hosni et al.'s weights (colour 0.1, gradient 0.9)
 // without it, which must reach the published figures on their own.
-TEST(MiddleburyCones, HosniWeightsReachThePublishedAccuracyToo) {
+TEST(MiddleburyConesTest, HosniWeightsReachThePublishedAccuracyToo) {
   LOAD_CONES_OR_SKIP(m);
   StereoOptions thesis = ConesOptions();
   thesis.gain_compensation = false;
@@ -159,7 +159,7 @@ TEST(MiddleburyCones, HosniWeightsReachThePublishedAccuracyToo) {
 // B, G, R) must match the gain the matcher estimated from its own first
 // pass within 1 %, a third of the 3 % it corrects (measured: 0.7 % off in
 // B, estimated as 1.000, and 0.45 % off in G and R).
-TEST(MiddleburyCones, GainCompensationMeasuresTheViewsGain) {
+TEST(MiddleburyConesTest, GainCompensationMeasuresTheViewsGain) {
   LOAD_CONES_OR_SKIP(m);
   ASSERT_OK_AND_ASSIGN(const StereoResult r,
                        ComputeDisparity(m.left, m.right, ConesOptions()));
@@ -248,7 +248,7 @@ cv::Mat PaperCost(const cv::Mat& left8, const cv::Mat& right8,
   return c;
 }
 
-TEST(MiddleburyCones, FastKernelEqualsThePaperReferenceExceptTies) {
+TEST(MiddleburyConesTest, FastKernelEqualsThePaperReferenceExceptTies) {
   LOAD_CONES_OR_SKIP(m);
   StereoOptions o = ConesOptions();
   o.alpha = 0.1;

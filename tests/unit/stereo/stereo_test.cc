@@ -102,7 +102,7 @@ cv::Mat Sgbm(const cv::Mat& left, const cv::Mat& right, int max_disp) {
   return disp;
 }
 
-TEST(StereoAccuracy, TexturedBeatsSgbm) {
+TEST(StereoAccuracyTest, TexturedBeatsSgbm) {
   const sim::Scene scene = SmallScene("textured", 320, 240);
   const Pair p = RenderPair(scene, 100, {1.0 / 20});
   StereoOptions o;
@@ -126,7 +126,7 @@ TEST(StereoAccuracy, TexturedBeatsSgbm) {
   EXPECT_LT(ours, 2.0);  // percent; absolute bound for this scene
 }
 
-TEST(StereoAccuracy, SubpixelLowersRmse) {
+TEST(StereoAccuracyTest, SubpixelLowersRmse) {
   const sim::Scene scene = SmallScene("textured", 320, 240);
   const Pair p = RenderPair(scene, 100, {1.0 / 20});
   StereoOptions o;
@@ -148,7 +148,7 @@ TEST(StereoAccuracy, SubpixelLowersRmse) {
 // share one exposure). Compensated, the error must come back to within 0.5
 // points of the equal-exposure pair; uncompensated it must be clearly worse,
 // else this scene would not test the step. Equal exposures: no gain.
-TEST(StereoAccuracy, GainCompensationUndoesAnExposureDifference) {
+TEST(StereoAccuracyTest, GainCompensationUndoesAnExposureDifference) {
   const sim::Scene scene = SmallScene("textured", 320, 240);
   sim::SimWorld world(scene);
   world.SetStagePosition(0);
@@ -186,7 +186,7 @@ TEST(StereoAccuracy, GainCompensationUndoesAnExposureDifference) {
 
 // Thesis 4.1: HDR matching on merged radiance beats LDR matching on a middle
 // exposure of the same HDR scene.
-TEST(StereoAccuracy, HdrBeatsLdrOnLabLamp) {
+TEST(StereoAccuracyTest, HdrBeatsLdrOnLabLamp) {
   const sim::Scene scene = SmallScene("lab-lamp", 320, 240);
   const std::vector<double> times = {1.0 / 15,   1.0 / 30,  1.0 / 60,
                                      1.0 / 125,  1.0 / 250, 1.0 / 500,
@@ -343,7 +343,7 @@ Reference PlainReference(const MatchingImages& m, const StereoOptions& o,
   return r;
 }
 
-TEST(StereoReference, FastEqualsPlainReferenceExceptTies) {
+TEST(StereoReferenceTest, FastEqualsPlainReferenceExceptTies) {
   const sim::Scene scene = SmallScene("textured", 160, 120);
   const Pair p = RenderPair(scene, 100, {1.0 / 20});
   StereoOptions o;
@@ -415,7 +415,7 @@ TEST(StereoReference, FastEqualsPlainReferenceExceptTies) {
   }
 }
 
-TEST(StereoReference, ThreadCountDoesNotChangeTheResult) {
+TEST(StereoReferenceTest, ThreadCountDoesNotChangeTheResult) {
   const sim::Scene scene = SmallScene("textured", 160, 120);
   const Pair p = RenderPair(scene, 100, {1.0 / 20});
   StereoOptions o;
@@ -450,7 +450,7 @@ cv::Mat DoubleGreyGuided(const cv::Mat& guide, const cv::Mat& src, int r,
 // where the reflected borders wrap more than once (images smaller than the
 // 19x19 window), at odd sizes, and with a grey (1-channel) guide. Bound: the
 // same 1e-5 as FastEqualsPlainReferenceExceptTies' float error.
-TEST(StereoReference, FilteredSlicesOnSmallAndGreyImages) {
+TEST(StereoReferenceTest, FilteredSlicesOnSmallAndGreyImages) {
   cv::RNG rng(8);
   for (const cv::Size size :
        {cv::Size(7, 5), cv::Size(23, 17), cv::Size(41, 30)}) {
@@ -494,7 +494,7 @@ TEST(StereoReference, FilteredSlicesOnSmallAndGreyImages) {
 // ---------------------------------------------------------------------------
 // Post-processing on hand-made inputs.
 
-TEST(StereoPostprocess, LeftRightCheck) {
+TEST(StereoPostprocessTest, LeftRightCheck) {
   cv::Mat dl(1, 8, CV_32FC1, cv::Scalar(2));
   cv::Mat dr(1, 8, CV_32FC1, cv::Scalar(2));
   dr.at<float>(0, 3) = 5;  // left x = 5 maps to right x = 3
@@ -507,7 +507,7 @@ TEST(StereoPostprocess, LeftRightCheck) {
   EXPECT_EQ(LeftRightCheck(dl, dr, 3).at<uint8_t>(0, 5), 255);
 }
 
-TEST(StereoPostprocess, FillTakesTheLowerNeighbour) {
+TEST(StereoPostprocessTest, FillTakesTheLowerNeighbour) {
   cv::Mat d = (cv::Mat_<float>(2, 6) << 0, 9, 4, 0, 0, 7,  //
                3, 3, 3, 3, 3, 3);
   cv::Mat valid = (cv::Mat_<uint8_t>(2, 6) << 0, 255, 255, 0, 0, 255,  //
@@ -519,7 +519,7 @@ TEST(StereoPostprocess, FillTakesTheLowerNeighbour) {
   EXPECT_EQ(d.at<float>(1, 2), -1);  // no valid pixel on the row
 }
 
-TEST(StereoPostprocess, WeightedMedianOnlyTouchesInvalidPixels) {
+TEST(StereoPostprocessTest, WeightedMedianOnlyTouchesInvalidPixels) {
   // Left half dark with disparity 5, right half bright with disparity 12; an
   // invalid pixel in the dark half carries a wrong fill value.
   cv::Mat guide(40, 40, CV_32FC3, cv::Scalar(0.1, 0.1, 0.1));
@@ -539,7 +539,7 @@ TEST(StereoPostprocess, WeightedMedianOnlyTouchesInvalidPixels) {
 // ---------------------------------------------------------------------------
 // Bad input.
 
-TEST(StereoBadInput, ClearErrors) {
+TEST(StereoBadInputTest, ClearErrors) {
   const cv::Mat a(20, 30, CV_8UC3, cv::Scalar(10, 20, 30));
   StereoOptions o;
   o.max_disparity = 8;
@@ -581,7 +581,7 @@ TEST(StereoBadInput, ClearErrors) {
                cv::Mat::zeros(20, 30, CV_32FC3), h, "black");
 }
 
-TEST(StereoBadInput, GreyAndSixteenBitWork) {
+TEST(StereoBadInputTest, GreyAndSixteenBitWork) {
   cv::Mat left(24, 40, CV_16UC1);
   cv::randu(left, 0, 65535);
   cv::Mat right = left.clone();

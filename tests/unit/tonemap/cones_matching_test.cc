@@ -69,7 +69,7 @@ double MeanDifferenceAtTruth(const cv::Mat& left8, const cv::Mat& right8,
   return n ? sum / n : 0;
 }
 
-TEST(ConesToneMappedMatching, EveryOperatorKeepsTheRealPairMatchable) {
+TEST(ConesToneMappedMatchingTest, EveryOperatorKeepsTheRealPairMatchable) {
   const std::filesystem::path dir = ::hdrstereo::testing::ConesDir();
   if (!std::filesystem::is_directory(dir)) {
     GTEST_SKIP() << dir << " is absent (../shared/data not checked out)";

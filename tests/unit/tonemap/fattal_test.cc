@@ -44,9 +44,9 @@ cv::Mat Laplacian5(const cv::Mat& u) {
   return out;
 }
 
-class PoissonSizes : public ::testing::TestWithParam<cv::Size> {};
+class PoissonSizesTest : public ::testing::TestWithParam<cv::Size> {};
 
-TEST_P(PoissonSizes, SolutionSatisfiesTheDiscreteEquation) {
+TEST_P(PoissonSizesTest, SolutionSatisfiesTheDiscreteEquation) {
   const cv::Size size = GetParam();
   cv::Mat f(size, CV_64FC1);
   cv::RNG(1).fill(f, cv::RNG::UNIFORM, -1.0, 1.0);
@@ -58,17 +58,17 @@ TEST_P(PoissonSizes, SolutionSatisfiesTheDiscreteEquation) {
 }
 
 // Even, odd and mixed sizes (odd ones are padded for cv::dct).
-INSTANTIATE_TEST_SUITE_P(EvenOdd, PoissonSizes,
+INSTANTIATE_TEST_SUITE_P(EvenOdd, PoissonSizesTest,
                          ::testing::Values(cv::Size(64, 48), cv::Size(63, 47),
                                            cv::Size(64, 47), cv::Size(5, 8)));
 
 // beta = 1: nothing attenuated, the Poisson reconstruction must give the
 // log-luminance back. Tolerance 1e-4 in ln units (0.01 % luminance) on a
 // scene spanning ln(8000) ~ 9.
-TEST(Fattal, ReproducesInputWithoutAttenuation) {
+TEST(FattalTest, ReproducesInputWithoutAttenuation) {
   for (const cv::Size size : {cv::Size(256, 192), cv::Size(255, 191)}) {
     const cv::Mat h = LogLuminance(SyntheticScene(size.width, size.height));
-    FattalParams p;
+    FattalOptions p;
     p.beta = 1.0;
     absl::StatusOr<std::vector<cv::Mat>> out = FattalCompress({h}, p);
     ASSERT_TRUE(out.ok()) << out.status();
@@ -79,7 +79,7 @@ TEST(Fattal, ReproducesInputWithoutAttenuation) {
   }
 }
 
-TEST(Fattal, CompressesTheDynamicRange) {
+TEST(FattalTest, CompressesTheDynamicRange) {
   const cv::Mat h = LogLuminance(SyntheticScene(256, 192));
   absl::StatusOr<std::vector<cv::Mat>> out = FattalCompress({h}, {});
   ASSERT_TRUE(out.ok());
@@ -90,9 +90,9 @@ TEST(Fattal, CompressesTheDynamicRange) {
   EXPECT_LT(out_hi - out_lo, (in_hi - in_lo) * 2.0 / 3.0);
 }
 
-TEST(Fattal, RejectsBadParameters) {
+TEST(FattalTest, RejectsBadParameters) {
   const cv::Mat h(16, 16, CV_32FC1, cv::Scalar(1));
-  FattalParams p;
+  FattalOptions p;
   p.beta = 1.5;
   EXPECT_THAT(FattalCompress({h}, p),
               StatusIs(absl::StatusCode::kInvalidArgument,

@@ -162,7 +162,7 @@ absl::StatusOr<double> MatchBadPercent(const sim::StereoTruth& t,
   return ev.nonoccluded.bad_percent[1];
 }
 
-TEST(ToneMappedStereoConsistency, ViewsOwnBaseLayersAreWhatBreaksWlsAndGastal) {
+TEST(ToneMappedStereoConsistencyTest, ViewsOwnBaseLayersAreWhatBreaksWlsAndGastal) {
   ASSERT_OK_AND_ASSIGN(const sim::StereoTruth t, RenderTruth("lab-lamp", 320));
   double max_d = 0;
   cv::minMaxLoc(t.left.disparity, nullptr, &max_d, nullptr, nullptr,

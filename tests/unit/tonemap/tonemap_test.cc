@@ -56,7 +56,7 @@ cv::Mat GreyRadiance(const std::vector<std::vector<float>>& rows) {
   return m;
 }
 
-TEST(OperatorNames, RoundTripAndAllSeven) {
+TEST(OperatorNamesTest, RoundTripAndAllSeven) {
   const std::vector<Operator> all = AllOperators();
   ASSERT_EQ(all.size(), 7u);
   std::set<std::string> names;
@@ -81,9 +81,9 @@ TEST(OperatorNames, RoundTripAndAllSeven) {
                        HasSubstr("unknown tone-mapping operator ''")));
 }
 
-class EveryOperator : public ::testing::TestWithParam<Operator> {};
+class EveryOperatorTest : public ::testing::TestWithParam<Operator> {};
 
-TEST_P(EveryOperator, RejectsInvalidRadiance) {
+TEST_P(EveryOperatorTest, RejectsInvalidRadiance) {
   const Operator op = GetParam();
   EXPECT_EQ(ToneMap(cv::Mat(), op).status().code(),
             absl::StatusCode::kInvalidArgument);
@@ -127,7 +127,7 @@ TEST_P(EveryOperator, RejectsInvalidRadiance) {
 // The synthetic scene (1 .. 8000) must use most of the 8-bit range: the 1st
 // percentile of grey <= 50, the 99.9th >= 245 (Drago lifts the darkest 1 %
 // to ~44 by design).
-TEST_P(EveryOperator, UsesMostOfTheOutputRange) {
+TEST_P(EveryOperatorTest, UsesMostOfTheOutputRange) {
   absl::StatusOr<cv::Mat> out = ToneMap(SyntheticScene(kW, kH), GetParam());
   ASSERT_TRUE(out.ok()) << out.status();
   ASSERT_EQ(out->type(), CV_8UC3);
@@ -144,7 +144,7 @@ TEST_P(EveryOperator, UsesMostOfTheOutputRange) {
 // white, so the output is the colour step alone. By hand, BGR = (1, 2, 4):
 // L = 0.0722 + 1.4304 + 0.8504 = 2.353, (C / L)^0.6 = 0.599, 0.907, 1.375
 // (clipped to 1), ^(1 / 2.2) * 255 = 201.9, 243.9, 255.
-TEST_P(EveryOperator, UniformColourHandChecked) {
+TEST_P(EveryOperatorTest, UniformColourHandChecked) {
   const cv::Mat img(16, 16, CV_32FC3, cv::Scalar(1, 2, 4) * 37.0);
   absl::StatusOr<cv::Mat> out = ToneMap(img, GetParam());
   ASSERT_TRUE(out.ok()) << out.status();
@@ -160,7 +160,7 @@ TEST_P(EveryOperator, UniformColourHandChecked) {
 
 // Degenerate sizes (1x1, single rows / columns, odd sizes) are handled
 // without crashing and produce an image of the input's size.
-TEST_P(EveryOperator, TinyImages) {
+TEST_P(EveryOperatorTest, TinyImages) {
   for (const cv::Size size : {cv::Size(1, 1), cv::Size(7, 1), cv::Size(1, 5),
                               cv::Size(3, 2), cv::Size(33, 17)}) {
     absl::StatusOr<cv::Mat> out =
@@ -173,7 +173,7 @@ TEST_P(EveryOperator, TinyImages) {
 
 // Same radiance in both views gives the same output, identical to the
 // single-view result.
-TEST_P(EveryOperator, IdenticalViewsGiveIdenticalOutput) {
+TEST_P(EveryOperatorTest, IdenticalViewsGiveIdenticalOutput) {
   const cv::Mat img = SyntheticScene(kW / 2, kH / 2);
   absl::StatusOr<std::pair<cv::Mat, cv::Mat>> pair =
       ToneMapPair(img, img, GetParam());
@@ -183,7 +183,7 @@ TEST_P(EveryOperator, IdenticalViewsGiveIdenticalOutput) {
   EXPECT_LE(cv::norm(pair->first, *single, cv::NORM_INF), 1.0);
 }
 
-INSTANTIATE_TEST_SUITE_P(All, EveryOperator,
+INSTANTIATE_TEST_SUITE_P(All, EveryOperatorTest,
                          ::testing::ValuesIn(AllOperators()), Name);
 
 // Stereo consistency: the right view is the left shifted by d = 8 pixels
@@ -211,7 +211,7 @@ Consistency PairConsistency(Operator op) {
           cv::countNonZero(diff <= 1) / static_cast<double>(diff.total())};
 }
 
-TEST(PairConsistency, GlobalOperatorsExact) {
+TEST(PairConsistencyTest, GlobalOperatorsExact) {
   for (Operator op : {Operator::kReinhard, Operator::kDrago}) {
     const Consistency c = PairConsistency(op);
     EXPECT_EQ(c.max_diff, 0.0) << OperatorName(op);
@@ -222,7 +222,7 @@ TEST(PairConsistency, GlobalOperatorsExact) {
 // than 2 (measured: durand, guided 0; wls, fattal <= 1; domain-transform one
 // pixel in ~30000 at 2 -- its recursive filter has unbounded support, so the
 // columns that differ at the borders reach further than the margin).
-TEST(PairConsistency, LocalOperatorsWithinOneLevel) {
+TEST(PairConsistencyTest, LocalOperatorsWithinOneLevel) {
   for (Operator op :
        {Operator::kDurand, Operator::kGuided, Operator::kDomainTransform,
         Operator::kWls, Operator::kFattal}) {
@@ -236,7 +236,7 @@ TEST(PairConsistency, LocalOperatorsWithinOneLevel) {
 }
 
 // Global operators are monotonic in luminance: a grey ramp 1 .. 8000.
-TEST(GlobalOperators, MonotonicInLuminance) {
+TEST(GlobalOperatorsTest, MonotonicInLuminance) {
   std::vector<float> ramp;
   for (int x = 0; x < 512; ++x) {
     ramp.push_back(static_cast<float>(std::pow(8000.0, x / 511.0)));
@@ -263,7 +263,7 @@ TEST(GlobalOperators, MonotonicInLuminance) {
 //   Drago: Lw = L / Lavg, Lwmax = 31.623, Ld = 1 / log10(Lwmax + 1) *
 //     ln(Lw + 1) / ln(2 + 8 (Lw / Lwmax)^(ln 0.85 / ln 0.5))
 //     = 0.01612, 0.1170, 0.4968, 1 -> 39.1, 96.2, 185.5, 255.
-TEST(GlobalOperators, HandCheckedValues) {
+TEST(GlobalOperatorsTest, HandCheckedValues) {
   const cv::Mat img = GreyRadiance({{1, 10}, {100, 1000}});
   struct Case {
     Operator op;
@@ -295,7 +295,7 @@ TEST(GlobalOperators, HandCheckedValues) {
 // 0, 0.309, 1 -> 0, 149.5, 255. Tolerances: middle +-3 levels; the dark
 // stripe <= 12 (the filters leak ~1 % across the edges, which the gamma
 // amplifies to ~10 levels next to black), the bright one >= 252.
-TEST(BaseDetailOperators, HandCheckedStripes) {
+TEST(BaseDetailOperatorsTest, HandCheckedStripes) {
   std::vector<float> row;
   for (int x = 0; x < 256; ++x) {
     row.push_back(x < 96 ? 1.f : x < 160 ? 10.f : 100.f);
@@ -353,7 +353,7 @@ StepProfile MeasureStep(Operator op) {
 // Base/detail operators: the step stays a step (>= 90 % of the plateau
 // difference happens within 2 px, which is >= 30 levels) and the halo is at
 // most 4 px wide on either side.
-TEST(BaseDetailOperators, StepEdgeHasNoWideHalo) {
+TEST(BaseDetailOperatorsTest, StepEdgeHasNoWideHalo) {
   for (Operator op : {Operator::kDurand, Operator::kGuided,
                       Operator::kDomainTransform, Operator::kWls}) {
     const StepProfile s = MeasureStep(op);
@@ -372,7 +372,7 @@ TEST(BaseDetailOperators, StepEdgeHasNoWideHalo) {
 // Poisson solution bends both sides smoothly (measured ~20-27 px off by > 3
 // levels). The step itself stays sharp: >= 60 % of the difference within
 // 2 px (measured 33 of 50 levels).
-TEST(Fattal, StepStaysSharp) {
+TEST(FattalTest, StepStaysSharp) {
   const StepProfile s = MeasureStep(Operator::kFattal);
   RecordProperty("fattal_halo", std::to_string(s.halo_dark) + "+" +
                                     std::to_string(s.halo_bright));

@@ -26,12 +26,13 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "clients/proc/command_registry.h"
+#include "processing/base/status_macros.h"
 #include "processing/io/hdr_formats.h"
 #include "processing/structured_light/capture_io.h"
 #include "processing/structured_light/decode.h"
 #include "processing/structured_light/frame_layout.h"
 #include "processing/structured_light/ground_truth.h"
-#include "processing/tools/command_registry.h"
 
 namespace hdrstereo::proc {
 namespace {
@@ -67,9 +68,8 @@ absl::StatusOr<std::optional<cv::Size>> ParseProjector(const std::string& s) {
 // The view names of the capture: the layout's, or left and right.
 absl::StatusOr<std::vector<std::string>> ViewNames(const SlArgs& args) {
   if (args.layout.empty()) return std::vector<std::string>{"left", "right"};
-  absl::StatusOr<sl::FrameLayout> layout = sl::LoadFrameLayout(args.layout);
-  if (!layout.ok()) return layout.status();
-  return layout->views;
+  ASSIGN_OR_RETURN(sl::FrameLayout layout, sl::LoadFrameLayout(args.layout));
+  return layout.views;
 }
 
 absl::StatusOr<sl::DecodedView> LoadAndDecode(const SlArgs& args,
@@ -81,15 +81,13 @@ absl::StatusOr<sl::DecodedView> LoadAndDecode(const SlArgs& args,
       return absl::InvalidArgumentError(
           "--projector and --layout: the layout file gives the projector");
     }
-    absl::StatusOr<sl::FrameLayout> layout = sl::LoadFrameLayout(args.layout);
-    if (!layout.ok()) return layout.status();
-    options.min_bits = layout->min_bits;
-    frames = sl::LoadLayoutView(*layout, args.capture, view);
+    ASSIGN_OR_RETURN(sl::FrameLayout layout, sl::LoadFrameLayout(args.layout));
+    options.min_bits = layout.min_bits;
+    frames = sl::LoadLayoutView(layout, args.capture, view);
   } else {
-    absl::StatusOr<std::optional<cv::Size>> projector =
-        ParseProjector(args.projector);
-    if (!projector.ok()) return projector.status();
-    frames = sl::LoadCaptureView(args.capture, view, *projector);
+    ASSIGN_OR_RETURN(std::optional<cv::Size> projector,
+                     ParseProjector(args.projector));
+    frames = sl::LoadCaptureView(args.capture, view, projector);
   }
   if (!frames.ok()) return frames.status();
   if (args.min_bits >= 0) options.min_bits = args.min_bits;
@@ -116,35 +114,27 @@ absl::Status RunDecode(const SlArgs& args) {
     return absl::InternalError(
         absl::StrCat("cannot create ", args.out, ": ", ec.message()));
   }
-  absl::StatusOr<std::vector<std::string>> names = ViewNames(args);
-  if (!names.ok()) return names.status();
-  std::vector<std::string> views = *names;
+  ASSIGN_OR_RETURN(std::vector<std::string> names, ViewNames(args));
+  std::vector<std::string> views = names;
   if (args.view != "both") views = {args.view};
   for (const std::string& view : views) {
-    absl::StatusOr<sl::DecodedView> d = LoadAndDecode(args, view);
-    if (!d.ok()) return d.status();
+    ASSIGN_OR_RETURN(sl::DecodedView d, LoadAndDecode(args, view));
     // 16-bit PNGs: projector column / row, 65535 = invalid.
     cv::Mat col, row;
-    d->column.convertTo(col, CV_16U);
-    d->row.convertTo(row, CV_16U);
-    col.setTo(65535, d->column < 0);
-    row.setTo(65535, d->row < 0);
+    d.column.convertTo(col, CV_16U);
+    d.row.convertTo(row, CV_16U);
+    col.setTo(65535, d.column < 0);
+    row.setTo(65535, d.row < 0);
     const std::filesystem::path out(args.out);
     for (const auto& [name, image] :
          {std::pair<std::string, cv::Mat>{"column", col},
           {"row", row},
-          {"lit", d->lit}}) {
-      if (absl::Status s =
-              io::WritePng(out / absl::StrCat(view, "_", name, ".png"), image);
-          !s.ok()) {
-        return s;
-      }
+          {"lit", d.lit}}) {
+      RETURN_IF_ERROR(
+          io::WritePng(out / absl::StrCat(view, "_", name, ".png"), image));
     }
-    if (absl::Status s = io::WritePfm(
-            out / absl::StrCat(view, "_confidence.pfm"), d->confidence);
-        !s.ok()) {
-      return s;
-    }
+    RETURN_IF_ERROR(io::WritePfm(out / absl::StrCat(view, "_confidence.pfm"),
+                                 d.confidence));
   }
   std::cout << "wrote <view>_column.png, <view>_row.png (16-bit, 65535 = "
                "invalid), <view>_lit.png, <view>_confidence.pfm to "
@@ -153,30 +143,26 @@ absl::Status RunDecode(const SlArgs& args) {
 }
 
 absl::Status RunDisparity(const SlArgs& args) {
-  absl::StatusOr<std::vector<std::string>> views = ViewNames(args);
-  if (!views.ok()) return views.status();
-  if (views->size() < 2) {
+  ASSIGN_OR_RETURN(std::vector<std::string> views, ViewNames(args));
+  if (views.size() < 2) {
     return absl::InvalidArgumentError(
         "sl disparity needs two views; the layout names one");
   }
-  absl::StatusOr<sl::DecodedView> left = LoadAndDecode(args, (*views)[0]);
-  if (!left.ok()) return left.status();
-  absl::StatusOr<sl::DecodedView> right = LoadAndDecode(args, (*views)[1]);
-  if (!right.ok()) return right.status();
+  ASSIGN_OR_RETURN(sl::DecodedView left, LoadAndDecode(args, (views)[0]));
+  ASSIGN_OR_RETURN(sl::DecodedView right, LoadAndDecode(args, (views)[1]));
   sl::GroundTruthOptions options;
   options.match.fit_radius = args.fit_radius;
   options.match.min_disparity = args.min_disparity;
   options.match.max_disparity = args.max_disparity;
   options.max_hole_area = args.max_hole_area;
   options.use_illumination = !args.no_illumination;
-  absl::StatusOr<sl::GroundTruth> gt =
-      sl::ComputeGroundTruth(*left, *right, options);
-  if (!gt.ok()) return gt.status();
-  for (const std::string& w : gt->warnings) {
+  ASSIGN_OR_RETURN(sl::GroundTruth gt,
+                   sl::ComputeGroundTruth(left, right, options));
+  for (const std::string& w : gt.warnings) {
     std::cerr << "warning: " << w << "\n";
   }
-  if (absl::Status s = sl::WriteMiddlebury(*gt, args.out); !s.ok()) return s;
-  std::cout << sl::StatsJson(gt->stats);
+  RETURN_IF_ERROR(sl::WriteMiddlebury(gt, args.out));
+  std::cout << sl::StatsJson(gt.stats);
   std::cout << "wrote disp0GT.pfm, disp1GT.pfm, mask0nocc.png, sl_stats.json "
                "to "
             << args.out << "\n";

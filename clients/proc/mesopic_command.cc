@@ -10,10 +10,11 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "clients/proc/command_registry.h"
+#include "processing/base/status_macros.h"
 #include "processing/io/hdr_formats.h"
 #include "processing/io/image.h"
 #include "processing/mesopic/retarget.h"
-#include "processing/tools/command_registry.h"
 
 namespace hdrstereo::proc {
 namespace {
@@ -30,9 +31,8 @@ struct MesopicArgs {
 absl::Status RunMesopic(const MesopicArgs& args) {
   absl::StatusOr<mesopic::Method> method = mesopic::MethodFromName(args.method);
   if (!method.ok()) return method.status();
-  absl::StatusOr<io::DecodedImage> image = io::DecodeImageFile(args.in);
-  if (!image.ok()) return image.status();
-  cv::Mat input = image->pixels;
+  ASSIGN_OR_RETURN(io::DecodedImage image, io::DecodeImageFile(args.in));
+  cv::Mat input = image.pixels;
   // 8-bit display images go through as sRGB; anything else as linear float.
   if (input.depth() != CV_8U) input = io::ToFloat(input);
   if (input.channels() == 1) cv::merge(std::vector<cv::Mat>(3, input), input);
@@ -48,7 +48,7 @@ absl::Status RunMesopic(const MesopicArgs& args) {
   }
   cv::Mat encoded = *out;
   if (encoded.depth() != CV_8U) encoded.convertTo(encoded, CV_8U, 255.0);
-  if (absl::Status s = io::WriteImage(args.out, encoded); !s.ok()) return s;
+  RETURN_IF_ERROR(io::WriteImage(args.out, encoded));
   std::cout << args.in << " retargeted (" << mesopic::MethodName(*method)
             << ", " << args.source_cd << " -> " << args.display_cd
             << " cd/m^2) to " << args.out << "\n";

@@ -7,7 +7,7 @@
 #include <iostream>
 
 #include "hdrstereo_version.h"
-#include "processing/tools/command_registry.h"
+#include "clients/proc/command_registry.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"hdrstereo-proc: offline HDR stereo processing"};

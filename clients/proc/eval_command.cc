@@ -12,10 +12,11 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
+#include "clients/proc/command_registry.h"
+#include "processing/base/status_macros.h"
 #include "processing/eval/disparity_eval.h"
 #include "processing/io/hdr_formats.h"
 #include "processing/io/image.h"
-#include "processing/tools/command_registry.h"
 
 namespace hdrstereo::proc {
 namespace {
@@ -30,22 +31,20 @@ struct EvalArgs {
 
 // Disparity-like file as CV_32FC1 in its own units (no 1/255 scaling).
 absl::StatusOr<cv::Mat> LoadDisparity(const std::string& path) {
-  absl::StatusOr<io::DecodedImage> image = io::DecodeImageFile(path);
-  if (!image.ok()) return image.status();
-  if (image->pixels.channels() != 1) {
+  ASSIGN_OR_RETURN(io::DecodedImage image, io::DecodeImageFile(path));
+  if (image.pixels.channels() != 1) {
     return absl::InvalidArgumentError(
         absl::StrCat(path, ": a disparity map must have one channel"));
   }
   cv::Mat f;
-  image->pixels.convertTo(f, CV_32F);
+  image.pixels.convertTo(f, CV_32F);
   return f;
 }
 
 // Any image as CV_8UC1, 255 where non-zero.
 absl::StatusOr<cv::Mat> LoadMask(const std::string& path) {
-  absl::StatusOr<io::DecodedImage> image = io::DecodeImageFile(path);
-  if (!image.ok()) return image.status();
-  cv::Mat m = image->pixels;
+  ASSIGN_OR_RETURN(io::DecodedImage image, io::DecodeImageFile(path));
+  cv::Mat m = image.pixels;
   if (m.channels() == 3) cv::cvtColor(m, m, cv::COLOR_BGR2GRAY);
   if (m.channels() != 1) {
     return absl::InvalidArgumentError(absl::StrCat(path, ": not a mask"));
@@ -54,35 +53,29 @@ absl::StatusOr<cv::Mat> LoadMask(const std::string& path) {
 }
 
 absl::Status RunEval(const EvalArgs& args) {
-  absl::StatusOr<cv::Mat> disp = LoadDisparity(args.disp);
-  if (!disp.ok()) return disp.status();
-  absl::StatusOr<cv::Mat> gt = LoadDisparity(args.gt);
-  if (!gt.ok()) return gt.status();
+  ASSIGN_OR_RETURN(cv::Mat disp, LoadDisparity(args.disp));
+  ASSIGN_OR_RETURN(cv::Mat gt, LoadDisparity(args.gt));
   cv::Mat mask, nonocc;
   if (!args.mask.empty()) {
-    absl::StatusOr<cv::Mat> m = LoadMask(args.mask);
-    if (!m.ok()) return m.status();
-    mask = *m;
+    ASSIGN_OR_RETURN(cv::Mat m, LoadMask(args.mask));
+    mask = m;
   }
   if (!args.nonocc.empty()) {
-    absl::StatusOr<cv::Mat> m = LoadMask(args.nonocc);
-    if (!m.ok()) return m.status();
-    nonocc = *m;
+    ASSIGN_OR_RETURN(cv::Mat m, LoadMask(args.nonocc));
+    nonocc = m;
   }
   eval::EvalOptions options;
   options.disparity_scale = args.scale;
   options.gt_zero_valid = args.gt_zero_valid;
-  absl::StatusOr<eval::DisparityEvaluation> e =
-      eval::EvaluateDisparity(*disp, *gt, nonocc, mask, options);
-  if (!e.ok()) return e.status();
+  ASSIGN_OR_RETURN(eval::DisparityEvaluation e,
+                   eval::EvaluateDisparity(disp, gt, nonocc, mask, options));
   if (!args.error_png.empty()) {
-    absl::StatusOr<cv::Mat> err =
-        eval::ColorizeError(*disp, *gt, args.max_error, options);
-    if (!err.ok()) return err.status();
-    if (absl::Status s = io::WritePng(args.error_png, *err); !s.ok()) return s;
+    ASSIGN_OR_RETURN(cv::Mat err,
+                     eval::ColorizeError(disp, gt, args.max_error, options));
+    RETURN_IF_ERROR(io::WritePng(args.error_png, err));
   }
-  std::cout << (args.json ? eval::EvaluationToJson(*e) + "\n"
-                          : eval::EvaluationToText(*e));
+  std::cout << (args.json ? eval::EvaluationToJson(e) + "\n"
+                          : eval::EvaluationToText(e));
   return absl::OkStatus();
 }
 

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-#include "processing/tools/command_registry.h"
+#include "clients/proc/command_registry.h"
 
 #include <algorithm>
 #include <utility>

@@ -20,10 +20,11 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "clients/proc/command_registry.h"
+#include "processing/base/status_macros.h"
 #include "processing/fusion/fusion.h"
 #include "processing/io/hdr_formats.h"
 #include "processing/io/image.h"
-#include "processing/tools/command_registry.h"
 
 namespace hdrstereo::proc {
 namespace {
@@ -62,22 +63,20 @@ absl::StatusOr<std::vector<cv::Mat>> LoadCandidates(const std::string& dir) {
   std::sort(files.begin(), files.end());
   std::vector<cv::Mat> out;
   for (const fs::path& f : files) {
-    absl::StatusOr<cv::Mat> m = io::ReadPfm(f);
-    if (!m.ok()) return m.status();
-    if (m->channels() != 1) {
+    ASSIGN_OR_RETURN(cv::Mat m, io::ReadPfm(f));
+    if (m.channels() != 1) {
       return absl::InvalidArgumentError(
           absl::StrCat(f.string(), ": a disparity map must have 1 channel"));
     }
-    out.push_back(*m);
+    out.push_back(m);
     std::cout << "candidate " << f.string() << "\n";
   }
   return out;
 }
 
 absl::StatusOr<cv::Mat> LoadGuide(const std::string& path) {
-  absl::StatusOr<io::DecodedImage> image = io::DecodeImageFile(path);
-  if (!image.ok()) return image.status();
-  cv::Mat g = image->pixels;
+  ASSIGN_OR_RETURN(io::DecodedImage image, io::DecodeImageFile(path));
+  cv::Mat g = image.pixels;
   if (g.depth() == CV_16U) {
     g.convertTo(g, CV_8U, 1.0 / 257.0);
   } else if (g.depth() == CV_32F) {
@@ -108,35 +107,30 @@ absl::StatusOr<fusion::SmoothnessModel> SmoothnessFromName(
 }
 
 absl::Status RunFuse(const FuseArgs& args) {
-  absl::StatusOr<std::vector<cv::Mat>> cands = LoadCandidates(args.candidates);
-  if (!cands.ok()) return cands.status();
+  ASSIGN_OR_RETURN(std::vector<cv::Mat> cands, LoadCandidates(args.candidates));
   cv::Mat fused;
   if (args.method == "mean" || args.method == "median") {
-    absl::StatusOr<cv::Mat> r = args.method == "mean"
-                                    ? fusion::FuseMean(*cands, args.max_disp)
-                                    : fusion::FuseMedian(*cands, args.max_disp);
-    if (!r.ok()) return r.status();
-    fused = *r;
+    ASSIGN_OR_RETURN(cv::Mat r, args.method == "mean"
+                                    ? fusion::FuseMean(cands, args.max_disp)
+                                    : fusion::FuseMedian(cands, args.max_disp));
+    fused = r;
   } else if (args.method == "alpha") {
     if (args.guide.empty()) {
       return absl::InvalidArgumentError("--method alpha needs --guide");
     }
-    absl::StatusOr<cv::Mat> guide = LoadGuide(args.guide);
-    if (!guide.ok()) return guide.status();
-    absl::StatusOr<fusion::SmoothnessModel> model =
-        SmoothnessFromName(args.smoothness);
-    if (!model.ok()) return model.status();
-    fusion::FusionParams params;
+    ASSIGN_OR_RETURN(cv::Mat guide, LoadGuide(args.guide));
+    ASSIGN_OR_RETURN(fusion::SmoothnessModel model,
+                     SmoothnessFromName(args.smoothness));
+    fusion::FusionOptions params;
     params.max_disp = args.max_disp;
     params.sigma = args.sigma;
     params.lambda = args.lambda;
-    params.smoothness = *model;
+    params.smoothness = model;
     params.candidate_labels_only = args.fusion_move;
-    absl::StatusOr<fusion::FusionResult> r =
-        fusion::FuseAlphaExpansion(*cands, *guide, params);
-    if (!r.ok()) return r.status();
-    fused = r->disparity;
-    const fusion::SolverStats& s = r->stats;
+    ASSIGN_OR_RETURN(fusion::FusionResult r,
+                     fusion::FuseAlphaExpansion(cands, guide, params));
+    fused = r.disparity;
+    const fusion::SolverStats& s = r.stats;
     std::cout << "energy " << s.energy_before << " -> " << s.energy_after
               << " in " << s.cycles << " cycles, " << s.expansions
               << " expansions (" << s.accepted << " accepted); setup "
@@ -146,7 +140,7 @@ absl::Status RunFuse(const FuseArgs& args) {
     return absl::InvalidArgumentError(absl::StrCat(
         "unknown --method '", args.method, "' (alpha, mean, median)"));
   }
-  if (absl::Status s = io::WritePfm(args.out, fused); !s.ok()) return s;
+  RETURN_IF_ERROR(io::WritePfm(args.out, fused));
   std::cout << args.out << "\n";
   return absl::OkStatus();
 }

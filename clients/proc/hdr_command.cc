@@ -12,11 +12,12 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
+#include "clients/proc/command_registry.h"
+#include "processing/base/status_macros.h"
 #include "processing/hdr/merge.h"
 #include "processing/hdr/response.h"
 #include "processing/hdr/stack.h"
 #include "processing/io/hdr_formats.h"
-#include "processing/tools/command_registry.h"
 
 namespace hdrstereo::proc {
 namespace {
@@ -40,20 +41,18 @@ struct MergeArgs {
 };
 
 absl::Status RunResponse(const ResponseArgs& args) {
-  absl::StatusOr<hdr::ExposureStack> stack = hdr::LoadStack(args.stack);
-  if (!stack.ok()) return stack.status();
+  ASSIGN_OR_RETURN(hdr::ExposureStack stack, hdr::LoadStack(args.stack));
   hdr::ResponseOptions options;
   options.lambda = args.lambda;
   options.samples = args.samples;
-  absl::StatusOr<hdr::CameraResponse> response =
-      hdr::RecoverResponse(*stack, options);
-  if (!response.ok()) return response.status();
+  ASSIGN_OR_RETURN(hdr::CameraResponse response,
+                   hdr::RecoverResponse(stack, options));
   const std::filesystem::path out =
       args.out.empty() ? std::filesystem::path(args.stack) / "response.yml"
                        : std::filesystem::path(args.out);
-  if (absl::Status s = hdr::SaveResponse(out, *response); !s.ok()) return s;
-  const cv::Mat& g = response->log_inverse;
-  std::cout << "response of " << stack->images.size() << " exposures ("
+  RETURN_IF_ERROR(hdr::SaveResponse(out, response));
+  const cv::Mat& g = response.log_inverse;
+  std::cout << "response of " << stack.images.size() << " exposures ("
             << g.channels() << " channels) written to " << out.string() << "\n";
   for (int z : {16, 64, 128, 192, 239}) {
     std::cout << "  g(" << z << ") =";
@@ -66,62 +65,45 @@ absl::Status RunResponse(const ResponseArgs& args) {
 }
 
 absl::Status RunMerge(const MergeArgs& args) {
-  absl::StatusOr<hdr::ExposureStack> stack = hdr::LoadStack(args.stack);
-  if (!stack.ok()) return stack.status();
+  ASSIGN_OR_RETURN(hdr::ExposureStack stack, hdr::LoadStack(args.stack));
   hdr::CameraResponse response;
   if (!args.response.empty()) {
-    absl::StatusOr<hdr::CameraResponse> loaded =
-        hdr::LoadResponse(args.response);
-    if (!loaded.ok()) return loaded.status();
-    response = *std::move(loaded);
-  } else if (stack->images[0].depth() != CV_8U) {
-    response = hdr::LinearResponse(stack->camera);  // 16-bit/float RAW
+    ASSIGN_OR_RETURN(hdr::CameraResponse loaded,
+                     hdr::LoadResponse(args.response));
+    response = std::move(loaded);
+  } else if (stack.images[0].depth() != CV_8U) {
+    response = hdr::LinearResponse(stack.camera);  // 16-bit/float RAW
   } else {
-    absl::StatusOr<hdr::CameraResponse> recovered =
-        hdr::RecoverResponse(*stack);
-    if (!recovered.ok()) return recovered.status();
-    response = *std::move(recovered);
+    ASSIGN_OR_RETURN(hdr::CameraResponse recovered,
+                     hdr::RecoverResponse(stack));
+    response = std::move(recovered);
   }
-  absl::StatusOr<hdr::MergeResult> merged = hdr::MergeStack(*stack, response);
-  if (!merged.ok()) return merged.status();
-  if (absl::Status s = io::WriteExr(
-          args.out, merged->radiance,
-          args.half ? io::ExrPixelType::kHalf : io::ExrPixelType::kFloat);
-      !s.ok()) {
-    return s;
-  }
+  ASSIGN_OR_RETURN(hdr::MergeResult merged, hdr::MergeStack(stack, response));
+  RETURN_IF_ERROR(io::WriteExr(
+      args.out, merged.radiance,
+      args.half ? io::ExrPixelType::kHalf : io::ExrPixelType::kFloat));
   if (!args.rgbe.empty()) {
-    if (absl::Status s = io::WriteRgbe(args.rgbe, merged->radiance); !s.ok()) {
-      return s;
-    }
+    RETURN_IF_ERROR(io::WriteRgbe(args.rgbe, merged.radiance));
   }
   if (!args.luminance.empty()) {
-    if (absl::Status s =
-            io::WriteImage(args.luminance, hdr::Luminance(merged->radiance));
-        !s.ok()) {
-      return s;
-    }
+    RETURN_IF_ERROR(
+        io::WriteImage(args.luminance, hdr::Luminance(merged.radiance)));
   }
   if (!args.log_luminance.empty()) {
-    if (absl::Status s = io::WriteImage(args.log_luminance,
-                                        hdr::LogLuminance(merged->radiance));
-        !s.ok()) {
-      return s;
-    }
+    RETURN_IF_ERROR(
+        io::WriteImage(args.log_luminance, hdr::LogLuminance(merged.radiance)));
   }
   if (!args.mask.empty()) {
-    if (absl::Status s = io::WritePng(args.mask, merged->mask); !s.ok()) {
-      return s;
-    }
+    RETURN_IF_ERROR(io::WritePng(args.mask, merged.mask));
   }
   double lo = 0, hi = 0;
-  cv::Mat lum = hdr::Luminance(merged->radiance);
-  cv::minMaxLoc(lum, &lo, &hi, nullptr, nullptr, merged->mask == 0);
-  std::cout << "merged " << stack->images.size() << " exposures into "
+  cv::Mat lum = hdr::Luminance(merged.radiance);
+  cv::minMaxLoc(lum, &lo, &hi, nullptr, nullptr, merged.mask == 0);
+  std::cout << "merged " << stack.images.size() << " exposures into "
             << args.out << ": luminance " << lo << " .. " << hi
             << " (dynamic range " << (lo > 0 ? hi / lo : 0) << ":1), "
-            << merged->saturated_pixels
-            << " pixels saturated in every exposure, " << merged->dark_pixels
+            << merged.saturated_pixels
+            << " pixels saturated in every exposure, " << merged.dark_pixels
             << " dark in every exposure\n";
   return absl::OkStatus();
 }

@@ -17,11 +17,12 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
+#include "clients/proc/command_registry.h"
+#include "processing/base/status_macros.h"
 #include "processing/calib/stereo_calibration.h"
 #include "processing/io/atomic_file.h"
 #include "processing/io/hdr_formats.h"
 #include "processing/io/image.h"
-#include "processing/tools/command_registry.h"
 
 namespace hdrstereo::proc {
 namespace {
@@ -123,8 +124,7 @@ absl::StatusOr<cv::Size> ParseBoard(const std::string& text) {
 }
 
 absl::Status RunCalibrate(const CalibrateArgs& args) {
-  absl::StatusOr<cv::Size> board = ParseBoard(args.board);
-  if (!board.ok()) return board.status();
+  ASSIGN_OR_RETURN(cv::Size board, ParseBoard(args.board));
   auto pairs = FindPairs(args.captures);
   if (!pairs.ok()) return pairs.status();
   std::vector<cv::Mat> left, right;
@@ -132,25 +132,24 @@ absl::Status RunCalibrate(const CalibrateArgs& args) {
   for (size_t i = 0; i < pairs->first.size(); ++i) {
     for (int side = 0; side < 2; ++side) {
       const fs::path& p = side == 0 ? pairs->first[i] : pairs->second[i];
-      absl::StatusOr<io::DecodedImage> img = io::DecodeImageFile(p);
-      if (!img.ok()) return img.status();
-      (side == 0 ? left : right).push_back(img->pixels);
+      ASSIGN_OR_RETURN(io::DecodedImage img, io::DecodeImageFile(p));
+      (side == 0 ? left : right).push_back(img.pixels);
       (side == 0 ? left_names : right_names).push_back(p.string());
     }
   }
   calib::CalibrationOptions options;
-  options.board.inner_corners = *board;
+  options.board.inner_corners = board;
   options.board.square_m = args.square;
   options.zero_distortion = args.zero_distortion;
-  absl::StatusOr<calib::StereoCalibration> c = calib::CalibrateStereoFromImages(
-      left, right, left_names, right_names, options);
-  if (!c.ok()) return c.status();
+  ASSIGN_OR_RETURN(calib::StereoCalibration c,
+                   calib::CalibrateStereoFromImages(left, right, left_names,
+                                                    right_names, options));
   const fs::path out = args.out.empty() ? fs::path(args.captures) / "rig.yml"
                                         : fs::path(args.out);
-  if (absl::Status s = calib::SaveCalibration(out, *c); !s.ok()) return s;
+  RETURN_IF_ERROR(calib::SaveCalibration(out, c));
   std::cout << "calibrated " << left.size() << " pairs: reprojection RMS "
-            << c->rms_intrinsics << " px (intrinsics), " << c->rms_stereo
-            << " px (stereo); baseline " << cv::norm(c->translation)
+            << c.rms_intrinsics << " px (intrinsics), " << c.rms_stereo
+            << " px (stereo); baseline " << cv::norm(c.translation)
             << " m; written to " << out.string() << "\n";
   return absl::OkStatus();
 }
@@ -165,11 +164,10 @@ absl::Status RunRectify(const RectifyArgs& args) {
     return absl::InvalidArgumentError(
         absl::StrCat("--view must be left or right, got '", args.view, "'"));
   }
-  absl::StatusOr<calib::StereoCalibration> c = calib::LoadCalibration(args.rig);
-  if (!c.ok()) return c.status();
-  absl::StatusOr<calib::RectificationMaps> maps =
-      calib::ComputeRectificationMaps(*c);
-  if (!maps.ok()) return maps.status();
+  ASSIGN_OR_RETURN(calib::StereoCalibration c,
+                   calib::LoadCalibration(args.rig));
+  ASSIGN_OR_RETURN(calib::RectificationMaps maps,
+                   calib::ComputeRectificationMaps(c));
   std::error_code ec;
   fs::create_directories(args.out_dir, ec);
   if (ec) {
@@ -183,21 +181,16 @@ absl::Status RunRectify(const RectifyArgs& args) {
       files = ImagesIn(input);
       const fs::path list = fs::path(input) / "exposures.txt";
       if (fs::exists(list, ec)) {  // keep the stack usable after rectifying
-        absl::StatusOr<std::string> text = io::ReadFileBytes(list);
-        if (!text.ok()) return text.status();
-        if (absl::Status s = io::WriteFileAtomically(
-                fs::path(args.out_dir) / "exposures.txt", *text);
-            !s.ok()) {
-          return s;
-        }
+        ASSIGN_OR_RETURN(std::string text, io::ReadFileBytes(list));
+        RETURN_IF_ERROR(io::WriteFileAtomically(
+            fs::path(args.out_dir) / "exposures.txt", text));
       }
     } else {
       files.push_back(input);
     }
     for (const fs::path& file : files) {
-      absl::StatusOr<io::DecodedImage> img = io::DecodeImageFile(file);
-      if (!img.ok()) return img.status();
-      absl::StatusOr<cv::Mat> rect = calib::Rectify(img->pixels, *maps, view);
+      ASSIGN_OR_RETURN(io::DecodedImage img, io::DecodeImageFile(file));
+      absl::StatusOr<cv::Mat> rect = calib::Rectify(img.pixels, maps, view);
       if (!rect.ok()) {
         return absl::InvalidArgumentError(
             absl::StrCat(file.string(), ": ", rect.status().message()));
@@ -208,7 +201,7 @@ absl::Status RunRectify(const RectifyArgs& args) {
           file.extension() == ".jpeg") {
         out.replace_extension(".tiff");
       }
-      if (absl::Status s = io::WriteImage(out, *rect); !s.ok()) return s;
+      RETURN_IF_ERROR(io::WriteImage(out, *rect));
       ++written;
     }
   }

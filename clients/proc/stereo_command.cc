@@ -13,11 +13,12 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
+#include "clients/proc/command_registry.h"
+#include "processing/base/status_macros.h"
 #include "processing/eval/disparity_eval.h"
 #include "processing/io/hdr_formats.h"
 #include "processing/io/image.h"
 #include "processing/stereo/cost_volume_stereo.h"
-#include "processing/tools/command_registry.h"
 
 namespace hdrstereo::proc {
 namespace {
@@ -33,16 +34,13 @@ struct StereoArgs {
 };
 
 absl::StatusOr<cv::Mat> Load(const std::string& path) {
-  absl::StatusOr<io::DecodedImage> image = io::DecodeImageFile(path);
-  if (!image.ok()) return image.status();
-  return image->pixels;
+  ASSIGN_OR_RETURN(io::DecodedImage image, io::DecodeImageFile(path));
+  return image.pixels;
 }
 
 absl::Status RunStereo(const StereoArgs& args) {
-  absl::StatusOr<cv::Mat> left = Load(args.left);
-  if (!left.ok()) return left.status();
-  absl::StatusOr<cv::Mat> right = Load(args.right);
-  if (!right.ok()) return right.status();
+  ASSIGN_OR_RETURN(cv::Mat left, Load(args.left));
+  ASSIGN_OR_RETURN(cv::Mat right, Load(args.right));
   const bool hdr = args.hdr || args.hdr_radiance_gradient;
   stereo::StereoOptions options =
       hdr ? stereo::StereoOptions::Hdr() : stereo::StereoOptions();
@@ -53,30 +51,27 @@ absl::Status RunStereo(const StereoArgs& args) {
   options.max_disparity = args.max_disp;
   options.subpixel = args.subpixel;
   options.threads = args.threads;
-  cv::Mat l = *left, r = *right;
+  cv::Mat l = left, r = right;
   if (hdr) {
     // Radiance files are float already; integer files are taken as linear.
     l = io::ToFloat(l);
     r = io::ToFloat(r);
   }
   const auto start = std::chrono::steady_clock::now();
-  absl::StatusOr<stereo::StereoResult> result =
-      stereo::ComputeDisparity(l, r, options);
-  if (!result.ok()) return result.status();
+  ASSIGN_OR_RETURN(stereo::StereoResult result,
+                   stereo::ComputeDisparity(l, r, options));
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();
-  if (absl::Status s = io::WritePfm(args.out, result->disparity); !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(io::WritePfm(args.out, result.disparity));
   if (!args.png.empty()) {
-    absl::StatusOr<cv::Mat> colour = eval::ColorizeDisparity(
-        result->disparity, args.min_disp, args.max_disp);
-    if (!colour.ok()) return colour.status();
-    if (absl::Status s = io::WritePng(args.png, *colour); !s.ok()) return s;
+    ASSIGN_OR_RETURN(cv::Mat colour,
+                     eval::ColorizeDisparity(result.disparity, args.min_disp,
+                                             args.max_disp));
+    RETURN_IF_ERROR(io::WritePng(args.png, colour));
   }
-  const double consistent = 100.0 * cv::countNonZero(result->consistent) /
-                            static_cast<double>(result->consistent.total());
+  const double consistent = 100.0 * cv::countNonZero(result.consistent) /
+                            static_cast<double>(result.consistent.total());
   std::cout << "disparity " << l.cols << "x" << l.rows << " in ["
             << args.min_disp << ", " << args.max_disp << "] ("
             << (hdr ? "HDR" : "LDR") << ") written to " << args.out << "; "

@@ -19,7 +19,7 @@
 #include "absl/strings/str_join.h"
 #include "processing/pipeline/pipeline.h"
 #include "processing/pipeline/session_files.h"
-#include "processing/tools/command_registry.h"
+#include "clients/proc/command_registry.h"
 
 namespace hdrstereo::proc {
 namespace {

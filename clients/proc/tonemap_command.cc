@@ -14,10 +14,11 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "clients/proc/command_registry.h"
+#include "processing/base/status_macros.h"
 #include "processing/io/hdr_formats.h"
 #include "processing/io/image.h"
 #include "processing/tonemap/tonemap.h"
-#include "processing/tools/command_registry.h"
 
 namespace hdrstereo::proc {
 namespace {
@@ -32,9 +33,8 @@ struct TonemapArgs {
 };
 
 absl::StatusOr<cv::Mat> LoadRadiance(const std::string& path) {
-  absl::StatusOr<io::DecodedImage> image = io::DecodeImageFile(path);
-  if (!image.ok()) return image.status();
-  cv::Mat radiance = io::ToFloat(image->pixels);
+  ASSIGN_OR_RETURN(io::DecodedImage image, io::DecodeImageFile(path));
+  cv::Mat radiance = io::ToFloat(image.pixels);
   if (radiance.channels() == 1) {
     cv::merge(std::vector<cv::Mat>(3, radiance), radiance);
   }
@@ -46,17 +46,14 @@ absl::Status RunTonemap(const TonemapArgs& args) {
   if (args.op == "all") {
     ops = tonemap::AllOperators();
   } else {
-    absl::StatusOr<tonemap::Operator> op = tonemap::OperatorFromName(args.op);
-    if (!op.ok()) return op.status();
-    ops.push_back(*op);
+    ASSIGN_OR_RETURN(tonemap::Operator op, tonemap::OperatorFromName(args.op));
+    ops.push_back(op);
   }
-  absl::StatusOr<cv::Mat> left = LoadRadiance(args.in);
-  if (!left.ok()) return left.status();
+  ASSIGN_OR_RETURN(cv::Mat left, LoadRadiance(args.in));
   std::optional<cv::Mat> right;
   if (!args.right.empty()) {
-    absl::StatusOr<cv::Mat> loaded = LoadRadiance(args.right);
-    if (!loaded.ok()) return loaded.status();
-    right = *loaded;
+    ASSIGN_OR_RETURN(cv::Mat loaded, LoadRadiance(args.right));
+    right = loaded;
   }
   std::error_code ec;
   fs::create_directories(args.out, ec);
@@ -69,19 +66,18 @@ absl::Status RunTonemap(const TonemapArgs& args) {
     const std::string name = tonemap::OperatorName(op);
     if (right.has_value()) {
       absl::StatusOr<std::pair<cv::Mat, cv::Mat>> pair =
-          tonemap::ToneMapPair(*left, *right, op, params);
+          tonemap::ToneMapPair(left, *right, op, params);
       if (!pair.ok()) return pair.status();
       for (const auto& [view, image] :
            {std::pair{"left", pair->first}, std::pair{"right", pair->second}}) {
         const fs::path path = fs::path(args.out) / (name + "_" + view + ".png");
-        if (absl::Status s = io::WritePng(path, image); !s.ok()) return s;
+        RETURN_IF_ERROR(io::WritePng(path, image));
         std::cout << path.string() << "\n";
       }
     } else {
-      absl::StatusOr<cv::Mat> image = tonemap::ToneMap(*left, op, params);
-      if (!image.ok()) return image.status();
+      ASSIGN_OR_RETURN(cv::Mat image, tonemap::ToneMap(left, op, params));
       const fs::path path = fs::path(args.out) / (name + ".png");
-      if (absl::Status s = io::WritePng(path, *image); !s.ok()) return s;
+      RETURN_IF_ERROR(io::WritePng(path, image));
       std::cout << path.string() << "\n";
     }
   }

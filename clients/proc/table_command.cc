@@ -22,13 +22,14 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "clients/proc/command_registry.h"
 #include "hardware/sim/scene.h"
 #include "hardware/sim/sim_world.h"
 #include "hardware/sim/truth.h"
+#include "processing/base/status_macros.h"
 #include "processing/experiment/thesis_table.h"
 #include "processing/hdr/stack.h"
 #include "processing/io/hdr_formats.h"
-#include "processing/tools/command_registry.h"
 
 namespace hdrstereo::proc {
 namespace {
@@ -56,10 +57,9 @@ const std::vector<double>& ThesisExposures() {
 
 absl::StatusOr<experiment::TableInput> SimInput(const std::string& name,
                                                 int width, double baseline_mm) {
-  absl::StatusOr<sim::Scene> scene = sim::LoadScene(name);
-  if (!scene.ok()) return scene.status();
-  sim::ScaleCamera(*scene, width);
-  sim::SimWorld world(*scene);
+  ASSIGN_OR_RETURN(sim::Scene scene, sim::LoadScene(name));
+  sim::ScaleCamera(scene, width);
+  sim::SimWorld world(scene);
   experiment::TableInput in;
   in.name = name;
   for (double t : ThesisExposures()) {
@@ -82,12 +82,10 @@ absl::StatusOr<experiment::TableInput> StackInput(const TableArgs& args) {
   experiment::TableInput in;
   in.name = std::filesystem::path(args.left_stack).parent_path().filename();
   if (in.name.empty()) in.name = "data";
-  absl::StatusOr<hdr::ExposureStack> l = hdr::LoadStack(args.left_stack);
-  if (!l.ok()) return l.status();
-  absl::StatusOr<hdr::ExposureStack> r = hdr::LoadStack(args.right_stack);
-  if (!r.ok()) return r.status();
-  in.left = *l;
-  in.right = *r;
+  ASSIGN_OR_RETURN(hdr::ExposureStack l, hdr::LoadStack(args.left_stack));
+  ASSIGN_OR_RETURN(hdr::ExposureStack r, hdr::LoadStack(args.right_stack));
+  in.left = l;
+  in.right = r;
   absl::StatusOr<cv::Mat> truth = io::ReadPfm(args.truth);
   if (!truth.ok()) return truth.status();
   in.truth = *truth;
@@ -115,15 +113,13 @@ absl::Status RunTable(const TableArgs& args) {
       return absl::InvalidArgumentError(
           "--left-stack, --right-stack and --truth go together");
     }
-    absl::StatusOr<experiment::TableInput> in = StackInput(args);
-    if (!in.ok()) return in.status();
-    inputs.push_back(*in);
+    ASSIGN_OR_RETURN(experiment::TableInput in, StackInput(args));
+    inputs.push_back(in);
   }
   for (const std::string& name : args.scenes) {
-    absl::StatusOr<experiment::TableInput> in =
-        SimInput(name, args.width, args.baseline_mm);
-    if (!in.ok()) return in.status();
-    inputs.push_back(*in);
+    ASSIGN_OR_RETURN(experiment::TableInput in,
+                     SimInput(name, args.width, args.baseline_mm));
+    inputs.push_back(in);
   }
   std::vector<experiment::TableResult> results;
   for (const experiment::TableInput& in : inputs) {
@@ -134,10 +130,9 @@ absl::Status RunTable(const TableArgs& args) {
     topt.experiment.fusion.lambda = args.lambda;
     topt.experiment.fusion.edge_weight = args.edge_weight;
     topt.experiment.inconsistent_confidence = args.inconsistent_confidence;
-    absl::StatusOr<experiment::TableResult> r =
-        experiment::RunThesisTable(in, topt);
-    if (!r.ok()) return r.status();
-    results.push_back(*r);
+    ASSIGN_OR_RETURN(experiment::TableResult r,
+                     experiment::RunThesisTable(in, topt));
+    results.push_back(r);
   }
   const std::string table = experiment::FormatTable(results);
   std::cout << table;

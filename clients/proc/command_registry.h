@@ -3,7 +3,7 @@
 // hdrstereo-proc is assembled from command groups, one source file each
 // (<group>_command.cc). A group registers itself at static-initialisation
 // time and adds its subcommands to the CLI11 app; adding a group means adding
-// one file to processing/tools/CMakeLists.txt and nothing else:
+// one file to clients/proc/CMakeLists.txt and nothing else:
 //
 //   namespace {
 //   void AddTonemapCommands(CLI::App& app) {
@@ -17,8 +17,8 @@
 //
 // A callback reports its result with SetOutcome(); main prints a failed
 // status on stderr and exits with 1.
-#ifndef HDRSTEREO_PROCESSING_TOOLS_COMMAND_REGISTRY_H_
-#define HDRSTEREO_PROCESSING_TOOLS_COMMAND_REGISTRY_H_
+#ifndef HDRSTEREO_CLIENTS_PROC_COMMAND_REGISTRY_H_
+#define HDRSTEREO_CLIENTS_PROC_COMMAND_REGISTRY_H_
 
 #include <CLI/CLI.hpp>
 #include <string>
@@ -50,4 +50,4 @@ absl::Status TakeOutcome();
 
 }  // namespace hdrstereo::proc
 
-#endif  // HDRSTEREO_PROCESSING_TOOLS_COMMAND_REGISTRY_H_
+#endif  // HDRSTEREO_CLIENTS_PROC_COMMAND_REGISTRY_H_
