@@ -187,6 +187,17 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
   std::unique_ptr<Server> server(
       new Server(std::move(store), std::move(hardware), std::move(rig_lock),
                  std::move(api_keys), config));
+  // Before the jobs start: a taken metrics port fails the start, naming it.
+  if (!config.metrics_listen.empty()) {
+    ASSIGN_OR_RETURN(
+        server->metrics_,
+        metrics::MetricsExporter::Start(config.metrics_listen, *server->store_,
+                                        server->disk_guard_));
+    spdlog::info(
+        "serving metrics on http://{}:{}/metrics",
+        config.metrics_listen.substr(0, config.metrics_listen.rfind(':')),
+        server->metrics_->port());
+  }
   RETURN_IF_ERROR(server->engine_.Start());
   RETURN_IF_ERROR(server->scheduler_.Start());
   grpc::EnableDefaultHealthCheckService(true);

@@ -19,6 +19,8 @@ packages=(
   libmaxflow-dev zlib1g-dev
   # daemon and tools
   libsqlite3-dev sqlite3 libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev
+  # metrics endpoint; libcurl scrapes it in tests
+  prometheus-cpp-dev libcurl4-openssl-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev xvfb x11-apps
   # report test: headless browser

@@ -196,8 +196,8 @@ absl::Status PersistFrame(JobContext& context, store::FrameRepository& frames,
   return recorded;
 }
 
-// Why the next frame cannot be taken now ("" when it can): the suspenders
-// of issue 21, asked at every frame boundary.
+// Why the next frame cannot be taken now ("" when it can): the suspenders,
+// asked at every frame boundary.
 std::string BlockingCondition(const CaptureConditions& conditions,
                               hardware::Camera& camera, hardware::Stage& stage,
                               int64_t frame_bytes) {

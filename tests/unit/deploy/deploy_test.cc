@@ -18,6 +18,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_replace.h"
 #include "daemon/config.h"
+#include "tests/support/status_matchers.h"
 #include "tests/support/subprocess.h"
 #include "tests/support/temp_dir.h"
 
@@ -109,6 +110,27 @@ TEST(DeployTest, BadTlsAndAuthConfigIsRefusedByName) {
               HasSubstr("local-role"));
   EXPECT_THAT(refused("[tls]\ncert = \"/c.pem\"\nkey = \"/k.pem\"\n"),
               HasSubstr("--tls-client-ca ([tls] client-ca) is missing"));
+}
+
+TEST(DeployTest, MetricsAreOffByDefaultAndLoopbackOnly) {
+  absl::StatusOr<daemon::ParsedArgs> none = Parse({});
+  ASSERT_TRUE(none.ok()) << none.status();
+  EXPECT_EQ(std::get<daemon::Config>(*none).metrics_listen, "");
+  testing::TempDir dir;
+  const std::string path = (dir / "metrics.toml").string();
+  std::ofstream(path) << "metrics-listen = \"127.0.0.1:9464\"\n";
+  absl::StatusOr<daemon::ParsedArgs> keyed = Parse({"--config", path});
+  ASSERT_TRUE(keyed.ok()) << keyed.status();
+  EXPECT_EQ(std::get<daemon::Config>(*keyed).metrics_listen, "127.0.0.1:9464");
+  for (const char* bad :
+       {"0.0.0.0:9464", "127.0.0.1", "127.0.0.1:70000", "unix:/tmp/m.sock"}) {
+    absl::StatusOr<daemon::ParsedArgs> parsed =
+        Parse({"--metrics-listen", bad});
+    EXPECT_THAT(parsed.status(),
+                testing::StatusIs(
+                    absl::StatusCode::kInvalidArgument,
+                    HasSubstr(absl::StrCat("--metrics-listen \"", bad, "\""))));
+  }
 }
 
 TEST(DeployTest, ANonLoopbackAddressNeedsTls) {
