@@ -140,6 +140,25 @@ absl::Status ValidateListenAddress(const std::string& address,
       "socket"));
 }
 
+absl::Status ValidateMetricsAddress(const std::string& address) {
+  if (address.empty()) return absl::OkStatus();
+  size_t colon = address.rfind(':');
+  int port = 0;
+  if (colon == std::string::npos ||
+      !absl::SimpleAtoi(address.substr(colon + 1), &port) || port < 0 ||
+      port > 65535) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--metrics-listen \"", address, "\" must be HOST:PORT (port 0-65535)"));
+  }
+  if (absl::StartsWith(address, "unix:") || !IsLocalAddress(address)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--metrics-listen \"", address,
+        "\" is not a loopback address; the metrics endpoint has no TLS or "
+        "authentication: listen on 127.0.0.1 and let a proxy expose it"));
+  }
+  return absl::OkStatus();
+}
+
 absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
   Config config;
   std::vector<std::string> users;
@@ -179,6 +198,13 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
                  "Frame size assumed before a capture of its kind is on disk")
       ->check(CLI::Range(int64_t{0}, int64_t{1} << 20))
       ->capture_default_str();
+  app.add_option("--min-battery-percent", config.min_battery_percent,
+                 "A capture suspends while the camera battery is below this")
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
+  app.add_option("--metrics-listen", config.metrics_listen,
+                 "Serve Prometheus metrics on this loopback HOST:PORT "
+                 "(e.g. 127.0.0.1:9464) [default: off]");
   app.add_option("--resume-interrupted", config.resume_interrupted,
                  "Resume jobs a stop interrupted")
       ->capture_default_str();
@@ -267,6 +293,9 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
     }
   }
   if (absl::Status s = ParseUsers(users, config.users); !s.ok()) return s;
+  if (absl::Status s = ValidateMetricsAddress(config.metrics_listen); !s.ok()) {
+    return s;
+  }
   if (!config.camera_dump.empty() && config.hardware != "real") {
     return absl::InvalidArgumentError(
         "--camera-dump replays a real camera for the real camera driver: "

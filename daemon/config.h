@@ -47,7 +47,12 @@ struct Config {
   // and the size of a frame before any capture of its kind is on disk.
   int64_t disk_margin_mb = 256;
   int64_t frame_bytes_guess_mb = 32;
+  // A capture suspends while the camera reports less battery (0: never).
+  int min_battery_percent = 0;
   bool resume_interrupted = true;
+  // The Prometheus endpoint (daemon/metrics): loopback HOST:PORT, empty =
+  // off. It has no TLS or authentication, hence loopback only.
+  std::string metrics_listen;
   // Test only: the scheduler's clock runs this many times as fast as the
   // wall clock, so a test sees "* * * * *" come due within a second.
   double scheduler_clock_rate = 1;
@@ -105,6 +110,9 @@ bool IsLocalAddress(const std::string& address);
 // OK for "unix:PATH" and HOST:PORT; a non-local address needs `tls`.
 absl::Status ValidateListenAddress(const std::string& address,
                                    const TlsConfig& tls);
+// INVALID_ARGUMENT unless `address` is empty (metrics off) or a loopback
+// HOST:PORT.
+absl::Status ValidateMetricsAddress(const std::string& address);
 
 }  // namespace hdrstereo::daemon
 

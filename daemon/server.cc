@@ -114,8 +114,12 @@ Server::Server(std::unique_ptr<store::Store> store,
           *store_,
           [rig = hardware_->rig.get(),
            truth = TruthWriterFor(hardware_->world.get()),
-           disk = &disk_guard_](jobs::JobContext& context) {
-            return jobs::RunCaptureJob(*rig, context, truth, disk);
+           conditions =
+               jobs::CaptureConditions{
+                   .disk = &disk_guard_,
+                   .min_battery_percent = config.min_battery_percent}](
+              jobs::JobContext& context) {
+            return jobs::RunCaptureJob(*rig, context, truth, conditions);
           },
           [rig = hardware_->rig.get(), environment = ProcessingEnvironmentFor(
                                            config)](jobs::JobContext& context) {
@@ -183,6 +187,17 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
   std::unique_ptr<Server> server(
       new Server(std::move(store), std::move(hardware), std::move(rig_lock),
                  std::move(api_keys), config));
+  // Before the jobs start: a taken metrics port fails the start, naming it.
+  if (!config.metrics_listen.empty()) {
+    ASSIGN_OR_RETURN(
+        server->metrics_,
+        metrics::MetricsExporter::Start(config.metrics_listen, *server->store_,
+                                        server->disk_guard_));
+    spdlog::info(
+        "serving metrics on http://{}:{}/metrics",
+        config.metrics_listen.substr(0, config.metrics_listen.rfind(':')),
+        server->metrics_->port());
+  }
   RETURN_IF_ERROR(server->engine_.Start());
   RETURN_IF_ERROR(server->scheduler_.Start());
   grpc::EnableDefaultHealthCheckService(true);

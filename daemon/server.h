@@ -17,6 +17,7 @@
 #include "daemon/jobs/job_engine.h"
 #include "daemon/jobs/rig_lock.h"
 #include "daemon/jobs/scheduler.h"
+#include "daemon/metrics/metrics_exporter.h"
 #include "daemon/rpc/admin_service.h"
 #include "daemon/rpc/api_keys.h"
 #include "daemon/rpc/audit_log.h"
@@ -40,6 +41,8 @@ class Server {
   // The addresses actually bound, in --listen order (ports resolved when 0
   // was asked for).
   const std::vector<std::string>& addresses() const { return addresses_; }
+  // The port metrics are served on; 0 when --metrics-listen is off.
+  int metrics_port() const { return metrics_ ? metrics_->port() : 0; }
   // Stops the jobs at their next checkpoint (they resume at the next start),
   // stops accepting calls, lets in-flight calls finish (up to a deadline),
   // then releases the hardware and closes the database.
@@ -61,6 +64,7 @@ class Server {
   rpc::AuditLog audit_log_;
   jobs::JobEngine engine_;
   jobs::DiskGuard disk_guard_;
+  std::unique_ptr<metrics::MetricsExporter> metrics_;  // null when off
   rpc::ServerService server_service_;
   rpc::SessionsService sessions_service_;
   rpc::HardwareService hardware_service_;

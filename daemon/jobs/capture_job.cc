@@ -13,6 +13,7 @@
 #include "absl/cleanup/cleanup.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
 #include "daemon/jobs/frame_check.h"
 #include "daemon/store/frame_repository.h"
 #include "processing/base/status_macros.h"
@@ -195,6 +196,48 @@ absl::Status PersistFrame(JobContext& context, store::FrameRepository& frames,
   return recorded;
 }
 
+// Why the next frame cannot be taken now ("" when it can): the suspenders,
+// asked at every frame boundary.
+std::string BlockingCondition(const CaptureConditions& conditions,
+                              hardware::Camera& camera, hardware::Stage& stage,
+                              int64_t frame_bytes) {
+  // Info() reads the camera's whole configuration on gphoto2 (slow), so it
+  // is asked only when the battery is watched.
+  if (conditions.min_battery_percent > 0) {
+    absl::StatusOr<hardware::CameraInfo> info = camera.Info();
+    if (!info.ok()) {
+      return absl::StrCat("the camera does not answer: ",
+                          info.status().message());
+    }
+    if (info->battery_percent >= 0 &&
+        info->battery_percent < conditions.min_battery_percent) {
+      return absl::StrCat("the camera battery is at ", info->battery_percent,
+                          "%, below --min-battery-percent ",
+                          conditions.min_battery_percent, "%");
+    }
+  }
+  absl::StatusOr<hardware::StageState> state = stage.State();
+  if (!state.ok()) {
+    return absl::StrCat("the stage does not read back: ",
+                        state.status().message());
+  }
+  std::vector<std::string> warnings;
+  for (const std::string& flag : state->warning_flags) {
+    if (flag != "WR") warnings.push_back(flag);  // WR: not homed, re-homed
+  }
+  if (!warnings.empty()) {
+    return absl::StrCat("the stage reports warning flags ",
+                        absl::StrJoin(warnings, " "));
+  }
+  if (conditions.disk != nullptr) {
+    if (absl::Status s = conditions.disk->CheckRoomForFrame(frame_bytes);
+        !s.ok()) {
+      return std::string(s.message());
+    }
+  }
+  return "";
+}
+
 }  // namespace
 
 absl::StatusOr<RigLimits> LimitsOf(const hardware::Rig& rig) {
@@ -231,7 +274,8 @@ absl::Status CheckDevicesFor(const v1::CapturePlan& plan,
 
 absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
                            const TruthWriter& write_truth,
-                           const DiskGuard* disk) {
+                           const CaptureConditions& conditions) {
+  const DiskGuard* disk = conditions.disk;
   const store::JobRecord& job = context.job();
   v1::CapturePlan plan;
   if (!plan.ParseFromString(job.request)) {
@@ -339,10 +383,19 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   for (const FrameSpec& spec : specs) {
     if (done->contains(spec.sequence)) continue;
     if (absl::Status s = context.Checkpoint(); !s.ok()) return s;
-    if (disk != nullptr) {
-      if (absl::Status s = disk->CheckRoomForFrame(frame_bytes); !s.ok()) {
-        return s;
-      }
+    bool was_suspended = false;
+    RETURN_IF_ERROR(context.SuspendWhile(
+        [&] {
+          std::string why =
+              BlockingCondition(conditions, camera, stage, frame_bytes);
+          was_suspended = was_suspended || !why.empty();
+          return why;
+        },
+        conditions.poll));
+    if (was_suspended) {
+      // The stage may have been touched meanwhile: home it again.
+      if (absl::Status s = stage.Home(); !s.ok()) return s;
+      position = std::nan("");
     }
     if (!(std::abs(position - spec.stage_position_mm) < 1e-6)) {
       moved = true;

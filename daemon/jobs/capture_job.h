@@ -11,6 +11,7 @@
 #include <functional>
 
 #include "absl/status/status.h"
+#include "absl/time/time.h"
 #include "daemon/jobs/capture_plan.h"
 #include "daemon/jobs/disk_guard.h"
 #include "daemon/jobs/job_engine.h"
@@ -43,14 +44,26 @@ absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
 using TruthWriter = std::function<absl::Status(
     double left_mm, double baseline_mm, const std::filesystem::path& dir)>;
 
+// What must hold at every frame boundary of a capture; while one does not,
+// the job is suspended (JobContext::SuspendWhile) and resumes by itself.
+struct CaptureConditions {
+  // The rest of the plan must fit on the data root (with the guard's
+  // margin); nullptr: not checked.
+  const DiskGuard* disk = nullptr;
+  // 0 disables; a camera that does not report its battery passes.
+  int min_battery_percent = 0;
+  absl::Duration poll = absl::Seconds(1);
+};
+
 // The job runner for capture jobs (JobKind::kCapture); the job's request is
 // a serialized, normalised v1::CapturePlan. With `write_truth`, a finished
 // bracketed-stereo capture also gets its truth in io::TruthDir.
-// With `disk`, each frame is taken only when it fits (see
-// DiskGuard::CheckRoomForFrame); otherwise the job fails RESOURCE_EXHAUSTED.
+// Before each frame, `conditions` are checked (and the camera, stage and
+// projector asked whether they still answer); a frame is taken only into
+// conditions that hold.
 absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
                            const TruthWriter& write_truth = nullptr,
-                           const DiskGuard* disk = nullptr);
+                           const CaptureConditions& conditions = {});
 
 }  // namespace hdrstereo::jobs
 

@@ -101,8 +101,7 @@ absl::Status DiskGuard::CheckRoomForFrame(int64_t frame_bytes) const {
       " has ", HumanBytes(free), " free, the next frame needs ",
       HumanBytes(needed), " (a frame of ", HumanBytes(frame_bytes),
       " twice and a ", HumanBytes(options_.margin_bytes),
-      " margin); free space and submit the same plan again to take the "
-      "missing frames"));
+      " margin); the capture resumes by itself once space is freed"));
 }
 
 absl::StatusOr<int64_t> DiskGuard::PendingCaptureBytes() const {

@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::jobs {
 
@@ -15,6 +16,11 @@ using store::JobRecord;
 using store::JobState;
 
 absl::Status JobContext::Checkpoint() { return engine_.CheckpointFor(job_.id); }
+
+absl::Status JobContext::SuspendWhile(
+    const std::function<std::string()>& condition, absl::Duration poll) {
+  return engine_.SuspendWhileFor(job_.id, condition, poll);
+}
 
 absl::Status JobContext::Progress(int64_t done, int64_t total,
                                   absl::string_view step,
@@ -244,13 +250,70 @@ absl::Status JobEngine::CheckpointFor(int64_t id) {
   return absl::OkStatus();
 }
 
+absl::Status JobEngine::SuspendWhileFor(
+    int64_t id, const std::function<std::string()>& condition,
+    absl::Duration poll) {
+  std::string reason = condition();
+  while (!reason.empty()) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    Control& control = running_[id];
+    if (control.suspended.empty()) {
+      spdlog::warn("job {}: suspended: {}", id, reason);
+      jobs_.SetState(id, JobState::kPaused, absl::StrCat("suspended: ", reason))
+          .IgnoreError();
+      NotifyEventLocked();
+    }
+    control.suspended = reason;
+    if (stopping_) return absl::AbortedError("the daemon is stopping");
+    if (control.cancel) return absl::CancelledError("cancelled");
+    control_cv_.wait_for(lock, absl::ToChronoNanoseconds(poll));
+    if (stopping_) return absl::AbortedError("the daemon is stopping");
+    if (control.cancel) return absl::CancelledError("cancelled");
+    lock.unlock();
+    const std::string now = condition();
+    if (!now.empty()) {
+      reason = now;
+      continue;
+    }
+    lock.lock();
+    Control& cleared = running_[id];
+    cleared.suspended.clear();
+    if (cleared.pause) {
+      // The operator's pause outlasts the condition: never auto-resumed.
+      jobs_
+          .AddEvent(id, store::EventLevel::kInfo,
+                    absl::StrCat("condition cleared (was: ", reason,
+                                 "); stays paused by the operator"))
+          .IgnoreError();
+      NotifyEventLocked();
+      lock.unlock();
+      RETURN_IF_ERROR(CheckpointFor(id));
+      reason = condition();  // it may have come back meanwhile
+      continue;
+    }
+    spdlog::info("job {}: resumed: the condition cleared (was: {})", id,
+                 reason);
+    jobs_
+        .SetState(
+            id, JobState::kRunning,
+            absl::StrCat("resumed: the condition cleared (was: ", reason, ")"))
+        .IgnoreError();
+    NotifyEventLocked();
+    return absl::OkStatus();
+  }
+  return absl::OkStatus();
+}
+
 absl::StatusOr<JobRecord> JobEngine::Pause(int64_t id) {
   absl::StatusOr<JobRecord> job = jobs_.Get(id);
   if (!job.ok()) return job.status();
   {
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = running_.find(id);
-    if (it == running_.end() || job->state != JobState::kRunning) {
+    const bool suspended =
+        it != running_.end() && !it->second.suspended.empty();
+    if (it == running_.end() ||
+        (job->state != JobState::kRunning && !suspended)) {
       return absl::FailedPreconditionError(
           absl::StrCat("job ", id, " is ", store::JobStateName(job->state),
                        "; only a running job can be paused"));
@@ -267,6 +330,12 @@ absl::StatusOr<JobRecord> JobEngine::Resume(int64_t id) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = running_.find(id);
+    if (it != running_.end() && !it->second.pause &&
+        !it->second.suspended.empty()) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "job ", id, " is suspended by a condition (", it->second.suspended,
+          "); it resumes by itself when that clears"));
+    }
     if (it == running_.end() || !it->second.pause) {
       return absl::FailedPreconditionError(
           absl::StrCat("job ", id, " is ", store::JobStateName(job->state),

@@ -36,6 +36,16 @@ class JobContext {
   // The job must then leave the hardware safe and return that status.
   absl::Status Checkpoint();
 
+  // Call at frame boundaries with what must hold for the job to go on:
+  // `condition` returns why the job cannot continue ("" when it can). While
+  // it has a reason the job is paused with origin "condition" (event
+  // "suspended: <reason>"), `condition` is asked again every `poll`, and
+  // once it clears the job resumes by itself (event "resumed: ...") unless
+  // an operator paused it meanwhile (then it waits for their Resume).
+  // CANCELLED and ABORTED as for Checkpoint().
+  absl::Status SuspendWhile(const std::function<std::string()>& condition,
+                            absl::Duration poll);
+
   // Records progress (and its event). `also` runs first inside the same
   // transaction, e.g. to insert the frame row that this progress counts.
   absl::Status Progress(int64_t done, int64_t total, absl::string_view step,
@@ -81,8 +91,10 @@ class JobEngine {
   absl::StatusOr<store::JobRecord> Submit(
       store::JobKind kind, absl::string_view session, absl::string_view request,
       int64_t total, absl::string_view message, absl::string_view submitted_by);
-  // Pause and resume apply to running jobs; cancel to queued, running and
-  // paused ones. FAILED_PRECONDITION for other states, with the reason.
+  // Pause applies to running jobs and to ones a condition suspended (they
+  // then stay paused once it clears); Resume to operator-paused ones; cancel
+  // to queued, running and paused ones. FAILED_PRECONDITION for other
+  // states, with the reason.
   absl::StatusOr<store::JobRecord> Pause(int64_t id);
   absl::StatusOr<store::JobRecord> Resume(int64_t id);
   absl::StatusOr<store::JobRecord> Cancel(int64_t id);
@@ -99,8 +111,9 @@ class JobEngine {
  private:
   friend class JobContext;
   struct Control {
-    bool pause = false;
+    bool pause = false;  // by an operator
     bool cancel = false;
+    std::string suspended;  // the condition's reason while suspended by one
   };
   struct Lane {
     std::deque<int64_t> queue;
@@ -113,6 +126,9 @@ class JobEngine {
   void NotifyEvent();
   void NotifyEventLocked();
   absl::Status CheckpointFor(int64_t id);
+  absl::Status SuspendWhileFor(int64_t id,
+                               const std::function<std::string()>& condition,
+                               absl::Duration poll);
 
   store::Store& store_;
   store::JobRepository jobs_;

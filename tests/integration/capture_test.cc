@@ -460,10 +460,11 @@ class DiskGuardTest : public CaptureTest {
     }
   }
   void StartSmall(const std::string& frame_guess_mb,
-                  const std::string& margin_mb = "0") {
+                  const std::string& margin_mb = "0", double time_scale = 0) {
     scene_path_ = WriteScene("lab-lamp", SmallLabLamp());
     StartDaemon({"--sim-scene", scene_path_.string(), "--disk-margin-mb",
-                 margin_mb, "--frame-bytes-guess-mb", frame_guess_mb});
+                 margin_mb, "--frame-bytes-guess-mb", frame_guess_mb,
+                 "--sim-time-scale", absl::StrCat(time_scale)});
   }
   // Fills the filesystem until `leave` bytes are free.
   void FillLeaving(int64_t leave) {
@@ -512,22 +513,21 @@ TEST_F(DiskGuardTest, TheLastCaptureOfTheSameKindSetsTheEstimate) {
   EXPECT_EQ(JsonInt(info["pending_capture_bytes"]), 0);
 }
 
-// The disk fills up in the middle of a capture: the job stops at a frame
-// boundary, before a write fails, naming both numbers; what was recorded
-// stays intact (no file without its row, no row without its file, no
-// temporary file); once space is freed the same plan takes only the
-// missing frames.
-TEST_F(DiskGuardTest, DiskFillingMidCaptureStopsCleanlyAndResumes) {
-  // A 1 MB margin: what the database needs to record the job's end.
+// The disk fills up in the middle of a capture: the job is suspended at a
+// frame boundary, before a write fails, naming both numbers; what was
+// recorded stays intact (no file without its row, no row without its file,
+// no temporary file); once space is freed it resumes by itself and takes
+// only the missing frames.
+TEST_F(DiskGuardTest, DiskFillingMidCaptureSuspendsAndResumesByItself) {
+  // A 1 MB margin: what the database needs to record the job's events.
   StartSmall("0", "1");
   ASSERT_EQ(Cli({"session", "create", "full"}).exit_code, 0);
   FillLeaving(2 << 20);
-  CommandResult run = Cli({"capture", "sl", "full", "--watch"});
-  EXPECT_NE(run.exit_code, 0) << run.out;
-  nlohmann::json failed = Job(1);
-  EXPECT_EQ(failed["state"], "JOB_STATE_FAILED");
-  EXPECT_THAT(failed.value("error", ""), HasSubstr("the disk is full"));
-  EXPECT_THAT(failed.value("error", ""), HasSubstr("the next frame needs"));
+  const int64_t job = Submit({"capture", "sl", "full"});
+  ASSERT_GT(job, 0);
+  ASSERT_TRUE(WaitForJobState(job, "paused")) << daemon_log();
+  EXPECT_EQ(EventsLike("suspended: the disk is full"), 1);
+  EXPECT_EQ(EventsLike("the next frame needs"), 1);
   const int recorded = std::stoi(Sql("SELECT count(*) FROM frames"));
   EXPECT_GT(recorded, 0);
   EXPECT_LT(recorded, 120);
@@ -536,12 +536,97 @@ TEST_F(DiskGuardTest, DiskFillingMidCaptureStopsCleanlyAndResumes) {
     EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos)
         << entry.path();
   }
+  // A person cannot resume into the condition; it says why.
+  CommandResult resume = Cli({"jobs", "resume", std::to_string(job)});
+  EXPECT_NE(resume.exit_code, 0);
+  EXPECT_THAT(resume.err, HasSubstr("suspended by a condition"));
   fs::remove(data_root() / "filler");
-  CommandResult again = Cli({"capture", "sl", "full", "--watch"});
-  ASSERT_EQ(again.exit_code, 0) << again.out << again.err;
-  EXPECT_THAT(again.out, HasSubstr(absl::StrCat("resuming: ", recorded,
-                                                " frames already recorded")));
+  ASSERT_TRUE(WaitForJobState(job, "succeeded")) << daemon_log();
+  EXPECT_EQ(EventsLike("resumed: the condition cleared"), 1);
   ExpectConsistentStore("full", 120);
+}
+
+// A condition that goes true while one job is paused by a person and
+// another waits: the next job starts into it and is suspended before its
+// first frame; it resumes once the condition clears.
+TEST_F(DiskGuardTest, TheNextJobDoesNotCaptureIntoATrueCondition) {
+  StartSmall("0", "1", 0.05);
+  ASSERT_EQ(Cli({"session", "create", "two"}).exit_code, 0);
+  const int64_t first = Submit({"capture", "sl", "two"});
+  const absl::Time deadline = absl::Now() + absl::Seconds(60);
+  while (FramesDone(first) < 2 && absl::Now() < deadline) {
+    absl::SleepFor(absl::Milliseconds(10));
+  }
+  ASSERT_EQ(Cli({"jobs", "pause", std::to_string(first)}).exit_code, 0);
+  ASSERT_TRUE(WaitForJobState(first, "paused"));
+  const int64_t second = Submit({"capture", "stereo", "two"});
+  ASSERT_GT(second, 0);
+  FillLeaving(512 << 10);  // less than the 1 MB margin
+  ASSERT_EQ(Cli({"jobs", "cancel", std::to_string(first)}).exit_code, 0);
+  ASSERT_TRUE(WaitForJobState(second, "paused")) << daemon_log();
+  EXPECT_EQ(FramesDone(second), 0) << "a frame was taken into a full disk";
+  EXPECT_EQ(Sql(absl::StrCat("SELECT count(*) FROM job_events WHERE job_id = ",
+                             second, " AND message LIKE 'suspended: %'")),
+            "1");
+  fs::remove(data_root() / "filler");
+  ASSERT_TRUE(WaitForJobState(second, "succeeded")) << daemon_log();
+  EXPECT_EQ(FramesDone(second), 17);
+}
+
+// Suspended by a condition, then paused by a person: when the condition
+// clears the job stays paused (the person's pause is never auto-resumed)
+// until they resume it.
+TEST_F(DiskGuardTest, APersonsPauseOutlastsTheCondition) {
+  StartSmall("0", "1");
+  ASSERT_EQ(Cli({"session", "create", "both"}).exit_code, 0);
+  FillLeaving(2 << 20);
+  const int64_t job = Submit({"capture", "sl", "both"});
+  ASSERT_TRUE(WaitForJobState(job, "paused")) << daemon_log();
+  ASSERT_EQ(Cli({"jobs", "pause", std::to_string(job)}).exit_code, 0);
+  const int64_t held = FramesDone(job);
+  fs::remove(data_root() / "filler");
+  const absl::Time deadline = absl::Now() + absl::Seconds(30);
+  while (EventsLike("stays paused by the operator") == 0 &&
+         absl::Now() < deadline) {
+    absl::SleepFor(absl::Milliseconds(50));
+  }
+  ASSERT_EQ(EventsLike("stays paused by the operator"), 1) << daemon_log();
+  absl::SleepFor(absl::Milliseconds(500));
+  EXPECT_EQ(Job(job)["state"], "JOB_STATE_PAUSED");
+  EXPECT_EQ(FramesDone(job), held) << "frames taken under a person's pause";
+  EXPECT_EQ(EventsLike("resumed: the condition cleared"), 0);
+  ASSERT_EQ(Cli({"jobs", "resume", std::to_string(job)}).exit_code, 0);
+  ASSERT_TRUE(WaitForJobState(job, "succeeded")) << daemon_log();
+  ExpectConsistentStore("both", 120);
+}
+
+// A condition that flaps (space freed and taken again, several times, while
+// the capture runs): every suspension is followed by its resumption, and the
+// capture ends with every frame exactly once.
+TEST_F(DiskGuardTest, AFlappingConditionLosesNothing) {
+  StartSmall("0", "1", 0.02);
+  ASSERT_EQ(Cli({"session", "create", "flap"}).exit_code, 0);
+  const int64_t job = Submit({"capture", "sl", "flap"});
+  ASSERT_GT(job, 0);
+  int flaps = 0;
+  for (int i = 0; i < 4; ++i) {
+    if (Job(job).value("state", "") == "JOB_STATE_SUCCEEDED") break;
+    FillLeaving(512 << 10);  // less than the 1 MB margin
+    if (!WaitForJobState(job, "paused", absl::Seconds(30))) break;
+    ++flaps;
+    absl::SleepFor(absl::Milliseconds(300 * (i % 2)));
+    fs::remove(data_root() / "filler");
+    ASSERT_TRUE(WaitForJobState(job, "running", absl::Seconds(30)) ||
+                Job(job).value("state", "") == "JOB_STATE_SUCCEEDED")
+        << daemon_log();
+  }
+  fs::remove(data_root() / "filler");
+  EXPECT_GE(flaps, 2) << "the capture finished before the disk could flap";
+  ASSERT_TRUE(WaitForJobState(job, "succeeded", absl::Seconds(300)))
+      << daemon_log();
+  EXPECT_EQ(EventsLike("suspended: "), flaps);
+  EXPECT_EQ(EventsLike("resumed: the condition cleared"), flaps);
+  ExpectConsistentStore("flap", 120);
 }
 
 }  // namespace

@@ -18,6 +18,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_replace.h"
 #include "daemon/config.h"
+#include "tests/support/status_matchers.h"
 #include "tests/support/subprocess.h"
 #include "tests/support/temp_dir.h"
 
@@ -111,6 +112,27 @@ TEST(DeployTest, BadTlsAndAuthConfigIsRefusedByName) {
               HasSubstr("--tls-client-ca ([tls] client-ca) is missing"));
 }
 
+TEST(DeployTest, MetricsAreOffByDefaultAndLoopbackOnly) {
+  absl::StatusOr<daemon::ParsedArgs> none = Parse({});
+  ASSERT_TRUE(none.ok()) << none.status();
+  EXPECT_EQ(std::get<daemon::Config>(*none).metrics_listen, "");
+  testing::TempDir dir;
+  const std::string path = (dir / "metrics.toml").string();
+  std::ofstream(path) << "metrics-listen = \"127.0.0.1:9464\"\n";
+  absl::StatusOr<daemon::ParsedArgs> keyed = Parse({"--config", path});
+  ASSERT_TRUE(keyed.ok()) << keyed.status();
+  EXPECT_EQ(std::get<daemon::Config>(*keyed).metrics_listen, "127.0.0.1:9464");
+  for (const char* bad :
+       {"0.0.0.0:9464", "127.0.0.1", "127.0.0.1:70000", "unix:/tmp/m.sock"}) {
+    absl::StatusOr<daemon::ParsedArgs> parsed =
+        Parse({"--metrics-listen", bad});
+    EXPECT_THAT(parsed.status(),
+                testing::StatusIs(
+                    absl::StatusCode::kInvalidArgument,
+                    HasSubstr(absl::StrCat("--metrics-listen \"", bad, "\""))));
+  }
+}
+
 TEST(DeployTest, ANonLoopbackAddressNeedsTls) {
   absl::StatusOr<daemon::ParsedArgs> plain =
       Parse({"--listen", "0.0.0.0:50051"});
@@ -124,6 +146,28 @@ TEST(DeployTest, ANonLoopbackAddressNeedsTls) {
   EXPECT_TRUE(
       Parse({"--listen", "unix:/tmp/x.sock", "--listen", "127.0.0.1:0"}).ok());
   EXPECT_FALSE(Parse({"--listen", ":50051"}).ok());
+}
+
+TEST(DeployTest, MinBatteryPercentIsAPercentageFromFlagOrConfig) {
+  absl::StatusOr<daemon::ParsedArgs> ok =
+      Parse({"--min-battery-percent", "20"});
+  ASSERT_TRUE(ok.ok()) << ok.status();
+  EXPECT_EQ(std::get<daemon::Config>(*ok).min_battery_percent, 20);
+  for (const char* bad : {"-1", "101", "half"}) {
+    absl::StatusOr<daemon::ParsedArgs> refused =
+        Parse({"--min-battery-percent", bad});
+    ASSERT_FALSE(refused.ok()) << bad;
+    EXPECT_THAT(std::string(refused.status().message()),
+                HasSubstr("--min-battery-percent"))
+        << bad;
+  }
+  testing::TempDir dir;
+  const std::string path = (dir / "battery.toml").string();
+  std::ofstream(path) << "min-battery-percent = 150\n";
+  absl::StatusOr<daemon::ParsedArgs> from_file = Parse({"--config", path});
+  ASSERT_FALSE(from_file.ok());
+  EXPECT_THAT(std::string(from_file.status().message()),
+              HasSubstr("min-battery-percent"));
 }
 
 TEST(DeployTest, UnknownConfigKeyIsRefusedByName) {

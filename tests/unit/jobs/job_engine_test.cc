@@ -11,15 +11,18 @@
 #include <functional>
 
 #include "daemon/store/session_repository.h"
+#include "tests/support/status_matchers.h"
 #include "tests/support/temp_dir.h"
 
 namespace hdrstereo::jobs {
 namespace {
 
+using ::hdrstereo::testing::StatusIs;
 using ::hdrstereo::testing::TempDir;
 using store::JobKind;
 using store::JobState;
 using ::testing::ElementsAre;
+using ::testing::HasSubstr;
 
 // Waits on the engine's own event signal until `done()` holds (generous
 // bound; the engine's threads decide the timing, not the test). The
@@ -74,6 +77,49 @@ class JobEngineTest : public ::testing::Test {
     };
   }
 
+  // A runner that does `steps` steps, each only while `Condition()` is clear
+  // (JobContext::SuspendWhile, polled every 10 ms).
+  JobRunner GuardedRunner(int steps) {
+    return [this, steps](JobContext& context) -> absl::Status {
+      for (int i = 0; i < steps; ++i) {
+        if (absl::Status s = context.Checkpoint(); !s.ok()) return s;
+        if (absl::Status s = context.SuspendWhile(
+                [this] { return Condition(); }, absl::Milliseconds(10));
+            !s.ok()) {
+          return s;
+        }
+        {
+          std::lock_guard<std::mutex> lock(log_mutex_);
+          log_.push_back(context.job().id * 100 + i);
+        }
+        if (absl::Status s = context.Progress(i + 1, steps, "step"); !s.ok()) {
+          return s;
+        }
+      }
+      return absl::OkStatus();
+    };
+  }
+  std::string Condition() {
+    std::lock_guard<std::mutex> lock(log_mutex_);
+    return condition_;
+  }
+  void SetCondition(const std::string& reason) {
+    std::lock_guard<std::mutex> lock(log_mutex_);
+    condition_ = reason;
+  }
+  // Messages of the job's events that contain `text`.
+  int EventsWith(JobEngine& engine, int64_t id, const std::string& text) {
+    absl::StatusOr<std::vector<store::JobEventRecord>> events =
+        engine.repository().Events(id, 0);
+    EXPECT_TRUE(events.ok());
+    if (!events.ok()) return -1;
+    int n = 0;
+    for (const store::JobEventRecord& e : *events) {
+      n += e.message.find(text) != std::string::npos;
+    }
+    return n;
+  }
+
   std::vector<int64_t> Log() {
     std::lock_guard<std::mutex> lock(log_mutex_);
     return log_;
@@ -84,6 +130,7 @@ class JobEngineTest : public ::testing::Test {
   std::mutex log_mutex_;
   std::vector<int64_t> log_;
   std::atomic<bool> hold_{false};
+  std::string condition_;  // guarded by log_mutex_
 };
 
 TEST_F(JobEngineTest, CapturesRunOneAtATimeInSubmissionOrder) {
@@ -140,6 +187,75 @@ TEST_F(JobEngineTest, PauseWaitsAtTheNextCheckpointAndResumeContinues) {
   EXPECT_EQ(Log().size(), 5u);
   EXPECT_EQ(engine.Resume(job->id).status().code(),
             absl::StatusCode::kFailedPrecondition);
+}
+
+TEST_F(JobEngineTest, AConditionSuspendsAndItsClearingResumes) {
+  JobEngine engine(*store_, GuardedRunner(3), StepRunner(1), {});
+  ASSERT_TRUE(engine.Start().ok());
+  SetCondition("the rig is unsafe");
+  absl::StatusOr<store::JobRecord> job =
+      engine.Submit(JobKind::kCapture, "s", "", 0, "test", "tester");
+  ASSERT_TRUE(job.ok());
+  ASSERT_TRUE(WaitForState(engine, job->id, JobState::kPaused));
+  EXPECT_TRUE(Log().empty()) << "a step ran into the condition";
+  EXPECT_EQ(EventsWith(engine, job->id, "suspended: the rig is unsafe"), 1);
+  // Nobody can resume into the condition.
+  EXPECT_THAT(engine.Resume(job->id),
+              StatusIs(absl::StatusCode::kFailedPrecondition,
+                       HasSubstr("suspended by a condition (the rig is "
+                                 "unsafe); it resumes by itself")));
+  SetCondition("");
+  ASSERT_TRUE(WaitForState(engine, job->id, JobState::kSucceeded));
+  EXPECT_EQ(Log().size(), 3u);
+  EXPECT_EQ(EventsWith(engine, job->id,
+                       "resumed: the condition cleared (was: the rig is "
+                       "unsafe)"),
+            1);
+}
+
+TEST_F(JobEngineTest, AnOperatorsPauseIsNeverAutoResumed) {
+  JobEngine engine(*store_, GuardedRunner(2), StepRunner(1), {});
+  ASSERT_TRUE(engine.Start().ok());
+  SetCondition("the disk is full");
+  absl::StatusOr<store::JobRecord> job =
+      engine.Submit(JobKind::kCapture, "s", "", 0, "test", "tester");
+  ASSERT_TRUE(job.ok());
+  ASSERT_TRUE(WaitForState(engine, job->id, JobState::kPaused));
+  ASSERT_TRUE(engine.Pause(job->id).ok());  // a person pauses it too
+  SetCondition("");
+  ASSERT_TRUE(WaitUntil(engine, [&] {
+    return EventsWith(engine, job->id, "stays paused by the operator") == 1;
+  }));
+  absl::StatusOr<store::JobRecord> now = engine.repository().Get(job->id);
+  ASSERT_TRUE(now.ok());
+  EXPECT_EQ(now->state, JobState::kPaused);
+  EXPECT_TRUE(Log().empty());
+  EXPECT_EQ(EventsWith(engine, job->id, "resumed: the condition"), 0);
+  ASSERT_TRUE(engine.Resume(job->id).ok());
+  ASSERT_TRUE(WaitForState(engine, job->id, JobState::kSucceeded));
+  EXPECT_EQ(Log().size(), 2u);
+}
+
+TEST_F(JobEngineTest, CancelAndShutdownWorkWhileSuspended) {
+  JobEngine engine(*store_, GuardedRunner(2), StepRunner(1), {});
+  ASSERT_TRUE(engine.Start().ok());
+  SetCondition("the camera does not answer");
+  absl::StatusOr<store::JobRecord> first =
+      engine.Submit(JobKind::kCapture, "s", "", 0, "test", "tester");
+  absl::StatusOr<store::JobRecord> second =
+      engine.Submit(JobKind::kCapture, "s", "", 0, "test", "tester");
+  ASSERT_TRUE(first.ok() && second.ok());
+  ASSERT_TRUE(WaitForState(engine, first->id, JobState::kPaused));
+  ASSERT_TRUE(engine.Cancel(first->id).ok());
+  ASSERT_TRUE(WaitForState(engine, first->id, JobState::kCancelled));
+  // The next job starts into the same condition and is suspended too.
+  ASSERT_TRUE(WaitForState(engine, second->id, JobState::kPaused));
+  EXPECT_TRUE(Log().empty());
+  engine.Shutdown();
+  absl::StatusOr<store::JobRecord> stopped =
+      engine.repository().Get(second->id);
+  ASSERT_TRUE(stopped.ok());
+  EXPECT_EQ(stopped->state, JobState::kInterrupted);
 }
 
 TEST_F(JobEngineTest, CancelQueuedAndRunningJobs) {
