@@ -18,7 +18,8 @@ struct StageState {
   double position_mm = 0;
   bool homed = false;
   bool busy = false;
-  std::vector<std::string> warning_flags;  // e.g. "FZ" (not homed), "WR"
+  // e.g. "WR" (not homed), "FZ" (peripheral inactive)
+  std::vector<std::string> warning_flags;
 };
 
 // Moves block until the stage is idle again or a timeout derived from the
