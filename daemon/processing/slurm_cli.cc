@@ -13,6 +13,7 @@
 #include "absl/strings/str_replace.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::slurm {
 
@@ -33,15 +34,13 @@ absl::StatusOr<std::string> ToClusterPath(const SlurmOptions& options,
 
 absl::StatusOr<std::vector<std::string>> SbatchArgv(
     const SlurmOptions& options, const PipelineSubmission& submission) {
-  absl::StatusOr<std::string> session =
-      ToClusterPath(options, submission.session_dir);
-  if (!session.ok()) return session.status();
-  absl::StatusOr<std::string> log_dir =
-      ToClusterPath(options, submission.log_dir);
-  if (!log_dir.ok()) return log_dir.status();
+  ASSIGN_OR_RETURN(std::string session,
+                   ToClusterPath(options, submission.session_dir));
+  ASSIGN_OR_RETURN(std::string log_dir,
+                   ToClusterPath(options, submission.log_dir));
   std::vector<std::string> argv = {
       "sbatch", "--parsable", absl::StrCat("--job-name=", submission.job_name),
-      absl::StrCat("--output=", *log_dir, "/slurm-%j.out"),
+      absl::StrCat("--output=", log_dir, "/slurm-%j.out"),
       absl::StrCat("--cpus-per-task=", options.cpus_per_task)};
   if (!options.partition.empty()) {
     argv.push_back(absl::StrCat("--partition=", options.partition));
@@ -61,7 +60,7 @@ absl::StatusOr<std::vector<std::string>> SbatchArgv(
   // --wrap takes one shell line: quote every word.
   std::vector<std::string> words = {
       options.proc_path, "pipeline",  "--session-dir",
-      *session,          "--threads", absl::StrCat(options.cpus_per_task)};
+      session,           "--threads", absl::StrCat(options.cpus_per_task)};
   if (!submission.steps.empty()) {
     words.push_back("--steps");
     words.push_back(absl::StrJoin(submission.steps, ","));

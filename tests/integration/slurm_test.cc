@@ -23,6 +23,7 @@
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
 #include "daemon/processing/slurm_cli.h"
+#include "processing/base/status_macros.h"
 #include "processing/io/sha256.h"
 #include "tests/support/proc_tool.h"
 #include "tests/support/sim_session.h"
@@ -81,14 +82,12 @@ class SlurmTest : public ::testing::Test {
   }
 
   absl::StatusOr<slurm::JobState> State(int64_t id) {
-    absl::StatusOr<CommandResult> q = cluster_->Run(slurm::SqueueArgv(id));
-    if (!q.ok()) return q.status();
-    absl::StatusOr<slurm::JobState> s = slurm::ParseSqueueOutput(q->out, id);
+    ASSIGN_OR_RETURN(CommandResult q, cluster_->Run(slurm::SqueueArgv(id)));
+    absl::StatusOr<slurm::JobState> s = slurm::ParseSqueueOutput(q.out, id);
     if (s.ok() && !slurm::IsFinal(s->state)) return s;
     // Left the queue (or finished in it): scontrol has the final state.
-    absl::StatusOr<CommandResult> c = cluster_->Run(slurm::ScontrolArgv(id));
-    if (!c.ok()) return c.status();
-    return slurm::ParseScontrolOutput(c->out, id);
+    ASSIGN_OR_RETURN(CommandResult c, cluster_->Run(slurm::ScontrolArgv(id)));
+    return slurm::ParseScontrolOutput(c.out, id);
   }
 
   // Polls until `done(state)`; the states seen, described, in `seen`.

@@ -19,6 +19,7 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::testing {
 namespace fs = std::filesystem;
@@ -104,25 +105,24 @@ absl::StatusOr<std::unique_ptr<SlurmCluster>> SlurmCluster::Start(
     ::chmod((t / "munge/key").c_str(), 0400);
   }
   const fs::path socket = t / "munge/socket";
-  absl::StatusOr<Process> munged = Process::Start(
-      {kMunged, "--foreground",
-       absl::StrCat("--key-file=", (t / "munge/key").string()),
-       absl::StrCat("--socket=", socket.string()),
-       absl::StrCat("--pid-file=", (t / "munge/pid").string()),
-       absl::StrCat("--seed-file=", (t / "munge/seed").string()),
-       absl::StrCat("--log-file=", (t / "log/munged.log").string())},
-      t / "log/munged.out");
-  if (!munged.ok()) return munged.status();
-  c->daemons_.push_back(*std::move(munged));
+  ASSIGN_OR_RETURN(
+      Process munged,
+      Process::Start(
+          {kMunged, "--foreground",
+           absl::StrCat("--key-file=", (t / "munge/key").string()),
+           absl::StrCat("--socket=", socket.string()),
+           absl::StrCat("--pid-file=", (t / "munge/pid").string()),
+           absl::StrCat("--seed-file=", (t / "munge/seed").string()),
+           absl::StrCat("--log-file=", (t / "log/munged.log").string())},
+          t / "log/munged.out"));
+  c->daemons_.push_back(std::move(munged));
   if (!WaitForSocket(socket, absl::Seconds(10))) {
     return absl::DeadlineExceededError(absl::StrCat(
         "munged did not create its socket in 10 s: ", c->LogTails()));
   }
 
-  absl::StatusOr<int> ctld_port = FreePort();
-  if (!ctld_port.ok()) return ctld_port.status();
-  absl::StatusOr<int> slurmd_port = FreePort();
-  if (!slurmd_port.ok()) return slurmd_port.status();
+  ASSIGN_OR_RETURN(int ctld_port, FreePort());
+  ASSIGN_OR_RETURN(int slurmd_port, FreePort());
   c->cpus_ = static_cast<int>(std::thread::hardware_concurrency());
   c->conf_ = t / "slurm.conf";
   std::ofstream(c->conf_)
@@ -130,8 +130,7 @@ absl::StatusOr<std::unique_ptr<SlurmCluster>> SlurmCluster::Start(
       << "SlurmctldHost=localhost\n"
       << "SlurmUser=root\nSlurmdUser=root\n"
       << "AuthInfo=socket=" << socket.string() << "\n"
-      << "SlurmctldPort=" << *ctld_port << "\nSlurmdPort=" << *slurmd_port
-      << "\n"
+      << "SlurmctldPort=" << ctld_port << "\nSlurmdPort=" << slurmd_port << "\n"
       << "StateSaveLocation=" << (t / "state").string() << "\n"
       << "SlurmdSpoolDir=" << (t / "spool").string() << "\n"
       << "SlurmctldPidFile=" << (t / "slurmctld.pid").string() << "\n"
@@ -152,11 +151,13 @@ absl::StatusOr<std::unique_ptr<SlurmCluster>> SlurmCluster::Start(
                                  c->conf_.string()},
         std::vector<std::string>{kSlurmd, "-D", "-f", c->conf_.string(), "-N",
                                  "localhost"}}) {
-    absl::StatusOr<Process> daemon = Process::Start(
-        argv, t / "log" /
-                  absl::StrCat(fs::path(argv[0]).filename().string(), ".out"));
-    if (!daemon.ok()) return daemon.status();
-    c->daemons_.push_back(*std::move(daemon));
+    ASSIGN_OR_RETURN(
+        Process daemon,
+        Process::Start(
+            argv,
+            t / "log" /
+                absl::StrCat(fs::path(argv[0]).filename().string(), ".out")));
+    c->daemons_.push_back(std::move(daemon));
   }
   const absl::Time deadline = absl::Now() + timeout;
   std::string last;
