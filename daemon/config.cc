@@ -205,6 +205,18 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
   app.add_option("--metrics-listen", config.metrics_listen,
                  "Serve Prometheus metrics on this loopback HOST:PORT "
                  "(e.g. 127.0.0.1:9464) [default: off]");
+  app.add_option("--webhook-max-attempts", config.webhook_max_attempts,
+                 "Attempts at each webhook event before giving up")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
+  app.add_option("--webhook-first-retry-s", config.webhook_first_retry_s,
+                 "Delay before a webhook's first retry (doubles per attempt)")
+      ->check(CLI::Range(0.01, 3600.0))
+      ->capture_default_str();
+  app.add_option("--webhook-timeout-s", config.webhook_timeout_s,
+                 "Time limit of one webhook request")
+      ->check(CLI::Range(0.1, 300.0))
+      ->capture_default_str();
   app.add_option("--resume-interrupted", config.resume_interrupted,
                  "Resume jobs a stop interrupted")
       ->capture_default_str();

@@ -53,6 +53,11 @@ struct Config {
   // The Prometheus endpoint (daemon/metrics): loopback HOST:PORT, empty =
   // off. It has no TLS or authentication, hence loopback only.
   std::string metrics_listen;
+  // Webhook delivery (daemon/notify): attempts per event, the delay before
+  // the first retry (doubling, at most 10 min), one request's time limit.
+  int webhook_max_attempts = 8;
+  double webhook_first_retry_s = 5;
+  double webhook_timeout_s = 10;
   // Test only: the scheduler's clock runs this many times as fast as the
   // wall clock, so a test sees "* * * * *" come due within a second.
   double scheduler_clock_rate = 1;

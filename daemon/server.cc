@@ -95,16 +95,26 @@ jobs::ProcessingEnvironment ProcessingEnvironmentFor(const Config& config) {
   return environment;
 }
 
+notify::WebhookDispatcherOptions WebhookOptionsFor(const Config& config) {
+  notify::WebhookDispatcherOptions options;
+  options.retry.max_attempts = config.webhook_max_attempts;
+  options.retry.first_retry = absl::Seconds(config.webhook_first_retry_s);
+  options.request_timeout = absl::Seconds(config.webhook_timeout_s);
+  return options;
+}
+
 }  // namespace
 
 Server::Server(std::unique_ptr<store::Store> store,
                std::unique_ptr<Hardware> hardware,
                std::unique_ptr<jobs::RigLock> rig_lock,
-               std::unique_ptr<rpc::ApiKeyStore> api_keys, const Config& config)
+               std::unique_ptr<rpc::ApiKeyStore> api_keys,
+               notify::WebhookSigner signer, const Config& config)
     : store_(std::move(store)),
       hardware_(std::move(hardware)),
       rig_lock_(std::move(rig_lock)),
       api_keys_(std::move(api_keys)),
+      webhook_signer_(std::move(signer)),
       authenticator_(
           UsersOf(config),
           rpc::ParseRole(config.local_role).value_or(rpc::Role::kNone),
@@ -127,6 +137,8 @@ Server::Server(std::unique_ptr<store::Store> store,
           },
           {.processing_threads = config.processing_threads,
            .resume_interrupted = config.resume_interrupted}),
+      webhooks_(*store_, webhook_signer_, engine_,
+                WebhookOptionsFor(config)),
       disk_guard_(*store_,
                   {.margin_bytes = config.disk_margin_mb << 20,
                    .processing_headroom = 1.0,
@@ -159,7 +171,8 @@ Server::Server(std::unique_ptr<store::Store> store,
           },
           SchedulerOptionsFor(config, *rig_lock_)),
       schedules_service_(scheduler_, *hardware_->rig, authenticator_),
-      admin_service_(authenticator_, *api_keys_, audit_log_) {}
+      admin_service_(authenticator_, *api_keys_, audit_log_, *store_,
+                     webhook_signer_) {}
 
 absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
   if (std::vector<std::string> missing =
@@ -184,9 +197,11 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
                    jobs::RigLock::Load(*store));
   ASSIGN_OR_RETURN(std::unique_ptr<rpc::ApiKeyStore> api_keys,
                    rpc::ApiKeyStore::Load(*store));
+  ASSIGN_OR_RETURN(notify::WebhookSigner signer,
+                   notify::WebhookSigner::Open(store->files().root()));
   std::unique_ptr<Server> server(
       new Server(std::move(store), std::move(hardware), std::move(rig_lock),
-                 std::move(api_keys), config));
+                 std::move(api_keys), std::move(signer), config));
   // Before the jobs start: a taken metrics port fails the start, naming it.
   if (!config.metrics_listen.empty()) {
     ASSIGN_OR_RETURN(
@@ -199,6 +214,8 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
         server->metrics_->port());
   }
   RETURN_IF_ERROR(server->engine_.Start());
+  // After the engine, whose start-up events (interrupted jobs) it reports.
+  RETURN_IF_ERROR(server->webhooks_.Start());
   RETURN_IF_ERROR(server->scheduler_.Start());
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
@@ -267,6 +284,9 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
 void Server::Shutdown() {
   scheduler_.Stop();
   engine_.Shutdown();
+  // Events recorded after its last pass are sent after the next start: the
+  // outbox's cursor is in SQLite.
+  webhooks_.Stop();
   if (grpc_server_ == nullptr) return;
   spdlog::info("shutting down: finishing in-flight calls");
   grpc_server_->Shutdown(std::chrono::system_clock::now() +

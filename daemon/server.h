@@ -18,6 +18,8 @@
 #include "daemon/jobs/rig_lock.h"
 #include "daemon/jobs/scheduler.h"
 #include "daemon/metrics/metrics_exporter.h"
+#include "daemon/notify/webhook_dispatcher.h"
+#include "daemon/notify/webhook_signing.h"
 #include "daemon/rpc/admin_service.h"
 #include "daemon/rpc/api_keys.h"
 #include "daemon/rpc/audit_log.h"
@@ -52,7 +54,8 @@ class Server {
   Server(std::unique_ptr<store::Store> store,
          std::unique_ptr<Hardware> hardware,
          std::unique_ptr<jobs::RigLock> rig_lock,
-         std::unique_ptr<rpc::ApiKeyStore> api_keys, const Config& config);
+         std::unique_ptr<rpc::ApiKeyStore> api_keys,
+         notify::WebhookSigner signer, const Config& config);
 
   // Declaration order is destruction order reversed: the services and the
   // engine go before the hardware and the store they use.
@@ -60,9 +63,11 @@ class Server {
   std::unique_ptr<Hardware> hardware_;
   std::unique_ptr<jobs::RigLock> rig_lock_;
   std::unique_ptr<rpc::ApiKeyStore> api_keys_;
+  notify::WebhookSigner webhook_signer_;
   rpc::Authenticator authenticator_;
   rpc::AuditLog audit_log_;
   jobs::JobEngine engine_;
+  notify::WebhookDispatcher webhooks_;
   jobs::DiskGuard disk_guard_;
   std::unique_ptr<metrics::MetricsExporter> metrics_;  // null when off
   rpc::ServerService server_service_;

@@ -21,8 +21,9 @@ packages=(
   libsqlite3-dev sqlite3 libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev
   # Slurm processing backend: client tools; the tests' single-node cluster
   slurm-wlm munge
-  # metrics endpoint; libcurl scrapes it in tests
-  prometheus-cpp-dev libcurl4-openssl-dev
+  # metrics endpoint; libcurl sends webhooks (and scrapes metrics in tests);
+  # civetweb is the tests' webhook receiver
+  prometheus-cpp-dev libcurl4-openssl-dev libcivetweb-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev xvfb x11-apps
   # report test: headless browser

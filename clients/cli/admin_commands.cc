@@ -1,11 +1,14 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
-// `hdrstereo admin key create|list|revoke` and `hdrstereo audit`.
+// `hdrstereo admin key create|list|revoke`, `hdrstereo admin webhook
+// create|list|delete|deliveries` and `hdrstereo audit`.
 #include <google/protobuf/util/time_util.h>
 
 #include <algorithm>
 #include <iostream>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/strings/ascii.h"
@@ -44,6 +47,9 @@ struct Args {
   std::string principal;
   std::string method;
   int limit = 50;
+  std::string url;
+  std::vector<std::string> events;
+  int64_t webhook_id = 0;
 };
 
 int RunCreate(const Client& client, const Args& args) {
@@ -119,6 +125,101 @@ int RunRevoke(const Client& client, const Args& args) {
   });
 }
 
+std::string Join(const google::protobuf::RepeatedPtrField<std::string>& list) {
+  std::string out;
+  for (const std::string& item : list) {
+    absl::StrAppend(&out, out.empty() ? "" : ",", item);
+  }
+  return out.empty() ? "all" : out;
+}
+
+int RunWebhookCreate(const Client& client, const Args& args) {
+  v1::CreateWebhookRequest request;
+  request.set_url(args.url);
+  for (const std::string& event : args.events) request.add_events(event);
+  request.set_note(args.note);
+  v1::CreateWebhookResponse response;
+  grpc::Status status =
+      v1::Admin::NewStub(client.channel())
+          ->CreateWebhook(client.NewContext().get(), request, &response);
+  return Finish(
+      client, status, response, [](const v1::CreateWebhookResponse& r) {
+        std::cout << r.secret() << "\n";
+        std::cerr << "webhook " << r.webhook().id() << " to "
+                  << r.webhook().url() << " (events "
+                  << Join(r.webhook().events())
+                  << ").\nIts signing secret is shown only now: give it to "
+                     "the receiver, which checks X-Hdrstereo-Signature "
+                     "(docs/notifications.md).\n";
+      });
+}
+
+int RunWebhookList(const Client& client) {
+  v1::ListWebhooksResponse response;
+  grpc::Status status =
+      v1::Admin::NewStub(client.channel())
+          ->ListWebhooks(client.NewContext().get(), v1::ListWebhooksRequest(),
+                         &response);
+  return Finish(
+      client, status, response, [](const v1::ListWebhooksResponse& r) {
+        if (r.webhooks().empty()) {
+          std::cout << "no webhooks\n";
+          return;
+        }
+        Table table({"ID", "URL", "EVENTS", "PENDING", "DELIVERED", "ABANDONED",
+                     "LAST ATTEMPT", "LAST ERROR", "CREATED BY", "NOTE"});
+        for (const v1::Webhook& h : r.webhooks()) {
+          table.AddRow({absl::StrCat(h.id()), h.url(), Join(h.events()),
+                        absl::StrCat(h.pending()), absl::StrCat(h.delivered()),
+                        absl::StrCat(h.abandoned()),
+                        TimeOrDash(h.last_attempt_time()), Dash(h.last_error()),
+                        h.created_by(), h.note()});
+        }
+        table.Print(std::cout);
+      });
+}
+
+int RunWebhookDelete(const Client& client, const Args& args) {
+  v1::DeleteWebhookRequest request;
+  request.set_id(args.webhook_id);
+  v1::Webhook hook;
+  grpc::Status status =
+      v1::Admin::NewStub(client.channel())
+          ->DeleteWebhook(client.NewContext().get(), request, &hook);
+  return Finish(client, status, hook, [](const v1::Webhook& h) {
+    std::cout << "deleted webhook " << h.id() << " to " << h.url() << " ("
+              << h.pending() << " undelivered events dropped)\n";
+  });
+}
+
+int RunWebhookDeliveries(const Client& client, const Args& args) {
+  v1::ListWebhookDeliveriesRequest request;
+  request.set_webhook_id(args.webhook_id);
+  request.mutable_page()->set_page_size(std::min(args.limit, 1000));
+  v1::ListWebhookDeliveriesResponse response;
+  grpc::Status status = v1::Admin::NewStub(client.channel())
+                            ->ListWebhookDeliveries(client.NewContext().get(),
+                                                    request, &response);
+  return Finish(
+      client, status, response, [](const v1::ListWebhookDeliveriesResponse& r) {
+        if (r.deliveries().empty()) {
+          std::cout << "no delivery attempts\n";
+          return;
+        }
+        Table table(
+            {"TIME", "EVENT", "TYPE", "ATTEMPT", "HTTP", "MS", "ERROR", "NOW"});
+        for (const v1::WebhookDelivery& d : r.deliveries()) {
+          table.AddRow(
+              {FormatTime(d.time()), d.event_id(), d.event_type(),
+               absl::StrCat(d.attempt()),
+               d.http_status() == 0 ? "-" : absl::StrCat(d.http_status()),
+               absl::StrCat(d.duration_ms()), Dash(d.error()),
+               d.event_state()});
+        }
+        table.Print(std::cout);
+      });
+}
+
 int RunAudit(const Client& client, const Args& args) {
   v1::ListAuditLogRequest request;
   request.set_principal(args.principal);
@@ -174,7 +275,8 @@ int RunAudit(const Client& client, const Args& args) {
 void AddAdminCommands(CLI::App& app, const GlobalOptions& options,
                       int* exit_code) {
   auto args = std::make_shared<Args>();
-  CLI::App* admin = app.add_subcommand("admin", "API keys (role admin)");
+  CLI::App* admin =
+      app.add_subcommand("admin", "API keys and webhooks (role admin)");
   admin->require_subcommand(1);
   CLI::App* key = admin->add_subcommand("key", "Create, list, revoke API keys");
   key->require_subcommand(1);
@@ -205,6 +307,44 @@ void AddAdminCommands(CLI::App& app, const GlobalOptions& options,
   revoke->add_option("ID", args->id, "Key id, as `key list` shows")->required();
   revoke->callback([&options, exit_code, args] {
     *exit_code = RunRevoke(Client(options), *args);
+  });
+
+  CLI::App* webhook = admin->add_subcommand(
+      "webhook", "Create, list, delete webhooks; their delivery attempts");
+  webhook->require_subcommand(1);
+  CLI::App* hook_create = webhook->add_subcommand(
+      "create", "Send events to a URL; prints its signing secret once");
+  hook_create->add_option("--url", args->url, "http:// or https:// URL")
+      ->required();
+  hook_create
+      ->add_option("--events", args->events,
+                   "Event types, comma-separated (job.failed, job.*, "
+                   "schedule_run.*, ...) [default: all]")
+      ->delimiter(',');
+  hook_create->add_option("--note", args->note, "What it is for");
+  hook_create->callback([&options, exit_code, args] {
+    *exit_code = RunWebhookCreate(Client(options), *args);
+  });
+  CLI::App* hook_list =
+      webhook->add_subcommand("list", "Webhooks and how their delivery goes");
+  hook_list->callback(
+      [&options, exit_code] { *exit_code = RunWebhookList(Client(options)); });
+  CLI::App* hook_delete = webhook->add_subcommand(
+      "delete", "Delete a webhook and its undelivered events");
+  hook_delete->add_option("ID", args->webhook_id, "Webhook id, as list shows")
+      ->required();
+  hook_delete->callback([&options, exit_code, args] {
+    *exit_code = RunWebhookDelete(Client(options), *args);
+  });
+  CLI::App* hook_deliveries = webhook->add_subcommand(
+      "deliveries", "A webhook's delivery attempts, newest first");
+  hook_deliveries->add_option("ID", args->webhook_id, "Webhook id")->required();
+  hook_deliveries
+      ->add_option("--limit", args->limit, "At most this many attempts")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  hook_deliveries->callback([&options, exit_code, args] {
+    *exit_code = RunWebhookDeliveries(Client(options), *args);
   });
 
   CLI::App* audit = app.add_subcommand(

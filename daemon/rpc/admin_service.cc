@@ -10,6 +10,8 @@
 #include "absl/strings/escaping.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
+#include "daemon/notify/webhook_events.h"
 #include "daemon/rpc/pagination.h"
 #include "daemon/rpc/status.h"
 
@@ -49,6 +51,37 @@ absl::StatusOr<int64_t> TimeArgument(const google::protobuf::Timestamp& time,
         absl::StrCat(field, " is not a valid time after 1970"));
   }
   return TimeUtil::TimestampToMilliseconds(time);
+}
+
+constexpr size_t kMaxWebhookNoteBytes = 1024;
+
+void ToProto(const store::WebhookRecord& hook, v1::Webhook* out) {
+  out->set_id(hook.id);
+  out->set_url(hook.url);
+  for (const std::string& event : hook.events) out->add_events(event);
+  out->set_note(hook.note);
+  out->set_created_by(hook.created_by);
+  *out->mutable_create_time() =
+      TimeUtil::MillisecondsToTimestamp(hook.create_time_ms);
+  out->set_pending(hook.pending);
+  out->set_delivered(hook.delivered);
+  out->set_abandoned(hook.abandoned);
+  if (hook.last_attempt_time_ms) {
+    *out->mutable_last_attempt_time() =
+        TimeUtil::MillisecondsToTimestamp(*hook.last_attempt_time_ms);
+  }
+  out->set_last_http_status(hook.last_http_status);
+  out->set_last_error(hook.last_error);
+}
+
+absl::Status ValidateWebhookId(int64_t id) {
+  if (id <= 0) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "webhook id ", id,
+        " is not a webhook id (a positive number, as `hdrstereo admin "
+        "webhook list` shows)"));
+  }
+  return absl::OkStatus();
 }
 
 }  // namespace
@@ -200,6 +233,107 @@ grpc::Status AdminService::ListAuditLog(grpc::ServerContext*,
     out->set_subject(row.subject);
     out->set_status_code(row.status_code);
     out->set_message(row.message);
+  }
+  return grpc::Status::OK;
+}
+
+grpc::Status AdminService::CreateWebhook(
+    grpc::ServerContext* context, const v1::CreateWebhookRequest* request,
+    v1::CreateWebhookResponse* response) {
+  if (absl::Status s = notify::ValidateWebhookUrl(request->url()); !s.ok()) {
+    return ToGrpcStatus(s);
+  }
+  absl::StatusOr<std::vector<std::string>> events = notify::ValidateEventFilter(
+      {request->events().begin(), request->events().end()});
+  if (!events.ok()) return ToGrpcStatus(events.status());
+  if (request->note().size() > kMaxWebhookNoteBytes) {
+    return InvalidArgument(
+        absl::StrCat("note is longer than ", kMaxWebhookNoteBytes, " bytes"));
+  }
+  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
+  if (!caller.ok()) return ToGrpcStatus(caller.status());
+  absl::StatusOr<std::string> salt = notify::WebhookSigner::NewSalt();
+  if (!salt.ok()) return ToGrpcStatus(salt.status());
+  absl::StatusOr<std::string> secret = signer_.SecretFor(*salt);
+  if (!secret.ok()) return ToGrpcStatus(secret.status());
+  store::WebhookRecord record;
+  record.url = request->url();
+  record.events = *std::move(events);
+  record.salt_hex = *salt;
+  record.note = request->note();
+  record.created_by = caller->name;
+  record.create_time_ms = absl::ToUnixMillis(absl::Now());
+  absl::StatusOr<store::WebhookRecord> hook = webhooks_.Create(record);
+  if (!hook.ok()) return ToGrpcStatus(hook.status());
+  spdlog::info("webhook {} to {} created by {}", hook->id,
+               notify::UrlOrigin(hook->url), caller->name);
+  ToProto(*hook, response->mutable_webhook());
+  response->set_secret(*secret);
+  return grpc::Status::OK;
+}
+
+grpc::Status AdminService::ListWebhooks(grpc::ServerContext*,
+                                        const v1::ListWebhooksRequest*,
+                                        v1::ListWebhooksResponse* response) {
+  absl::StatusOr<std::vector<store::WebhookRecord>> hooks = webhooks_.List();
+  if (!hooks.ok()) return ToGrpcStatus(hooks.status());
+  for (const store::WebhookRecord& hook : *hooks) {
+    ToProto(hook, response->add_webhooks());
+  }
+  return grpc::Status::OK;
+}
+
+grpc::Status AdminService::DeleteWebhook(
+    grpc::ServerContext* context, const v1::DeleteWebhookRequest* request,
+    v1::Webhook* response) {
+  if (absl::Status s = ValidateWebhookId(request->id()); !s.ok()) {
+    return ToGrpcStatus(s);
+  }
+  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
+  if (!caller.ok()) return ToGrpcStatus(caller.status());
+  absl::StatusOr<store::WebhookRecord> deleted =
+      webhooks_.Delete(request->id());
+  if (!deleted.ok()) return ToGrpcStatus(deleted.status());
+  spdlog::info("webhook {} to {} deleted by {}", deleted->id,
+               notify::UrlOrigin(deleted->url), caller->name);
+  ToProto(*deleted, response);
+  return grpc::Status::OK;
+}
+
+grpc::Status AdminService::ListWebhookDeliveries(
+    grpc::ServerContext*, const v1::ListWebhookDeliveriesRequest* request,
+    v1::ListWebhookDeliveriesResponse* response) {
+  if (absl::Status s = ValidateWebhookId(request->webhook_id()); !s.ok()) {
+    return ToGrpcStatus(s);
+  }
+  absl::StatusOr<IdPage> page = ParseIdPage(request->page());
+  if (!page.ok()) return ToGrpcStatus(page.status());
+  absl::StatusOr<std::vector<store::WebhookRecord>> hooks = webhooks_.List();
+  if (!hooks.ok()) return ToGrpcStatus(hooks.status());
+  if (std::none_of(hooks->begin(), hooks->end(),
+                   [&](const store::WebhookRecord& hook) {
+                     return hook.id == request->webhook_id();
+                   })) {
+    return ToGrpcStatus(absl::NotFoundError(
+        absl::StrCat("no webhook ", request->webhook_id(),
+                     " (`hdrstereo admin webhook list` shows them)")));
+  }
+  absl::StatusOr<std::vector<store::DeliveryAttempt>> rows =
+      webhooks_.Attempts(request->webhook_id(), page->after, page->size + 1);
+  if (!rows.ok()) return ToGrpcStatus(rows.status());
+  response->set_next_page_token(FinishIdPage(
+      *page, *rows, [](const store::DeliveryAttempt& row) { return row.id; }));
+  for (const store::DeliveryAttempt& row : *rows) {
+    v1::WebhookDelivery* out = response->add_deliveries();
+    out->set_id(row.id);
+    out->set_event_id(row.event_id);
+    out->set_event_type(row.type);
+    out->set_attempt(row.attempt);
+    *out->mutable_time() = TimeUtil::MillisecondsToTimestamp(row.time_ms);
+    out->set_duration_ms(row.duration_ms);
+    out->set_http_status(row.http_status);
+    out->set_error(row.error);
+    out->set_event_state(store::OutboxStateName(row.event_state));
   }
   return grpc::Status::OK;
 }

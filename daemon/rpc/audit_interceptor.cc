@@ -52,6 +52,10 @@ void Collect(const Message& message, std::vector<std::string>& parts) {
     } else if (name == "id" && field->type() == FieldDescriptor::TYPE_STRING) {
       parts.push_back(
           absl::StrCat("key ", reflection->GetString(message, field)));
+    } else if (name == "id" && field->type() == FieldDescriptor::TYPE_INT64 &&
+               absl::StrContains(message.GetDescriptor()->name(), "Webhook")) {
+      parts.push_back(
+          absl::StrCat("webhook ", reflection->GetInt64(message, field)));
     } else if (name == "user") {
       parts.push_back(
           absl::StrCat("user ", reflection->GetString(message, field)));
@@ -97,6 +101,10 @@ class AuditInterceptor final : public grpc::experimental::Interceptor {
     if (const auto* key =
             dynamic_cast<const v1::CreateApiKeyResponse*>(&response)) {
       return absl::StrCat("key ", key->key().id());
+    }
+    if (const auto* hook =
+            dynamic_cast<const v1::CreateWebhookResponse*>(&response)) {
+      return absl::StrCat("webhook ", hook->webhook().id());
     }
     return "";
   }

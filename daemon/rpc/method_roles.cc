@@ -71,6 +71,12 @@ const std::map<std::string, MethodRule, std::less<>>& MethodRules() {
           {"/hdrstereo.v1.Admin/RevokeApiKey", kAdminister},
           {"/hdrstereo.v1.Admin/ListApiKeys", kAdminRead},
           {"/hdrstereo.v1.Admin/ListAuditLog", kAdminRead},
+          // Webhooks send the lab's job history to a URL of the admin's
+          // choosing.
+          {"/hdrstereo.v1.Admin/CreateWebhook", kAdminister},
+          {"/hdrstereo.v1.Admin/DeleteWebhook", kAdminister},
+          {"/hdrstereo.v1.Admin/ListWebhooks", kAdminRead},
+          {"/hdrstereo.v1.Admin/ListWebhookDeliveries", kAdminRead},
       };
   return *kRules;
 }

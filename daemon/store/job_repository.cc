@@ -175,6 +175,52 @@ SELECT ?1, id, 'queued', ?2, ?3, ?5, ?6 FROM sessions WHERE name = ?4)sql");
   return job;
 }
 
+absl::StatusOr<std::vector<JobEventRow>> JobRepository::EventsAfterRow(
+    int64_t after_row_id, int limit) {
+  Database& db = store_.db();
+  std::unique_lock<std::mutex> lock = db.Lock();
+  absl::StatusOr<Statement> stmt = db.Prepare(R"sql(
+SELECT e.id, e.sequence, e.time_ms, e.state, e.progress_done,
+       e.progress_total, e.step, e.level, e.message,
+       (SELECT p.state FROM job_events p
+        WHERE p.job_id = e.job_id AND p.sequence < e.sequence
+        ORDER BY p.sequence DESC LIMIT 1),
+       e.job_id
+FROM job_events e WHERE e.id > ?1 ORDER BY e.id LIMIT ?2)sql");
+  if (!stmt.ok()) return stmt.status();
+  stmt->Bind(1, after_row_id).Bind(2, int64_t{limit});
+  std::vector<JobEventRow> rows;
+  while (true) {
+    absl::StatusOr<bool> more = stmt->Step();
+    if (!more.ok()) return more.status();
+    if (!*more) break;
+    JobEventRow row;
+    row.row_id = stmt->ColumnInt(0);
+    JobEventRecord& event = row.event;
+    event.job_id = stmt->ColumnInt(10);
+    event.sequence = stmt->ColumnInt(1);
+    event.time_ms = stmt->ColumnInt(2);
+    absl::StatusOr<JobState> state = ParseJobState(stmt->ColumnText(3));
+    if (!state.ok()) return state.status();
+    event.state = *state;
+    event.progress_done = stmt->ColumnInt(4);
+    event.progress_total = stmt->ColumnInt(5);
+    event.step = stmt->ColumnText(6);
+    event.level = ParseLevel(stmt->ColumnText(7));
+    event.message = stmt->ColumnText(8);
+    if (!stmt->ColumnIsNull(9)) {
+      absl::StatusOr<JobState> previous = ParseJobState(stmt->ColumnText(9));
+      if (!previous.ok()) return previous.status();
+      row.previous_state = *previous;
+    }
+    absl::StatusOr<JobRecord> job = GetLocked(db, event.job_id);
+    if (!job.ok()) return job.status();
+    row.job = *std::move(job);
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
 absl::StatusOr<JobRecord> JobRepository::Get(int64_t id) {
   std::unique_lock<std::mutex> lock = store_.db().Lock();
   return GetLocked(store_.db(), id);

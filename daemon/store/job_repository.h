@@ -63,6 +63,15 @@ struct JobEventRecord {
   std::string message;
 };
 
+// A job event with its job and the state of the job's event before it
+// (nullopt for its first), as notifications read them.
+struct JobEventRow {
+  int64_t row_id = 0;  // job_events.id: increases with every event recorded
+  JobEventRecord event;
+  JobRecord job;
+  std::optional<JobState> previous_state;
+};
+
 struct JobFilter {
   std::string session;           // empty = all
   std::vector<JobState> states;  // empty = all
@@ -95,6 +104,10 @@ class JobRepository {
 
   absl::StatusOr<std::vector<JobEventRecord>> Events(int64_t id,
                                                      int64_t after_sequence);
+
+  // Every job's events with row ids above `after_row_id`, oldest first.
+  absl::StatusOr<std::vector<JobEventRow>> EventsAfterRow(int64_t after_row_id,
+                                                          int limit);
 
   // Start-up: every job left running or paused by a previous process
   // becomes interrupted. Returns their ids, oldest first.

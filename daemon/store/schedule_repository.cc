@@ -6,6 +6,7 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "daemon/store/names.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::store {
 namespace {
@@ -206,8 +207,8 @@ absl::StatusOr<ScheduleRunRecord> ScheduleRepository::AddRun(
   if (!tx.ok()) return tx.status();
   absl::StatusOr<Statement> stmt = db.Prepare(
       "INSERT INTO schedule_runs (schedule_id, due_time_ms, start_time_ms, "
-      "end_time_ms, session, job_ids, outcome, reason, caused_by) "
-      "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)");
+      "end_time_ms, session, job_ids, outcome, reason, caused_by, "
+      "announced) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, 0)");
   if (!stmt.ok()) return stmt.status();
   stmt->Bind(1, run.schedule_id).Bind(2, run.due_time_ms);
   BindOptional(*stmt, 3, run.start_time_ms);
@@ -278,6 +279,24 @@ ScheduleRepository::RunningRuns() {
     if (!row.ok()) return row.status();
     if (!*row) break;
     out.push_back(ReadRun(*stmt));
+  }
+  return out;
+}
+
+absl::StatusOr<std::vector<ScheduleRunRecord>>
+ScheduleRepository::UnannouncedRuns(int limit) {
+  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  ASSIGN_OR_RETURN(Statement stmt,
+                   store_.db().Prepare(absl::StrCat(
+                       kSelectRun,
+                       "WHERE r.announced = 0 AND r.outcome != 'running' "
+                       "ORDER BY r.id LIMIT ?1")));
+  stmt.Bind(1, int64_t{limit});
+  std::vector<ScheduleRunRecord> out;
+  while (true) {
+    ASSIGN_OR_RETURN(bool row, stmt.Step());
+    if (!row) break;
+    out.push_back(ReadRun(stmt));
   }
   return out;
 }

@@ -75,6 +75,9 @@ class ScheduleRepository {
   // Records a run. ALREADY_EXISTS when this due time is already recorded.
   absl::StatusOr<ScheduleRunRecord> AddRun(const ScheduleRunRecord& run);
   absl::Status UpdateRun(const ScheduleRunRecord& run);
+  // Ended runs (succeeded, failed, skipped) that notifications have not
+  // announced yet (daemon/store/webhook_repository.h), oldest first.
+  absl::StatusOr<std::vector<ScheduleRunRecord>> UnannouncedRuns(int limit);
   // Newest due time first, older than `before_due_ms` (0 = from the newest).
   absl::StatusOr<std::vector<ScheduleRunRecord>> Runs(absl::string_view name,
                                                       int64_t before_due_ms,

@@ -13,7 +13,7 @@ namespace {
 
 // Append only: a released migration is never edited. Times are Unix
 // milliseconds (UTC); lengths in millimetres; exposures in seconds.
-constexpr std::array<absl::string_view, 5> kMigrations = {
+constexpr std::array<absl::string_view, 6> kMigrations = {
     // 1: the tables of DESIGN.md.
     R"sql(
 CREATE TABLE rigs (
@@ -205,6 +205,52 @@ ALTER TABLE frames ADD COLUMN camera_exposure_s REAL;
 ALTER TABLE frames ADD COLUMN iso REAL;
 ALTER TABLE frames ADD COLUMN aperture_f REAL;
 ALTER TABLE frames ADD COLUMN camera_file_name TEXT NOT NULL DEFAULT '';
+)sql",
+    // 6: notifications (daemon/notify). Webhooks keep only the salt their
+    // signing secret is derived from (with the data root's key); the outbox
+    // holds one row per event and hook, each attempt one delivery row. The
+    // outbox reads job events after a cursor and the schedule runs not yet
+    // announced (runs from before this version count as announced).
+    R"sql(
+CREATE TABLE webhooks (
+  id INTEGER PRIMARY KEY,
+  url TEXT NOT NULL,
+  events TEXT NOT NULL DEFAULT '',
+  salt TEXT NOT NULL,
+  note TEXT NOT NULL DEFAULT '',
+  created_by TEXT NOT NULL,
+  create_time_ms INTEGER NOT NULL
+);
+CREATE TABLE webhook_events (
+  id INTEGER PRIMARY KEY,
+  webhook_id INTEGER NOT NULL REFERENCES webhooks(id) ON DELETE CASCADE,
+  event_id TEXT NOT NULL,
+  type TEXT NOT NULL,
+  body TEXT NOT NULL,
+  state TEXT NOT NULL CHECK (state IN ('pending', 'delivered', 'abandoned')),
+  attempts INTEGER NOT NULL DEFAULT 0,
+  next_attempt_time_ms INTEGER NOT NULL,
+  create_time_ms INTEGER NOT NULL,
+  UNIQUE (webhook_id, event_id)
+);
+CREATE INDEX webhook_events_due ON webhook_events(state, next_attempt_time_ms);
+CREATE TABLE webhook_deliveries (
+  id INTEGER PRIMARY KEY,
+  webhook_event_id INTEGER NOT NULL
+      REFERENCES webhook_events(id) ON DELETE CASCADE,
+  attempt INTEGER NOT NULL,
+  time_ms INTEGER NOT NULL,
+  duration_ms INTEGER NOT NULL,
+  http_status INTEGER NOT NULL,
+  error TEXT NOT NULL DEFAULT ''
+);
+CREATE INDEX webhook_deliveries_by_event ON webhook_deliveries(webhook_event_id);
+CREATE TABLE notification_cursor (
+  id INTEGER PRIMARY KEY CHECK (id = 1),
+  job_event_id INTEGER NOT NULL
+);
+ALTER TABLE schedule_runs ADD COLUMN announced INTEGER NOT NULL DEFAULT 1;
+CREATE INDEX schedule_runs_unannounced ON schedule_runs(id) WHERE announced = 0;
 )sql",
 };
 

@@ -299,7 +299,7 @@ class Hardware:
 
 
 class Admin:
-    """`client.admin`: API keys and the audit log (admin role)."""
+    """`client.admin`: API keys, the audit log and webhooks (admin role)."""
 
     def __init__(self, client: "Client"):
         self._c = client
@@ -331,6 +331,30 @@ class Admin:
             self._c._stubs.Admin.ListAuditLog,
             lambda page: admin_pb2.ListAuditLogRequest(
                 principal=principal, method=method, page=page), "entries"))
+
+    def create_webhook(self, url: str, events: list[str] | None = None,
+                       note: str = "") -> admin_pb2.CreateWebhookResponse:
+        """A hook POSTing events to `url` (`.secret` is shown once: the
+        receiver checks X-Hdrstereo-Signature with it)."""
+        return self._c._call(self._c._stubs.Admin.CreateWebhook,
+                             admin_pb2.CreateWebhookRequest(
+                                 url=url, events=events or [], note=note))
+
+    def list_webhooks(self) -> list[admin_pb2.Webhook]:
+        return list(self._c._call(self._c._stubs.Admin.ListWebhooks,
+                                  admin_pb2.ListWebhooksRequest()).webhooks)
+
+    def delete_webhook(self, webhook_id: int) -> admin_pb2.Webhook:
+        return self._c._call(self._c._stubs.Admin.DeleteWebhook,
+                             admin_pb2.DeleteWebhookRequest(id=webhook_id))
+
+    def webhook_deliveries(self, webhook_id: int
+                           ) -> list[admin_pb2.WebhookDelivery]:
+        """Every attempt at the hook's events, newest first."""
+        return list(self._c._pages(
+            self._c._stubs.Admin.ListWebhookDeliveries,
+            lambda page: admin_pb2.ListWebhookDeliveriesRequest(
+                webhook_id=webhook_id, page=page), "deliveries"))
 
 
 def _role(role: str) -> int:
@@ -547,6 +571,10 @@ VERBS: dict[str, str] = {
     "Admin.ListApiKeys": "admin.list_api_keys",
     "Admin.RevokeApiKey": "admin.revoke_api_key",
     "Admin.ListAuditLog": "admin.audit_log",
+    "Admin.CreateWebhook": "admin.create_webhook",
+    "Admin.ListWebhooks": "admin.list_webhooks",
+    "Admin.DeleteWebhook": "admin.delete_webhook",
+    "Admin.ListWebhookDeliveries": "admin.webhook_deliveries",
 }
 # RPCs offered only as client.raw.<Service>.<Method>(request).
 RAW_ONLY: frozenset[str] = frozenset({

@@ -6,7 +6,10 @@ the simulator's truth."""
 from __future__ import annotations
 
 import hashlib
+import hmac
+import http.server
 import json
+import threading
 import time
 from pathlib import Path
 
@@ -119,6 +122,59 @@ def test_failed_job_raises(client) -> None:
     with pytest.raises(hdrstereo.FailedPrecondition,
                        match="bracketed-stereo"):
         client.process("nothing-captured", wait=True)
+
+
+class _Receiver(http.server.BaseHTTPRequestHandler):
+    """Records each POST; answers 200."""
+    received: list[tuple[dict, bytes]] = []
+
+    def do_POST(self) -> None:  # noqa: N802 (the stdlib's name)
+        body = self.rfile.read(int(self.headers["Content-Length"]))
+        _Receiver.received.append(({k.lower(): v for k, v in
+                                    self.headers.items()}, body))
+        self.send_response(200)
+        self.send_header("Content-Length", "0")
+        self.end_headers()
+
+    def log_message(self, *args) -> None:
+        pass
+
+
+def test_webhook_gets_a_signed_job_outcome(client) -> None:
+    with pytest.raises(hdrstereo.InvalidArgument, match="http:// or https://"):
+        client.admin.create_webhook("gopher://example.org/")
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), _Receiver)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        url = f"http://127.0.0.1:{server.server_address[1]}/hook"
+        made = client.admin.create_webhook(
+            url, events=["job.succeeded", "job.failed"], note="python")
+        assert made.secret.startswith("whsec_")
+        assert made.webhook.id in [h.id for h in client.admin.list_webhooks()]
+        client.sessions.create("hooked")
+        job = client.capture.stereo("hooked", exposures_s=EXPOSURES, wait=True)
+        deadline = time.monotonic() + 30
+        mine = []
+        while not mine and time.monotonic() < deadline:
+            mine = [(h, b) for h, b in _Receiver.received
+                    if json.loads(b)["job"]["session"] == "hooked"]
+            time.sleep(0.05)
+        assert len(mine) == 1, _Receiver.received
+        headers, body = mine[0]
+        assert headers["x-hdrstereo-event"] == "job.succeeded"
+        expected = "sha256=" + hmac.new(made.secret.encode(), body,
+                                        hashlib.sha256).hexdigest()
+        assert hmac.compare_digest(headers["x-hdrstereo-signature"], expected)
+        assert json.loads(body)["job"]["id"] == job.id
+        deliveries = client.admin.webhook_deliveries(made.webhook.id)
+        assert [d.http_status for d in deliveries] == [200]
+        client.admin.delete_webhook(made.webhook.id)
+        with pytest.raises(hdrstereo.NotFound, match="no webhook"):
+            client.admin.delete_webhook(made.webhook.id)
+    finally:
+        server.shutdown()
+        server.server_close()
 
 
 def test_metrics_match_the_cli_and_the_truth(client, daemon, processed) -> None:
