@@ -308,15 +308,10 @@ grpc::Status AdminService::ListWebhookDeliveries(
   }
   absl::StatusOr<IdPage> page = ParseIdPage(request->page());
   if (!page.ok()) return ToGrpcStatus(page.status());
-  absl::StatusOr<std::vector<store::WebhookRecord>> hooks = webhooks_.List();
-  if (!hooks.ok()) return ToGrpcStatus(hooks.status());
-  if (std::none_of(hooks->begin(), hooks->end(),
-                   [&](const store::WebhookRecord& hook) {
-                     return hook.id == request->webhook_id();
-                   })) {
-    return ToGrpcStatus(absl::NotFoundError(
-        absl::StrCat("no webhook ", request->webhook_id(),
-                     " (`hdrstereo admin webhook list` shows them)")));
+  if (absl::StatusOr<store::WebhookRecord> hook =
+          webhooks_.Get(request->webhook_id());
+      !hook.ok()) {
+    return ToGrpcStatus(hook.status());
   }
   absl::StatusOr<std::vector<store::DeliveryAttempt>> rows =
       webhooks_.Attempts(request->webhook_id(), page->after, page->size + 1);

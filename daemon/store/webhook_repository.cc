@@ -97,6 +97,11 @@ absl::StatusOr<WebhookRecord> WebhookRepository::Create(
   return created;
 }
 
+absl::StatusOr<WebhookRecord> WebhookRepository::Get(int64_t id) {
+  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  return GetLocked(store_.db(), id);
+}
+
 absl::StatusOr<std::vector<WebhookRecord>> WebhookRepository::List() {
   std::unique_lock<std::mutex> lock = store_.db().Lock();
   ASSIGN_OR_RETURN(Statement stmt, store_.db().Prepare(absl::StrCat(

@@ -78,6 +78,8 @@ class WebhookRepository {
   explicit WebhookRepository(Store& store) : store_(store) {}
 
   absl::StatusOr<WebhookRecord> Create(const WebhookRecord& hook);
+  // NOT_FOUND names the id.
+  absl::StatusOr<WebhookRecord> Get(int64_t id);
   // Oldest first, with their outbox counts.
   absl::StatusOr<std::vector<WebhookRecord>> List();
   // Deletes the hook with its queued events and delivery history; NOT_FOUND

@@ -6,15 +6,12 @@
 // that hangs does not hold up the next capture.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <openssl/evp.h>
-#include <openssl/hmac.h>
 
 #include <filesystem>
 #include <set>
 #include <string>
 
 #include "absl/strings/ascii.h"
-#include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
 #include "tests/support/daemon_fixture.h"
 #include "tests/support/http_receiver.h"
@@ -25,17 +22,6 @@ namespace {
 
 using ::testing::HasSubstr;
 using ::testing::MatchesRegex;
-
-std::string ExpectedSignature(const std::string& secret,
-                              const std::string& body) {
-  unsigned char mac[EVP_MAX_MD_SIZE];
-  unsigned int length = 0;
-  HMAC(EVP_sha256(), secret.data(), static_cast<int>(secret.size()),
-       reinterpret_cast<const unsigned char*>(body.data()), body.size(), mac,
-       &length);
-  return "sha256=" + absl::BytesToHexString(absl::string_view(
-                         reinterpret_cast<const char*>(mac), length));
-}
 
 class WebhookTest : public testing::DaemonFixture {};
 
@@ -95,7 +81,7 @@ TEST_F(WebhookTest, CaptureOutcomesReachTheReceiverSignedWithoutSlowingIt) {
   for (const testing::ReceivedRequest& r : receiver.requests()) {
     EXPECT_EQ(r.headers.at("x-hdrstereo-event"), "job.succeeded");
     EXPECT_EQ(r.headers.at("x-hdrstereo-signature"),
-              ExpectedSignature(secret, r.body));
+              testing::ExpectedSignature(secret, r.body));
     const nlohmann::json body = nlohmann::json::parse(r.body);
     EXPECT_EQ(body["job"]["state"], "succeeded");
     EXPECT_EQ(body["job"]["kind"], "capture");

@@ -3,14 +3,28 @@
 
 #include <civetweb.h>
 #include <gtest/gtest.h>
+#include <openssl/evp.h>
+#include <openssl/hmac.h>
 
 #include <chrono>
 
 #include "absl/strings/ascii.h"
+#include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 
 namespace hdrstereo::testing {
+
+std::string ExpectedSignature(const std::string& secret,
+                              const std::string& body) {
+  unsigned char mac[EVP_MAX_MD_SIZE];
+  unsigned int length = 0;
+  HMAC(EVP_sha256(), secret.data(), static_cast<int>(secret.size()),
+       reinterpret_cast<const unsigned char*>(body.data()), body.size(), mac,
+       &length);
+  return "sha256=" + absl::BytesToHexString(absl::string_view(
+                         reinterpret_cast<const char*>(mac), length));
+}
 
 HttpReceiver::HttpReceiver() {
   mg_init_library(0);

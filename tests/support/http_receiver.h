@@ -28,6 +28,12 @@ struct ReceivedRequest {
   int status = 0;  // what it was answered with
 };
 
+// What a receiver expects in X-Hdrstereo-Signature: "sha256=" + hex
+// HMAC-SHA256(secret, body), computed with OpenSSL here, independently of
+// the daemon's code.
+std::string ExpectedSignature(const std::string& secret,
+                              const std::string& body);
+
 class HttpReceiver {
  public:
   HttpReceiver();  // a test failure when it cannot serve

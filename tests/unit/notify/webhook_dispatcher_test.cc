@@ -11,8 +11,6 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
-#include <openssl/evp.h>
-#include <openssl/hmac.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -20,7 +18,6 @@
 #include <string>
 #include <vector>
 
-#include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "daemon/store/schedule_repository.h"
@@ -36,19 +33,6 @@ using store::JobState;
 using ::testing::HasSubstr;
 
 constexpr absl::Duration kWait = absl::Seconds(30);
-
-// The signature a receiver computes: OpenSSL's HMAC, independently of the
-// daemon's code.
-std::string ExpectedSignature(const std::string& secret,
-                              const std::string& body) {
-  unsigned char mac[EVP_MAX_MD_SIZE];
-  unsigned int length = 0;
-  HMAC(EVP_sha256(), secret.data(), static_cast<int>(secret.size()),
-       reinterpret_cast<const unsigned char*>(body.data()), body.size(), mac,
-       &length);
-  return "sha256=" + absl::BytesToHexString(absl::string_view(
-                         reinterpret_cast<const char*>(mac), length));
-}
 
 // A loopback port nothing listens on.
 int DeadPort() {
@@ -155,9 +139,9 @@ TEST_F(WebhookDispatcherTest, SendsASignedEventForAFinalState) {
             absl::StrCat("job-", job, "-event-3"));
   EXPECT_EQ(request.headers.at("x-hdrstereo-attempt"), "1");
   EXPECT_EQ(request.headers.at("x-hdrstereo-signature"),
-            ExpectedSignature(secret, request.body));
+            testing::ExpectedSignature(secret, request.body));
   EXPECT_NE(request.headers.at("x-hdrstereo-signature"),
-            ExpectedSignature(secret + "x", request.body));
+            testing::ExpectedSignature(secret + "x", request.body));
   const nlohmann::json body = nlohmann::json::parse(request.body);
   EXPECT_EQ(body["type"], "job.failed");
   EXPECT_EQ(body["daemon"], "rig-test");
@@ -190,7 +174,7 @@ TEST_F(WebhookDispatcherTest, RetriesAfterA500WithTheSameEventId) {
   EXPECT_EQ(requests[0].headers.at("x-hdrstereo-attempt"), "1");
   EXPECT_EQ(requests[1].headers.at("x-hdrstereo-attempt"), "2");
   EXPECT_EQ(requests[1].headers.at("x-hdrstereo-signature"),
-            ExpectedSignature(secret, requests[1].body));
+            testing::ExpectedSignature(secret, requests[1].body));
 
   // One row per attempt, newest first.
   const std::vector<store::DeliveryAttempt> attempts = WaitForAttempts(2);
@@ -283,8 +267,7 @@ TEST_F(WebhookDispatcherTest, ScheduleRunOutcomesAreAnnouncedOnce) {
   running.schedule_id = schedule.id;
   running.due_time_ms = 2000;
   running.outcome = store::RunOutcome::kRunning;
-  ASSERT_OK_AND_ASSIGN(store::ScheduleRunRecord run,
-                       schedules.AddRun(running));
+  ASSERT_OK_AND_ASSIGN(store::ScheduleRunRecord run, schedules.AddRun(running));
   absl::SleepFor(absl::Milliseconds(200));
   EXPECT_TRUE(receiver.requests().empty());  // still running: no outcome yet
   run.outcome = store::RunOutcome::kFailed;
@@ -319,7 +302,7 @@ TEST_F(WebhookDispatcherTest, QueuedEventsSurviveARestart) {
   std::vector<std::string> delivered;
   for (const testing::ReceivedRequest& r : receiver.requests()) {
     EXPECT_EQ(r.headers.at("x-hdrstereo-signature"),
-              ExpectedSignature(secret, r.body));
+              testing::ExpectedSignature(secret, r.body));
     delivered.push_back(r.headers.at("x-hdrstereo-event"));
   }
   EXPECT_THAT(delivered, ::testing::UnorderedElementsAre(
