@@ -69,7 +69,8 @@ absl::Duration BackoffBefore(const ReconnectOptions& options, int attempt);
 // Whether a camera call's error says the camera has gone away rather than
 // refused or failed one call: UNAVAILABLE, FAILED_PRECONDITION or ABORTED
 // with "disconnected" in the message (gphoto2: "I/O error talking to the
-// camera (disconnected?)", the whole GP_ERROR_IO range; the simulator:
+// camera (disconnected?)", the whole GP_ERROR_IO range, and "not on the USB
+// bus (disconnected: ...)", GP_ERROR_IO_USB_FIND; the simulator:
 // "camera disconnected during transfer", "camera disconnected
 // (simulated)"). "Busy", timeouts and bad settings are not.
 bool IsCameraGone(const absl::Status& status);
