@@ -9,10 +9,13 @@
 #include "hardware/display/x11_projector.h"
 #include "hardware/gphoto2/config_dump.h"
 #include "hardware/gphoto2/gphoto2_camera.h"
+#include "hardware/gphoto2/libgphoto2_api.h"
 #include "hardware/gphoto2/replay_api.h"
+#include "hardware/reconnecting_camera.h"
 #include "hardware/sim/scene.h"
 #include "hardware/sim/sim_devices.h"
 #include "hardware/zaber/zaber_stage.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::daemon {
 namespace {
@@ -42,10 +45,55 @@ hardware::RigConfig RigConfigOf(const Config& config) {
 using CameraFactory =
     std::function<hardware::Slot<hardware::Camera>(sim::SimWorld&)>;
 
-hardware::Slot<hardware::Camera> SimulatedCamera(sim::SimWorld& world) {
-  return {.device =
-              std::make_unique<sim::SimCamera>(world, sim::SimCameraOptions{}),
+// An opened camera that is reopened with backoff when it drops; a camera
+// that could not be opened at all stays absent (and says why).
+hardware::Slot<hardware::Camera> Reconnecting(
+    absl::StatusOr<std::unique_ptr<hardware::Camera>> camera,
+    hardware::CameraOpener reopen) {
+  if (!camera.ok()) return Slot<hardware::Camera>(camera.status(), "camera");
+  hardware::ReconnectOptions options;
+  options.on_change = [](const hardware::ConnectionState& state) {
+    if (state.connected) {
+      spdlog::info("camera: reconnected (drop {})", state.drops);
+    } else {
+      spdlog::warn("camera: {}", hardware::DescribeConnection(state));
+    }
+  };
+  return {.device = std::make_unique<hardware::ReconnectingCamera>(
+              *std::move(camera), std::move(reopen), std::move(options)),
           .error = {}};
+}
+
+// Reopens the gphoto2 camera `opened` is by its serial number (else its
+// model), over apis from `new_api`.
+hardware::CameraOpener Gphoto2Reopener(
+    gphoto2::Gphoto2Options options, gphoto2::Gphoto2Camera& opened,
+    gphoto2::Gphoto2Camera::ApiFactory new_api,
+    std::function<absl::Status()> before = nullptr) {
+  absl::StatusOr<hardware::CameraInfo> info = opened.Info();
+  const std::string serial = info.ok() ? info->serial : "";
+  options.model = opened.model();
+  spdlog::info("camera: {} {}, reopened by {} if it drops", opened.model(),
+               serial, serial.empty() ? "model" : "serial number");
+  return [options, serial, new_api = std::move(new_api),
+          before = std::move(
+              before)]() -> absl::StatusOr<std::unique_ptr<hardware::Camera>> {
+    if (before) {
+      RETURN_IF_ERROR(before());
+    }
+    ASSIGN_OR_RETURN(std::unique_ptr<gphoto2::Gphoto2Camera> camera,
+                     gphoto2::Gphoto2Camera::Reopen(options, serial, new_api));
+    return std::unique_ptr<hardware::Camera>(std::move(camera));
+  };
+}
+
+hardware::Slot<hardware::Camera> SimulatedCamera(sim::SimWorld& world) {
+  return Reconnecting(
+      std::make_unique<sim::SimCamera>(world, sim::SimCameraOptions{}),
+      [&world]() -> absl::StatusOr<std::unique_ptr<hardware::Camera>> {
+        RETURN_IF_ERROR(world.ReopenCamera());
+        return std::make_unique<sim::SimCamera>(world, sim::SimCameraOptions{});
+      });
 }
 
 // The real driver over a replay of `dump`; each capture is a frame the
@@ -68,10 +116,16 @@ hardware::Slot<hardware::Camera> ReplayedCamera(const Config& config,
   gphoto2::Gphoto2Options options;
   options.model = config.camera_model;
   spdlog::info("camera: replay of {} ({})", dump.source, dump.model);
-  return Slot<hardware::Camera>(
-      gphoto2::Gphoto2Camera::OpenWithApi(
-          options, std::make_unique<gphoto2::ReplayApi>(dump, frames)),
-      "camera");
+  gphoto2::Gphoto2Camera::ApiFactory new_api = [dump, frames] {
+    return std::make_unique<gphoto2::ReplayApi>(dump, frames);
+  };
+  absl::StatusOr<std::unique_ptr<gphoto2::Gphoto2Camera>> camera =
+      gphoto2::Gphoto2Camera::OpenWithApi(options, new_api());
+  if (!camera.ok()) return Slot<hardware::Camera>(camera.status(), "camera");
+  // The replayed camera comes back when the simulated one does.
+  hardware::CameraOpener reopen = Gphoto2Reopener(
+      options, **camera, new_api, [&world] { return world.ReopenCamera(); });
+  return Reconnecting(std::move(*camera), std::move(reopen));
 }
 
 absl::StatusOr<std::unique_ptr<Hardware>> SetUpSimulation(
@@ -127,10 +181,18 @@ std::unique_ptr<Hardware> SetUpReal(const Config& config) {
       .width_px = config.projector_width,
       .height_px = config.projector_height,
       .settle_time = absl::Seconds(config.projector_settle_s)};
+  absl::StatusOr<std::unique_ptr<gphoto2::Gphoto2Camera>> camera =
+      gphoto2::Gphoto2Camera::Open(camera_options);
+  hardware::Slot<hardware::Camera> camera_slot;
+  if (camera.ok()) {
+    hardware::CameraOpener reopen = Gphoto2Reopener(
+        camera_options, **camera, [] { return gphoto2::NewLibgphoto2Api(); });
+    camera_slot = Reconnecting(std::move(*camera), std::move(reopen));
+  } else {
+    camera_slot = Slot<hardware::Camera>(camera.status(), "camera");
+  }
   hw->rig = std::make_unique<hardware::Rig>(
-      RigConfigOf(config),
-      Slot<hardware::Camera>(gphoto2::Gphoto2Camera::Open(camera_options),
-                             "camera"),
+      RigConfigOf(config), std::move(camera_slot),
       Slot<hardware::Stage>(zaber::ZaberStage::Open(zaber), "stage"),
       Slot<hardware::Projector>(display::X11Projector::Open(projector_options),
                                 "projector"));

@@ -5,10 +5,12 @@
 #ifndef HDRSTEREO_HARDWARE_CAMERA_H_
 #define HDRSTEREO_HARDWARE_CAMERA_H_
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <string_view>
 
+#include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
 
@@ -86,6 +88,23 @@ struct Frame {
   StoredTo stored_to = StoredTo::kUnknown;
 };
 
+// Whether the camera is there. A plain driver is always "connected" (its
+// calls fail when the camera is gone); ReconnectingCamera
+// (hardware/reconnecting_camera.h) notices a drop and reopens the camera.
+struct ConnectionState {
+  bool connected = true;
+  // While not connected: the reopen attempt under way or waited for (1 =
+  // the first after the drop).
+  int attempt = 0;
+  // How often the camera dropped since it was first opened; a caller that
+  // reads it before and after a failed call knows whether the call failed
+  // because the camera went away.
+  int64_t drops = 0;
+  // Why it dropped, then why the last reopen attempt failed; OK when
+  // connected.
+  absl::Status last_error;
+};
+
 // Every call blocks until done or its timeout; none throws. Errors:
 // UNAVAILABLE (no camera, disconnected, busy beyond the retries),
 // DEADLINE_EXCEEDED (timed out), INVALID_ARGUMENT (a setting the camera does
@@ -108,6 +127,9 @@ class Camera {
   // returns the next image, not an old one. Returns how many files it
   // discarded.
   virtual absl::StatusOr<int> PrepareCaptureGroup() = 0;
+  // Thread-safe and cheap (never talks to the camera), so it may be asked
+  // while another thread holds the camera in a capture.
+  virtual ConnectionState Connection() const { return {}; }
 };
 
 }  // namespace hdrstereo::hardware

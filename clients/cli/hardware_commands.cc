@@ -87,8 +87,12 @@ int RunStatus(const Client& client) {
       std::cout,
       {{"mode", status.hardware_mode()},
        {"camera",
-        absl::StrCat(StateName(c.state()), "  ", c.model(), " ", c.serial(),
-                     c.message().empty() ? "" : "  ", c.message())},
+        c.state() == v1::DEVICE_STATE_RECONNECTING
+            ? absl::StrCat("reconnecting (attempt ", c.reconnect_attempt(), ")",
+                           c.message().empty() ? "" : "  ", c.message())
+            : absl::StrCat(StateName(c.state()), "  ", c.model(), " ",
+                           c.serial(), c.message().empty() ? "" : "  ",
+                           c.message())},
        {"stage",
         absl::StrCat(
             StateName(s.state()), "  ",

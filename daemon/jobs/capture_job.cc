@@ -16,6 +16,7 @@
 #include "absl/strings/str_join.h"
 #include "daemon/jobs/frame_check.h"
 #include "daemon/store/frame_repository.h"
+#include "hardware/reconnecting_camera.h"
 #include "processing/base/status_macros.h"
 #include "processing/io/capture_layout.h"
 #include "processing/io/sha256.h"
@@ -25,6 +26,10 @@ namespace {
 
 namespace fs = std::filesystem;
 namespace sl = structured_light;
+
+// A frame whose camera drops more often than this while it is taken fails
+// the job (a camera that drops at every capture is broken, not unplugged).
+constexpr int kMaxDropsPerFrame = 3;
 
 // Frames already recorded for this capture whose files are intact, by
 // sequence. Rows whose file is missing or differs are deleted (the frame is
@@ -201,6 +206,12 @@ absl::Status PersistFrame(JobContext& context, store::FrameRepository& frames,
 std::string BlockingCondition(const CaptureConditions& conditions,
                               hardware::Camera& camera, hardware::Stage& stage,
                               int64_t frame_bytes) {
+  // A camera that dropped is being reopened (ReconnectingCamera): wait.
+  if (const hardware::ConnectionState link = camera.Connection();
+      !link.connected) {
+    return absl::StrCat("camera disconnected, ",
+                        hardware::DescribeConnection(link));
+  }
   // Info() reads the camera's whole configuration on gphoto2 (slow), so it
   // is asked only when the battery is watched.
   if (conditions.min_battery_percent > 0) {
@@ -360,7 +371,8 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
     if (absl::Status s = projector->Blank(); !s.ok()) return s;
   }
   const int views = ViewsOf(plan);
-  if (absl::Status s = prepare_camera(); !s.ok()) return s;
+  // Done before the first frame, and again after the camera came back.
+  bool camera_prepared = false;
 
   const absl::Time loop_start = absl::Now();
   const int64_t first_count = count;
@@ -382,91 +394,123 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   }
   for (const FrameSpec& spec : specs) {
     if (done->contains(spec.sequence)) continue;
-    if (absl::Status s = context.Checkpoint(); !s.ok()) return s;
-    bool was_suspended = false;
-    RETURN_IF_ERROR(context.SuspendWhile(
-        [&] {
-          std::string why =
-              BlockingCondition(conditions, camera, stage, frame_bytes);
-          was_suspended = was_suspended || !why.empty();
-          return why;
-        },
-        conditions.poll));
-    if (was_suspended) {
-      // The stage may have been touched meanwhile: home it again.
-      if (absl::Status s = stage.Home(); !s.ok()) return s;
-      position = std::nan("");
-    }
-    if (!(std::abs(position - spec.stage_position_mm) < 1e-6)) {
-      moved = true;
-      if (absl::Status s =
-              timed([&] { return stage.MoveTo(spec.stage_position_mm); });
-          !s.ok()) {
-        return s;
-      }
-      position = spec.stage_position_mm;
-      if (base.settle_s > 0) {
-        timed([&] {
-          absl::SleepFor(absl::Seconds(base.settle_s));
-          return 0;
-        });
-      }
-    }
-    if (projector != nullptr) {
-      const std::string wanted =
-          spec.pattern.has_value()
-              ? absl::StrCat(spec.pattern->Id(),
-                             spec.pattern->inverse ? "i" : "")
-              : "";
-      if (wanted != showing) {
-        if (spec.pattern.has_value()) {
-          absl::StatusOr<cv::Mat> image =
-              sl::Render(*spec.pattern, projector->resolution());
-          if (!image.ok()) return image.status();
-          if (absl::Status s = timed([&] { return projector->Show(*image); });
-              !s.ok()) {
-            return s;
-          }
-        } else if (absl::Status s = timed([&] { return projector->Blank(); });
-                   !s.ok()) {
-          return s;
-        }
-        showing = wanted;
-      }
-    }
-    if (exposure != spec.exposure_s) {
-      absl::StatusOr<hardware::ExposureSettings> applied = timed([&] {
-        return camera.Configure({.exposure_s = spec.exposure_s,
-                                 .iso = base.iso,
-                                 .aperture_f = base.aperture_f,
-                                 .format = base.format});
-      });
-      if (!applied.ok()) return applied.status();
-      exposure = spec.exposure_s;
-      in_effect = *applied;
-    }
-    // Taken, then checked against what the camera reports; a frame that
-    // does not match is taken once more (after re-preparing the camera)
-    // before the job fails.
     absl::StatusOr<hardware::Frame> frame;
     CameraReport report;
-    std::optional<Mismatch> first_mismatch;
-    for (int attempt = 0;; ++attempt) {
-      frame = timed([&] { return camera.Capture(); });
-      if (!frame.ok()) return frame.status();
-      report = ReadCameraReport(*frame);
-      std::optional<Mismatch> mismatch = checker.Check(in_effect, report);
-      if (!mismatch.has_value()) break;
-      if (attempt > 0) {
-        return absl::DataLossError(absl::StrCat(
-            "frame ", Describe(spec, views),
-            " failed verification twice: ", first_mismatch->message, "; then ",
-            mismatch->message, "; nothing was recorded for it"));
+    // A frame whose camera dropped (a camera call failed and the camera
+    // counts one more drop) is taken again once the camera is back: the
+    // job suspends at this frame boundary until it is.
+    for (int drops = 0;; ++drops) {
+      if (absl::Status s = context.Checkpoint(); !s.ok()) return s;
+      bool was_suspended = false;
+      RETURN_IF_ERROR(context.SuspendWhile(
+          [&] {
+            std::string why =
+                BlockingCondition(conditions, camera, stage, frame_bytes);
+            was_suspended = was_suspended || !why.empty();
+            return why;
+          },
+          conditions.poll));
+      if (was_suspended) {
+        // The stage may have been touched meanwhile: home it again.
+        if (absl::Status s = stage.Home(); !s.ok()) return s;
+        position = std::nan("");
       }
-      context.Warn(absl::StrCat("frame ", Describe(spec, views), ": ",
-                                mismatch->message, "; taking it again"));
-      first_mismatch = std::move(mismatch);
-      if (absl::Status s = prepare_camera(); !s.ok()) return s;
+      if (!(std::abs(position - spec.stage_position_mm) < 1e-6)) {
+        moved = true;
+        if (absl::Status s =
+                timed([&] { return stage.MoveTo(spec.stage_position_mm); });
+            !s.ok()) {
+          return s;
+        }
+        position = spec.stage_position_mm;
+        if (base.settle_s > 0) {
+          timed([&] {
+            absl::SleepFor(absl::Seconds(base.settle_s));
+            return 0;
+          });
+        }
+      }
+      if (projector != nullptr) {
+        const std::string wanted =
+            spec.pattern.has_value()
+                ? absl::StrCat(spec.pattern->Id(),
+                               spec.pattern->inverse ? "i" : "")
+                : "";
+        if (wanted != showing) {
+          if (spec.pattern.has_value()) {
+            absl::StatusOr<cv::Mat> image =
+                sl::Render(*spec.pattern, projector->resolution());
+            if (!image.ok()) return image.status();
+            if (absl::Status s = timed([&] { return projector->Show(*image); });
+                !s.ok()) {
+              return s;
+            }
+          } else if (absl::Status s = timed([&] { return projector->Blank(); });
+                     !s.ok()) {
+            return s;
+          }
+          showing = wanted;
+        }
+      }
+      const int64_t drops_before = camera.Connection().drops;
+      absl::Status took = [&]() -> absl::Status {
+        if (!camera_prepared) {
+          RETURN_IF_ERROR(prepare_camera());
+          camera_prepared = true;
+        }
+        if (exposure != spec.exposure_s) {
+          absl::StatusOr<hardware::ExposureSettings> applied = timed([&] {
+            return camera.Configure({.exposure_s = spec.exposure_s,
+                                     .iso = base.iso,
+                                     .aperture_f = base.aperture_f,
+                                     .format = base.format});
+          });
+          if (!applied.ok()) return applied.status();
+          exposure = spec.exposure_s;
+          in_effect = *applied;
+        }
+        // Taken, then checked against what the camera reports; a frame that
+        // does not match is taken once more (after re-preparing the camera)
+        // before the job fails.
+        std::optional<Mismatch> first_mismatch;
+        for (int attempt = 0;; ++attempt) {
+          frame = timed([&] { return camera.Capture(); });
+          if (!frame.ok()) return frame.status();
+          report = ReadCameraReport(*frame);
+          std::optional<Mismatch> mismatch = checker.Check(in_effect, report);
+          if (!mismatch.has_value()) return absl::OkStatus();
+          if (attempt > 0) {
+            return absl::DataLossError(absl::StrCat(
+                "frame ", Describe(spec, views),
+                " failed verification twice: ", first_mismatch->message,
+                "; then ", mismatch->message, "; nothing was recorded for it"));
+          }
+          context.Warn(absl::StrCat("frame ", Describe(spec, views), ": ",
+                                    mismatch->message, "; taking it again"));
+          first_mismatch = std::move(mismatch);
+          RETURN_IF_ERROR(prepare_camera());
+        }
+      }();
+      if (took.ok()) break;
+      // Failed because the camera went away (or was away already).
+      if (const hardware::ConnectionState link = camera.Connection();
+          link.drops == drops_before && link.connected) {
+        return took;
+      }
+      if (drops >= kMaxDropsPerFrame) {
+        return absl::Status(
+            took.code(),
+            absl::StrCat("frame ", Describe(spec, views),
+                         ": the camera dropped ", drops + 1,
+                         " times while taking it; last: ", took.message()));
+      }
+      // Nothing of this frame was recorded; the camera comes back with its
+      // own settings and perhaps files from before.
+      context.Warn(absl::StrCat("frame ", Describe(spec, views),
+                                ": the camera dropped (", took.message(),
+                                "); the frame is taken again once it is back"));
+      camera_prepared = false;
+      exposure = std::nan("");
     }
     checker.Remember(report);
     frame_bytes =

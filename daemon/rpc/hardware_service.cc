@@ -156,6 +156,21 @@ void ToProto(const jobs::RigLockState& state, v1::RigLock* out) {
       TimeUtil::MillisecondsToTimestamp(absl::ToUnixMillis(state.expire_time));
 }
 
+// Fills what the camera's connection says (no camera call, so also while a
+// capture holds the lane); true when the camera is away (nothing more to
+// ask it).
+bool FillCameraConnection(const hardware::Camera& camera,
+                          v1::CameraStatus* out) {
+  const hardware::ConnectionState link = camera.Connection();
+  out->set_disconnects(link.drops);
+  if (link.connected) return false;
+  out->set_state(v1::DEVICE_STATE_RECONNECTING);
+  out->set_reconnect_attempt(link.attempt);
+  out->set_message(std::string(link.last_error.message()));
+  out->set_battery_percent(-1);
+  return true;
+}
+
 }  // namespace
 
 void HardwareService::FillCamera(v1::CameraStatus* out) {
@@ -166,6 +181,7 @@ void HardwareService::FillCamera(v1::CameraStatus* out) {
     out->set_battery_percent(-1);
     return;
   }
+  if (FillCameraConnection(*camera, out)) return;
   absl::StatusOr<hardware::CameraInfo> info = camera->Info();
   if (!info.ok()) {
     out->set_state(v1::DEVICE_STATE_FAULT);
@@ -232,6 +248,11 @@ grpc::Status HardwareService::GetStatus(grpc::ServerContext*,
     response->mutable_camera()->set_state(v1::DEVICE_STATE_BUSY);
     response->mutable_stage()->set_state(v1::DEVICE_STATE_BUSY);
     response->mutable_projector()->set_state(v1::DEVICE_STATE_BUSY);
+    // A camera being reconnected says so even then (a suspended capture
+    // holds the lane while it waits for it).
+    if (rig_.camera() != nullptr) {
+      FillCameraConnection(*rig_.camera(), response->mutable_camera());
+    }
     return grpc::Status::OK;
   }
   FillCamera(response->mutable_camera());

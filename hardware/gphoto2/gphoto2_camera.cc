@@ -92,8 +92,8 @@ absl::Status Gphoto2Error(absl::string_view what, int code,
     case GP_ERROR_IO_USB_FIND:
       return absl::UnavailableError(absl::StrCat(
           what,
-          ": the camera is not on the USB bus (unplugged, switched off "
-          "or asleep?) (",
+          ": the camera is not on the USB bus (disconnected: unplugged, "
+          "switched off or asleep?) (",
           reason, ")"));
     case GP_ERROR_MODEL_NOT_FOUND:
       return absl::NotFoundError(
@@ -334,6 +334,56 @@ absl::StatusOr<std::unique_ptr<Gphoto2Camera>> Gphoto2Camera::OpenWithApi(
   // Remember the exposure and format in effect; fine to fail (no config).
   camera->SettingsLocked().IgnoreError();
   return camera;
+}
+
+absl::StatusOr<std::unique_ptr<Gphoto2Camera>> Gphoto2Camera::Reopen(
+    const Gphoto2Options& options, const std::string& serial,
+    const ApiFactory& new_api) {
+  Gphoto2Options search = options;
+  search.port.clear();
+  if (serial.empty()) return OpenWithApi(search, new_api());
+  std::vector<DetectedCamera> detected;
+  {
+    std::unique_ptr<Gphoto2Camera> probe(
+        new Gphoto2Camera(search, std::make_unique<Worker>(new_api())));
+    auto found = std::make_shared<std::vector<DetectedCamera>>();
+    absl::Status status = probe->Call(
+        "autodetect cameras", search.call_timeout,
+        [found](Gphoto2Api& api) { return api.Autodetect(found.get()); });
+    if (!status.ok()) return status;
+    detected = std::move(*found);
+  }
+  std::vector<std::string> seen;
+  for (const DetectedCamera& candidate : detected) {
+    if (!search.model.empty() &&
+        !absl::EqualsIgnoreCase(candidate.model, search.model)) {
+      seen.push_back(absl::StrCat("\"", candidate.model, "\" on ",
+                                  candidate.port, " (another model)"));
+      continue;
+    }
+    Gphoto2Options exact = search;
+    exact.model = candidate.model;
+    exact.port = candidate.port;
+    absl::StatusOr<std::unique_ptr<Gphoto2Camera>> camera =
+        OpenWithApi(exact, new_api());
+    if (!camera.ok()) {
+      seen.push_back(absl::StrCat("\"", candidate.model, "\" on ",
+                                  candidate.port, " (",
+                                  camera.status().message(), ")"));
+      continue;
+    }
+    absl::StatusOr<hardware::CameraInfo> info = (*camera)->Info();
+    if (info.ok() && info->serial == serial) return camera;
+    seen.push_back(absl::StrCat(
+        "\"", candidate.model, "\" on ", candidate.port, " (",
+        info.ok() ? absl::StrCat("serial number \"", info->serial, "\"")
+                  : std::string(info.status().message()),
+        ")"));
+  }
+  return absl::UnavailableError(absl::StrCat(
+      "no camera with serial number \"", serial, "\"",
+      search.model.empty() ? "" : absl::StrCat(" (", search.model, ")"),
+      "; found: ", seen.empty() ? "none" : absl::StrJoin(seen, ", ")));
 }
 
 absl::Status Gphoto2Camera::Call(absl::string_view what, absl::Duration timeout,

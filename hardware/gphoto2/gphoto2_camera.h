@@ -109,6 +109,21 @@ class Gphoto2Camera final : public hardware::Camera {
   static absl::StatusOr<std::unique_ptr<Gphoto2Camera>> OpenWithApi(
       const Gphoto2Options& options, std::unique_ptr<Gphoto2Api> api);
 
+  // Makes a fresh Gphoto2Api: one per camera handle.
+  using ApiFactory = std::function<std::unique_ptr<Gphoto2Api>()>;
+  // Opens a camera that went away (USB reset, power saving, cable) again;
+  // its port has usually changed, so options.port is ignored. With a
+  // `serial`: autodetects, opens each detected camera of options.model (any
+  // model when empty) on an api of its own and keeps the one whose
+  // "serialnumber" widget is `serial` (the others are closed again);
+  // UNAVAILABLE "no camera with serial number ..." naming those found.
+  // Without: the first camera of options.model, as Open. Every call has its
+  // usual timeout. ReconnectingCamera (hardware/reconnecting_camera.h) calls
+  // this with backoff.
+  static absl::StatusOr<std::unique_ptr<Gphoto2Camera>> Reopen(
+      const Gphoto2Options& options, const std::string& serial,
+      const ApiFactory& new_api);
+
   ~Gphoto2Camera() override;
   Gphoto2Camera(const Gphoto2Camera&) = delete;
   Gphoto2Camera& operator=(const Gphoto2Camera&) = delete;

@@ -122,7 +122,14 @@ int ReplayApi::Capture(std::string* folder, std::string* name) {
                 "the shutter speed is not a timed exposure (bulb or unknown)");
   }
   absl::StatusOr<ReplayFile> file = frames_(settings);
-  if (!file.ok()) return Fail(GP_ERROR, std::string(file.status().message()));
+  if (!file.ok()) {
+    // A source that went away (the simulated camera was unplugged) is what
+    // libgphoto2 reports for a camera gone from USB: an I/O error.
+    const bool gone = absl::IsAborted(file.status()) ||
+                      absl::IsFailedPrecondition(file.status());
+    return Fail(gone ? GP_ERROR_IO : GP_ERROR,
+                std::string(file.status().message()));
+  }
   const ConfigWidget* target = FindWidget(widgets_, "capturetarget");
   *folder = target != nullptr && CaptureTargetIsRam(target->value)
                 ? kRamFolder

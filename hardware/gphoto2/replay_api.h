@@ -10,7 +10,9 @@
 // widgets refuse (GP_ERROR_NOT_SUPPORTED), as do unknown names and values
 // (GP_ERROR_BAD_PARAMETERS). A capture asks a FrameSource for the file the
 // camera would deliver with the settings now in effect (e.g. a simulated
-// frame); without one, Capture is GP_ERROR_NOT_SUPPORTED.
+// frame); without one, Capture is GP_ERROR_NOT_SUPPORTED. A source error is
+// GP_ERROR, or GP_ERROR_IO (a camera gone from USB) when it is ABORTED or
+// FAILED_PRECONDITION.
 //
 // Autodetect lists the dump's model on port "replay:<dump file>". Like the
 // library, not thread-safe: the driver makes every call on one thread.

@@ -444,12 +444,15 @@ Scene ParseSceneJson(const Json& root) {
       const Json& c = j.at("camera");
       const std::string p = "faults.camera";
       CheckKeys(c, p,
-                {"busy_first_calls", "timeout", "disconnect", "corrupt",
-                 "previous_file", "wrong_exposure", "card_target"});
+                {"busy_first_calls", "timeout", "disconnect",
+                 "disconnect_failed_reopens", "corrupt", "previous_file",
+                 "wrong_exposure", "card_target"});
       s.camera_faults.busy_first_calls =
           GetInt(c, p, "busy_first_calls", 0, 0, 1000000);
       s.camera_faults.timeout = ParseTrigger(c, p, "timeout");
       s.camera_faults.disconnect = ParseTrigger(c, p, "disconnect");
+      s.camera_faults.disconnect_failed_reopens =
+          GetInt(c, p, "disconnect_failed_reopens", -1, -1, 1000000);
       s.camera_faults.corrupt = ParseTrigger(c, p, "corrupt");
       s.camera_faults.previous_file = ParseTrigger(c, p, "previous_file");
       s.camera_faults.wrong_exposure = ParseTrigger(c, p, "wrong_exposure");

@@ -180,9 +180,13 @@ struct FaultTrigger {
 struct CameraFaults {
   int busy_first_calls = 0;  // the first N capture calls fail with "busy"
   FaultTrigger timeout;      // DEADLINE_EXCEEDED, nothing delivered
-  FaultTrigger disconnect;   // UNAVAILABLE mid-transfer; later calls fail
-                             // until SimWorld::ReconnectCamera()
-  FaultTrigger corrupt;      // the delivered file has flipped bytes
+  FaultTrigger disconnect;   // ABORTED mid-transfer; later calls fail
+                             // until the camera is reopened
+  // After a disconnect, how many reopen attempts (SimWorld::ReopenCamera)
+  // fail before one succeeds; -1: none succeeds (the camera never comes
+  // back; SimWorld::ReconnectCamera() still plugs it in).
+  int disconnect_failed_reopens = -1;
+  FaultTrigger corrupt;  // the delivered file has flipped bytes
   // Faults that corrupt a dataset without an error (the camera "works"):
   FaultTrigger previous_file;   // delivers the previous file again and keeps
                                 // the new one pending: every later frame is

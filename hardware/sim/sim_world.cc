@@ -224,6 +224,7 @@ absl::StatusOr<SimCapture> SimWorld::Capture(const ExposureSettings& settings,
                   timing().transfer_s / 2);
     std::lock_guard<std::mutex> lock(mu_);
     disconnected_ = true;
+    failed_reopens_ = 0;
     return absl::AbortedError(absl::StrCat(
         "camera disconnected during transfer (simulated fault, call ", call,
         ")"));
@@ -264,6 +265,30 @@ absl::StatusOr<SimCapture> SimWorld::Capture(const ExposureSettings& settings,
 void SimWorld::ReconnectCamera() {
   std::lock_guard<std::mutex> lock(mu_);
   disconnected_ = false;
+  failed_reopens_ = 0;
+}
+
+absl::Status SimWorld::ReopenCamera() {
+  std::lock_guard<std::mutex> lock(mu_);
+  if (!disconnected_) return absl::OkStatus();
+  const int fails = faults_.disconnect_failed_reopens;
+  if (fails < 0 || failed_reopens_ < fails) {
+    ++failed_reopens_;
+    return absl::UnavailableError(
+        absl::StrCat("no camera found (simulated disconnect: reopen attempt ",
+                     failed_reopens_,
+                     fails < 0 ? "; the camera does not come back"
+                               : absl::StrCat(" of ", fails, " that fail"),
+                     ")"));
+  }
+  disconnected_ = false;
+  failed_reopens_ = 0;
+  return absl::OkStatus();
+}
+
+bool SimWorld::camera_connected() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return !disconnected_;
 }
 
 int64_t SimWorld::capture_calls() const {

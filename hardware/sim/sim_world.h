@@ -82,11 +82,19 @@ class SimWorld {
   //   UNAVAILABLE "camera busy" (faults.busy_first_calls; retry later),
   //   DEADLINE_EXCEEDED (timeout fault),
   //   ABORTED (disconnected mid-transfer), then FAILED_PRECONDITION on every
-  //   call until ReconnectCamera().
+  //   call until the camera is reopened (ReopenCamera) or plugged in again
+  //   (ReconnectCamera).
   // A corrupt fault returns OK with damaged bytes (corrupted = true).
   absl::StatusOr<SimCapture> Capture(const ExposureSettings& settings,
                                      ImageFormat format);
+  // Plugs the camera in again, whatever the fault says.
   void ReconnectCamera();
+  // What a driver's reopen finds: OK when the camera is connected or comes
+  // back now; after a disconnect the first
+  // faults.disconnect_failed_reopens attempts fail with UNAVAILABLE "no
+  // camera found", all of them when that is -1.
+  absl::Status ReopenCamera();
+  bool camera_connected() const;
   // What a capture group starts with: the capture target back to RAM, and
   // the files a previous-file fault left pending discarded. Returns how
   // many were discarded; FAILED_PRECONDITION while disconnected.
@@ -113,6 +121,7 @@ class SimWorld {
   int64_t frame_index_ = 0;
   int64_t capture_calls_ = 0;
   bool disconnected_ = false;
+  int failed_reopens_ = 0;  // reopen attempts failed since the disconnect
   CameraFaults faults_;
   bool target_on_card_ = false;
   absl::Time last_camera_time_ = absl::UnixEpoch();

@@ -5,9 +5,11 @@
 // the real CLI. Scenes are the bundled lab-lamp at a small resolution so the
 // suite stays quick; what is checked does not depend on the size.
 #include <gmock/gmock.h>
+#include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <fstream>
 #include <map>
@@ -19,6 +21,7 @@
 #include "daemon/store/database.h"
 #include "hardware/sim/scene.h"
 #include "hardware/sim/sim_world.h"
+#include "hdrstereo/v1/sessions.grpc.pb.h"
 #include "processing/io/exif.h"
 #include "processing/io/sha256.h"
 #include "tests/support/daemon_fixture.h"
@@ -365,6 +368,86 @@ TEST_F(CaptureTest, CameraFaultFailsTheJobKeepsFramesAndAResubmitFinishes) {
   EXPECT_THAT(again.out, HasSubstr("resuming: 5 frames already recorded"));
   EXPECT_EQ(Sql("SELECT count(*) FROM captures"), "1");
   ExpectConsistentStore("f", 17);
+}
+
+// The camera drops in the middle of a structured-light sequence and comes
+// back after two failed reopens: the job suspends at that frame, the
+// camera is reconnected (with backoff) without a restart, the job resumes
+// by itself and retakes the frame that was lost; at the end every planned
+// frame is there exactly once and verified against its file.
+TEST_F(CaptureTest,
+       StructuredLightLosesTheCameraSuspendsReconnectsAndFinishes) {
+  nlohmann::json patch = SmallLabLamp();
+  patch["faults"] = {
+      {"camera",
+       {{"disconnect", {{"calls", {40}}}}, {"disconnect_failed_reopens", 2}}}};
+  StartSim(patch);
+  ASSERT_EQ(Cli({"session", "create", "drop"}).exit_code, 0);
+  CommandResult run = Cli({"capture", "sl", "drop", "--watch"});
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err << daemon_log();
+  EXPECT_THAT(run.out, HasSubstr("suspended: camera disconnected"));
+  EXPECT_THAT(run.out, HasSubstr("resumed: "));
+
+  const nlohmann::json job = Job(1);
+  EXPECT_EQ(job["state"], "JOB_STATE_SUCCEEDED");
+  EXPECT_EQ(JsonInt(job["progress"]["total"]), 120);
+  EXPECT_EQ(JsonInt(job["progress"]["done"]), 120);
+  // One drop, one suspension, one resumption, in that order.
+  EXPECT_EQ(EventsLike("the camera dropped (camera disconnected during "
+                       "transfer (simulated fault, call 40))"),
+            1);
+  EXPECT_EQ(EventsLike("suspended: camera disconnected, reconnecting "
+                       "(attempt 1): camera disconnected during transfer"),
+            1);
+  EXPECT_EQ(EventsLike("resumed: the condition cleared (was: camera "
+                       "disconnected, reconnecting (attempt "),
+            1);
+  EXPECT_EQ(EventsLike("suspended: "), 1);
+  EXPECT_EQ(Sql("SELECT count(*) FROM job_events WHERE job_id = 1 AND "
+                "message LIKE 'suspended: %' AND sequence < (SELECT "
+                "min(sequence) FROM job_events WHERE job_id = 1 AND message "
+                "LIKE 'resumed: %')"),
+            "1");
+
+  // Sessions.ListFrames over the wire: every frame of the plan exactly once.
+  auto channel =
+      grpc::CreateChannel(address_, grpc::InsecureChannelCredentials());
+  auto sessions = v1::Sessions::NewStub(channel);
+  std::set<int> sequences;
+  int listed = 0;
+  std::string token;
+  for (int page = 0; page < 100; ++page) {
+    v1::ListFramesRequest request;
+    request.set_session("drop");
+    request.mutable_page()->set_page_size(50);
+    request.mutable_page()->set_page_token(token);
+    v1::ListFramesResponse response;
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() +
+                         std::chrono::seconds(30));
+    grpc::Status status = sessions->ListFrames(&context, request, &response);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    for (const v1::Frame& frame : response.frames()) {
+      ++listed;
+      EXPECT_TRUE(sequences.insert(frame.sequence()).second)
+          << "frame " << frame.sequence() << " twice";
+      EXPECT_TRUE(frame.has_camera_exposure_s()) << frame.path();
+      EXPECT_FALSE(frame.camera_file_name().empty()) << frame.path();
+    }
+    token = response.next_page_token();
+    if (token.empty()) break;
+  }
+  EXPECT_EQ(listed, 120);
+  ASSERT_EQ(sequences.size(), 120u);
+  EXPECT_EQ(*sequences.begin(), 0);
+  EXPECT_EQ(*sequences.rbegin(), 119);
+  // Files and rows agree, no orphans, every file's EXIF matches its row.
+  ExpectConsistentStore("drop", 120);
+  EXPECT_EQ(ExpectFilesMatchTheirRows("drop"), 120);
+  // The camera is back and says how often it dropped.
+  nlohmann::json camera = CliJson({"hw", "status"})["camera"];
+  EXPECT_EQ(camera["state"], "DEVICE_STATE_CONNECTED");
+  EXPECT_EQ(JsonInt(camera["disconnects"]), 1);
 }
 
 TEST_F(CaptureTest, CorruptTransferIsCaughtNotStored) {

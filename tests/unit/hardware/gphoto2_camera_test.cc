@@ -21,6 +21,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
+#include "hardware/reconnecting_camera.h"
 
 namespace hdrstereo::gphoto2 {
 namespace {
@@ -41,6 +42,9 @@ struct FakeState {
   int open_result = GP_OK;
   std::string error_text;  // what ErrorText() adds to libgphoto2's text
   std::string opened_model, opened_port;
+  // Several cameras on one bus: the serial number each api reads, by the
+  // port it opened (none: the widgets' own).
+  std::map<std::string, std::string> serial_by_port;
   int config_result = GP_OK;
   std::vector<ConfigWidget> widgets;
   std::set<std::string> ignored;  // widgets that keep their value when set
@@ -133,6 +137,7 @@ class FakeApi final : public Gphoto2Api {
     if (int code = Enter("open", lock); code != GP_OK) return code;
     state_->opened_model = model;
     state_->opened_port = port;
+    port_ = port;
     return state_->open_result;
   }
   int GetSummary(std::string* text) override {
@@ -146,6 +151,12 @@ class FakeApi final : public Gphoto2Api {
     if (int code = Enter("get_config", lock); code != GP_OK) return code;
     if (state_->config_result != GP_OK) return state_->config_result;
     *widgets = state_->widgets;
+    if (auto it = state_->serial_by_port.find(port_);
+        it != state_->serial_by_port.end()) {
+      for (ConfigWidget& widget : *widgets) {
+        if (widget.name == "serialnumber") widget.value = it->second;
+      }
+    }
     return GP_OK;
   }
   int SetConfigValue(const std::string& name,
@@ -258,6 +269,7 @@ class FakeApi final : public Gphoto2Api {
   }
 
   std::shared_ptr<FakeState> state_;
+  std::string port_;  // what this api opened
 };
 
 class Gphoto2CameraTest : public ::testing::Test {
@@ -736,6 +748,121 @@ TEST(Gphoto2ErrorTest, MapsResultCodesToStatusCodes) {
     EXPECT_THAT(std::string(status.message()),
                 HasSubstr(absl::StrCat("[", c.code, "]")));
   }
+}
+
+// After a USB reset the camera is back on another port, perhaps beside
+// another body of the same model: Reopen finds it by its serial number.
+TEST_F(Gphoto2CameraTest, ReopenFindsTheCameraBySerialOnItsNewPort) {
+  state_->detected = {{"Canon EOS 5D Mark III", "usb:001,009"},
+                      {"Nikon DSC D800", "usb:001,010"},
+                      {"Canon EOS 5D Mark III", "usb:001,012"}};
+  state_->serial_by_port = {{"usb:001,009", "1111111111"},
+                            {"usb:001,010", "0123456789"},
+                            {"usb:001,012", "0123456789"}};
+  options_.model = "Canon EOS 5D Mark III";
+  options_.port = "usb:001,004";  // where it was: ignored
+  int apis = 0;
+  Gphoto2Camera::ApiFactory new_api = [&] {
+    ++apis;
+    return std::make_unique<FakeApi>(state_);
+  };
+  absl::StatusOr<std::unique_ptr<Gphoto2Camera>> camera =
+      Gphoto2Camera::Reopen(options_, "0123456789", new_api);
+  ASSERT_TRUE(camera.ok()) << camera.status();
+  EXPECT_EQ((*camera)->port(), "usb:001,012");
+  absl::StatusOr<hardware::CameraInfo> info = (*camera)->Info();
+  ASSERT_TRUE(info.ok()) << info.status();
+  EXPECT_EQ(info->serial, "0123456789");
+  // One api to autodetect, one per Canon opened; the Nikon is not opened.
+  EXPECT_EQ(apis, 3);
+  // The reopened camera works as any opened one.
+  EXPECT_EQ(Value("capturetarget"), "Internal RAM");
+}
+
+TEST_F(Gphoto2CameraTest, ReopenWithoutTheSerialsCameraNamesWhatItFound) {
+  state_->detected = {{"Canon EOS 5D Mark III", "usb:001,009"}};
+  state_->serial_by_port = {{"usb:001,009", "1111111111"}};
+  Gphoto2Camera::ApiFactory new_api = [&] {
+    return std::make_unique<FakeApi>(state_);
+  };
+  absl::StatusOr<std::unique_ptr<Gphoto2Camera>> camera =
+      Gphoto2Camera::Reopen(options_, "0123456789", new_api);
+  EXPECT_TRUE(absl::IsUnavailable(camera.status())) << camera.status();
+  EXPECT_THAT(std::string(camera.status().message()),
+              HasSubstr("no camera with serial number \"0123456789\"; "
+                        "found: \"Canon EOS 5D Mark III\" on usb:001,009 "
+                        "(serial number \"1111111111\")"));
+
+  state_->detected.clear();  // still re-enumerating
+  camera = Gphoto2Camera::Reopen(options_, "0123456789", new_api);
+  EXPECT_TRUE(absl::IsUnavailable(camera.status())) << camera.status();
+  EXPECT_THAT(std::string(camera.status().message()), HasSubstr("found: none"));
+
+  // A camera without a serial number is reopened by model.
+  state_->detected = {{"Nikon DSC D800", "usb:001,010"},
+                      {"Canon EOS 5D Mark III", "usb:001,011"}};
+  options_.model = "Canon EOS 5D Mark III";
+  camera = Gphoto2Camera::Reopen(options_, "", new_api);
+  ASSERT_TRUE(camera.ok()) << camera.status();
+  EXPECT_EQ((*camera)->port(), "usb:001,011");
+}
+
+// The whole path: a capture that fails with an I/O error (the cable) drops
+// the camera; ReconnectingCamera reopens it by serial, after the camera
+// was absent for two attempts, and captures go on from the new port.
+TEST_F(Gphoto2CameraTest, AnIoErrorDropsTheCameraAndItIsReopenedBySerial) {
+  state_->capture_produces = {{"/ram", "capt0000.jpg"}};
+  state_->files["/ram/capt0000.jpg"] = "jpeg bytes";
+  std::unique_ptr<Gphoto2Camera> opened = OpenOrDie();
+  ASSERT_NE(opened, nullptr);
+  const std::string serial = opened->Info()->serial;
+  ASSERT_EQ(serial, "0123456789");
+  Gphoto2Options reopen_options = options_;
+  reopen_options.model = opened->model();
+  int detections = 0;
+  hardware::CameraOpener reopen =
+      [&]() -> absl::StatusOr<std::unique_ptr<hardware::Camera>> {
+    {
+      std::lock_guard<std::mutex> lock(state_->mutex);
+      // Absent for two autodetects, then on a new port.
+      state_->detected.clear();
+      if (++detections > 2) {
+        state_->detected = {{"Canon EOS 5D Mark III", "usb:001,023"}};
+      }
+    }
+    absl::StatusOr<std::unique_ptr<Gphoto2Camera>> camera =
+        Gphoto2Camera::Reopen(reopen_options, serial, [this] {
+          return std::make_unique<FakeApi>(state_);
+        });
+    if (!camera.ok()) return camera.status();
+    return std::unique_ptr<hardware::Camera>(std::move(*camera));
+  };
+  hardware::ReconnectOptions backoff;
+  backoff.initial_backoff = absl::Milliseconds(1);
+  backoff.max_backoff = absl::Milliseconds(4);
+  hardware::ReconnectingCamera camera(std::move(opened), reopen, backoff);
+
+  state_->scripted["capture"] = {GP_ERROR_IO_USB_FIND};
+  absl::Status dropped = camera.Capture().status();
+  EXPECT_TRUE(absl::IsUnavailable(dropped)) << dropped;
+  EXPECT_THAT(std::string(dropped.message()),
+              HasSubstr("not on the USB bus (disconnected"));
+  EXPECT_TRUE(hardware::IsCameraGone(dropped));
+  EXPECT_FALSE(camera.Connection().connected);
+  EXPECT_EQ(camera.Connection().drops, 1);
+  bool back = false;
+  for (int i = 0; i < 2000 && !back; ++i) {
+    back = camera.Connection().connected;
+    if (!back) absl::SleepFor(absl::Milliseconds(5));
+  }
+  ASSERT_TRUE(back) << hardware::DescribeConnection(camera.Connection());
+  EXPECT_EQ(detections, 3);
+  EXPECT_EQ(state_->opened_port, "usb:001,023");
+  state_->files["/ram/capt0000.jpg"] = "jpeg bytes";
+  absl::StatusOr<hardware::Frame> frame = camera.Capture();
+  ASSERT_TRUE(frame.ok()) << frame.status();
+  EXPECT_EQ(frame->bytes, "jpeg bytes");
+  EXPECT_EQ(camera.Connection().drops, 1);
 }
 
 }  // namespace

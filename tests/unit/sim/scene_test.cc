@@ -75,6 +75,10 @@ TEST(SceneTest, ErrorsNameTheBadField) {
       "faults.stage.stall.calls[0]");
   ExpectErrorNames(
       SmallSceneJson(
+          "", R"("faults": {"camera": {"disconnect_failed_reopens": -2}})"),
+      "faults.camera.disconnect_failed_reopens");
+  ExpectErrorNames(
+      SmallSceneJson(
           R"({"type": "plane", "center_mm": [0,0,1], "normal": [0,0,0]})"),
       "objects[0].normal");
   ExpectErrorNames(SmallSceneJson("", R"("sensor": {"response":

@@ -1,10 +1,12 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "hardware/sim/sim_world.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "absl/strings/str_cat.h"
 #include "tests/unit/sim/test_scenes.h"
 
 namespace hdrstereo::sim {
@@ -70,6 +72,63 @@ TEST(SimWorldTest, CaptureEncodesEveryFormat) {
       EXPECT_EQ(cv::norm(decoded, c->image, cv::NORM_INF), 0.0);
     }
   }
+}
+
+// The disconnect fault is recoverable: after it, the configured number of
+// reopen attempts fail, then one succeeds and captures work again.
+TEST(SimWorldTest, DisconnectEndsAfterTheConfiguredFailedReopens) {
+  Scene scene = SmallBundledScene("textured");
+  scene.camera_faults.disconnect.calls = {2};
+  scene.camera_faults.disconnect_failed_reopens = 2;
+  SimWorld world(scene);
+  const ExposureSettings s{1.0 / 60, 100};
+  EXPECT_TRUE(world.ReopenCamera().ok()) << "connected: nothing to reopen";
+  ASSERT_TRUE(world.Capture(s, ImageFormat::kPng).ok());
+  EXPECT_EQ(world.Capture(s, ImageFormat::kPng).status().code(),
+            absl::StatusCode::kAborted);
+  EXPECT_FALSE(world.camera_connected());
+  EXPECT_EQ(world.PrepareCaptureGroup().status().code(),
+            absl::StatusCode::kFailedPrecondition);
+  for (int attempt = 1; attempt <= 2; ++attempt) {
+    absl::Status reopen = world.ReopenCamera();
+    EXPECT_TRUE(absl::IsUnavailable(reopen)) << reopen;
+    EXPECT_THAT(std::string(reopen.message()),
+                ::testing::HasSubstr(absl::StrCat("reopen attempt ", attempt,
+                                                  " of 2 that fail")));
+    EXPECT_FALSE(world.camera_connected());
+  }
+  EXPECT_TRUE(world.ReopenCamera().ok());
+  EXPECT_TRUE(world.camera_connected());
+  EXPECT_TRUE(world.PrepareCaptureGroup().ok());
+  EXPECT_TRUE(world.Capture(s, ImageFormat::kPng).ok());  // call 3
+}
+
+TEST(SimWorldTest, DisconnectWithoutFailedReopensIsPermanentUntilPlugged) {
+  Scene scene = SmallBundledScene("textured");
+  scene.camera_faults.disconnect.calls = {1};
+  ASSERT_EQ(scene.camera_faults.disconnect_failed_reopens, -1);  // default
+  SimWorld world(scene);
+  const ExposureSettings s{1.0 / 60, 100};
+  EXPECT_EQ(world.Capture(s, ImageFormat::kPng).status().code(),
+            absl::StatusCode::kAborted);
+  for (int attempt = 1; attempt <= 20; ++attempt) {
+    absl::Status reopen = world.ReopenCamera();
+    ASSERT_TRUE(absl::IsUnavailable(reopen)) << reopen;
+    EXPECT_THAT(std::string(reopen.message()),
+                ::testing::HasSubstr("does not come back"));
+  }
+  world.ReconnectCamera();
+  EXPECT_TRUE(world.camera_connected());
+  EXPECT_TRUE(world.Capture(s, ImageFormat::kPng).ok());
+}
+
+TEST(SimWorldTest, DisconnectFailedReopensIsReadFromTheScene) {
+  absl::StatusOr<Scene> scene = ParseScene(testing::SmallSceneJson(
+      "", R"("faults": {"camera": {"disconnect": {"calls": [3]},
+                                   "disconnect_failed_reopens": 4}})"));
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  EXPECT_EQ(scene->camera_faults.disconnect_failed_reopens, 4);
+  EXPECT_EQ(scene->camera_faults.disconnect.calls, std::vector<int>{3});
 }
 
 TEST(SimWorldTest, CameraFaultsFireOnTheConfiguredCalls) {
