@@ -13,10 +13,11 @@ namespace hdrstereo::daemon {
 namespace {
 
 // CLI11's TOML reader maps sections to subcommands; hdrstereod has none, so
-// the [tls] and [auth] sections are turned into the options they stand for
-// before CLI11 sees them: [tls] cert -> tls-cert, [auth] local-role ->
-// local-role, [auth.users] NAME = ROLE -> auth-user = "NAME=ROLE". Any
-// other section stays as it is and is refused by name.
+// the [tls], [processing], [slurm] and [auth] sections are turned into the
+// options they stand for before CLI11 sees them: [tls] cert -> tls-cert
+// (likewise processing-... and slurm-...), [auth] local-role -> local-role,
+// [auth.users] NAME = ROLE -> auth-user = "NAME=ROLE". Any other section
+// stays as it is and is refused by name.
 class SectionedToml : public CLI::ConfigTOML {
  public:
   std::vector<CLI::ConfigItem> from_config(std::istream& input) const override {
@@ -25,8 +26,11 @@ class SectionedToml : public CLI::ConfigTOML {
     users.name = "auth-user";
     for (CLI::ConfigItem& item : CLI::ConfigTOML::from_config(input)) {
       const std::vector<std::string>& parents = item.parents;
-      const bool ours =
-          !parents.empty() && (parents[0] == "tls" || parents[0] == "auth");
+      const bool prefixed =
+          parents.size() == 1 &&
+          (parents[0] == "tls" || parents[0] == "processing" ||
+           parents[0] == "slurm");
+      const bool ours = prefixed || (!parents.empty() && parents[0] == "auth");
       if (!ours) {
         out.push_back(std::move(item));
         continue;
@@ -37,8 +41,8 @@ class SectionedToml : public CLI::ConfigTOML {
             item.name, "=", item.inputs.empty() ? "" : item.inputs[0]));
         continue;
       }
-      if (parents == std::vector<std::string>{"tls"}) {
-        item.name = absl::StrCat("tls-", item.name);
+      if (prefixed) {
+        item.name = absl::StrCat(parents[0], "-", item.name);
       } else if (parents != std::vector<std::string>{"auth"}) {
         out.push_back(std::move(item));  // e.g. [auth.other]: refused
         continue;
@@ -190,6 +194,45 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
                  "Processing jobs run in parallel")
       ->check(CLI::Range(1, 64))
       ->capture_default_str();
+  app.add_option("--processing-backend", config.processing_backend,
+                 "Where processing jobs run: in this process, or as Slurm "
+                 "batch jobs ([slurm] options)")
+      ->check(CLI::IsMember({"local", "slurm"}))
+      ->capture_default_str();
+  app.add_option("--max-cluster-jobs", config.max_cluster_jobs,
+                 "Slurm backend: processing jobs on the cluster at once")
+      ->check(CLI::Range(1, 10000))
+      ->capture_default_str();
+  slurm::SlurmOptions& slurm = config.slurm;
+  app.add_option("--slurm-partition", slurm.partition,
+                 "Slurm partition [default: the cluster's]");
+  app.add_option("--slurm-account", slurm.account, "Slurm account to charge");
+  app.add_option("--slurm-qos", slurm.qos, "Slurm quality of service");
+  app.add_option("--slurm-cpus-per-task", slurm.cpus_per_task,
+                 "CPUs per batch job, also the pipeline's threads there")
+      ->check(CLI::Range(1, 1024))
+      ->capture_default_str();
+  app.add_option("--slurm-memory", slurm.memory,
+                 "Memory per batch job, e.g. 8G [default: the cluster's]");
+  app.add_option("--slurm-time-limit", slurm.time_limit,
+                 "Time limit per batch job, e.g. 02:00:00");
+  app.add_option("--slurm-extra-arg", slurm.extra_sbatch_args,
+                 "Another sbatch argument, as sbatch takes it "
+                 "(repeatable; [slurm] extra-arg = [...])")
+      ->allow_extra_args(false);
+  app.add_option("--slurm-proc-path", slurm.proc_path,
+                 "hdrstereo-proc as the compute nodes see it")
+      ->capture_default_str();
+  app.add_option("--slurm-data-root", slurm.cluster_data_root,
+                 "The data root as the compute nodes mount it [default: the "
+                 "same path as here]");
+  app.add_option("--slurm-conf", slurm.conf,
+                 "slurm.conf for sbatch, squeue, scontrol and scancel "
+                 "[default: theirs]");
+  app.add_option("--slurm-poll-s", slurm.poll_s,
+                 "How often a batch job's state is asked for")
+      ->check(CLI::Range(0.05, 600.0))
+      ->capture_default_str();
   app.add_option("--disk-margin-mb", config.disk_margin_mb,
                  "Free space a capture must leave on the data root")
       ->check(CLI::Range(int64_t{0}, int64_t{1} << 30))
@@ -312,6 +355,10 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
     return absl::InvalidArgumentError(
         "--camera-dump replays a real camera for the real camera driver: "
         "use it with --hardware real");
+  }
+  if (!config.slurm.cluster_data_root.empty()) {
+    config.slurm.local_data_root =
+        std::filesystem::absolute(config.data_root).lexically_normal().string();
   }
   if (config.log_file.empty()) {
     config.log_file = config.data_root / "logs" / "hdrstereod.log";

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "daemon/processing/slurm_cli.h"
 
 namespace hdrstereo::daemon {
 
@@ -43,6 +44,12 @@ struct Config {
   // lets scripts and tests use --listen 127.0.0.1:0.
   std::filesystem::path ready_file;
   int processing_threads = 2;
+  // "local": processing jobs run in this process, processing_threads at
+  // once; "slurm": each is a Slurm batch job (daemon/jobs/slurm_processing.h),
+  // at most max_cluster_jobs at once.
+  std::string processing_backend = "local";
+  int max_cluster_jobs = 16;
+  slurm::SlurmOptions slurm;
   // The disk guard (daemon/jobs/disk_guard.h): free space kept in reserve,
   // and the size of a frame before any capture of its kind is on disk.
   int64_t disk_margin_mb = 256;

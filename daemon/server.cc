@@ -78,6 +78,7 @@ const std::vector<std::string>& ServedServices() {
 jobs::ProcessingEnvironment ProcessingEnvironmentFor(const Config& config) {
   jobs::ProcessingEnvironment environment;
   environment.threads = config.processing_threads;
+  if (config.processing_backend == "slurm") environment.slurm = config.slurm;
   if (config.hardware == "sim") {
     environment.summary.emplace_back(
         "hardware", absl::StrCat("simulated (scene ", config.sim_scene,
@@ -135,10 +136,12 @@ Server::Server(std::unique_ptr<store::Store> store,
                                            config)](jobs::JobContext& context) {
             return jobs::RunProcessingJob(*rig, environment, context);
           },
-          {.processing_threads = config.processing_threads,
+          // On Slurm a pool thread only follows its batch job.
+          {.processing_threads = config.processing_backend == "slurm"
+                                     ? config.max_cluster_jobs
+                                     : config.processing_threads,
            .resume_interrupted = config.resume_interrupted}),
-      webhooks_(*store_, webhook_signer_, engine_,
-                WebhookOptionsFor(config)),
+      webhooks_(*store_, webhook_signer_, engine_, WebhookOptionsFor(config)),
       disk_guard_(*store_,
                   {.margin_bytes = config.disk_margin_mb << 20,
                    .processing_headroom = 1.0,

@@ -9,6 +9,7 @@
 #include <CLI/CLI.hpp>
 
 #include "clients/cli/client.h"
+#include "hdrstereo/v1/jobs.pb.h"
 
 namespace hdrstereo::cli {
 
@@ -30,6 +31,11 @@ void AddAdminCommands(CLI::App& app, const GlobalOptions& options,
 // Follows a job's events until it ends (a progress bar on a terminal, one
 // line per event otherwise); the exit code says how it ended.
 int WatchJob(const Client& client, int64_t job_id);
+
+// "running", "succeeded", ...
+std::string StateName(v1::JobState state);
+// Succeeded, failed or cancelled: the job will not change any more.
+bool IsFinal(v1::JobState state);
 
 }  // namespace hdrstereo::cli
 

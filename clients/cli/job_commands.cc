@@ -24,7 +24,6 @@
 #include "proto/hdrstereo/v1/capture_defaults.h"
 
 namespace hdrstereo::cli {
-namespace {
 
 std::string StateName(v1::JobState state) {
   return absl::AsciiStrToLower(
@@ -35,6 +34,8 @@ bool IsFinal(v1::JobState state) {
   return state == v1::JOB_STATE_SUCCEEDED || state == v1::JOB_STATE_FAILED ||
          state == v1::JOB_STATE_CANCELLED;
 }
+
+namespace {
 
 std::string FormatDuration(double seconds) {
   if (!(seconds >= 0) || seconds > 360000) return "--:--";
@@ -54,6 +55,9 @@ void PrintJob(const v1::Job& job) {
                      job.progress().step())},
        {"created", FormatTime(job.create_time())},
        {"submitted by", job.submitted_by().empty() ? "-" : job.submitted_by()},
+       {"cluster job", job.cluster_job_id() == 0
+                           ? "-"
+                           : absl::StrCat("Slurm ", job.cluster_job_id())},
        {"error", job.error().empty() ? "-" : job.error()}});
 }
 

@@ -4,12 +4,15 @@
 // processing, read its evaluation, list and fetch what it produced.
 #include <openssl/evp.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -80,6 +83,84 @@ int RunProcess(const Client& client, const std::string& session,
   const int rc = WatchJob(client, job.id());
   if (rc != kExitOk || client.options().json) return rc;
   return PrintMetrics(client, session);
+}
+
+// Polls the batch's jobs until every one has ended: a line per session when
+// its state or step changes, then a total line. Exit code: OK only when
+// every job succeeded.
+int WatchBatch(const Client& client, std::vector<v1::Job> jobs) {
+  auto stub = v1::Jobs::NewStub(client.channel());
+  std::vector<std::string> shown(jobs.size());
+  for (;;) {
+    std::map<std::string, int> counts;
+    for (size_t i = 0; i < jobs.size(); ++i) {
+      v1::Job& job = jobs[i];
+      if (!IsFinal(job.state())) {
+        v1::GetJobRequest request;
+        request.set_job_id(job.id());
+        grpc::Status status =
+            stub->Get(client.NewContext().get(), request, &job);
+        if (!status.ok()) return client.Fail(status);
+      }
+      std::string line = absl::StrFormat(
+          "%-24s job %-6d %-9s %d/%d %s", job.session(), job.id(),
+          StateName(job.state()), job.progress().done(), job.progress().total(),
+          job.state() == v1::JOB_STATE_FAILED ? job.error()
+                                              : job.progress().step());
+      if (line != shown[i]) {
+        std::cout << line << "\n";
+        shown[i] = line;
+      }
+      ++counts[StateName(job.state())];
+    }
+    const int ended =
+        counts["succeeded"] + counts["failed"] + counts["cancelled"];
+    if (ended == static_cast<int>(jobs.size())) {
+      std::cout << absl::StrFormat(
+          "total: %d sessions, %d succeeded, %d failed, %d cancelled\n",
+          jobs.size(), counts["succeeded"], counts["failed"],
+          counts["cancelled"]);
+      return counts["succeeded"] == static_cast<int>(jobs.size()) ? kExitOk
+                                                                  : kExitError;
+    }
+    std::cout << absl::StrFormat(
+                     "total: %d of %d ended (%d running, %d queued)", ended,
+                     jobs.size(), counts["running"], counts["queued"])
+              << std::endl;
+    std::this_thread::sleep_for(std::chrono::seconds(1));
+  }
+}
+
+int RunProcessBatch(const Client& client,
+                    const std::vector<std::string>& sessions, bool all,
+                    const std::string& steps, bool force, bool watch) {
+  v1::SubmitProcessingBatchRequest request;
+  for (const std::string& s : sessions) request.add_sessions(s);
+  request.set_all_sessions(all);
+  for (absl::string_view step :
+       absl::StrSplit(steps, ',', absl::SkipWhitespace())) {
+    request.add_steps(std::string(step));
+  }
+  request.set_force(force);
+  v1::SubmitProcessingBatchResponse response;
+  grpc::Status status = v1::Jobs::NewStub(client.channel())
+                            ->SubmitProcessingBatch(client.NewContext().get(),
+                                                    request, &response);
+  if (!status.ok()) return client.Fail(status);
+  if (client.options().json) {
+    PrintJson(std::cout, response);
+  } else {
+    for (const v1::Job& job : response.jobs()) {
+      std::cout << "job " << job.id() << " queued: processing session "
+                << job.session() << "\n";
+    }
+    for (const auto& skipped : response.skipped()) {
+      std::cerr << "skipped " << skipped.session() << ": " << skipped.reason()
+                << "\n";
+    }
+  }
+  if (!watch || response.jobs().empty()) return kExitOk;
+  return WatchBatch(client, {response.jobs().begin(), response.jobs().end()});
 }
 
 grpc::Status ListAll(const Client& client, const std::string& session,
@@ -279,6 +360,8 @@ void AddProcessingCommands(CLI::App& app, const GlobalOptions& options,
                            int* exit_code) {
   struct Args {
     std::string session;
+    std::vector<std::string> sessions;
+    bool all = false;
     std::string steps;
     bool force = false;
     bool watch = false;
@@ -290,9 +373,19 @@ void AddProcessingCommands(CLI::App& app, const GlobalOptions& options,
 
   CLI::App* process = app.add_subcommand(
       "process",
-      "Process a session: HDR, tone mapping, stereo, fusion, "
-      "ground truth, metrics, export and report");
-  process->add_option("SESSION", args->session)->required();
+      "Process a session (or, with --sessions or --all, many): HDR, tone "
+      "mapping, stereo, fusion, ground truth, metrics, export and report");
+  CLI::Option* one = process->add_option("SESSION", args->session);
+  CLI::Option* many =
+      process
+          ->add_option("--sessions", args->sessions,
+                       "Sessions by name or glob, e.g. 'nightly-2026-*' "
+                       "(comma-separated or repeated): one job each")
+          ->delimiter(',')
+          ->excludes(one);
+  process->add_flag("--all", args->all, "Every session: one job each")
+      ->excludes(one)
+      ->excludes(many);
   process->add_option("--steps", args->steps,
                       "Comma-separated steps (default: all); the steps they "
                       "need are added");
@@ -300,6 +393,17 @@ void AddProcessingCommands(CLI::App& app, const GlobalOptions& options,
   process->add_flag("--watch", args->watch,
                     "Follow the job, then print the metrics");
   process->callback([&options, exit_code, args] {
+    if (!args->sessions.empty() || args->all) {
+      *exit_code = RunProcessBatch(Client(options), args->sessions, args->all,
+                                   args->steps, args->force, args->watch);
+      return;
+    }
+    if (args->session.empty()) {
+      std::cerr << "hdrstereo process: name a SESSION, or --sessions or "
+                   "--all\n";
+      *exit_code = kExitUsage;
+      return;
+    }
     *exit_code = RunProcess(Client(options), args->session, args->steps,
                             args->force, args->watch);
   });

@@ -1,12 +1,17 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
 // hdrstereo-proc pipeline --session-dir DIR [--steps a,b] [--force]
-//                         [--threads N]
+//                         [--threads N] [--job-dir DIR/jobs/ID]
 // Runs the session pipeline (processing/pipeline/pipeline.h) on a session
 // folder without the daemon: frames are found from the capture layout on
 // disk, what earlier runs produced is remembered in
 // DIR/pipeline_state.json. Prints progress on stderr and the metrics table
 // (the thesis' Table 5.2 for this session) on stdout.
+//
+// With --job-dir it is the daemon's unit of remote work (a Slurm batch
+// job): the frames, steps and force flag come from the job's request.json
+// (frames checked against the sha256 recorded at capture), and the outcome
+// goes to the job's result.json, success or not. It never opens SQLite.
 #include <CLI/CLI.hpp>
 #include <filesystem>
 #include <iostream>
@@ -17,9 +22,10 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "clients/proc/command_registry.h"
+#include "processing/base/status_macros.h"
 #include "processing/pipeline/pipeline.h"
 #include "processing/pipeline/session_files.h"
-#include "clients/proc/command_registry.h"
 
 namespace hdrstereo::proc {
 namespace {
@@ -29,6 +35,7 @@ struct PipelineArgs {
   std::vector<std::string> steps;
   bool force = false;
   int threads = 2;
+  std::string job_dir;
 };
 
 class PrintingObserver : public pipeline::RunObserver {
@@ -45,31 +52,83 @@ class PrintingObserver : public pipeline::RunObserver {
   }
 };
 
-absl::Status RunPipeline(const PipelineArgs& args) {
-  absl::StatusOr<pipeline::SessionInput> input =
-      pipeline::DiscoverSession(args.session_dir);
-  if (!input.ok()) return input.status();
-  absl::StatusOr<pipeline::JsonRunStore> store =
-      pipeline::JsonRunStore::Open(input->session_dir / "pipeline_state.json");
-  if (!store.ok()) return store.status();
+// The run itself; `input` and the steps are the caller's choice.
+absl::StatusOr<pipeline::RunSummary> RunOn(const pipeline::SessionInput& input,
+                                           pipeline::RunOptions options,
+                                           pipeline::JsonRunStore& store) {
   PrintingObserver observer;
+  ASSIGN_OR_RETURN(pipeline::RunSummary summary,
+                   pipeline::Run(input, options, store, observer));
+  std::cerr << "computed: " << absl::StrJoin(summary.computed, ", ")
+            << "\nreused: " << absl::StrJoin(summary.reused, ", ") << "\n";
+  if (!summary.report_path.empty()) {
+    std::cerr << "report: "
+              << (input.session_dir / summary.report_path).string() << "\n";
+  }
+  if (!summary.metrics.empty()) {
+    std::cout << pipeline::FormatMetrics(summary.metrics);
+  }
+  return summary;
+}
+
+absl::Status RunPipeline(const PipelineArgs& args) {
+  ASSIGN_OR_RETURN(pipeline::SessionInput input,
+                   pipeline::DiscoverSession(args.session_dir));
+  ASSIGN_OR_RETURN(
+      pipeline::JsonRunStore store,
+      pipeline::JsonRunStore::Open(input.session_dir / "pipeline_state.json"));
   pipeline::RunOptions options;
   options.steps = args.steps;
   options.force = args.force;
   options.threads = args.threads;
-  absl::StatusOr<pipeline::RunSummary> summary =
-      pipeline::Run(*input, options, *store, observer);
-  if (!summary.ok()) return summary.status();
-  std::cerr << "computed: " << absl::StrJoin(summary->computed, ", ")
-            << "\nreused: " << absl::StrJoin(summary->reused, ", ") << "\n";
-  if (!summary->report_path.empty()) {
-    std::cerr << "report: "
-              << (input->session_dir / summary->report_path).string() << "\n";
+  return RunOn(input, options, store).status();
+}
+
+// The records of every step the run went through, for the daemon.
+absl::StatusOr<pipeline::JobResult> ResultOf(
+    const pipeline::RunSummary& summary, const pipeline::JsonRunStore& store) {
+  pipeline::JobResult result;
+  for (const auto* steps : {&summary.computed, &summary.reused}) {
+    for (const std::string& step : *steps) {
+      auto entry = store.Entry(step);
+      if (!entry) {
+        return absl::InternalError(
+            absl::StrCat("step ", step, " ran but left no record"));
+      }
+      result.steps.push_back({.step = step,
+                              .input_hash = entry->first,
+                              .computed = steps == &summary.computed,
+                              .artifacts = entry->second});
+    }
   }
-  if (!summary->metrics.empty()) {
-    std::cout << pipeline::FormatMetrics(summary->metrics);
-  }
-  return absl::OkStatus();
+  return result;
+}
+
+absl::Status RunJob(const PipelineArgs& args) {
+  const std::filesystem::path session_dir =
+      std::filesystem::absolute(args.session_dir);
+  const std::filesystem::path job_dir = args.job_dir;
+  auto run = [&]() -> absl::StatusOr<pipeline::JobResult> {
+    ASSIGN_OR_RETURN(pipeline::JobRequest request,
+                     pipeline::ReadJobRequest(job_dir, session_dir));
+    RETURN_IF_ERROR(pipeline::VerifyFrames(request.input));
+    ASSIGN_OR_RETURN(
+        pipeline::JsonRunStore store,
+        pipeline::JsonRunStore::Open(session_dir / "pipeline_state.json"));
+    pipeline::RunOptions options;
+    options.steps = request.steps;
+    options.force = request.force;
+    options.threads = args.threads;
+    ASSIGN_OR_RETURN(pipeline::RunSummary summary,
+                     RunOn(request.input, options, store));
+    return ResultOf(summary, store);
+  };
+  absl::StatusOr<pipeline::JobResult> result = run();
+  pipeline::JobResult written = result.ok()
+                                    ? *std::move(result)
+                                    : pipeline::JobResult{result.status(), {}};
+  RETURN_IF_ERROR(pipeline::WriteJobResult(job_dir, written));
+  return written.status;
 }
 
 void AddPipelineCommands(CLI::App& app) {
@@ -89,7 +148,18 @@ void AddPipelineCommands(CLI::App& app) {
   cmd->add_option("--threads", args->threads, "Worker threads")
       ->check(CLI::Range(1, 256))
       ->capture_default_str();
-  cmd->callback([args] { SetOutcome(RunPipeline(*args)); });
+  cmd->add_option("--job-dir", args->job_dir,
+                  "Run the daemon's job whose request.json is in this folder "
+                  "(steps and force come from it); write its result.json")
+      ->check(CLI::ExistingDirectory);
+  cmd->callback([args] {
+    if (!args->job_dir.empty() && (!args->steps.empty() || args->force)) {
+      SetOutcome(absl::InvalidArgumentError(
+          "--steps and --force come from the job's request with --job-dir"));
+      return;
+    }
+    SetOutcome(args->job_dir.empty() ? RunPipeline(*args) : RunJob(*args));
+  });
 }
 
 const CommandGroup kGroup("pipeline", &AddPipelineCommands);

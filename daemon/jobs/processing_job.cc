@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "daemon/jobs/processing_job.h"
 
+#include <fnmatch.h>
+
 #include <chrono>
 #include <filesystem>
 #include <map>
@@ -8,15 +10,20 @@
 #include <set>
 #include <thread>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "daemon/jobs/capture_plan.h"
+#include "daemon/jobs/slurm_processing.h"
 #include "daemon/store/artifact_repository.h"
 #include "daemon/store/frame_repository.h"
 #include "daemon/store/job_repository.h"
+#include "daemon/store/names.h"
+#include "daemon/store/session_repository.h"
 #include "processing/base/status_macros.h"
 #include "processing/io/capture_layout.h"
+#include "processing/io/image.h"
 #include "processing/io/middlebury.h"
 #include "processing/pipeline/pipeline.h"
 #include "processing/pipeline/session_files.h"
@@ -275,6 +282,42 @@ std::string ExposureList(const CaptureState& capture) {
   return absl::StrJoin(tags, ", ");
 }
 
+bool SameFiles(const std::vector<pipeline::Artifact>& a,
+               const std::vector<pipeline::Artifact>& b) {
+  return std::equal(
+      a.begin(), a.end(), b.begin(), b.end(),
+      [](const pipeline::Artifact& x, const pipeline::Artifact& y) {
+        return x.path == y.path && x.sha256 == y.sha256;
+      });
+}
+
+// Records what a run elsewhere produced, as a run here would have: the
+// steps whose records the store does not hold yet, and the evaluate step's
+// metrics with it. The artifacts were verified by RunOnSlurm.
+absl::Status RecordResult(const pipeline::JobResult& result,
+                          const std::filesystem::path& session_dir,
+                          pipeline::RunStore& store) {
+  for (const pipeline::StepRecord& step : result.steps) {
+    if (SameFiles(store.Lookup(step.step, step.input_hash), step.artifacts)) {
+      continue;
+    }
+    RETURN_IF_ERROR(store.Record(step.step, step.input_hash, step.artifacts));
+    for (const pipeline::Artifact& a : step.artifacts) {
+      if (a.kind != "metrics") continue;
+      ASSIGN_OR_RETURN(const std::string text,
+                       io::ReadFileBytes(session_dir / a.path));
+      ASSIGN_OR_RETURN(std::vector<pipeline::Metric> metrics,
+                       pipeline::MetricsFromJson(text));
+      RETURN_IF_ERROR(store.RecordMetrics(metrics));
+    }
+  }
+  return absl::OkStatus();
+}
+
+std::string StepList(const std::vector<std::string>& steps) {
+  return steps.empty() ? "nothing" : absl::StrJoin(steps, ", ");
+}
+
 }  // namespace
 
 absl::StatusOr<store::JobRecord> SubmitProcessing(
@@ -311,6 +354,77 @@ absl::StatusOr<store::JobRecord> SubmitProcessing(
                        : absl::StrCat(" after capture job(s) ",
                                       absl::StrJoin(*pending, ", "))),
       submitted_by);
+}
+
+absl::StatusOr<std::vector<std::string>> SelectSessions(
+    store::Store& store, const std::vector<std::string>& selectors, bool all) {
+  if (all == !selectors.empty()) {
+    return absl::InvalidArgumentError(
+        "name sessions (names or globs such as nightly-2026-*) or all "
+        "sessions, not both and not neither");
+  }
+  for (const std::string& selector : selectors) {
+    if (selector.empty() || selector.size() > store::kMaxNameLength) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("a session selector must have 1 to ",
+                       store::kMaxNameLength, " bytes; got ", selector.size()));
+    }
+  }
+  std::vector<std::string> names;
+  store::SessionRepository sessions(store);
+  std::string after;
+  do {
+    ASSIGN_OR_RETURN(store::SessionPage page, sessions.List(after, 500));
+    for (const store::SessionRecord& s : page.sessions) {
+      names.push_back(s.name);
+    }
+    after = page.next_after;
+  } while (!after.empty());
+  if (all) return names;
+  std::set<std::string> chosen;
+  for (const std::string& selector : selectors) {
+    bool matched = false;
+    for (const std::string& name : names) {
+      if (::fnmatch(selector.c_str(), name.c_str(), 0) == 0) {
+        chosen.insert(name);
+        matched = true;
+      }
+    }
+    if (!matched) {
+      return absl::NotFoundError(
+          absl::StrCat("no session matches \"", selector, "\""));
+    }
+  }
+  return std::vector<std::string>(chosen.begin(), chosen.end());
+}
+
+absl::StatusOr<BatchSubmission> SubmitProcessingBatch(
+    JobEngine& engine, const hardware::Rig& rig,
+    const v1::SubmitProcessingBatchRequest& request,
+    absl::string_view submitted_by) {
+  std::vector<std::string> steps(request.steps().begin(),
+                                 request.steps().end());
+  RETURN_IF_ERROR(pipeline::ResolveSteps(steps).status());
+  ASSIGN_OR_RETURN(
+      const std::vector<std::string> names,
+      SelectSessions(engine.store(),
+                     {request.sessions().begin(), request.sessions().end()},
+                     request.all_sessions()));
+  BatchSubmission out;
+  for (const std::string& name : names) {
+    v1::SubmitProcessingRequest one;
+    one.set_session(name);
+    *one.mutable_steps() = request.steps();
+    one.set_force(request.force());
+    absl::StatusOr<store::JobRecord> job =
+        SubmitProcessing(engine, rig, one, submitted_by);
+    if (job.ok()) {
+      out.jobs.push_back(*std::move(job));
+    } else {
+      out.skipped.emplace_back(name, std::string(job.status().message()));
+    }
+  }
+  return out;
 }
 
 absl::Status RunProcessingJob(const hardware::Rig& rig,
@@ -422,22 +536,39 @@ absl::Status RunProcessingJob(const hardware::Rig& rig,
   }
 
   StoreAdapter adapter(store, job.session_id, job.id);
+  const auto total = static_cast<int64_t>(steps->size());
+  if (environment.slurm.has_value()) {
+    ASSIGN_OR_RETURN(
+        const pipeline::JobResult result,
+        slurm::RunOnSlurm(
+            *environment.slurm,
+            {.input = input, .steps = options.steps, .force = options.force},
+            context));
+    RETURN_IF_ERROR(RecordResult(result, input.session_dir, adapter));
+    std::vector<std::string> computed, reused;
+    for (const pipeline::StepRecord& step : result.steps) {
+      (step.computed ? computed : reused).push_back(step.step);
+      for (const pipeline::Artifact& a : step.artifacts) {
+        if (a.kind == "report" && absl::EndsWith(a.path, ".html")) {
+          context.Info(
+              absl::StrCat("report: ", (input.session_dir / a.path).string()));
+        }
+      }
+    }
+    context.Info(absl::StrCat("computed: ", StepList(computed),
+                              "; reused: ", StepList(reused)));
+    return context.Progress(total, total, "done");
+  }
   JobObserver observer(context);
   absl::StatusOr<pipeline::RunSummary> summary =
       pipeline::Run(input, options, adapter, observer);
   if (!summary.ok()) return summary.status();
-  context.Info(absl::StrCat(
-      "computed: ",
-      summary->computed.empty() ? "nothing"
-                                : absl::StrJoin(summary->computed, ", "),
-      "; reused: ",
-      summary->reused.empty() ? "nothing"
-                              : absl::StrJoin(summary->reused, ", ")));
+  context.Info(absl::StrCat("computed: ", StepList(summary->computed),
+                            "; reused: ", StepList(summary->reused)));
   if (!summary->report_path.empty()) {
     context.Info(absl::StrCat(
         "report: ", (input.session_dir / summary->report_path).string()));
   }
-  const auto total = static_cast<int64_t>(steps->size());
   return context.Progress(total, total, "done");
 }
 

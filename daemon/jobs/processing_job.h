@@ -7,6 +7,7 @@
 #ifndef HDRSTEREO_DAEMON_JOBS_PROCESSING_JOB_H_
 #define HDRSTEREO_DAEMON_JOBS_PROCESSING_JOB_H_
 
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -14,6 +15,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "daemon/jobs/job_engine.h"
+#include "daemon/processing/slurm_cli.h"
 #include "hardware/rig.h"
 #include "hdrstereo/v1/jobs.pb.h"
 
@@ -21,6 +23,9 @@ namespace hdrstereo::jobs {
 
 struct ProcessingEnvironment {
   int threads = 2;  // for the pipeline's independent steps
+  // Set: every job runs as a Slurm batch job (--processing-backend slurm,
+  // daemon/jobs/slurm_processing.h); unset: in this process.
+  std::optional<slurm::SlurmOptions> slurm;
   // Shown in the report's capture summary ("hardware", "simulated: ...").
   std::vector<std::pair<std::string, std::string>> summary;
 };
@@ -35,6 +40,26 @@ struct ProcessingEnvironment {
 absl::StatusOr<store::JobRecord> SubmitProcessing(
     JobEngine& engine, const hardware::Rig& rig,
     const v1::SubmitProcessingRequest& request, absl::string_view submitted_by);
+
+// The sessions that `selectors` name (session names or shell-style globs,
+// fnmatch) or, with `all`, every session; each once, in name order.
+// INVALID_ARGUMENT for neither or both, or an empty or over-long selector;
+// NOT_FOUND naming a selector that matches no session.
+absl::StatusOr<std::vector<std::string>> SelectSessions(
+    store::Store& store, const std::vector<std::string>& selectors, bool all);
+
+struct BatchSubmission {
+  std::vector<store::JobRecord> jobs;
+  std::vector<std::pair<std::string, std::string>> skipped;  // session, why
+};
+
+// SubmitProcessing for every selected session. The steps are checked once
+// (INVALID_ARGUMENT fails the whole batch); a session that cannot be
+// processed (no complete stereo capture, ...) is skipped with the reason.
+absl::StatusOr<BatchSubmission> SubmitProcessingBatch(
+    JobEngine& engine, const hardware::Rig& rig,
+    const v1::SubmitProcessingBatchRequest& request,
+    absl::string_view submitted_by);
 
 // The job runner for processing jobs (JobKind::kProcessing).
 absl::Status RunProcessingJob(const hardware::Rig& rig,

@@ -61,6 +61,16 @@ absl::StatusOr<std::vector<std::string>> SbatchArgv(
   std::vector<std::string> words = {
       options.proc_path, "pipeline",  "--session-dir",
       session,           "--threads", absl::StrCat(options.cpus_per_task)};
+  if (!submission.job_dir.empty()) {
+    if (!submission.steps.empty() || submission.force) {
+      return absl::InvalidArgumentError(
+          "a job folder's request names the steps and force; give neither");
+    }
+    ASSIGN_OR_RETURN(std::string job_dir,
+                     ToClusterPath(options, submission.job_dir));
+    words.push_back("--job-dir");
+    words.push_back(job_dir);
+  }
   if (!submission.steps.empty()) {
     words.push_back("--steps");
     words.push_back(absl::StrJoin(submission.steps, ","));

@@ -33,6 +33,11 @@ struct SlurmOptions {
   // empty = the same path everywhere).
   std::string local_data_root;
   std::string cluster_data_root;
+  // SLURM_CONF for the client tools the daemon runs; empty = their default
+  // (/etc/slurm/slurm.conf or the daemon's own SLURM_CONF).
+  std::string conf;
+  // How often a running job's state is asked for.
+  double poll_s = 5;
 };
 
 // One job to submit: the pipeline on one session folder.
@@ -42,6 +47,10 @@ struct PipelineSubmission {
   std::string log_dir;      // as the daemon sees it; slurm-%j.out goes here
   std::vector<std::string> steps;  // empty = all
   bool force = false;
+  // The daemon's job folder (as the daemon sees it): when set, the run reads
+  // its request there and writes its result there (hdrstereo-proc pipeline
+  // --job-dir), and `steps` and `force` must be left empty.
+  std::string job_dir;
 };
 
 // `path` with the local data root replaced by the cluster's. INVALID_ARGUMENT
@@ -51,6 +60,8 @@ absl::StatusOr<std::string> ToClusterPath(const SlurmOptions& options,
 
 // sbatch --parsable --job-name=... --output=<log_dir>/slurm-%j.out ...
 // wrapping `hdrstereo-proc pipeline --session-dir ...` (argv, sbatch first).
+// INVALID_ARGUMENT for a path outside the mapping, or steps or force given
+// with a job folder.
 absl::StatusOr<std::vector<std::string>> SbatchArgv(
     const SlurmOptions& options, const PipelineSubmission& submission);
 

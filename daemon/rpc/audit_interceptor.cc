@@ -32,8 +32,19 @@ void Collect(const Message& message, std::vector<std::string>& parts) {
   std::vector<const FieldDescriptor*> fields;
   reflection->ListFields(message, &fields);
   for (const FieldDescriptor* field : fields) {
-    if (field->is_repeated()) continue;
     const std::string& name = field->name();
+    if (field->is_repeated()) {
+      // A batch's session selectors.
+      if (name == "sessions" && field->type() == FieldDescriptor::TYPE_STRING) {
+        std::vector<std::string> selectors;
+        for (int i = 0; i < reflection->FieldSize(message, field); ++i) {
+          selectors.push_back(reflection->GetRepeatedString(message, field, i));
+        }
+        parts.push_back(
+            absl::StrCat("sessions ", absl::StrJoin(selectors, " ")));
+      }
+      continue;
+    }
     if (field->type() == FieldDescriptor::TYPE_MESSAGE) {
       if (name == "schedule") {
         Collect(reflection->GetMessage(message, field), parts);
@@ -59,6 +70,8 @@ void Collect(const Message& message, std::vector<std::string>& parts) {
     } else if (name == "user") {
       parts.push_back(
           absl::StrCat("user ", reflection->GetString(message, field)));
+    } else if (name == "all_sessions" && reflection->GetBool(message, field)) {
+      parts.push_back("all sessions");
     } else if (name == "force" && reflection->GetBool(message, field)) {
       parts.push_back("force");
     }
@@ -97,6 +110,12 @@ class AuditInterceptor final : public grpc::experimental::Interceptor {
   static std::string ResponseSubject(const Message& response) {
     if (const auto* job = dynamic_cast<const v1::Job*>(&response)) {
       return absl::StrCat("job ", job->id());
+    }
+    if (const auto* batch =
+            dynamic_cast<const v1::SubmitProcessingBatchResponse*>(&response)) {
+      std::vector<int64_t> ids;
+      for (const v1::Job& job : batch->jobs()) ids.push_back(job.id());
+      return absl::StrCat("jobs ", absl::StrJoin(ids, " "));
     }
     if (const auto* key =
             dynamic_cast<const v1::CreateApiKeyResponse*>(&response)) {

@@ -77,6 +77,7 @@ void ToProto(const store::JobRecord& job, v1::Job* out) {
   }
   out->set_error(job.error);
   out->set_submitted_by(job.submitted_by);
+  out->set_cluster_job_id(job.cluster_job_id.value_or(0));
   *out->mutable_create_time() =
       TimeUtil::MillisecondsToTimestamp(job.create_time_ms);
   if (job.start_time_ms) {
@@ -113,6 +114,8 @@ void ToProto(const store::JobEventRecord& event, v1::JobEvent* out) {
 
 // More than every step named a few times is not a request a person made.
 constexpr int kMaxSteps = 64;
+// A batch names sessions by globs; a list longer than this is a mistake.
+constexpr int kMaxSelectors = 1000;
 
 grpc::Status CheckJobId(int64_t id) {
   if (id <= 0) return InvalidArgument("job_id must be a positive job id");
@@ -159,6 +162,37 @@ grpc::Status JobsService::SubmitProcessing(
   if (!caller.ok()) return ToGrpcStatus(caller.status());
   return Reply(jobs::SubmitProcessing(engine_, rig_, *request, caller->name),
                response);
+}
+
+grpc::Status JobsService::SubmitProcessingBatch(
+    grpc::ServerContext* context,
+    const v1::SubmitProcessingBatchRequest* request,
+    v1::SubmitProcessingBatchResponse* response) {
+  if (request->steps_size() > kMaxSteps) {
+    return InvalidArgument(absl::StrCat("steps has ", request->steps_size(),
+                                        " entries; at most ", kMaxSteps,
+                                        " are allowed"));
+  }
+  if (request->sessions_size() > kMaxSelectors) {
+    return InvalidArgument(absl::StrCat(
+        "sessions has ", request->sessions_size(), " entries; at most ",
+        kMaxSelectors, " are allowed (use a glob)"));
+  }
+  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
+  if (!caller.ok()) return ToGrpcStatus(caller.status());
+  absl::StatusOr<jobs::BatchSubmission> batch =
+      jobs::SubmitProcessingBatch(engine_, rig_, *request, caller->name);
+  if (!batch.ok()) return ToGrpcStatus(batch.status());
+  for (const store::JobRecord& job : batch->jobs) {
+    ToProto(job, response->add_jobs());
+  }
+  for (const auto& [session, reason] : batch->skipped) {
+    v1::SubmitProcessingBatchResponse::Skipped* skipped =
+        response->add_skipped();
+    skipped->set_session(session);
+    skipped->set_reason(reason);
+  }
+  return grpc::Status::OK;
 }
 
 grpc::Status JobsService::Get(grpc::ServerContext*,

@@ -27,6 +27,10 @@ class JobsService final : public v1::Jobs::Service {
   grpc::Status SubmitProcessing(grpc::ServerContext* context,
                                 const v1::SubmitProcessingRequest* request,
                                 v1::Job* response) override;
+  grpc::Status SubmitProcessingBatch(
+      grpc::ServerContext* context,
+      const v1::SubmitProcessingBatchRequest* request,
+      v1::SubmitProcessingBatchResponse* response) override;
   grpc::Status Get(grpc::ServerContext* context,
                    const v1::GetJobRequest* request,
                    v1::Job* response) override;

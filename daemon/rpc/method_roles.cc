@@ -56,6 +56,7 @@ const std::map<std::string, MethodRule, std::less<>>& MethodRules() {
           {"/hdrstereo.v1.Jobs/Watch", kRead},
           {"/hdrstereo.v1.Jobs/SubmitCapture", kMoveRig},
           {"/hdrstereo.v1.Jobs/SubmitProcessing", kOperate},
+          {"/hdrstereo.v1.Jobs/SubmitProcessingBatch", kOperate},
           {"/hdrstereo.v1.Jobs/Pause", kOperate},
           {"/hdrstereo.v1.Jobs/Resume", kOperate},
           {"/hdrstereo.v1.Jobs/Cancel", kOperate},

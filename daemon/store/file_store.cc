@@ -71,6 +71,10 @@ fs::path FileStore::SessionDir(absl::string_view session) const {
   return root_ / "sessions" / std::string(session);
 }
 
+fs::path FileStore::JobDir(absl::string_view session, int64_t job_id) const {
+  return SessionDir(session) / "jobs" / std::to_string(job_id);
+}
+
 absl::Status FileStore::MoveToOrphaned(const fs::path& dir) {
   fs::path target =
       root_ / "orphaned" /

@@ -3,12 +3,15 @@
 // The files of the data root:
 //   <data-root>/hdrstereo.db         SQLite database (WAL)
 //   <data-root>/sessions/<name>/     one folder per session (Middlebury-style)
+//   <data-root>/sessions/<name>/jobs/<id>/  a processing job run elsewhere
+//                                    (a Slurm batch job): request, result, log
 //   <data-root>/trash/               folders of deleted sessions, being removed
 //   <data-root>/orphaned/<name>-<t>/ folders found without a database row
 //                                    (e.g. after a crash); kept for a person
 #ifndef HDRSTEREO_DAEMON_STORE_FILE_STORE_H_
 #define HDRSTEREO_DAEMON_STORE_FILE_STORE_H_
 
+#include <cstdint>
 #include <filesystem>
 #include <set>
 #include <string>
@@ -28,6 +31,7 @@ class FileStore {
   const std::filesystem::path& root() const { return root_; }
   std::filesystem::path database_path() const { return root_ / "hdrstereo.db"; }
   std::filesystem::path SessionDir(absl::string_view session) const;
+  std::filesystem::path JobDir(absl::string_view session, int64_t job_id) const;
 
   // Creates an empty session folder. A folder already there (left by a crash
   // before its database row was committed) is moved to orphaned/ first.

@@ -5,6 +5,7 @@
 #include "absl/strings/str_join.h"
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::store {
 namespace {
@@ -45,7 +46,7 @@ int64_t NowMs() { return absl::ToUnixMillis(absl::Now()); }
 constexpr absl::string_view kSelectJob = R"sql(
 SELECT j.id, j.kind, j.session_id, s.name, j.state, j.request,
        j.progress_done, j.progress_total, j.step, j.error, j.create_time_ms,
-       j.start_time_ms, j.end_time_ms, j.submitted_by
+       j.start_time_ms, j.end_time_ms, j.submitted_by, j.cluster_job_id
 FROM jobs j JOIN sessions s ON s.id = j.session_id
 )sql";
 
@@ -68,6 +69,7 @@ absl::StatusOr<JobRecord> ReadJob(const Statement& stmt) {
   if (!stmt.ColumnIsNull(11)) job.start_time_ms = stmt.ColumnInt(11);
   if (!stmt.ColumnIsNull(12)) job.end_time_ms = stmt.ColumnInt(12);
   job.submitted_by = stmt.ColumnText(13);
+  if (!stmt.ColumnIsNull(14)) job.cluster_job_id = stmt.ColumnInt(14);
   return job;
 }
 
@@ -313,6 +315,20 @@ absl::StatusOr<JobEventRecord> JobRepository::AddEvent(
   absl::StatusOr<JobEventRecord> event = AppendEventLocked(id, level, message);
   if (!event.ok()) return event.status();
   if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+  return event;
+}
+
+absl::StatusOr<JobEventRecord> JobRepository::SetClusterJob(
+    int64_t id, int64_t cluster_job_id, absl::string_view message) {
+  Database& db = store_.db();
+  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  ASSIGN_OR_RETURN(
+      Statement stmt,
+      db.Prepare("UPDATE jobs SET cluster_job_id = ?2 WHERE id = ?1"));
+  RETURN_IF_ERROR(stmt.Bind(1, id).Bind(2, cluster_job_id).Run());
+  ASSIGN_OR_RETURN(JobEventRecord event,
+                   AppendEventLocked(id, EventLevel::kInfo, message));
+  RETURN_IF_ERROR(tx->Commit());
   return event;
 }
 

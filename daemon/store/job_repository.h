@@ -47,6 +47,9 @@ struct JobRecord {
   std::optional<int64_t> start_time_ms;
   std::optional<int64_t> end_time_ms;
   std::string submitted_by;  // principal; "" for jobs from before it was kept
+  // The batch job on the cluster that runs this processing job (Slurm's job
+  // id), once submitted.
+  std::optional<int64_t> cluster_job_id;
 };
 
 enum class EventLevel { kInfo, kWarning, kError };
@@ -104,6 +107,12 @@ class JobRepository {
 
   absl::StatusOr<std::vector<JobEventRecord>> Events(int64_t id,
                                                      int64_t after_sequence);
+
+  // Records the cluster's job id for `id` and, in the same transaction, an
+  // info event saying so.
+  absl::StatusOr<JobEventRecord> SetClusterJob(int64_t id,
+                                               int64_t cluster_job_id,
+                                               absl::string_view message);
 
   // Every job's events with row ids above `after_row_id`, oldest first.
   absl::StatusOr<std::vector<JobEventRow>> EventsAfterRow(int64_t after_row_id,

@@ -13,7 +13,7 @@ namespace {
 
 // Append only: a released migration is never edited. Times are Unix
 // milliseconds (UTC); lengths in millimetres; exposures in seconds.
-constexpr std::array<absl::string_view, 6> kMigrations = {
+constexpr std::array<absl::string_view, 7> kMigrations = {
     // 1: the tables of DESIGN.md.
     R"sql(
 CREATE TABLE rigs (
@@ -251,6 +251,11 @@ CREATE TABLE notification_cursor (
 );
 ALTER TABLE schedule_runs ADD COLUMN announced INTEGER NOT NULL DEFAULT 1;
 CREATE INDEX schedule_runs_unannounced ON schedule_runs(id) WHERE announced = 0;
+)sql",
+    // 7: processing on a cluster. The batch job that runs a processing job,
+    // so that a restarted daemon finds it again.
+    R"sql(
+ALTER TABLE jobs ADD COLUMN cluster_job_id INTEGER;
 )sql",
 };
 

@@ -18,6 +18,7 @@
 #include "processing/io/capture_layout.h"
 #include "processing/io/image.h"
 #include "processing/io/middlebury.h"
+#include "processing/io/sha256.h"
 
 namespace hdrstereo::pipeline {
 namespace fs = std::filesystem;
@@ -207,6 +208,13 @@ absl::Status JsonRunStore::RecordMetrics(const std::vector<Metric>& metrics) {
   return Save();
 }
 
+std::optional<std::pair<std::string, std::vector<Artifact>>>
+JsonRunStore::Entry(const std::string& step) const {
+  auto it = steps_.find(step);
+  if (it == steps_.end()) return std::nullopt;
+  return it->second;
+}
+
 absl::Status JsonRunStore::Save() const {
   json steps = json::object();
   for (const auto& [step, entry] : steps_) {
@@ -275,6 +283,216 @@ absl::Status ApplyCalib(const fs::path& path, SessionInput* in) {
   if (!in->intrinsics) {
     in->intrinsics =
         SessionInput::Intrinsics{calib.fx, calib.fy, calib.cx, calib.cy};
+  }
+  return absl::OkStatus();
+}
+
+namespace {
+
+json FrameToJson(const FrameInput& f) {
+  return json{{"path", f.path},
+              {"capture_kind", io::CaptureKindName(f.capture_kind)},
+              {"capture_id", f.capture_id},
+              {"role", io::FrameRoleName(f.role)},
+              {"view_index", f.view_index},
+              {"exposure_s", f.exposure_s},
+              {"pattern", f.pattern},
+              {"inverse", f.inverse},
+              {"sha256", f.sha256}};
+}
+
+absl::StatusOr<FrameInput> FrameFromJson(const json& j) {
+  FrameInput f;
+  f.path = j.at("path").get<std::string>();
+  ASSIGN_OR_RETURN(
+      f.capture_kind,
+      io::ParseCaptureKind(j.at("capture_kind").get<std::string>()));
+  f.capture_id = j.at("capture_id").get<int64_t>();
+  ASSIGN_OR_RETURN(f.role, io::ParseFrameRole(j.at("role").get<std::string>()));
+  f.view_index = j.at("view_index").get<int>();
+  f.exposure_s = j.at("exposure_s").get<double>();
+  f.pattern = j.value("pattern", "");
+  f.inverse = j.value("inverse", false);
+  f.sha256 = j.value("sha256", "");
+  return f;
+}
+
+// The whole status-code range, to read a code back by its name.
+absl::StatusCode ParseStatusCode(const std::string& name) {
+  for (int code = 0;
+       code <= static_cast<int>(absl::StatusCode::kUnauthenticated); ++code) {
+    if (absl::StatusCodeToString(static_cast<absl::StatusCode>(code)) == name) {
+      return static_cast<absl::StatusCode>(code);
+    }
+  }
+  return absl::StatusCode::kUnknown;
+}
+
+absl::StatusOr<json> ReadJson(const fs::path& path, absl::string_view what) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) {
+    return absl::NotFoundError(absl::StrCat(path.string(), ": no ", what));
+  }
+  ASSIGN_OR_RETURN(std::string text, io::ReadFileBytes(path));
+  json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded() || !j.is_object()) {
+    return absl::DataLossError(absl::StrCat(path.string(), ": not a ", what));
+  }
+  return j;
+}
+
+absl::StatusOr<JobRequest> RequestFromJson(const json& j,
+                                           const fs::path& session_dir) {
+  JobRequest request;
+  SessionInput& in = request.input;
+  in.session_dir = session_dir;
+  in.session_name = j.at("session").get<std::string>();
+  for (const json& f : j.at("frames")) {
+    ASSIGN_OR_RETURN(FrameInput frame, FrameFromJson(f));
+    in.frames.push_back(std::move(frame));
+  }
+  in.baseline_mm = j.at("baseline_mm").get<double>();
+  if (j.contains("projector_size")) {
+    in.projector_size = std::make_pair(j["projector_size"].at(0).get<int>(),
+                                       j["projector_size"].at(1).get<int>());
+  }
+  for (const json& row : j.at("capture_summary")) {
+    in.capture_summary.emplace_back(row.at(0).get<std::string>(),
+                                    row.at(1).get<std::string>());
+  }
+  in.sim_truth_disparity = j.value("sim_truth_disparity", "");
+  in.sim_truth_nonoccluded = j.value("sim_truth_nonoccluded", "");
+  if (j.contains("intrinsics")) {
+    const json& k = j["intrinsics"];
+    in.intrinsics = SessionInput::Intrinsics{.fx = k.at("fx").get<double>(),
+                                             .fy = k.at("fy").get<double>(),
+                                             .cx = k.at("cx").get<double>(),
+                                             .cy = k.at("cy").get<double>()};
+  }
+  request.steps = j.at("steps").get<std::vector<std::string>>();
+  request.force = j.at("force").get<bool>();
+  return request;
+}
+
+}  // namespace
+
+absl::Status WriteJobRequest(const fs::path& job_dir,
+                             const JobRequest& request) {
+  const SessionInput& in = request.input;
+  json frames = json::array();
+  for (const FrameInput& f : in.frames) frames.push_back(FrameToJson(f));
+  json summary = json::array();
+  for (const auto& [key, value] : in.capture_summary) {
+    summary.push_back(json::array({key, value}));
+  }
+  json j{{"session", in.session_name},
+         {"frames", frames},
+         {"baseline_mm", in.baseline_mm},
+         {"capture_summary", summary},
+         {"sim_truth_disparity", in.sim_truth_disparity},
+         {"sim_truth_nonoccluded", in.sim_truth_nonoccluded},
+         {"steps", request.steps},
+         {"force", request.force}};
+  if (in.projector_size) {
+    j["projector_size"] =
+        json::array({in.projector_size->first, in.projector_size->second});
+  }
+  if (in.intrinsics) {
+    j["intrinsics"] = json{{"fx", in.intrinsics->fx},
+                           {"fy", in.intrinsics->fy},
+                           {"cx", in.intrinsics->cx},
+                           {"cy", in.intrinsics->cy}};
+  }
+  return io::WriteFileAtomically(job_dir / kJobRequestFile, j.dump(2) + "\n");
+}
+
+absl::StatusOr<JobRequest> ReadJobRequest(const fs::path& job_dir,
+                                          const fs::path& session_dir) {
+  const fs::path path = job_dir / kJobRequestFile;
+  ASSIGN_OR_RETURN(const json j, ReadJson(path, "pipeline job request"));
+  try {
+    return RequestFromJson(j, session_dir);
+  } catch (const json::exception& e) {
+    return absl::DataLossError(absl::StrCat(
+        path.string(), ": not a pipeline job request: ", e.what()));
+  }
+}
+
+absl::Status WriteJobResult(const fs::path& job_dir, const JobResult& result) {
+  json steps = json::array();
+  for (const StepRecord& r : result.steps) {
+    json artifacts = json::array();
+    for (const Artifact& a : r.artifacts)
+      artifacts.push_back(ArtifactToJson(a));
+    steps.push_back(json{{"step", r.step},
+                         {"input_hash", r.input_hash},
+                         {"computed", r.computed},
+                         {"artifacts", artifacts}});
+  }
+  const json j{{"code", absl::StatusCodeToString(result.status.code())},
+               {"message", std::string(result.status.message())},
+               {"steps", steps}};
+  return io::WriteFileAtomically(job_dir / kJobResultFile, j.dump(2) + "\n");
+}
+
+absl::StatusOr<JobResult> ReadJobResult(const fs::path& job_dir) {
+  const fs::path path = job_dir / kJobResultFile;
+  ASSIGN_OR_RETURN(const json j, ReadJson(path, "pipeline job result"));
+  try {
+    JobResult result;
+    const absl::StatusCode code =
+        ParseStatusCode(j.at("code").get<std::string>());
+    result.status = absl::Status(code, j.at("message").get<std::string>());
+    for (const json& s : j.at("steps")) {
+      StepRecord r;
+      r.step = s.at("step").get<std::string>();
+      r.input_hash = s.at("input_hash").get<std::string>();
+      r.computed = s.at("computed").get<bool>();
+      for (const json& a : s.at("artifacts")) {
+        r.artifacts.push_back(ArtifactFromJson(a));
+      }
+      result.steps.push_back(std::move(r));
+    }
+    return result;
+  } catch (const json::exception& e) {
+    return absl::DataLossError(
+        absl::StrCat(path.string(), ": not a pipeline job result: ", e.what()));
+  }
+}
+
+absl::Status VerifyFrames(const SessionInput& input) {
+  for (const FrameInput& f : input.frames) {
+    const fs::path path = input.session_dir / f.path;
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec)) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "frame ", f.path, " is missing from ", input.session_dir.string()));
+    }
+    if (f.sha256.empty()) continue;
+    ASSIGN_OR_RETURN(const std::string sha, io::Sha256HexOfFile(path));
+    if (sha != f.sha256) {
+      return absl::DataLossError(absl::StrCat("frame ", f.path, " has sha256 ",
+                                              sha, ", not the ", f.sha256,
+                                              " recorded at capture"));
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::Status VerifyArtifacts(const fs::path& session_dir,
+                             const std::vector<Artifact>& artifacts) {
+  for (const Artifact& a : artifacts) {
+    absl::StatusOr<std::string> sha = io::Sha256HexOfFile(session_dir / a.path);
+    if (!sha.ok()) {
+      return absl::DataLossError(absl::StrCat("artifact ", a.path, " of step ",
+                                              a.step, ": ",
+                                              sha.status().message()));
+    }
+    if (*sha != a.sha256) {
+      return absl::DataLossError(
+          absl::StrCat("artifact ", a.path, " of step ", a.step, " has sha256 ",
+                       *sha, ", not the ", a.sha256, " the run recorded"));
+    }
   }
   return absl::OkStatus();
 }

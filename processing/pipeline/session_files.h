@@ -1,13 +1,16 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
 // The pipeline without a daemon (hdrstereo-proc pipeline): a session's
-// frames found from the capture layout on disk, and a RunStore kept in a
-// JSON file in the session folder.
+// frames found from the capture layout on disk, a RunStore kept in a JSON
+// file in the session folder, and the two files of a run that hdrstereod
+// hands to another process (a Slurm batch job): the request it writes
+// before submitting and the result the run writes when it ends.
 #ifndef HDRSTEREO_PROCESSING_PIPELINE_SESSION_FILES_H_
 #define HDRSTEREO_PROCESSING_PIPELINE_SESSION_FILES_H_
 
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -46,6 +49,9 @@ class JsonRunStore : public RunStore {
   absl::Status RecordMetrics(const std::vector<Metric>& metrics) override;
 
   const std::vector<Metric>& metrics() const { return metrics_; }
+  // What was recorded for `step` (its input hash and artifacts), if any.
+  std::optional<std::pair<std::string, std::vector<Artifact>>> Entry(
+      const std::string& step) const;
 
  private:
   explicit JsonRunStore(std::filesystem::path path) : path_(std::move(path)) {}
@@ -72,6 +78,57 @@ absl::StatusOr<std::vector<Metric>> MetricsFromJson(const std::string& text);
 std::vector<Metric> SortMetrics(std::vector<Metric> metrics);
 // The metrics as a Markdown table in SortMetrics order.
 std::string FormatMetrics(const std::vector<Metric>& metrics);
+
+// A run for the daemon, in its job folder (<session>/jobs/<job id>/):
+// request.json holds the inputs the daemon chose from its database (every
+// frame with the sha256 recorded at capture) and the run's steps and force
+// flag; paths in it are relative to the session folder, so that the folder
+// may be mounted elsewhere on the node that runs it.
+inline constexpr char kJobRequestFile[] = "request.json";
+inline constexpr char kJobResultFile[] = "result.json";
+
+struct JobRequest {
+  SessionInput input;  // session_dir is not stored
+  std::vector<std::string> steps;
+  bool force = false;
+};
+
+// Both atomically. The reader sets input.session_dir to `session_dir`;
+// DATA_LOSS for a file that is not a request, NOT_FOUND when there is none.
+absl::Status WriteJobRequest(const std::filesystem::path& job_dir,
+                             const JobRequest& request);
+absl::StatusOr<JobRequest> ReadJobRequest(
+    const std::filesystem::path& job_dir,
+    const std::filesystem::path& session_dir);
+
+// What the run recorded for one step: computed by this run, or reused.
+struct StepRecord {
+  std::string step;
+  std::string input_hash;
+  bool computed = false;
+  std::vector<Artifact> artifacts;  // paths relative to the session folder
+};
+
+// result.json: the run's status (code and message) and, when it is OK, the
+// record of every step it ran.
+struct JobResult {
+  absl::Status status;
+  std::vector<StepRecord> steps;
+};
+absl::Status WriteJobResult(const std::filesystem::path& job_dir,
+                            const JobResult& result);
+// NOT_FOUND when the run wrote no result (it never started or was killed);
+// DATA_LOSS for a file that is not a result.
+absl::StatusOr<JobResult> ReadJobResult(const std::filesystem::path& job_dir);
+
+// FAILED_PRECONDITION naming the first frame of `input` that is missing,
+// DATA_LOSS for one whose sha256 is not the one recorded (frames without a
+// recorded sha256 are only checked to exist).
+absl::Status VerifyFrames(const SessionInput& input);
+// DATA_LOSS naming the first artifact whose file below `session_dir` is
+// missing or does not have its recorded sha256.
+absl::Status VerifyArtifacts(const std::filesystem::path& session_dir,
+                             const std::vector<Artifact>& artifacts);
 
 }  // namespace hdrstereo::pipeline
 

@@ -114,7 +114,8 @@ void BM_Slurm(benchmark::State& state) {
                   .session_dir = session.string(),
                   .log_dir = (session / "jobs" / name).string(),
                   .steps = kSteps,
-                  .force = false});
+                  .force = false,
+                  .job_dir = ""});
     absl::StatusOr<testing::CommandResult> r = (*cluster)->Run(*argv);
     absl::StatusOr<int64_t> id =
         r.ok() ? slurm::ParseSbatchOutput(r->out) : r.status();

@@ -70,7 +70,8 @@ class SlurmTest : public ::testing::Test {
                    .session_dir = session.string(),
                    .log_dir = (session / "jobs" / name).string(),
                    .steps = steps,
-                   .force = false});
+                   .force = false,
+                   .job_dir = ""});
     EXPECT_TRUE(argv.ok()) << argv.status();
     fs::create_directories(session / "jobs" / name);
     absl::StatusOr<CommandResult> r = cluster_->Run(*argv);

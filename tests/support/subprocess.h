@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
 // Runs the project's real executables from tests: one-shot commands with
-// captured output, and long-running processes (the daemon) that a test
-// starts, signals and waits for.
+// captured output (daemon/processing/command_runner.h), and long-running
+// processes (the daemon) that a test starts, signals and waits for.
 #ifndef HDRSTEREO_TESTS_SUPPORT_SUBPROCESS_H_
 #define HDRSTEREO_TESTS_SUPPORT_SUBPROCESS_H_
 
@@ -15,20 +15,18 @@
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
+#include "daemon/processing/command_runner.h"
 
 namespace hdrstereo::testing {
 
-struct CommandResult {
-  int exit_code = -1;  // 128 + signal number when killed by a signal
-  std::string out;     // standard output
-  std::string err;     // standard error
-};
+using process::CommandResult;
 
-// Runs argv[0] with arguments, waits at most `timeout` (then SIGKILL and an
-// error).
-absl::StatusOr<CommandResult> RunCommand(
+// process::RunCommand with the test's environment as it is.
+inline absl::StatusOr<CommandResult> RunCommand(
     const std::vector<std::string>& argv,
-    absl::Duration timeout = absl::Seconds(60));
+    absl::Duration timeout = absl::Seconds(60)) {
+  return process::RunCommand(argv, {}, timeout);
+}
 
 // A child process whose stdout and stderr go to a log file.
 class Process {

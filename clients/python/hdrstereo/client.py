@@ -494,6 +494,25 @@ class Client:
                                              force=force)))
         return job.wait(progress=progress) if wait else job
 
+    def process_sessions(self, sessions: Sequence[str] = (),
+                         all_sessions: bool = False,
+                         steps: Sequence[str] = (), force: bool = False,
+                         wait: bool = False) -> tuple[list[Job], dict[str, str]]:
+        """Queues processing of many sessions, one job each: `sessions` are
+        names or globs ('nightly-2026-*'), or `all_sessions=True`. Returns
+        the jobs (in session name order) and the sessions skipped, with why
+        (e.g. no complete stereo capture). `wait=True` returns once every job
+        ended (JobFailed for the first that did not succeed)."""
+        response = self._call(
+            self._stubs.Jobs.SubmitProcessingBatch,
+            jobs_pb2.SubmitProcessingBatchRequest(
+                sessions=list(sessions), all_sessions=all_sessions,
+                steps=steps, force=force))
+        jobs = [Job(self, j) for j in response.jobs]
+        if wait:
+            jobs = [job.wait() for job in jobs]
+        return jobs, {s.session: s.reason for s in response.skipped}
+
     def metrics(self, session: str, as_frame: bool = False) -> Any:
         """The session's disparity metrics, one dict per method and ground
         truth (method, ground_truth, rmse_px, mae_px, bad_0_5, bad_1, bad_2,
@@ -549,6 +568,7 @@ VERBS: dict[str, str] = {
     "Sessions.ListMetrics": "metrics",
     "Jobs.SubmitCapture": "capture.stereo",
     "Jobs.SubmitProcessing": "process",
+    "Jobs.SubmitProcessingBatch": "process_sessions",
     "Jobs.Get": "jobs.get",
     "Jobs.List": "jobs.list",
     "Jobs.Watch": "jobs.get",  # Job.watch / .wait

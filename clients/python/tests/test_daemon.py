@@ -124,6 +124,22 @@ def test_failed_job_raises(client) -> None:
         client.process("nothing-captured", wait=True)
 
 
+def test_process_sessions_one_job_each_and_the_skipped_named(client) -> None:
+    client.sessions.create("batch-a")
+    client.capture.stereo("batch-a", exposures_s=EXPOSURES, wait=True)
+    client.sessions.create("batch-b")  # nothing captured
+    jobs, skipped = client.process_sessions(["batch-*"], steps=["hdr"],
+                                            wait=True)
+    assert [j.session for j in jobs] == ["batch-a"]
+    assert jobs[0].state == "succeeded"
+    assert list(skipped) == ["batch-b"]
+    assert "bracketed-stereo" in skipped["batch-b"]
+    with pytest.raises(hdrstereo.NotFound, match="no session matches"):
+        client.process_sessions(["nobody-*"])
+    with pytest.raises(hdrstereo.InvalidArgument, match="not both"):
+        client.process_sessions(["batch-a"], all_sessions=True)
+
+
 class _Receiver(http.server.BaseHTTPRequestHandler):
     """Records each POST; answers 200."""
     received: list[tuple[dict, bytes]] = []

@@ -91,6 +91,55 @@ bob = "operator"
   EXPECT_EQ(std::get<daemon::Config>(*parsed).tls.cert, "/other.pem");
 }
 
+TEST(DeployTest, ProcessingAndSlurmSectionsBecomeTheirOptions) {
+  testing::TempDir dir;
+  const std::string path = (dir / "cluster.toml").string();
+  std::ofstream(path) << R"(data-root = "/srv/hdrstereo"
+max-cluster-jobs = 40
+[processing]
+backend = "slurm"
+threads = 3
+[slurm]
+partition = "short"
+account = "lab"
+cpus-per-task = 8
+memory = "16G"
+time-limit = "02:00:00"
+extra-arg = ["--constraint=avx2", "--exclusive"]
+proc-path = "/opt/hdrstereo/bin/hdrstereo-proc"
+data-root = "/cluster/hdrstereo"
+conf = "/etc/slurm-lab/slurm.conf"
+poll-s = 2
+)";
+  absl::StatusOr<daemon::ParsedArgs> parsed = Parse({"--config", path});
+  ASSERT_TRUE(parsed.ok()) << parsed.status();
+  const auto& config = std::get<daemon::Config>(*parsed);
+  EXPECT_EQ(config.processing_backend, "slurm");
+  EXPECT_EQ(config.processing_threads, 3);
+  EXPECT_EQ(config.max_cluster_jobs, 40);
+  EXPECT_EQ(config.slurm.partition, "short");
+  EXPECT_EQ(config.slurm.account, "lab");
+  EXPECT_EQ(config.slurm.cpus_per_task, 8);
+  EXPECT_EQ(config.slurm.memory, "16G");
+  EXPECT_EQ(config.slurm.time_limit, "02:00:00");
+  EXPECT_THAT(config.slurm.extra_sbatch_args,
+              ::testing::ElementsAre("--constraint=avx2", "--exclusive"));
+  EXPECT_EQ(config.slurm.proc_path, "/opt/hdrstereo/bin/hdrstereo-proc");
+  EXPECT_EQ(config.slurm.cluster_data_root, "/cluster/hdrstereo");
+  EXPECT_EQ(config.slurm.local_data_root, "/srv/hdrstereo")
+      << "the mapping starts at the daemon's data root";
+  EXPECT_EQ(config.slurm.conf, "/etc/slurm-lab/slurm.conf");
+  EXPECT_EQ(config.slurm.poll_s, 2);
+
+  absl::StatusOr<daemon::ParsedArgs> local = Parse({});
+  ASSERT_TRUE(local.ok()) << local.status();
+  EXPECT_EQ(std::get<daemon::Config>(*local).processing_backend, "local")
+      << "local is the default";
+  EXPECT_THAT(Parse({"--processing-backend", "pbs"}),
+              testing::StatusIs(absl::StatusCode::kInvalidArgument,
+                                HasSubstr("processing-backend")));
+}
+
 TEST(DeployTest, BadTlsAndAuthConfigIsRefusedByName) {
   testing::TempDir dir;
   auto refused = [&](const std::string& toml) {
@@ -195,11 +244,15 @@ TEST(DeployTest, EveryOptionIsDocumentedInTheShippedConfig) {
         line.substr(dashes + 2, line.find_first_of(" =", dashes) - dashes - 2);
     if (name == "help" || name == "version" || name == "config") continue;
     ++options;
-    // Security options sit in their sections: [tls] cert for --tls-cert,
-    // [auth] local-role, [auth.users] for --auth-user.
-    if (absl::StartsWith(name, "tls-")) {
-      EXPECT_THAT(toml.substr(toml.find("[tls]") + 1),
-                  HasSubstr(absl::StrCat(name.substr(4), " = ")))
+    // Some options sit in their sections: [tls] cert for --tls-cert (and
+    // likewise [slurm], [processing]), [auth] local-role, [auth.users] for
+    // --auth-user.
+    const std::string section = name.substr(0, name.find('-'));
+    if (section == "tls" || section == "slurm" || section == "processing") {
+      ASSERT_NE(toml.find("[" + section + "]"), std::string::npos) << name;
+      EXPECT_THAT(
+          toml.substr(toml.find("[" + section + "]") + 1),
+          HasSubstr(absl::StrCat(name.substr(section.size() + 1), " = ")))
           << name;
     } else if (name == "auth-user") {
       EXPECT_THAT(toml, HasSubstr("[auth.users]"));

@@ -117,7 +117,8 @@ TEST(SlurmCliTest, BuildsSbatchArgvWithOptionsAndPathMapping) {
                            .session_dir = "/srv/hdrstereo/sessions/it's",
                            .log_dir = "/srv/hdrstereo/sessions/it's/jobs/7",
                            .steps = {"stereo", "fusion"},
-                           .force = true});
+                           .force = true,
+                           .job_dir = ""});
   ASSERT_TRUE(argv.ok()) << argv.status();
   EXPECT_THAT(
       *argv,
@@ -133,9 +134,46 @@ TEST(SlurmCliTest, BuildsSbatchArgvWithOptionsAndPathMapping) {
                                    .session_dir = "/srv/hdrstereo-old/s",
                                    .log_dir = "/srv/hdrstereo-old/s/jobs/8",
                                    .steps = {},
-                                   .force = false}),
+                                   .force = false,
+                                   .job_dir = ""}),
               StatusIs(absl::StatusCode::kInvalidArgument,
                        HasSubstr("slurm.local_data_root")));
+}
+
+TEST(SlurmCliTest, AJobFolderCarriesTheRequestInsteadOfStepsAndForce) {
+  SlurmOptions options;
+  options.cpus_per_task = 2;
+  options.local_data_root = "/srv/hdrstereo";
+  options.cluster_data_root = "/cluster/hdrstereo";
+  absl::StatusOr<std::vector<std::string>> argv =
+      SbatchArgv(options, {.job_name = "hdrstereo-9",
+                           .session_dir = "/srv/hdrstereo/sessions/s",
+                           .log_dir = "/srv/hdrstereo/sessions/s/jobs/9",
+                           .steps = {},
+                           .force = false,
+                           .job_dir = "/srv/hdrstereo/sessions/s/jobs/9"});
+  ASSERT_TRUE(argv.ok()) << argv.status();
+  EXPECT_EQ(argv->back(),
+            "--wrap=exec 'hdrstereo-proc' 'pipeline' '--session-dir' "
+            "'/cluster/hdrstereo/sessions/s' '--threads' '2' '--job-dir' "
+            "'/cluster/hdrstereo/sessions/s/jobs/9'");
+  EXPECT_THAT(
+      SbatchArgv(options, {.job_name = "hdrstereo-9",
+                           .session_dir = "/srv/hdrstereo/sessions/s",
+                           .log_dir = "/srv/hdrstereo/sessions/s/jobs/9",
+                           .steps = {"stereo"},
+                           .force = false,
+                           .job_dir = "/srv/hdrstereo/sessions/s/jobs/9"}),
+      StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("give neither")));
+  EXPECT_THAT(
+      SbatchArgv(options, {.job_name = "hdrstereo-9",
+                           .session_dir = "/srv/hdrstereo/sessions/s",
+                           .log_dir = "/srv/hdrstereo/sessions/s/jobs/9",
+                           .steps = {},
+                           .force = false,
+                           .job_dir = "/elsewhere/jobs/9"}),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("slurm.local_data_root")));
 }
 
 }  // namespace
