@@ -6,14 +6,22 @@
 // every 100 ms until COMPLETED), on the same cores, so the ratio is the
 // overhead, not a speed-up. Counters: the bytes of the session's frames
 // (read) and of the artifacts recorded (written). Needs root and Slurm.
+//
+// BM_DaemonBatch/local and /slurm: the daemon's batch reprocessing of N
+// simulated sessions (`hdrstereo process --sessions 'b-*' --force --watch`,
+// submit to every result recorded) with --processing-backend local or
+// slurm, both with two jobs of one pipeline thread at a time on this
+// machine's two cores, so the ratio is again the overhead.
 //   build/tests/bench/slurm_bench --benchmark_repetitions=3
 #include <benchmark/benchmark.h>
 
 #include <chrono>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -21,6 +29,9 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "daemon/processing/slurm_cli.h"
+#include "hardware/sim/bundled_scenes.h"
+#include "processing/base/status_macros.h"
+#include "tests/support/daemon_fixture.h"
 #include "tests/support/sim_session.h"
 #include "tests/support/slurm_cluster.h"
 #include "tests/support/subprocess.h"
@@ -143,8 +154,127 @@ void BM_Slurm(benchmark::State& state) {
   SetBytes(state, session);
 }
 
+// hdrstereod on a free loopback port with a data root in `dir`.
+class Daemon {
+ public:
+  static absl::StatusOr<std::unique_ptr<Daemon>> Start(
+      const fs::path& dir, std::vector<std::string> extra) {
+    auto d = std::unique_ptr<Daemon>(new Daemon());
+    const fs::path ready = dir / "ready";
+    fs::remove(ready);
+    std::vector<std::string> argv = {
+        HDRSTEREOD,     "--data-root",  (dir / "data").string(),
+        "--ready-file", ready.string(), "--listen",
+        "127.0.0.1:0",  "--hardware",   "sim"};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    ASSIGN_OR_RETURN(testing::Process process,
+                     testing::Process::Start(argv, dir / "daemon.log"));
+    d->process_.emplace(std::move(process));
+    if (!testing::WaitForFile(ready, absl::Seconds(60))) {
+      return absl::DeadlineExceededError("hdrstereod did not start");
+    }
+    std::ifstream in(ready);
+    std::getline(in, d->address_);
+    return d;
+  }
+  ~Daemon() {
+    if (!process_) return;
+    process_->Signal(SIGTERM);
+    process_->Wait(absl::Seconds(60));
+  }
+
+  absl::Status Cli(std::vector<std::string> args) {
+    args.insert(args.begin(), {HDRSTEREO_CLI, "--server", address_});
+    ASSIGN_OR_RETURN(testing::CommandResult r,
+                     testing::RunCommand(args, absl::Minutes(20)));
+    if (r.exit_code != 0) {
+      return absl::InternalError(
+          absl::StrCat(absl::StrJoin(args, " "), ": ", r.out, r.err));
+    }
+    return absl::OkStatus();
+  }
+
+ private:
+  Daemon() = default;
+  std::optional<testing::Process> process_;
+  std::string address_;
+};
+
+constexpr int kBatchSessions = 4;
+
+void BM_DaemonBatch(benchmark::State& state) {
+  const bool on_slurm = state.range(0) == 1;
+  std::unique_ptr<testing::SlurmCluster> cluster;
+  if (on_slurm) {
+    if (std::optional<std::string> reason =
+            testing::SlurmCluster::SkipReason()) {
+      state.SkipWithError(reason->c_str());
+      return;
+    }
+    absl::StatusOr<std::unique_ptr<testing::SlurmCluster>> started =
+        testing::SlurmCluster::Start();
+    if (!started.ok()) {
+      state.SkipWithError(std::string(started.status().message()).c_str());
+      return;
+    }
+    cluster = *std::move(started);
+  }
+  testing::TempDir dir;
+  // The 240 x 180 lab-lamp of the integration tests.
+  nlohmann::json scene;
+  for (const sim::BundledScene& s : sim::BundledScenes()) {
+    if (s.name == "lab-lamp")
+      scene = nlohmann::json::parse(std::string(s.json));
+  }
+  scene.merge_patch(testing::SmallLabLamp());
+  std::ofstream(dir / "scene.json") << scene.dump(2);
+  std::vector<std::string> flags = {"--sim-scene",
+                                    (dir / "scene.json").string(),
+                                    "--processing-threads", "2"};
+  if (on_slurm) {
+    flags.insert(flags.end(),
+                 {"--processing-backend", "slurm", "--slurm-conf",
+                  cluster->conf().string(), "--slurm-proc-path", HDRSTEREO_PROC,
+                  "--slurm-cpus-per-task", "1", "--slurm-poll-s", "0.1"});
+  }
+  absl::StatusOr<std::unique_ptr<Daemon>> daemon =
+      Daemon::Start(dir.path(), flags);
+  if (!daemon.ok()) {
+    state.SkipWithError(std::string(daemon.status().message()).c_str());
+    return;
+  }
+  for (int i = 0; i < kBatchSessions; ++i) {
+    const std::string name = absl::StrCat("b-", i);
+    absl::Status s = (*daemon)->Cli({"session", "create", name});
+    if (s.ok()) s = (*daemon)->Cli({"capture", "stereo", name, "--watch"});
+    if (!s.ok()) {
+      state.SkipWithError(std::string(s.message()).c_str());
+      return;
+    }
+  }
+  for (auto _ : state) {
+    absl::Status s =
+        (*daemon)->Cli({"process", "--sessions", "b-*", "--steps",
+                        absl::StrJoin(kSteps, ","), "--force", "--watch"});
+    if (!s.ok()) {
+      state.SkipWithError(std::string(s.message()).c_str());
+      return;
+    }
+  }
+  state.counters["sessions_per_s"] = benchmark::Counter(
+      kBatchSessions * static_cast<double>(state.iterations()),
+      benchmark::Counter::kIsRate);
+}
+
 BENCHMARK(BM_Local)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(3);
 BENCHMARK(BM_Slurm)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(3);
+BENCHMARK(BM_DaemonBatch)
+    ->ArgName("slurm")
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime()
+    ->Iterations(2);
 
 }  // namespace
 }  // namespace hdrstereo
