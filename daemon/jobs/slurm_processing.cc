@@ -59,15 +59,21 @@ class Cluster {
       return queued.status();
     }
     absl::StatusOr<process::CommandResult> c = Run(ScontrolArgv(id));
-    if (!c.ok()) {
-      if (absl::StrContains(c.status().message(), "Invalid job id")) {
-        JobState gone;
-        gone.state = "GONE";
-        return gone;
-      }
+    if (c.ok()) return ParseScontrolOutput(c->out, id);
+    if (!absl::StrContains(c.status().message(), "Invalid job id")) {
       return c.status();
     }
-    return ParseScontrolOutput(c->out, id);
+    // The controller has forgotten the ended job: accounting, if the
+    // cluster keeps it, has its final state; else the result file decides.
+    absl::StatusOr<process::CommandResult> a = Run(SacctArgv(id));
+    if (a.ok()) {
+      if (absl::StatusOr<JobState> s = ParseSacctOutput(a->out, id); s.ok()) {
+        return s;
+      }
+    }
+    JobState gone;
+    gone.state = "GONE";
+    return gone;
   }
 
  private:

@@ -153,6 +153,33 @@ absl::StatusOr<JobState> ParseScontrolOutput(absl::string_view out,
                   .std_out = get("StdOut")};
 }
 
+std::vector<std::string> SacctArgv(int64_t job_id) {
+  return {"sacct", "-n",
+          "-P",    "-X",
+          "-j",    absl::StrCat(job_id),
+          "-o",    std::string(kSacctFormat)};
+}
+
+absl::StatusOr<JobState> ParseSacctOutput(absl::string_view out,
+                                          int64_t job_id) {
+  for (absl::string_view line : absl::StrSplit(out, '\n', absl::SkipEmpty())) {
+    std::vector<absl::string_view> fields = absl::StrSplit(line, '|');
+    if (fields.size() != 5) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("sacct line \"", line, "\" does not have 5 fields (",
+                       kSacctFormat, ")"));
+    }
+    if (fields[0] != absl::StrCat(job_id)) continue;
+    return JobState{.state = std::string(fields[1]),
+                    .reason = std::string(fields[4]),
+                    .nodes = std::string(fields[3]),
+                    .exit_code = std::string(fields[2]),
+                    .std_out = ""};
+  }
+  return absl::NotFoundError(
+      absl::StrCat("Slurm's accounting has no record of job ", job_id));
+}
+
 std::vector<std::string> ScancelArgv(int64_t job_id) {
   return {"scancel", absl::StrCat(job_id)};
 }

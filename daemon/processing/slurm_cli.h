@@ -91,6 +91,17 @@ std::vector<std::string> ScontrolArgv(int64_t job_id);
 absl::StatusOr<JobState> ParseScontrolOutput(absl::string_view out,
                                              int64_t job_id);
 
+// sacct -n -P -X -j <id> -o JobID,State,ExitCode,NodeList,Reason: the
+// accounting record, the only source once the controller has forgotten an
+// ended job (MinJobAge) and when accounting is configured.
+inline constexpr absl::string_view kSacctFormat =
+    "JobID,State,ExitCode,NodeList,Reason";
+std::vector<std::string> SacctArgv(int64_t job_id);
+// NOT_FOUND for no record of the job, INVALID_ARGUMENT quoting a line that
+// does not have the format's five fields.
+absl::StatusOr<JobState> ParseSacctOutput(absl::string_view out,
+                                          int64_t job_id);
+
 std::vector<std::string> ScancelArgv(int64_t job_id);
 
 // Whether Slurm will not change `state` any more.

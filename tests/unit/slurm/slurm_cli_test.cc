@@ -100,6 +100,30 @@ TEST(SlurmCliTest, ParsesScontrolStates) {
                HasSubstr("Invalid job id")));
 }
 
+TEST(SlurmCliTest, ParsesSacctsParsableRecord) {
+  EXPECT_THAT(SacctArgv(77),
+              ElementsAre("sacct", "-n", "-P", "-X", "-j", "77", "-o",
+                          "JobID,State,ExitCode,NodeList,Reason"));
+  // As Slurm 22.05 prints them: a job cancelled by root, then others.
+  const std::string out =
+      "76|COMPLETED|0:0|c07|None\n"
+      "77|CANCELLED by 0|0:15|c12|None\n";
+  ASSERT_OK_AND_ASSIGN(JobState cancelled, ParseSacctOutput(out, 77));
+  EXPECT_EQ(cancelled.state, "CANCELLED by 0");
+  EXPECT_TRUE(IsFinal(cancelled.state));
+  EXPECT_EQ(cancelled.exit_code, "0:15");
+  EXPECT_EQ(cancelled.nodes, "c12");
+  EXPECT_EQ(Describe(cancelled), "CANCELLED by 0 (exit 0:15)");
+  ASSERT_OK_AND_ASSIGN(JobState timeout,
+                       ParseSacctOutput("80|TIMEOUT|0:0|c01|TimeLimit\n", 80));
+  EXPECT_EQ(Describe(timeout), "TIMEOUT (TimeLimit)");
+  EXPECT_THAT(ParseSacctOutput("", 77),
+              StatusIs(absl::StatusCode::kNotFound, HasSubstr("job 77")));
+  EXPECT_THAT(ParseSacctOutput("77|FAILED|1:0\n", 77),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("does not have 5 fields")));
+}
+
 TEST(SlurmCliTest, BuildsSbatchArgvWithOptionsAndPathMapping) {
   SlurmOptions options;
   options.partition = "short";
