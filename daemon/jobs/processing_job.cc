@@ -537,6 +537,14 @@ absl::Status RunProcessingJob(const hardware::Rig& rig,
 
   StoreAdapter adapter(store, job.session_id, job.id);
   const auto total = static_cast<int64_t>(steps->size());
+  if (job.cluster_job_id.has_value() && !environment.slurm.has_value()) {
+    // Running it here too would write the same files as the batch job.
+    return absl::FailedPreconditionError(absl::StrCat(
+        "job ", job.id, " was submitted to Slurm as job ", *job.cluster_job_id,
+        " and this daemon runs processing locally: restart it with "
+        "--processing-backend slurm to follow the batch job, or scancel it "
+        "and submit the processing again"));
+  }
   if (environment.slurm.has_value()) {
     ASSIGN_OR_RETURN(
         const pipeline::JobResult result,

@@ -229,6 +229,27 @@ TEST_F(SlurmBackendTest, ARestartedDaemonReattachesAndRecordsTheResults) {
             10);
 }
 
+TEST_F(SlurmBackendTest, ADaemonRestartedLocalDoesNotRunABatchJobTwice) {
+  StartOn("slurm", SlowProc(30));
+  CaptureStereo("p");
+  const int64_t job = SubmitProcessing("p");
+  ASSERT_TRUE(WaitForEvent(job, ": RUNNING on node")) << Events(job);
+  const int64_t slurm_job = ClusterJobOf(job);
+  ASSERT_EQ(StopDaemon(), 0);
+
+  StartOn("local");
+  ASSERT_TRUE(WaitForJobState(job, "failed", absl::Seconds(60))) << Events(job);
+  EXPECT_THAT(
+      Sql(absl::StrCat("SELECT error FROM jobs WHERE id = ", job)),
+      HasSubstr(absl::StrCat("was submitted to Slurm as job ", slurm_job,
+                             " and this daemon runs processing "
+                             "locally")));
+  EXPECT_EQ(Sql("SELECT count(*) FROM artifacts"), "0");
+  absl::StatusOr<CommandResult> cancel =
+      cluster_->Run({"scancel", std::to_string(slurm_job)});
+  ASSERT_TRUE(cancel.ok()) << cancel.status();
+}
+
 TEST_F(SlurmBackendTest, AFrameMissingOnTheNodeFailsWithThePipelinesMessage) {
   StartOn("slurm");
   CaptureStereo("p");
