@@ -28,6 +28,11 @@ constexpr absl::Duration kCommandTimeout = absl::Seconds(30);
 constexpr absl::Duration kCancelWait = absl::Seconds(60);
 constexpr size_t kLogTailBytes = 2000;
 
+// What squeue and scontrol say of a job id the controller does not know.
+bool Forgotten(const absl::Status& status) {
+  return absl::StrContains(status.message(), "Invalid job id");
+}
+
 class Cluster {
  public:
   explicit Cluster(const SlurmOptions& options) : options_(options) {}
@@ -49,28 +54,28 @@ class Cluster {
     return r;
   }
 
-  // The job's state; an unknown job (purged from the controller's memory
-  // after it ended) is state "GONE".
+  // The job's state: squeue while it is queued or running; once it has
+  // left the queue, accounting (sacct) where the cluster keeps it, else
+  // scontrol; a job the controller has forgotten (MinJobAge after it ended)
+  // and accounting does not know is state "GONE".
   absl::StatusOr<JobState> Query(int64_t id) const {
-    ASSIGN_OR_RETURN(process::CommandResult q, Run(SqueueArgv(id)));
-    absl::StatusOr<JobState> queued = ParseSqueueOutput(q.out, id);
-    if (queued.ok() && !IsFinal(queued->state)) return queued;
-    if (!queued.ok() && !absl::IsNotFound(queued.status())) {
-      return queued.status();
+    absl::StatusOr<process::CommandResult> q = Run(SqueueArgv(id));
+    if (q.ok()) {
+      absl::StatusOr<JobState> queued = ParseSqueueOutput(q->out, id);
+      if (queued.ok() && !IsFinal(queued->state)) return queued;
+      if (!queued.ok() && !absl::IsNotFound(queued.status())) {
+        return queued.status();
+      }
+    } else if (!Forgotten(q.status())) {
+      return q.status();
+    }
+    if (absl::StatusOr<process::CommandResult> a = Run(SacctArgv(id)); a.ok()) {
+      absl::StatusOr<JobState> recorded = ParseSacctOutput(a->out, id);
+      if (recorded.ok() && IsFinal(recorded->state)) return recorded;
     }
     absl::StatusOr<process::CommandResult> c = Run(ScontrolArgv(id));
     if (c.ok()) return ParseScontrolOutput(c->out, id);
-    if (!absl::StrContains(c.status().message(), "Invalid job id")) {
-      return c.status();
-    }
-    // The controller has forgotten the ended job: accounting, if the
-    // cluster keeps it, has its final state; else the result file decides.
-    absl::StatusOr<process::CommandResult> a = Run(SacctArgv(id));
-    if (a.ok()) {
-      if (absl::StatusOr<JobState> s = ParseSacctOutput(a->out, id); s.ok()) {
-        return s;
-      }
-    }
+    if (!Forgotten(c.status())) return c.status();
     JobState gone;
     gone.state = "GONE";
     return gone;

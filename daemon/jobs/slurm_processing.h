@@ -3,9 +3,9 @@
 // A processing job run as one Slurm batch job (--processing-backend
 // slurm): the request goes to the job's folder on the shared data root,
 // `sbatch` runs `hdrstereo-proc pipeline --job-dir` on a node, and the
-// daemon follows the batch job with squeue (scontrol once it has left the
-// queue, sacct once the controller has forgotten it, where the cluster keeps
-// accounting) until the run's result.json says how it went. The daemon never
+// daemon follows the batch job with squeue while it is queued or running,
+// then sacct where the cluster keeps accounting, else scontrol, until the
+// run's result.json says how it went. The daemon never
 // trusts the node's word alone: every artifact's sha256 is checked before
 // the caller records it.
 #ifndef HDRSTEREO_DAEMON_JOBS_SLURM_PROCESSING_H_
