@@ -55,18 +55,6 @@ std::vector<std::string> Environment(
   return out;
 }
 
-// Waits for `pid` until `deadline`; nullopt if it is still running.
-std::optional<int> WaitUntil(pid_t pid, absl::Time deadline) {
-  while (true) {
-    int status = 0;
-    pid_t done = ::waitpid(pid, &status, WNOHANG);
-    if (done == pid) return DecodeWaitStatus(status);
-    if (done < 0 && errno != EINTR) return -1;
-    if (absl::Now() >= deadline) return std::nullopt;
-    absl::SleepFor(absl::Milliseconds(5));
-  }
-}
-
 }  // namespace
 
 absl::StatusOr<CommandResult> RunCommand(const std::vector<std::string>& argv,
@@ -129,7 +117,7 @@ absl::StatusOr<CommandResult> RunCommand(const std::vector<std::string>& argv,
     if (fd.fd >= 0) ::close(fd.fd);
   }
   if (timed_out) ::kill(pid, SIGKILL);
-  std::optional<int> code = WaitUntil(pid, absl::Now() + absl::Seconds(10));
+  std::optional<int> code = WaitForExit(pid, absl::Now() + absl::Seconds(10));
   if (timed_out) {
     return absl::DeadlineExceededError(absl::StrCat(
         argv[0], " did not finish within ", absl::FormatDuration(timeout),
@@ -137,6 +125,17 @@ absl::StatusOr<CommandResult> RunCommand(const std::vector<std::string>& argv,
   }
   result.exit_code = code.value_or(-1);
   return result;
+}
+
+std::optional<int> WaitForExit(pid_t pid, absl::Time deadline) {
+  while (true) {
+    int status = 0;
+    pid_t done = ::waitpid(pid, &status, WNOHANG);
+    if (done == pid) return DecodeWaitStatus(status);
+    if (done < 0 && errno != EINTR) return -1;
+    if (absl::Now() >= deadline) return std::nullopt;
+    absl::SleepFor(absl::Milliseconds(5));
+  }
 }
 
 }  // namespace hdrstereo::process

@@ -6,6 +6,9 @@
 #ifndef HDRSTEREO_DAEMON_PROCESSING_COMMAND_RUNNER_H_
 #define HDRSTEREO_DAEMON_PROCESSING_COMMAND_RUNNER_H_
 
+#include <sys/types.h>
+
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -29,6 +32,11 @@ struct CommandResult {
 absl::StatusOr<CommandResult> RunCommand(const std::vector<std::string>& argv,
                                          const std::vector<std::string>& env,
                                          absl::Duration timeout);
+
+// Waits for the child `pid` until `deadline`: its exit code (128 + signal
+// number when killed, -1 when it cannot be waited for), or nullopt while it
+// still runs.
+std::optional<int> WaitForExit(pid_t pid, absl::Time deadline);
 
 }  // namespace hdrstereo::process
 

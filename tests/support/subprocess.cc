@@ -19,12 +19,6 @@ extern char** environ;
 namespace hdrstereo::testing {
 namespace {
 
-int DecodeWaitStatus(int status) {
-  if (WIFEXITED(status)) return WEXITSTATUS(status);
-  if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
-  return -1;
-}
-
 std::vector<char*> ArgvPointers(const std::vector<std::string>& argv) {
   std::vector<char*> pointers;
   for (const std::string& arg : argv) {
@@ -32,18 +26,6 @@ std::vector<char*> ArgvPointers(const std::vector<std::string>& argv) {
   }
   pointers.push_back(nullptr);
   return pointers;
-}
-
-// Waits for `pid` until `deadline`; nullopt if it is still running.
-std::optional<int> WaitUntil(pid_t pid, absl::Time deadline) {
-  while (true) {
-    int status = 0;
-    pid_t done = ::waitpid(pid, &status, WNOHANG);
-    if (done == pid) return DecodeWaitStatus(status);
-    if (done < 0 && errno != EINTR) return -1;
-    if (absl::Now() >= deadline) return std::nullopt;
-    absl::SleepFor(absl::Milliseconds(5));
-  }
 }
 
 }  // namespace
@@ -73,7 +55,7 @@ Process::Process(Process&& other) noexcept
 Process::~Process() {
   if (pid_ > 0) {
     ::kill(pid_, SIGKILL);
-    WaitUntil(pid_, absl::Now() + absl::Seconds(10));
+    process::WaitForExit(pid_, absl::Now() + absl::Seconds(10));
   }
 }
 
@@ -83,7 +65,7 @@ void Process::Signal(int signal_number) {
 
 std::optional<int> Process::Wait(absl::Duration timeout) {
   if (pid_ <= 0) return std::nullopt;
-  std::optional<int> code = WaitUntil(pid_, absl::Now() + timeout);
+  std::optional<int> code = process::WaitForExit(pid_, absl::Now() + timeout);
   if (code.has_value()) pid_ = -1;
   return code;
 }
