@@ -8,6 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "daemon/rpc/roles.h"
 #include "hdrstereo_version.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::daemon {
 namespace {
@@ -63,10 +64,7 @@ absl::Status ParseUsers(const std::vector<std::string>& entries,
     const std::string name = entry.substr(0, equals);
     const std::string role =
         equals == std::string::npos ? "" : entry.substr(equals + 1);
-    if (absl::Status s = rpc::ValidatePrincipalName(name, "[auth.users]");
-        !s.ok()) {
-      return s;
-    }
+    RETURN_IF_ERROR(rpc::ValidatePrincipalName(name, "[auth.users]"));
     absl::StatusOr<rpc::Role> parsed = rpc::ParseRole(role);
     if (!parsed.ok() || *parsed == rpc::Role::kNone) {
       return absl::InvalidArgumentError(absl::StrCat(
@@ -341,16 +339,12 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
   } catch (const CLI::ParseError& e) {
     return absl::InvalidArgumentError(e.what());
   }
-  if (absl::Status s = ValidateTls(config.tls); !s.ok()) return s;
+  RETURN_IF_ERROR(ValidateTls(config.tls));
   for (const std::string& address : config.listen) {
-    if (absl::Status s = ValidateListenAddress(address, config.tls); !s.ok()) {
-      return s;
-    }
+    RETURN_IF_ERROR(ValidateListenAddress(address, config.tls));
   }
-  if (absl::Status s = ParseUsers(users, config.users); !s.ok()) return s;
-  if (absl::Status s = ValidateMetricsAddress(config.metrics_listen); !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(ParseUsers(users, config.users));
+  RETURN_IF_ERROR(ValidateMetricsAddress(config.metrics_listen));
   if (!config.camera_dump.empty() && config.hardware != "real") {
     return absl::InvalidArgumentError(
         "--camera-dump replays a real camera for the real camera driver: "

@@ -106,11 +106,12 @@ hardware::Slot<hardware::Camera> ReplayedCamera(const Config& config,
       -> absl::StatusOr<gphoto2::ReplayFile> {
     const bool raw = s.format == hardware::ImageFormat::kRaw ||
                      s.format == hardware::ImageFormat::kRawAndJpeg;
-    absl::StatusOr<sim::SimCapture> capture = world.Capture(
-        {.exposure_s = s.exposure_s, .iso = s.iso > 0 ? double(s.iso) : 100},
-        raw ? sim::ImageFormat::kDng : sim::ImageFormat::kJpeg);
-    if (!capture.ok()) return capture.status();
-    return gphoto2::ReplayFile{.bytes = std::move(capture->bytes),
+    ASSIGN_OR_RETURN(
+        sim::SimCapture capture,
+        world.Capture({.exposure_s = s.exposure_s,
+                       .iso = s.iso > 0 ? double(s.iso) : 100},
+                      raw ? sim::ImageFormat::kDng : sim::ImageFormat::kJpeg));
+    return gphoto2::ReplayFile{.bytes = std::move(capture.bytes),
                                .extension = raw ? "dng" : "jpg"};
   };
   gphoto2::Gphoto2Options options;
@@ -141,10 +142,9 @@ absl::StatusOr<std::unique_ptr<Hardware>> SetUpSimulation(
 
   sim::StageEmulatorOptions stage_options =
       sim::StageEmulatorOptions::FromScene(*scene);
-  absl::StatusOr<std::unique_ptr<sim::StageEmulator>> emulator =
-      sim::StageEmulator::Start(stage_options, hw->world.get());
-  if (!emulator.ok()) return emulator.status();
-  hw->emulator = *std::move(emulator);
+  ASSIGN_OR_RETURN(std::unique_ptr<sim::StageEmulator> emulator,
+                   sim::StageEmulator::Start(stage_options, hw->world.get()));
+  hw->emulator = std::move(emulator);
   spdlog::info("simulated scene {}; stage emulated on {}", scene->name,
                hw->emulator->device_path());
 

@@ -50,9 +50,9 @@ jobs::TruthWriter TruthWriterFor(const sim::SimWorld* world) {
   if (world == nullptr) return nullptr;
   return [world](double left_mm, double baseline_mm,
                  const std::filesystem::path& dir) -> absl::Status {
-    absl::StatusOr<sim::StereoTruth> truth = world->Truth(left_mm, baseline_mm);
-    if (!truth.ok()) return truth.status();
-    return sim::WriteStereoTruth(*truth, dir);
+    ASSIGN_OR_RETURN(sim::StereoTruth truth,
+                     world->Truth(left_mm, baseline_mm));
+    return sim::WriteStereoTruth(truth, dir);
   };
 }
 

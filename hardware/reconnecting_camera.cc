@@ -8,6 +8,7 @@
 #include "absl/strings/ascii.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::hardware {
 
@@ -89,10 +90,9 @@ void ReconnectingCamera::Observe(const std::shared_ptr<Camera>& used,
 
 template <typename T, typename Call>
 absl::StatusOr<T> ReconnectingCamera::Forward(Call call) {
-  absl::StatusOr<std::shared_ptr<Camera>> camera = Current();
-  if (!camera.ok()) return camera.status();
-  absl::StatusOr<T> result = call(**camera);
-  if (!result.ok()) Observe(*camera, result.status());
+  ASSIGN_OR_RETURN(std::shared_ptr<Camera> camera, Current());
+  absl::StatusOr<T> result = call(*camera);
+  if (!result.ok()) Observe(camera, result.status());
   return result;
 }
 

@@ -9,6 +9,7 @@
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::cli {
 
@@ -35,9 +36,8 @@ absl::StatusOr<double> ParseExposure(absl::string_view text) {
 absl::StatusOr<std::vector<double>> ParseExposureList(absl::string_view text) {
   std::vector<double> list;
   for (absl::string_view item : absl::StrSplit(text, ',')) {
-    absl::StatusOr<double> seconds = ParseExposure(item);
-    if (!seconds.ok()) return seconds.status();
-    list.push_back(*seconds);
+    ASSIGN_OR_RETURN(double seconds, ParseExposure(item));
+    list.push_back(seconds);
   }
   return list;
 }

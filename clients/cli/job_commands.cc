@@ -21,6 +21,7 @@
 #include "clients/cli/exposure.h"
 #include "clients/cli/output.h"
 #include "hdrstereo/v1/jobs.grpc.pb.h"
+#include "processing/base/status_macros.h"
 #include "proto/hdrstereo/v1/capture_defaults.h"
 
 namespace hdrstereo::cli {
@@ -205,10 +206,9 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
   auto args = std::make_shared<Args>();
   auto exposures = [args](google::protobuf::RepeatedField<double>* out) {
     if (args->exposures.empty()) return absl::OkStatus();
-    absl::StatusOr<std::vector<double>> list =
-        ParseExposureList(args->exposures);
-    if (!list.ok()) return list.status();
-    for (double e : *list) out->Add(e);
+    ASSIGN_OR_RETURN(std::vector<double> list,
+                     ParseExposureList(args->exposures));
+    for (double e : list) out->Add(e);
     return absl::OkStatus();
   };
 

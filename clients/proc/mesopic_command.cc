@@ -29,8 +29,8 @@ struct MesopicArgs {
 };
 
 absl::Status RunMesopic(const MesopicArgs& args) {
-  absl::StatusOr<mesopic::Method> method = mesopic::MethodFromName(args.method);
-  if (!method.ok()) return method.status();
+  ASSIGN_OR_RETURN(mesopic::Method method,
+                   mesopic::MethodFromName(args.method));
   ASSIGN_OR_RETURN(io::DecodedImage image, io::DecodeImageFile(args.in));
   cv::Mat input = image.pixels;
   // 8-bit display images go through as sRGB; anything else as linear float.
@@ -39,7 +39,7 @@ absl::Status RunMesopic(const MesopicArgs& args) {
   mesopic::RetargetOptions options;
   options.display_cd = args.display_cd;
   options.source_cd = args.source_cd;
-  options.method = *method;
+  options.method = method;
   options.tone_curve = !args.no_tone_curve;
   absl::StatusOr<cv::Mat> out = mesopic::Retarget(input, options);
   if (!out.ok()) {
@@ -49,9 +49,9 @@ absl::Status RunMesopic(const MesopicArgs& args) {
   cv::Mat encoded = *out;
   if (encoded.depth() != CV_8U) encoded.convertTo(encoded, CV_8U, 255.0);
   RETURN_IF_ERROR(io::WriteImage(args.out, encoded));
-  std::cout << args.in << " retargeted (" << mesopic::MethodName(*method)
-            << ", " << args.source_cd << " -> " << args.display_cd
-            << " cd/m^2) to " << args.out << "\n";
+  std::cout << args.in << " retargeted (" << mesopic::MethodName(method) << ", "
+            << args.source_cd << " -> " << args.display_cd << " cd/m^2) to "
+            << args.out << "\n";
   return absl::OkStatus();
 }
 

@@ -70,10 +70,9 @@ absl::StatusOr<experiment::TableInput> SimInput(const std::string& name,
   }
   in.left.exposure_s = in.right.exposure_s = ThesisExposures();
   in.left.camera = in.right.camera = "sim";
-  absl::StatusOr<sim::StereoTruth> truth = world.Truth(0, baseline_mm);
-  if (!truth.ok()) return truth.status();
-  in.truth = truth->left.disparity;
-  in.nonoccluded = truth->left.nonoccluded;
+  ASSIGN_OR_RETURN(sim::StereoTruth truth, world.Truth(0, baseline_mm));
+  in.truth = truth.left.disparity;
+  in.nonoccluded = truth.left.nonoccluded;
   in.ldr_index = 4;  // 1/250 s, the thesis' middle exposure (Fig. 3.4)
   return in;
 }
@@ -86,9 +85,8 @@ absl::StatusOr<experiment::TableInput> StackInput(const TableArgs& args) {
   ASSIGN_OR_RETURN(hdr::ExposureStack r, hdr::LoadStack(args.right_stack));
   in.left = l;
   in.right = r;
-  absl::StatusOr<cv::Mat> truth = io::ReadPfm(args.truth);
-  if (!truth.ok()) return truth.status();
-  in.truth = *truth;
+  ASSIGN_OR_RETURN(cv::Mat truth, io::ReadPfm(args.truth));
+  in.truth = truth;
   if (!args.nonoccluded.empty()) {
     in.nonoccluded = cv::imread(args.nonoccluded, cv::IMREAD_GRAYSCALE);
     if (in.nonoccluded.empty()) {

@@ -37,11 +37,10 @@ constexpr int kMaxDropsPerFrame = 3;
 absl::StatusOr<std::map<int, store::FrameRecord>> VerifiedFrames(
     store::FrameRepository& frames, int64_t capture_id,
     const fs::path& session_dir, JobContext& context) {
-  absl::StatusOr<std::vector<store::FrameRecord>> recorded =
-      frames.FramesOfCapture(capture_id);
-  if (!recorded.ok()) return recorded.status();
+  ASSIGN_OR_RETURN(std::vector<store::FrameRecord> recorded,
+                   frames.FramesOfCapture(capture_id));
   std::map<int, store::FrameRecord> good;
-  for (store::FrameRecord& frame : *recorded) {
+  for (store::FrameRecord& frame : recorded) {
     absl::StatusOr<std::string> sha =
         io::Sha256HexOfFile(session_dir / frame.path);
     if (sha.ok() && *sha == frame.sha256) {
@@ -52,7 +51,7 @@ absl::StatusOr<std::map<int, store::FrameRecord>> VerifiedFrames(
         "frame ", frame.path,
         sha.ok() ? " does not match its recorded sha256" : " is missing",
         "; taking it again"));
-    if (absl::Status s = frames.Delete(frame.id); !s.ok()) return s;
+    RETURN_IF_ERROR(frames.Delete(frame.id));
   }
   return good;
 }
@@ -186,11 +185,8 @@ absl::Status PersistFrame(JobContext& context, store::FrameRepository& frames,
     record.width_px = decoded.cols;
     record.height_px = decoded.rows;
   }
-  if (absl::Status s =
-          context.store().files().WriteSessionFile(session, record.path, bytes);
-      !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(
+      context.store().files().WriteSessionFile(session, record.path, bytes));
   absl::Status recorded = context.Progress(
       done, total, step, [&] { return frames.InsertLocked(record); });
   if (!recorded.ok()) {
@@ -292,9 +288,8 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   if (!plan.ParseFromString(job.request)) {
     return absl::DataLossError("the job's capture plan cannot be read");
   }
-  if (absl::Status s = CheckDevicesFor(plan, rig); !s.ok()) return s;
-  absl::StatusOr<RigLimits> limits = LimitsOf(rig);
-  if (!limits.ok()) return limits.status();
+  RETURN_IF_ERROR(CheckDevicesFor(plan, rig));
+  ASSIGN_OR_RETURN(RigLimits limits, LimitsOf(rig));
 
   // The hardware is ours until the job ends.
   std::unique_lock<std::mutex> lane(rig.lane());
@@ -304,28 +299,20 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
 
   store::FrameRepository frames(context.store());
   ASSIGN_OR_RETURN(const io::CaptureKind kind, PlanKind(plan));
-  absl::StatusOr<store::CaptureRecord> capture =
-      frames.CaptureForJob(job.id, kind, job.request);
-  if (!capture.ok()) return capture.status();
+  ASSIGN_OR_RETURN(store::CaptureRecord capture,
+                   frames.CaptureForJob(job.id, kind, job.request));
   const fs::path session_dir = context.store().files().SessionDir(job.session);
-  const std::vector<FrameSpec> specs = ExpandPlan(plan, *limits, capture->id);
+  const std::vector<FrameSpec> specs = ExpandPlan(plan, limits, capture.id);
   absl::StatusOr<std::map<int, store::FrameRecord>> done =
-      VerifiedFrames(frames, capture->id, session_dir, context);
+      VerifiedFrames(frames, capture.id, session_dir, context);
   if (!done.ok()) return done.status();
-  if (absl::Status s = RemoveUnrecordedFiles(session_dir, capture->id, *done);
-      !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(RemoveUnrecordedFiles(session_dir, capture.id, *done));
   const int64_t total = static_cast<int64_t>(specs.size());
   int64_t count = static_cast<int64_t>(done->size());
-  if (absl::Status s = context.Progress(
-          count, total,
-          count > 0
-              ? absl::StrCat("resuming: ", count, " frames already recorded")
-              : "preparing the rig");
-      !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(context.Progress(
+      count, total,
+      count > 0 ? absl::StrCat("resuming: ", count, " frames already recorded")
+                : "preparing the rig"));
 
   // Whatever happens, leave the hardware safe.
   bool moved = false;
@@ -334,10 +321,9 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
     if (moved) stage.Stop().IgnoreError();
   };
 
-  absl::StatusOr<hardware::StageState> state = stage.State();
-  if (!state.ok()) return state.status();
-  if (!state->homed) {
-    if (absl::Status s = stage.Home(); !s.ok()) return s;
+  ASSIGN_OR_RETURN(hardware::StageState state, stage.State());
+  if (!state.homed) {
+    RETURN_IF_ERROR(stage.Home());
   }
   // Time inside device calls versus the whole loop: the rest is the daemon's
   // own overhead (pattern rendering, hashing, writing, recording).
@@ -357,18 +343,17 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   FrameChecker checker;
   for (const auto& [sequence, frame] : *done) checker.Remember(ReportOf(frame));
   auto prepare_camera = [&]() -> absl::Status {
-    absl::StatusOr<int> discarded =
-        timed([&] { return camera.PrepareCaptureGroup(); });
-    if (!discarded.ok()) return discarded.status();
-    if (*discarded > 0) {
-      context.Warn(absl::StrCat("discarded ", *discarded,
+    ASSIGN_OR_RETURN(int discarded,
+                     timed([&] { return camera.PrepareCaptureGroup(); }));
+    if (discarded > 0) {
+      context.Warn(absl::StrCat("discarded ", discarded,
                                 " file(s) the camera still held from before"));
     }
     return absl::OkStatus();
   };
   std::string showing;  // pattern id on the projector, "" = blank
   if (projector != nullptr) {
-    if (absl::Status s = projector->Blank(); !s.ok()) return s;
+    RETURN_IF_ERROR(projector->Blank());
   }
   const int views = ViewsOf(plan);
   // Done before the first frame, and again after the camera came back.
@@ -388,9 +373,8 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   // end.
   int64_t frame_bytes = 0;
   if (disk != nullptr) {
-    absl::StatusOr<int64_t> per_frame = disk->BytesPerFrame(capture->kind);
-    if (!per_frame.ok()) return per_frame.status();
-    frame_bytes = *per_frame;
+    ASSIGN_OR_RETURN(int64_t per_frame, disk->BytesPerFrame(capture.kind));
+    frame_bytes = per_frame;
   }
   for (const FrameSpec& spec : specs) {
     if (done->contains(spec.sequence)) continue;
@@ -400,7 +384,7 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
     // counts one more drop) is taken again once the camera is back: the
     // job suspends at this frame boundary until it is.
     for (int drops = 0;; ++drops) {
-      if (absl::Status s = context.Checkpoint(); !s.ok()) return s;
+      RETURN_IF_ERROR(context.Checkpoint());
       bool was_suspended = false;
       RETURN_IF_ERROR(context.SuspendWhile(
           [&] {
@@ -412,7 +396,7 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
           conditions.poll));
       if (was_suspended) {
         // The stage may have been touched meanwhile: home it again.
-        if (absl::Status s = stage.Home(); !s.ok()) return s;
+        RETURN_IF_ERROR(stage.Home());
         position = std::nan("");
       }
       if (!(std::abs(position - spec.stage_position_mm) < 1e-6)) {
@@ -438,10 +422,10 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
                 : "";
         if (wanted != showing) {
           if (spec.pattern.has_value()) {
-            absl::StatusOr<cv::Mat> image =
-                sl::Render(*spec.pattern, projector->resolution());
-            if (!image.ok()) return image.status();
-            if (absl::Status s = timed([&] { return projector->Show(*image); });
+            ASSIGN_OR_RETURN(
+                cv::Mat image,
+                sl::Render(*spec.pattern, projector->resolution()));
+            if (absl::Status s = timed([&] { return projector->Show(image); });
                 !s.ok()) {
               return s;
             }
@@ -459,15 +443,15 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
           camera_prepared = true;
         }
         if (exposure != spec.exposure_s) {
-          absl::StatusOr<hardware::ExposureSettings> applied = timed([&] {
-            return camera.Configure({.exposure_s = spec.exposure_s,
-                                     .iso = base.iso,
-                                     .aperture_f = base.aperture_f,
-                                     .format = base.format});
-          });
-          if (!applied.ok()) return applied.status();
+          ASSIGN_OR_RETURN(
+              hardware::ExposureSettings applied, timed([&] {
+                return camera.Configure({.exposure_s = spec.exposure_s,
+                                         .iso = base.iso,
+                                         .aperture_f = base.aperture_f,
+                                         .format = base.format});
+              }));
           exposure = spec.exposure_s;
-          in_effect = *applied;
+          in_effect = applied;
         }
         // Taken, then checked against what the camera reports; a frame that
         // does not match is taken once more (after re-preparing the camera)
@@ -517,7 +501,7 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
         std::max(frame_bytes, static_cast<int64_t>(frame->bytes.size()));
 
     store::FrameRecord record;
-    record.capture_id = capture->id;
+    record.capture_id = capture.id;
     record.sequence = spec.sequence;
     record.view_index = spec.view_index;
     record.stage_position_mm = spec.stage_position_mm;
@@ -537,7 +521,7 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
     record.sha256 = report.sha256;
     // The previous frame must be recorded before this one (progress is
     // sequential); then this one is persisted while the rig takes the next.
-    if (absl::Status s = FinishPending(pending); !s.ok()) return s;
+    RETURN_IF_ERROR(FinishPending(pending));
     ++count;
     pending = std::async(
         std::launch::async,
@@ -548,7 +532,7 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
                               bytes, done, total, step);
         });
   }
-  if (absl::Status s = FinishPending(pending); !s.ok()) return s;
+  RETURN_IF_ERROR(FinishPending(pending));
 
   const absl::Duration loop_time = absl::Now() - loop_start;
   if (count > first_count && loop_time > absl::ZeroDuration()) {
@@ -561,19 +545,17 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
         100.0 * absl::ToDoubleSeconds(own) / absl::ToDoubleSeconds(loop_time)));
   }
   if (projector != nullptr) {
-    if (absl::Status s = projector->Blank(); !s.ok()) return s;
+    RETURN_IF_ERROR(projector->Blank());
   }
   if (plan.has_bracketed_stereo() || plan.has_structured_light()) {
-    if (absl::Status s = stage.MoveTo(limits->home_position_mm); !s.ok()) {
-      return s;
-    }
+    RETURN_IF_ERROR(stage.MoveTo(limits.home_position_mm));
   }
   std::move(safe).Cancel();
   if (write_truth && plan.has_bracketed_stereo()) {
     const double left_mm = specs.front().stage_position_mm;
     const double baseline_mm = plan.bracketed_stereo().baseline_mm();
     if (absl::Status s = write_truth(left_mm, baseline_mm,
-                                     session_dir / io::TruthDir(capture->id));
+                                     session_dir / io::TruthDir(capture.id));
         !s.ok()) {
       return absl::Status(
           s.code(),
@@ -591,19 +573,16 @@ absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
                                                absl::string_view submitted_by,
                                                const DiskGuard* disk) {
   // Limits come from the stage; without one, say so before judging the plan.
-  absl::StatusOr<RigLimits> limits = LimitsOf(rig);
-  if (!limits.ok()) return limits.status();
-  absl::StatusOr<v1::CapturePlan> normal = NormalizePlan(plan, *limits);
-  if (!normal.ok()) return normal.status();
-  if (absl::Status s = CheckDevicesFor(*normal, rig); !s.ok()) return s;
-  const size_t frames = ExpandPlan(*normal, *limits, 0).size();
-  const io::CaptureKind kind = *PlanKind(*normal);
+  ASSIGN_OR_RETURN(RigLimits limits, LimitsOf(rig));
+  ASSIGN_OR_RETURN(v1::CapturePlan normal, NormalizePlan(plan, limits));
+  RETURN_IF_ERROR(CheckDevicesFor(normal, rig));
+  const size_t frames = ExpandPlan(normal, limits, 0).size();
+  const io::CaptureKind kind = *PlanKind(normal);
   if (disk != nullptr) {
     RETURN_IF_ERROR(disk->CheckRoomFor(kind, static_cast<int64_t>(frames)));
   }
   return engine.Submit(store::JobKind::kCapture, session,
-                       normal->SerializeAsString(),
-                       static_cast<int64_t>(frames),
+                       normal.SerializeAsString(), static_cast<int64_t>(frames),
                        absl::StrCat("queued ", io::CaptureKindName(kind),
                                     " capture of ", frames, " frames"),
                        submitted_by);

@@ -6,6 +6,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_replace.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::jobs {
 namespace {
@@ -90,11 +91,8 @@ absl::StatusOr<v1::CapturePlan> NormalizePlan(const v1::CapturePlan& plan,
   switch (plan.plan_case()) {
     case v1::CapturePlan::kBracketedStereo: {
       v1::BracketedStereoPlan* p = out.mutable_bracketed_stereo();
-      if (absl::Status s =
-              CheckExposures(p->exposures_s(), "bracketed_stereo.exposures_s");
-          !s.ok()) {
-        return s;
-      }
+      RETURN_IF_ERROR(
+          CheckExposures(p->exposures_s(), "bracketed_stereo.exposures_s"));
       if (p->exposures_s().empty()) {
         for (double e : v1::kDefaultStereoExposuresS) p->add_exposures_s(e);
       }
@@ -102,17 +100,10 @@ absl::StatusOr<v1::CapturePlan> NormalizePlan(const v1::CapturePlan& plan,
       if (p->baseline_mm() == 0 && p->views() > 1) {
         p->set_baseline_mm(v1::kDefaultBaselineMm);
       }
-      if (absl::Status s =
-              CheckGeometry(p->baseline_mm(), p->views(), p->settle_s(), rig,
-                            "bracketed_stereo");
-          !s.ok()) {
-        return s;
-      }
-      if (absl::Status s =
-              CheckCamera(p->iso(), p->aperture_f(), "bracketed_stereo");
-          !s.ok()) {
-        return s;
-      }
+      RETURN_IF_ERROR(CheckGeometry(p->baseline_mm(), p->views(), p->settle_s(),
+                                    rig, "bracketed_stereo"));
+      RETURN_IF_ERROR(
+          CheckCamera(p->iso(), p->aperture_f(), "bracketed_stereo"));
       if (!v1::ImageFormat_IsValid(p->format())) {
         return absl::InvalidArgumentError(
             "bracketed_stereo.format is not a known format");
@@ -121,11 +112,8 @@ absl::StatusOr<v1::CapturePlan> NormalizePlan(const v1::CapturePlan& plan,
     }
     case v1::CapturePlan::kStructuredLight: {
       v1::StructuredLightPlan* p = out.mutable_structured_light();
-      if (absl::Status s =
-              CheckExposures(p->exposures_s(), "structured_light.exposures_s");
-          !s.ok()) {
-        return s;
-      }
+      RETURN_IF_ERROR(
+          CheckExposures(p->exposures_s(), "structured_light.exposures_s"));
       if (p->exposures_s().empty()) {
         for (double e : v1::kDefaultStructuredLightExposuresS) {
           p->add_exposures_s(e);
@@ -135,17 +123,10 @@ absl::StatusOr<v1::CapturePlan> NormalizePlan(const v1::CapturePlan& plan,
       if (p->baseline_mm() == 0 && p->views() > 1) {
         p->set_baseline_mm(v1::kDefaultBaselineMm);
       }
-      if (absl::Status s =
-              CheckGeometry(p->baseline_mm(), p->views(), p->settle_s(), rig,
-                            "structured_light");
-          !s.ok()) {
-        return s;
-      }
-      if (absl::Status s =
-              CheckCamera(p->iso(), p->aperture_f(), "structured_light");
-          !s.ok()) {
-        return s;
-      }
+      RETURN_IF_ERROR(CheckGeometry(p->baseline_mm(), p->views(), p->settle_s(),
+                                    rig, "structured_light"));
+      RETURN_IF_ERROR(
+          CheckCamera(p->iso(), p->aperture_f(), "structured_light"));
       return out;
     }
     case v1::CapturePlan::kCalibration: {
@@ -162,11 +143,8 @@ absl::StatusOr<v1::CapturePlan> NormalizePlan(const v1::CapturePlan& plan,
         return absl::InvalidArgumentError("calibration.exposure_s must be > 0");
       }
       if (p->baseline_mm() == 0) p->set_baseline_mm(v1::kDefaultBaselineMm);
-      if (absl::Status s =
-              CheckGeometry(p->baseline_mm(), 2, 0, rig, "calibration");
-          !s.ok()) {
-        return s;
-      }
+      RETURN_IF_ERROR(
+          CheckGeometry(p->baseline_mm(), 2, 0, rig, "calibration"));
       return out;
     }
     case v1::CapturePlan::PLAN_NOT_SET:

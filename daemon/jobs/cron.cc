@@ -8,6 +8,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::jobs {
 namespace {
@@ -85,19 +86,16 @@ absl::Status ParseField(const FieldSpec& field, absl::string_view text,
       low = field.min;
       high = field.max;
     } else if (size_t dash = range.find('-'); dash != absl::string_view::npos) {
-      absl::StatusOr<int> a = ParseValue(field, range.substr(0, dash), item);
-      if (!a.ok()) return a.status();
-      absl::StatusOr<int> b = ParseValue(field, range.substr(dash + 1), item);
-      if (!b.ok()) return b.status();
-      low = *a;
-      high = *b;
+      ASSIGN_OR_RETURN(int a, ParseValue(field, range.substr(0, dash), item));
+      ASSIGN_OR_RETURN(int b, ParseValue(field, range.substr(dash + 1), item));
+      low = a;
+      high = b;
       if (low > high) {
         return Bad(field, item, "is a range whose start is after its end");
       }
     } else {
-      absl::StatusOr<int> a = ParseValue(field, range, item);
-      if (!a.ok()) return a.status();
-      low = *a;
+      ASSIGN_OR_RETURN(int a, ParseValue(field, range, item));
+      low = a;
       // "a/n" means a-max/n; a plain value is just itself.
       high = range.size() < item.size() ? field.max : low;
     }
@@ -171,9 +169,7 @@ absl::StatusOr<CronSchedule> CronSchedule::Parse(absl::string_view expression,
   cron.zone_ = zone;
   std::array<std::vector<bool>, 5> bits;
   for (size_t i = 0; i < 5; ++i) {
-    if (absl::Status s = ParseField(kFields[i], fields[i], bits[i]); !s.ok()) {
-      return s;
-    }
+    RETURN_IF_ERROR(ParseField(kFields[i], fields[i], bits[i]));
   }
   for (int v = 0; v < 60; ++v) cron.minutes_[v] = bits[0][v];
   for (int v = 0; v < 24; ++v) cron.hours_[v] = bits[1][v];

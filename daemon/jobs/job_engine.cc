@@ -26,16 +26,14 @@ absl::Status JobContext::Progress(int64_t done, int64_t total,
                                   absl::string_view step,
                                   const std::function<absl::Status()>& also) {
   {
-    absl::StatusOr<std::unique_ptr<store::Transaction>> tx =
-        store::Transaction::Begin(store_.db());
-    if (!tx.ok()) return tx.status();
+    ASSIGN_OR_RETURN(std::unique_ptr<store::Transaction> tx,
+                     store::Transaction::Begin(store_.db()));
     if (also != nullptr) {
-      if (absl::Status s = also(); !s.ok()) return s;
+      RETURN_IF_ERROR(also());
     }
-    absl::StatusOr<store::JobEventRecord> event =
-        engine_.jobs_.SetProgressLocked(job_.id, done, total, step);
-    if (!event.ok()) return event.status();
-    if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+    RETURN_IF_ERROR(
+        engine_.jobs_.SetProgressLocked(job_.id, done, total, step).status());
+    RETURN_IF_ERROR(tx->Commit());
   }
   engine_.NotifyEvent();
   return absl::OkStatus();
@@ -66,29 +64,31 @@ JobEngine::JobEngine(store::Store& store, JobRunner capture_runner,
 JobEngine::~JobEngine() { Shutdown(); }
 
 absl::Status JobEngine::Start() {
-  absl::StatusOr<std::vector<int64_t>> interrupted =
-      jobs_.InterruptUnfinished();
-  if (!interrupted.ok()) return interrupted.status();
-  for (int64_t id : *interrupted) {
+  ASSIGN_OR_RETURN(std::vector<int64_t> interrupted,
+                   jobs_.InterruptUnfinished());
+  for (int64_t id : interrupted) {
     spdlog::warn("job {} was interrupted by a stop of the daemon", id);
   }
   std::vector<JobState> states = {JobState::kQueued};
   if (options_.resume_interrupted) states.push_back(JobState::kInterrupted);
   std::vector<JobRecord> pending;
   for (int64_t after = 0;;) {
-    absl::StatusOr<std::vector<JobRecord>> page = jobs_.List(
-        {.session = "", .states = states, .after_id = after, .limit = 500});
-    if (!page.ok()) return page.status();
-    if (page->empty()) break;
-    after = page->back().id;
-    pending.insert(pending.end(), page->begin(), page->end());
+    ASSIGN_OR_RETURN(std::vector<JobRecord> page, jobs_.List({.session = "",
+                                                              .states = states,
+                                                              .after_id = after,
+                                                              .limit = 500}));
+    if (page.empty()) break;
+    after = page.back().id;
+    pending.insert(pending.end(), page.begin(), page.end());
   }
   for (const JobRecord& job : pending) {
     if (job.state == JobState::kInterrupted) {
-      absl::StatusOr<store::JobEventRecord> event = jobs_.SetState(
-          job.id, JobState::kQueued,
-          "queued again after a restart; resumes from what is recorded");
-      if (!event.ok()) return event.status();
+      RETURN_IF_ERROR(
+          jobs_
+              .SetState(
+                  job.id, JobState::kQueued,
+                  "queued again after a restart; resumes from what is recorded")
+              .status());
       spdlog::info("job {} ({}): queued again to resume", job.id, job.session);
     }
     Enqueue(job.kind, job.id);
@@ -138,12 +138,11 @@ absl::StatusOr<JobRecord> JobEngine::Submit(
     std::lock_guard<std::mutex> lock(mutex_);
     if (stopping_) return absl::UnavailableError("the daemon is stopping");
   }
-  absl::StatusOr<JobRecord> job =
-      jobs_.Create(kind, session, request, total, message, submitted_by);
-  if (!job.ok()) return job.status();
-  spdlog::info("job {} ({}): queued by {}: {}", job->id, job->session,
+  ASSIGN_OR_RETURN(JobRecord job, jobs_.Create(kind, session, request, total,
+                                               message, submitted_by));
+  spdlog::info("job {} ({}): queued by {}: {}", job.id, job.session,
                std::string(submitted_by), std::string(message));
-  Enqueue(kind, job->id);
+  Enqueue(kind, job.id);
   NotifyEvent();
   return job;
 }
@@ -305,17 +304,16 @@ absl::Status JobEngine::SuspendWhileFor(
 }
 
 absl::StatusOr<JobRecord> JobEngine::Pause(int64_t id) {
-  absl::StatusOr<JobRecord> job = jobs_.Get(id);
-  if (!job.ok()) return job.status();
+  ASSIGN_OR_RETURN(JobRecord job, jobs_.Get(id));
   {
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = running_.find(id);
     const bool suspended =
         it != running_.end() && !it->second.suspended.empty();
     if (it == running_.end() ||
-        (job->state != JobState::kRunning && !suspended)) {
+        (job.state != JobState::kRunning && !suspended)) {
       return absl::FailedPreconditionError(
-          absl::StrCat("job ", id, " is ", store::JobStateName(job->state),
+          absl::StrCat("job ", id, " is ", store::JobStateName(job.state),
                        "; only a running job can be paused"));
     }
     it->second.pause = true;
@@ -325,8 +323,7 @@ absl::StatusOr<JobRecord> JobEngine::Pause(int64_t id) {
 }
 
 absl::StatusOr<JobRecord> JobEngine::Resume(int64_t id) {
-  absl::StatusOr<JobRecord> job = jobs_.Get(id);
-  if (!job.ok()) return job.status();
+  ASSIGN_OR_RETURN(JobRecord job, jobs_.Get(id));
   {
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = running_.find(id);
@@ -338,7 +335,7 @@ absl::StatusOr<JobRecord> JobEngine::Resume(int64_t id) {
     }
     if (it == running_.end() || !it->second.pause) {
       return absl::FailedPreconditionError(
-          absl::StrCat("job ", id, " is ", store::JobStateName(job->state),
+          absl::StrCat("job ", id, " is ", store::JobStateName(job.state),
                        "; only a paused job can be resumed"));
     }
     it->second.pause = false;
@@ -348,11 +345,10 @@ absl::StatusOr<JobRecord> JobEngine::Resume(int64_t id) {
 }
 
 absl::StatusOr<JobRecord> JobEngine::Cancel(int64_t id) {
-  absl::StatusOr<JobRecord> job = jobs_.Get(id);
-  if (!job.ok()) return job.status();
-  if (store::IsFinal(job->state)) {
+  ASSIGN_OR_RETURN(JobRecord job, jobs_.Get(id));
+  if (store::IsFinal(job.state)) {
     return absl::FailedPreconditionError(absl::StrCat(
-        "job ", id, " is already ", store::JobStateName(job->state)));
+        "job ", id, " is already ", store::JobStateName(job.state)));
   }
   bool was_queued = false;
   {
@@ -369,15 +365,15 @@ absl::StatusOr<JobRecord> JobEngine::Cancel(int64_t id) {
       }
       if (!was_queued) {
         return absl::FailedPreconditionError(absl::StrCat(
-            "job ", id, " is already ", store::JobStateName(job->state)));
+            "job ", id, " is already ", store::JobStateName(job.state)));
       }
     }
   }
   control_cv_.notify_all();
   if (was_queued) {
-    absl::StatusOr<store::JobEventRecord> event =
-        jobs_.SetState(id, JobState::kCancelled, "cancelled before it started");
-    if (!event.ok()) return event.status();
+    RETURN_IF_ERROR(
+        jobs_.SetState(id, JobState::kCancelled, "cancelled before it started")
+            .status());
     NotifyEvent();
   }
   return jobs_.Get(id);

@@ -54,21 +54,19 @@ RigLimits FrameLimits(const hardware::Rig& rig) {
 absl::StatusOr<std::vector<CaptureState>> ReadCaptures(
     store::Store& store, const hardware::Rig& rig, absl::string_view session) {
   store::FrameRepository repository(store);
-  absl::StatusOr<std::vector<store::CaptureRecord>> captures =
-      repository.CapturesOfSession(session);
-  if (!captures.ok()) return captures.status();
+  ASSIGN_OR_RETURN(std::vector<store::CaptureRecord> captures,
+                   repository.CapturesOfSession(session));
   std::vector<CaptureState> out;
-  for (const store::CaptureRecord& capture : *captures) {
+  for (const store::CaptureRecord& capture : captures) {
     CaptureState state;
     state.capture = capture;
     if (!state.plan.ParseFromString(capture.plan)) {
       return absl::DataLossError(
           absl::StrCat("the plan of capture ", capture.id, " cannot be read"));
     }
-    absl::StatusOr<std::vector<store::FrameRecord>> frames =
-        repository.FramesOfCapture(capture.id);
-    if (!frames.ok()) return frames.status();
-    state.frames = *std::move(frames);
+    ASSIGN_OR_RETURN(std::vector<store::FrameRecord> frames,
+                     repository.FramesOfCapture(capture.id));
+    state.frames = std::move(frames);
     std::set<int> recorded;
     for (const store::FrameRecord& f : state.frames) {
       recorded.insert(f.sequence);
@@ -118,10 +116,10 @@ absl::StatusOr<Inputs> ChooseInputs(const std::vector<CaptureState>& captures,
                                     absl::string_view session,
                                     const std::vector<std::string>& steps) {
   Inputs inputs;
-  absl::StatusOr<const CaptureState*> stereo = LatestComplete(
-      captures, io::CaptureKind::kBracketedStereo, session, "bracketed-stereo");
-  if (!stereo.ok()) return stereo.status();
-  inputs.stereo = *stereo;
+  ASSIGN_OR_RETURN(const CaptureState* stereo,
+                   LatestComplete(captures, io::CaptureKind::kBracketedStereo,
+                                  session, "bracketed-stereo"));
+  inputs.stereo = stereo;
   const bool wants_sl =
       std::find(steps.begin(), steps.end(), "sl_groundtruth") != steps.end();
   const bool has_sl =
@@ -129,11 +127,10 @@ absl::StatusOr<Inputs> ChooseInputs(const std::vector<CaptureState>& captures,
         return c.capture.kind == io::CaptureKind::kStructuredLight;
       });
   if (wants_sl && has_sl) {
-    absl::StatusOr<const CaptureState*> sl =
-        LatestComplete(captures, io::CaptureKind::kStructuredLight, session,
-                       "structured-light");
-    if (!sl.ok()) return sl.status();
-    inputs.structured_light = *sl;
+    ASSIGN_OR_RETURN(const CaptureState* sl,
+                     LatestComplete(captures, io::CaptureKind::kStructuredLight,
+                                    session, "structured-light"));
+    inputs.structured_light = sl;
   }
   return inputs;
 }
@@ -144,15 +141,15 @@ absl::StatusOr<std::vector<int64_t>> PendingCaptures(store::Store& store,
                                                      absl::string_view session,
                                                      int64_t before_id) {
   store::JobRepository jobs(store);
-  absl::StatusOr<std::vector<store::JobRecord>> pending =
+  ASSIGN_OR_RETURN(
+      std::vector<store::JobRecord> pending,
       jobs.List({.session = std::string(session),
                  .states = {store::JobState::kQueued, store::JobState::kRunning,
                             store::JobState::kPaused},
                  .after_id = 0,
-                 .limit = 1000});
-  if (!pending.ok()) return pending.status();
+                 .limit = 1000}));
   std::vector<int64_t> out;
-  for (const store::JobRecord& job : *pending) {
+  for (const store::JobRecord& job : pending) {
     if (job.kind == store::JobKind::kCapture &&
         (before_id == 0 || job.id < before_id)) {
       out.push_back(job.id);
@@ -326,33 +323,26 @@ absl::StatusOr<store::JobRecord> SubmitProcessing(
     absl::string_view submitted_by) {
   std::vector<std::string> requested(request.steps().begin(),
                                      request.steps().end());
-  absl::StatusOr<std::vector<std::string>> steps =
-      pipeline::ResolveSteps(requested);
-  if (!steps.ok()) return steps.status();
+  ASSIGN_OR_RETURN(std::vector<std::string> steps,
+                   pipeline::ResolveSteps(requested));
   store::Store& store = engine.store();
-  absl::StatusOr<std::vector<CaptureState>> captures =
-      ReadCaptures(store, rig, request.session());
-  if (!captures.ok()) return captures.status();
-  absl::StatusOr<std::vector<int64_t>> pending =
-      PendingCaptures(store, request.session(), 0);
-  if (!pending.ok()) return pending.status();
+  ASSIGN_OR_RETURN(std::vector<CaptureState> captures,
+                   ReadCaptures(store, rig, request.session()));
+  ASSIGN_OR_RETURN(std::vector<int64_t> pending,
+                   PendingCaptures(store, request.session(), 0));
   // With captures still to come, the job checks its inputs when it starts.
-  if (pending->empty()) {
-    if (absl::StatusOr<Inputs> inputs =
-            ChooseInputs(*captures, request.session(), *steps);
-        !inputs.ok()) {
-      return inputs.status();
-    }
+  if (pending.empty()) {
+    RETURN_IF_ERROR(ChooseInputs(captures, request.session(), steps).status());
   }
   return engine.Submit(
       store::JobKind::kProcessing, request.session(),
-      request.SerializeAsString(), static_cast<int64_t>(steps->size()),
-      absl::StrCat("queued processing: ", absl::StrJoin(*steps, ", "),
+      request.SerializeAsString(), static_cast<int64_t>(steps.size()),
+      absl::StrCat("queued processing: ", absl::StrJoin(steps, ", "),
                    request.force() ? " (forced)" : "",
-                   pending->empty()
+                   pending.empty()
                        ? ""
                        : absl::StrCat(" after capture job(s) ",
-                                      absl::StrJoin(*pending, ", "))),
+                                      absl::StrJoin(pending, ", "))),
       submitted_by);
 }
 
@@ -439,20 +429,16 @@ absl::Status RunProcessingJob(const hardware::Rig& rig,
 
   // Captures submitted before this job are its input: wait for them.
   for (int64_t waited = 0;; ++waited) {
-    absl::StatusOr<std::vector<int64_t>> pending =
-        PendingCaptures(store, job.session, job.id);
-    if (!pending.ok()) return pending.status();
-    if (pending->empty()) break;
+    ASSIGN_OR_RETURN(std::vector<int64_t> pending,
+                     PendingCaptures(store, job.session, job.id));
+    if (pending.empty()) break;
     if (waited == 0) {
-      if (absl::Status s =
-              context.Progress(0, job.progress_total,
-                               absl::StrCat("waiting for capture job(s) ",
-                                            absl::StrJoin(*pending, ", ")));
-          !s.ok()) {
-        return s;
-      }
+      RETURN_IF_ERROR(
+          context.Progress(0, job.progress_total,
+                           absl::StrCat("waiting for capture job(s) ",
+                                        absl::StrJoin(pending, ", "))));
     }
-    if (absl::Status s = context.Checkpoint(); !s.ok()) return s;
+    RETURN_IF_ERROR(context.Checkpoint());
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
   }
 
@@ -460,20 +446,16 @@ absl::Status RunProcessingJob(const hardware::Rig& rig,
   options.steps = {request.steps().begin(), request.steps().end()};
   options.force = request.force();
   options.threads = environment.threads;
-  absl::StatusOr<std::vector<std::string>> steps =
-      pipeline::ResolveSteps(options.steps);
-  if (!steps.ok()) return steps.status();
-  absl::StatusOr<std::vector<CaptureState>> captures =
-      ReadCaptures(store, rig, job.session);
-  if (!captures.ok()) return captures.status();
-  absl::StatusOr<Inputs> inputs = ChooseInputs(*captures, job.session, *steps);
-  if (!inputs.ok()) return inputs.status();
+  ASSIGN_OR_RETURN(std::vector<std::string> steps,
+                   pipeline::ResolveSteps(options.steps));
+  ASSIGN_OR_RETURN(std::vector<CaptureState> captures,
+                   ReadCaptures(store, rig, job.session));
+  ASSIGN_OR_RETURN(Inputs inputs, ChooseInputs(captures, job.session, steps));
 
   pipeline::SessionInput input;
   input.session_dir = store.files().SessionDir(job.session);
   input.session_name = job.session;
-  for (const CaptureState* capture :
-       {inputs->stereo, inputs->structured_light}) {
+  for (const CaptureState* capture : {inputs.stereo, inputs.structured_light}) {
     if (capture == nullptr) continue;
     for (const store::FrameRecord& f : capture->frames) {
       ASSIGN_OR_RETURN(pipeline::FrameInput frame, ToFrameInput(f));
@@ -481,14 +463,14 @@ absl::Status RunProcessingJob(const hardware::Rig& rig,
     }
   }
   const v1::BracketedStereoPlan& stereo_plan =
-      inputs->stereo->plan.bracketed_stereo();
+      inputs.stereo->plan.bracketed_stereo();
   input.baseline_mm = stereo_plan.baseline_mm();
   if (const hardware::Projector* projector = rig.projector();
       projector != nullptr) {
     input.projector_size = std::make_pair(projector->resolution().width,
                                           projector->resolution().height);
   }
-  const std::string truth_dir = io::TruthDir(inputs->stereo->capture.id) + "/";
+  const std::string truth_dir = io::TruthDir(inputs.stereo->capture.id) + "/";
   std::error_code ec;
   if (fs::exists(input.session_dir / truth_dir / "disp0.pfm", ec)) {
     input.sim_truth_disparity = truth_dir + "disp0.pfm";
@@ -503,25 +485,23 @@ absl::Status RunProcessingJob(const hardware::Rig& rig,
       "stereo capture",
       absl::StrFormat("capture %d (job %d): %d frames, %d views, baseline "
                       "%.1f mm",
-                      inputs->stereo->capture.id,
-                      inputs->stereo->capture.job_id,
-                      inputs->stereo->frames.size(),
+                      inputs.stereo->capture.id, inputs.stereo->capture.job_id,
+                      inputs.stereo->frames.size(),
                       stereo_plan.views() > 0 ? stereo_plan.views() : 2,
                       stereo_plan.baseline_mm()));
   input.capture_summary.emplace_back("exposures",
-                                     ExposureList(*inputs->stereo));
-  if (inputs->structured_light != nullptr) {
+                                     ExposureList(*inputs.stereo));
+  if (inputs.structured_light != nullptr) {
     input.capture_summary.emplace_back(
         "structured-light capture",
         absl::StrFormat("capture %d (job %d): %d frames",
-                        inputs->structured_light->capture.id,
-                        inputs->structured_light->capture.job_id,
-                        inputs->structured_light->frames.size()));
+                        inputs.structured_light->capture.id,
+                        inputs.structured_light->capture.job_id,
+                        inputs.structured_light->frames.size()));
   } else {
     input.capture_summary.emplace_back("structured-light capture", "none");
   }
-  for (const CaptureState* capture :
-       {inputs->stereo, inputs->structured_light}) {
+  for (const CaptureState* capture : {inputs.stereo, inputs.structured_light}) {
     if (capture == nullptr || capture->capture.job_id == 0) continue;
     absl::StatusOr<store::JobRecord> capture_job =
         store::JobRepository(store).Get(capture->capture.job_id);
@@ -536,7 +516,7 @@ absl::Status RunProcessingJob(const hardware::Rig& rig,
   }
 
   StoreAdapter adapter(store, job.session_id, job.id);
-  const auto total = static_cast<int64_t>(steps->size());
+  const auto total = static_cast<int64_t>(steps.size());
   if (job.cluster_job_id.has_value() && !environment.slurm.has_value()) {
     // Running it here too would write the same files as the batch job.
     return absl::FailedPreconditionError(absl::StrCat(
@@ -568,14 +548,13 @@ absl::Status RunProcessingJob(const hardware::Rig& rig,
     return context.Progress(total, total, "done");
   }
   JobObserver observer(context);
-  absl::StatusOr<pipeline::RunSummary> summary =
-      pipeline::Run(input, options, adapter, observer);
-  if (!summary.ok()) return summary.status();
-  context.Info(absl::StrCat("computed: ", StepList(summary->computed),
-                            "; reused: ", StepList(summary->reused)));
-  if (!summary->report_path.empty()) {
+  ASSIGN_OR_RETURN(pipeline::RunSummary summary,
+                   pipeline::Run(input, options, adapter, observer));
+  context.Info(absl::StrCat("computed: ", StepList(summary.computed),
+                            "; reused: ", StepList(summary.reused)));
+  if (!summary.report_path.empty()) {
     context.Info(absl::StrCat(
-        "report: ", (input.session_dir / summary->report_path).string()));
+        "report: ", (input.session_dir / summary.report_path).string()));
   }
   return context.Progress(total, total, "done");
 }

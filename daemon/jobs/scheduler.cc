@@ -12,6 +12,7 @@
 #include "daemon/store/job_repository.h"
 #include "daemon/store/names.h"
 #include "daemon/store/session_repository.h"
+#include "processing/base/status_macros.h"
 #include "processing/pipeline/pipeline.h"
 
 namespace hdrstereo::jobs {
@@ -103,15 +104,14 @@ absl::Status Scheduler::Start() {
   {
     std::lock_guard<std::mutex> tick(tick_mutex_);
     // A run recorded without jobs was cut off while it started them.
-    absl::StatusOr<std::vector<store::ScheduleRunRecord>> running =
-        schedules_.RunningRuns();
-    if (!running.ok()) return running.status();
-    for (store::ScheduleRunRecord& run : *running) {
+    ASSIGN_OR_RETURN(std::vector<store::ScheduleRunRecord> running,
+                     schedules_.RunningRuns());
+    for (store::ScheduleRunRecord& run : running) {
       if (!run.job_ids.empty()) continue;
       run.outcome = store::RunOutcome::kFailed;
       run.reason = "hdrstereod stopped while the run was starting its jobs";
       run.end_time_ms = absl::ToUnixMillis(Now());
-      if (absl::Status s = schedules_.UpdateRun(run); !s.ok()) return s;
+      RETURN_IF_ERROR(schedules_.UpdateRun(run));
     }
   }
   thread_ = std::thread([this] {
@@ -162,11 +162,10 @@ std::optional<absl::Time> Scheduler::NextDue(
 }
 
 absl::Status Scheduler::SettleRunning() {
-  absl::StatusOr<std::vector<store::ScheduleRunRecord>> running =
-      schedules_.RunningRuns();
-  if (!running.ok()) return running.status();
+  ASSIGN_OR_RETURN(std::vector<store::ScheduleRunRecord> running,
+                   schedules_.RunningRuns());
   store::JobRepository jobs(store_);
-  for (store::ScheduleRunRecord& run : *running) {
+  for (store::ScheduleRunRecord& run : running) {
     if (run.job_ids.empty()) continue;  // being started, or see Start()
     bool final = true;
     std::string failure;
@@ -201,7 +200,7 @@ absl::Status Scheduler::SettleRunning() {
                                       : absl::StrCat(run.reason, "; ", failure);
     }
     run.end_time_ms = end_ms > 0 ? end_ms : absl::ToUnixMillis(Now());
-    if (absl::Status s = schedules_.UpdateRun(run); !s.ok()) return s;
+    RETURN_IF_ERROR(schedules_.UpdateRun(run));
     spdlog::info("schedule {}: run of session {} {}", run.schedule, run.session,
                  store::RunOutcomeName(run.outcome));
   }
@@ -211,40 +210,37 @@ absl::Status Scheduler::SettleRunning() {
 absl::Status Scheduler::Tick() {
   std::lock_guard<std::mutex> tick(tick_mutex_);
   const absl::Time now = Now();
-  if (absl::Status s = SettleRunning(); !s.ok()) return s;
+  RETURN_IF_ERROR(SettleRunning());
   std::string after;
   while (true) {
-    absl::StatusOr<std::vector<store::ScheduleRecord>> page =
-        schedules_.List(after, 200);
-    if (!page.ok()) return page.status();
-    for (const store::ScheduleRecord& schedule : *page) {
+    ASSIGN_OR_RETURN(std::vector<store::ScheduleRecord> page,
+                     schedules_.List(after, 200));
+    for (const store::ScheduleRecord& schedule : page) {
       if (!schedule.enabled) continue;
       if (absl::Status s = HandleSchedule(schedule, now); !s.ok()) {
         spdlog::warn("schedule {}: {}", schedule.name,
                      std::string(s.message()));
       }
     }
-    if (page->size() < 200) break;
-    after = page->back().name;
+    if (page.size() < 200) break;
+    after = page.back().name;
   }
   return absl::OkStatus();
 }
 
 absl::Status Scheduler::HandleSchedule(const store::ScheduleRecord& schedule,
                                        absl::Time now) {
-  absl::StatusOr<absl::TimeZone> zone = LoadZone(schedule.time_zone);
-  if (!zone.ok()) return zone.status();
-  absl::StatusOr<CronSchedule> cron = CronSchedule::Parse(schedule.cron, *zone);
-  if (!cron.ok()) return cron.status();
+  ASSIGN_OR_RETURN(absl::TimeZone zone, LoadZone(schedule.time_zone));
+  ASSIGN_OR_RETURN(CronSchedule cron, CronSchedule::Parse(schedule.cron, zone));
   const absl::Time anchor = absl::FromUnixMillis(
       std::max(schedule.enable_time_ms,
                schedule.last_due_time_ms.value_or(schedule.enable_time_ms)));
-  std::optional<absl::Time> due = cron->NextAfter(anchor);
+  std::optional<absl::Time> due = cron.NextAfter(anchor);
   if (!due || *due > now) return absl::OkStatus();
   // The newest due time that has come; earlier ones were missed outright.
   int earlier = 0;
   for (int i = 0; i < kMaxCatchUp; ++i) {
-    std::optional<absl::Time> next = cron->NextAfter(*due);
+    std::optional<absl::Time> next = cron.NextAfter(*due);
     if (!next || *next > now) break;
     due = next;
     ++earlier;
@@ -285,27 +281,26 @@ absl::Status Scheduler::HandleSchedule(const store::ScheduleRecord& schedule,
                              "run-once-on-start"));
   }
   // Never two runs at once.
-  absl::StatusOr<std::vector<store::ScheduleRunRecord>> running =
-      schedules_.RunningRuns();
-  if (!running.ok()) return running.status();
-  for (const store::ScheduleRunRecord& run : *running) {
+  ASSIGN_OR_RETURN(std::vector<store::ScheduleRunRecord> running,
+                   schedules_.RunningRuns());
+  for (const store::ScheduleRunRecord& run : running) {
     if (run.schedule_id != schedule.id) continue;
     skip.reason = join(absl::StrCat(
-        "the run due ", FormatDue(absl::FromUnixMillis(run.due_time_ms), *zone),
+        "the run due ", FormatDue(absl::FromUnixMillis(run.due_time_ms), zone),
         " (session ", run.session, ") was still running"));
     spdlog::warn("schedule {}: due {} skipped: {}", schedule.name,
-                 FormatDue(*due, *zone), skip.reason);
+                 FormatDue(*due, zone), skip.reason);
     return schedules_.AddRun(skip).status();
   }
   if (options_.hold) {
     if (absl::Status held = options_.hold(); !held.ok()) {
       skip.reason = join(std::string(held.message()));
       spdlog::warn("schedule {}: due {} skipped: {}", schedule.name,
-                   FormatDue(*due, *zone), skip.reason);
+                   FormatDue(*due, zone), skip.reason);
       return schedules_.AddRun(skip).status();
     }
   }
-  return Launch(schedule, *cron, *due, now, note);
+  return Launch(schedule, cron, *due, now, note);
 }
 
 absl::Status Scheduler::Launch(const store::ScheduleRecord& schedule,
@@ -336,9 +331,8 @@ absl::Status Scheduler::Launch(const store::ScheduleRecord& schedule,
                                    cron.zone());
   }
   if (session.ok()) run.session = *session;
-  absl::StatusOr<store::ScheduleRunRecord> added = schedules_.AddRun(run);
-  if (!added.ok()) return added.status();
-  run = *added;
+  ASSIGN_OR_RETURN(store::ScheduleRunRecord added, schedules_.AddRun(run));
+  run = added;
   if (!session.ok()) return fail(session.status());
   store::SessionRepository sessions(store_);
   if (absl::StatusOr<store::SessionRecord> created = sessions.Create(

@@ -7,6 +7,7 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::rpc {
 namespace {
@@ -76,11 +77,10 @@ absl::Status Authenticator::Authenticate(
       return absl::UnauthenticatedError(
           "the authorization header must be \"Bearer hs_<id>_<secret>\"");
     }
-    absl::StatusOr<VerifiedApiKey> key = keys_.Verify(token);
-    if (!key.ok()) return key.status();
-    principal->name = key->user;
-    principal->role = std::min(key->role, RoleOf(key->user));
-    principal->key_expire_time = key->expire_time;
+    ASSIGN_OR_RETURN(VerifiedApiKey key, keys_.Verify(token));
+    principal->name = key.user;
+    principal->role = std::min(key.role, RoleOf(key.user));
+    principal->key_expire_time = key.expire_time;
     return absl::OkStatus();
   }
   if (tls) {
@@ -120,10 +120,7 @@ absl::StatusOr<Principal> Authenticator::Identify(
     return absl::UnauthenticatedError("the call has no security context");
   }
   Principal principal;
-  if (absl::Status s = Authenticate(*connection, authorization, &principal);
-      !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(Authenticate(*connection, authorization, &principal));
   return principal;
 }
 

@@ -5,6 +5,7 @@
 #include "absl/strings/str_cat.h"
 #include "daemon/rpc/method_roles.h"
 #include "daemon/rpc/status.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::rpc {
 namespace {
@@ -28,11 +29,8 @@ absl::Status CallGuard::Check(absl::string_view method,
                               const grpc::AuthContext& connection,
                               std::optional<absl::string_view> authorization,
                               Principal* principal) {
-  if (absl::Status s =
-          authenticator_.Authenticate(connection, authorization, principal);
-      !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(
+      authenticator_.Authenticate(connection, authorization, principal));
   const MethodRule* rule = FindMethodRule(method);
   if (rule == nullptr) {
     return absl::UnimplementedError(

@@ -11,6 +11,7 @@
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "daemon/rpc/status.h"
+#include "processing/base/status_macros.h"
 #include "processing/structured_light/gray_code.h"
 
 namespace hdrstereo::rpc {
@@ -125,9 +126,8 @@ absl::StatusOr<std::pair<cv::Mat, std::string>> PatternFor(
                                       : sl::Axis::kRows,
                           .bit = g.bit(),
                           .inverse = g.inverse()};
-      absl::StatusOr<cv::Mat> image = sl::Render(pattern, size);
-      if (!image.ok()) return image.status();
-      return std::make_pair(*image,
+      ASSIGN_OR_RETURN(cv::Mat image, sl::Render(pattern, size));
+      return std::make_pair(image,
                             absl::StrCat("gray code ", pattern.Id(),
                                          pattern.inverse ? " inverse" : ""));
     }

@@ -4,6 +4,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::store {
 namespace {
@@ -32,9 +33,8 @@ ArtifactRecord ReadArtifact(const Statement& stmt) {
 absl::StatusOr<std::vector<ArtifactRecord>> ReadAll(Statement& stmt) {
   std::vector<ArtifactRecord> out;
   while (true) {
-    absl::StatusOr<bool> row = stmt.Step();
-    if (!row.ok()) return row.status();
-    if (!*row) return out;
+    ASSIGN_OR_RETURN(bool row, stmt.Step());
+    if (!row) return out;
     out.push_back(ReadArtifact(stmt));
   }
 }
@@ -42,17 +42,15 @@ absl::StatusOr<std::vector<ArtifactRecord>> ReadAll(Statement& stmt) {
 // The caller holds the database lock.
 absl::StatusOr<int64_t> SessionIdLocked(Database& db,
                                         absl::string_view session) {
-  absl::StatusOr<Statement> stmt =
-      db.Prepare("SELECT id FROM sessions WHERE name = ?1");
-  if (!stmt.ok()) return stmt.status();
-  stmt->Bind(1, session);
-  absl::StatusOr<bool> row = stmt->Step();
-  if (!row.ok()) return row.status();
-  if (!*row) {
+  ASSIGN_OR_RETURN(Statement stmt,
+                   db.Prepare("SELECT id FROM sessions WHERE name = ?1"));
+  stmt.Bind(1, session);
+  ASSIGN_OR_RETURN(bool row, stmt.Step());
+  if (!row) {
     return absl::NotFoundError(
         absl::StrCat("no session named \"", session, "\""));
   }
-  return stmt->ColumnInt(0);
+  return stmt.ColumnInt(0);
 }
 
 void BindJob(Statement& stmt, int index, int64_t job_id) {
@@ -69,33 +67,30 @@ absl::StatusOr<std::vector<ArtifactRecord>> ArtifactRepository::ForStep(
     int64_t session_id, absl::string_view step, absl::string_view params_hash) {
   Database& db = store_.db();
   std::unique_lock<std::mutex> lock = db.Lock();
-  absl::StatusOr<Statement> stmt = db.Prepare(absl::StrCat(
-      kSelectArtifact,
-      "WHERE a.session_id = ?1 AND a.step = ?2 AND a.params_hash = ?3 "
-      "ORDER BY a.id"));
-  if (!stmt.ok()) return stmt.status();
-  stmt->Bind(1, session_id).Bind(2, step).Bind(3, params_hash);
-  return ReadAll(*stmt);
+  ASSIGN_OR_RETURN(
+      Statement stmt,
+      db.Prepare(absl::StrCat(
+          kSelectArtifact,
+          "WHERE a.session_id = ?1 AND a.step = ?2 AND a.params_hash = ?3 "
+          "ORDER BY a.id")));
+  stmt.Bind(1, session_id).Bind(2, step).Bind(3, params_hash);
+  return ReadAll(stmt);
 }
 
 absl::Status ArtifactRepository::ReplaceStep(
     int64_t session_id, int64_t job_id, absl::string_view step,
     const std::vector<ArtifactRecord>& artifacts) {
   Database& db = store_.db();
-  absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
-  if (!tx.ok()) return tx.status();
-  absl::StatusOr<Statement> clear =
-      db.Prepare("DELETE FROM artifacts WHERE session_id = ?1 AND step = ?2");
-  if (!clear.ok()) return clear.status();
-  if (absl::Status s = clear->Bind(1, session_id).Bind(2, step).Run();
-      !s.ok()) {
-    return s;
-  }
+  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  ASSIGN_OR_RETURN(
+      Statement clear,
+      db.Prepare("DELETE FROM artifacts WHERE session_id = ?1 AND step = ?2"));
+  RETURN_IF_ERROR(clear.Bind(1, session_id).Bind(2, step).Run());
   const int64_t now = absl::ToUnixMillis(absl::Now());
   for (const ArtifactRecord& a : artifacts) {
     // A path written by another step before (a renamed step, say) now
     // belongs to this one.
-    absl::StatusOr<Statement> insert = db.Prepare(R"sql(
+    ASSIGN_OR_RETURN(Statement insert, db.Prepare(R"sql(
 INSERT INTO artifacts (session_id, job_id, step, kind, path, params_json,
   params_hash, sha256, size_bytes, create_time_ms)
 VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)
@@ -104,11 +99,10 @@ ON CONFLICT (session_id, path) DO UPDATE SET job_id = excluded.job_id,
   params_json = excluded.params_json, params_hash = excluded.params_hash,
   sha256 = excluded.sha256, size_bytes = excluded.size_bytes,
   create_time_ms = excluded.create_time_ms
-)sql");
-    if (!insert.ok()) return insert.status();
-    insert->Bind(1, session_id);
-    BindJob(*insert, 2, job_id);
-    insert->Bind(3, step)
+)sql"));
+    insert.Bind(1, session_id);
+    BindJob(insert, 2, job_id);
+    insert.Bind(3, step)
         .Bind(4, a.kind)
         .Bind(5, a.path)
         .Bind(6, a.params_json)
@@ -116,9 +110,9 @@ ON CONFLICT (session_id, path) DO UPDATE SET job_id = excluded.job_id,
         .Bind(8, a.sha256)
         .Bind(9, a.size_bytes)
         .Bind(10, now);
-    if (absl::Status s = insert->Run(); !s.ok()) return s;
+    RETURN_IF_ERROR(insert.Run());
   }
-  return (*tx)->Commit();
+  return tx->Commit();
 }
 
 absl::StatusOr<std::vector<ArtifactRecord>> ArtifactRepository::List(
@@ -126,60 +120,56 @@ absl::StatusOr<std::vector<ArtifactRecord>> ArtifactRepository::List(
     int limit) {
   Database& db = store_.db();
   std::unique_lock<std::mutex> lock = db.Lock();
-  absl::StatusOr<int64_t> session_id = SessionIdLocked(db, session);
-  if (!session_id.ok()) return session_id.status();
-  absl::StatusOr<Statement> stmt = db.Prepare(absl::StrCat(
-      kSelectArtifact,
-      "WHERE a.session_id = ?1 AND (?2 = '' OR a.kind = ?2) AND a.id > ?3 "
-      "ORDER BY a.id LIMIT ?4"));
-  if (!stmt.ok()) return stmt.status();
-  stmt->Bind(1, *session_id)
+  ASSIGN_OR_RETURN(int64_t session_id, SessionIdLocked(db, session));
+  ASSIGN_OR_RETURN(
+      Statement stmt,
+      db.Prepare(absl::StrCat(
+          kSelectArtifact,
+          "WHERE a.session_id = ?1 AND (?2 = '' OR a.kind = ?2) AND a.id > ?3 "
+          "ORDER BY a.id LIMIT ?4")));
+  stmt.Bind(1, session_id)
       .Bind(2, kind)
       .Bind(3, after_id)
       .Bind(4, int64_t{limit});
-  return ReadAll(*stmt);
+  return ReadAll(stmt);
 }
 
 absl::StatusOr<ArtifactRecord> ArtifactRepository::Get(
     absl::string_view session, int64_t artifact_id) {
   Database& db = store_.db();
   std::unique_lock<std::mutex> lock = db.Lock();
-  absl::StatusOr<int64_t> session_id = SessionIdLocked(db, session);
-  if (!session_id.ok()) return session_id.status();
-  absl::StatusOr<Statement> stmt = db.Prepare(
-      absl::StrCat(kSelectArtifact, "WHERE a.session_id = ?1 AND a.id = ?2"));
-  if (!stmt.ok()) return stmt.status();
-  stmt->Bind(1, *session_id).Bind(2, artifact_id);
-  absl::StatusOr<bool> row = stmt->Step();
-  if (!row.ok()) return row.status();
-  if (!*row) {
+  ASSIGN_OR_RETURN(int64_t session_id, SessionIdLocked(db, session));
+  ASSIGN_OR_RETURN(
+      Statement stmt,
+      db.Prepare(absl::StrCat(kSelectArtifact,
+                              "WHERE a.session_id = ?1 AND a.id = ?2")));
+  stmt.Bind(1, session_id).Bind(2, artifact_id);
+  ASSIGN_OR_RETURN(bool row, stmt.Step());
+  if (!row) {
     return absl::NotFoundError(absl::StrCat(
         "session \"", session, "\" has no artifact ", artifact_id));
   }
-  return ReadArtifact(*stmt);
+  return ReadArtifact(stmt);
 }
 
 absl::Status ArtifactRepository::ReplaceMetrics(
     int64_t session_id, int64_t job_id,
     const std::vector<MetricRecord>& metrics) {
   Database& db = store_.db();
-  absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
-  if (!tx.ok()) return tx.status();
-  absl::StatusOr<Statement> clear =
-      db.Prepare("DELETE FROM metrics WHERE session_id = ?1");
-  if (!clear.ok()) return clear.status();
-  if (absl::Status s = clear->Bind(1, session_id).Run(); !s.ok()) return s;
+  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  ASSIGN_OR_RETURN(Statement clear,
+                   db.Prepare("DELETE FROM metrics WHERE session_id = ?1"));
+  RETURN_IF_ERROR(clear.Bind(1, session_id).Run());
   const int64_t now = absl::ToUnixMillis(absl::Now());
   for (const MetricRecord& m : metrics) {
-    absl::StatusOr<Statement> insert = db.Prepare(R"sql(
+    ASSIGN_OR_RETURN(Statement insert, db.Prepare(R"sql(
 INSERT INTO metrics (session_id, job_id, method, ground_truth, rmse, mae,
   bad_0_5, bad_1, bad_2, bad_4, coverage, create_time_ms)
 VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)
-)sql");
-    if (!insert.ok()) return insert.status();
-    insert->Bind(1, session_id);
-    BindJob(*insert, 2, job_id);
-    insert->Bind(3, m.method)
+)sql"));
+    insert.Bind(1, session_id);
+    BindJob(insert, 2, job_id);
+    insert.Bind(3, m.method)
         .Bind(4, m.ground_truth)
         .Bind(5, m.rmse)
         .Bind(6, m.mae)
@@ -189,37 +179,35 @@ VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)
         .Bind(10, m.bad_4)
         .Bind(11, m.coverage)
         .Bind(12, now);
-    if (absl::Status s = insert->Run(); !s.ok()) return s;
+    RETURN_IF_ERROR(insert.Run());
   }
-  return (*tx)->Commit();
+  return tx->Commit();
 }
 
 absl::StatusOr<std::vector<MetricRecord>> ArtifactRepository::Metrics(
     int64_t session_id) {
   Database& db = store_.db();
   std::unique_lock<std::mutex> lock = db.Lock();
-  absl::StatusOr<Statement> stmt = db.Prepare(R"sql(
+  ASSIGN_OR_RETURN(Statement stmt, db.Prepare(R"sql(
 SELECT method, ground_truth, rmse, mae, bad_0_5, bad_1, bad_2, bad_4,
   coverage, coalesce(job_id, 0)
 FROM metrics WHERE session_id = ?1 ORDER BY ground_truth, rmse, method
-)sql");
-  if (!stmt.ok()) return stmt.status();
-  stmt->Bind(1, session_id);
+)sql"));
+  stmt.Bind(1, session_id);
   std::vector<MetricRecord> out;
   while (true) {
-    absl::StatusOr<bool> row = stmt->Step();
-    if (!row.ok()) return row.status();
-    if (!*row) return out;
-    out.push_back(MetricRecord{.method = stmt->ColumnText(0),
-                               .ground_truth = stmt->ColumnText(1),
-                               .rmse = stmt->ColumnDouble(2),
-                               .mae = stmt->ColumnDouble(3),
-                               .bad_0_5 = stmt->ColumnDouble(4),
-                               .bad_1 = stmt->ColumnDouble(5),
-                               .bad_2 = stmt->ColumnDouble(6),
-                               .bad_4 = stmt->ColumnDouble(7),
-                               .coverage = stmt->ColumnDouble(8),
-                               .job_id = stmt->ColumnInt(9)});
+    ASSIGN_OR_RETURN(bool row, stmt.Step());
+    if (!row) return out;
+    out.push_back(MetricRecord{.method = stmt.ColumnText(0),
+                               .ground_truth = stmt.ColumnText(1),
+                               .rmse = stmt.ColumnDouble(2),
+                               .mae = stmt.ColumnDouble(3),
+                               .bad_0_5 = stmt.ColumnDouble(4),
+                               .bad_1 = stmt.ColumnDouble(5),
+                               .bad_2 = stmt.ColumnDouble(6),
+                               .bad_4 = stmt.ColumnDouble(7),
+                               .coverage = stmt.ColumnDouble(8),
+                               .job_id = stmt.ColumnInt(9)});
   }
 }
 

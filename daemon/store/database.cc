@@ -3,6 +3,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/string_view.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::store {
 
@@ -75,8 +76,7 @@ absl::StatusOr<bool> Statement::Step() {
 }
 
 absl::Status Statement::Run() {
-  absl::StatusOr<bool> row = Step();
-  if (!row.ok()) return row.status();
+  RETURN_IF_ERROR(Step().status());
   return absl::OkStatus();
 }
 
@@ -155,7 +155,7 @@ int Database::Changes() const { return sqlite3_changes(db_); }
 
 absl::StatusOr<std::unique_ptr<Transaction>> Transaction::Begin(Database& db) {
   std::unique_lock<std::mutex> lock = db.Lock();
-  if (absl::Status s = db.Exec("BEGIN IMMEDIATE"); !s.ok()) return s;
+  RETURN_IF_ERROR(db.Exec("BEGIN IMMEDIATE"));
   return std::unique_ptr<Transaction>(new Transaction(db, std::move(lock)));
 }
 

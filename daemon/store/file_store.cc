@@ -9,6 +9,7 @@
 #include "absl/strings/string_view.h"
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
+#include "processing/base/status_macros.h"
 #include "processing/io/atomic_file.h"
 
 namespace hdrstereo::store {
@@ -89,7 +90,7 @@ absl::Status FileStore::CreateSessionDir(absl::string_view session) {
   fs::path dir = SessionDir(session);
   std::error_code ec;
   if (fs::exists(dir, ec)) {
-    if (absl::Status s = MoveToOrphaned(dir); !s.ok()) return s;
+    RETURN_IF_ERROR(MoveToOrphaned(dir));
   }
   fs::create_directory(dir, ec);
   if (ec) return FsError(ec, "cannot create", dir);
@@ -112,7 +113,7 @@ absl::Status FileStore::RemoveSessionDir(absl::string_view session) {
 absl::Status FileStore::WriteSessionFile(absl::string_view session,
                                          const fs::path& relative,
                                          absl::string_view data) {
-  if (absl::Status s = ValidateRelativePath(relative); !s.ok()) return s;
+  RETURN_IF_ERROR(ValidateRelativePath(relative));
   fs::path path = SessionDir(session) / relative;
   std::error_code ec;
   fs::create_directories(path.parent_path(), ec);
@@ -133,12 +134,9 @@ absl::StatusOr<int> FileStore::Sweep(
   for (const auto& entry : fs::directory_iterator(root_ / "sessions", ec)) {
     if (!entry.is_directory()) continue;
     if (known_sessions.contains(entry.path().filename().string())) {
-      if (absl::StatusOr<int> n = io::RemoveStaleTempFiles(entry.path());
-          !n.ok()) {
-        return n.status();
-      }
+      RETURN_IF_ERROR(io::RemoveStaleTempFiles(entry.path()).status());
     } else {
-      if (absl::Status s = MoveToOrphaned(entry.path()); !s.ok()) return s;
+      RETURN_IF_ERROR(MoveToOrphaned(entry.path()));
       ++orphaned;
     }
   }

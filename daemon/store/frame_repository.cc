@@ -60,9 +60,8 @@ absl::StatusOr<FrameRecord> ReadFrame(const Statement& stmt) {
 absl::StatusOr<std::vector<FrameRecord>> ReadAll(Statement& stmt) {
   std::vector<FrameRecord> frames;
   while (true) {
-    absl::StatusOr<bool> row = stmt.Step();
-    if (!row.ok()) return row.status();
-    if (!*row) break;
+    ASSIGN_OR_RETURN(bool row, stmt.Step());
+    if (!row) break;
     ASSIGN_OR_RETURN(FrameRecord frame, ReadFrame(stmt));
     frames.push_back(std::move(frame));
   }
@@ -74,133 +73,125 @@ absl::StatusOr<std::vector<FrameRecord>> ReadAll(Statement& stmt) {
 absl::StatusOr<CaptureRecord> FrameRepository::CaptureForJob(
     int64_t job_id, io::CaptureKind kind, absl::string_view plan) {
   Database& db = store_.db();
-  absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
-  if (!tx.ok()) return tx.status();
-  absl::StatusOr<Statement> find = db.Prepare(
-      "SELECT id, session_id, kind, plan FROM captures WHERE job_id = ?1");
-  if (!find.ok()) return find.status();
-  find->Bind(1, job_id);
-  absl::StatusOr<bool> row = find->Step();
+  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  ASSIGN_OR_RETURN(
+      Statement find,
+      db.Prepare(
+          "SELECT id, session_id, kind, plan FROM captures WHERE job_id = ?1"));
+  find.Bind(1, job_id);
+  absl::StatusOr<bool> row = find.Step();
   if (!row.ok()) return row.status();
   if (*row) {
-    ASSIGN_OR_RETURN(const io::CaptureKind found, KindOf(find->ColumnText(2)));
-    return CaptureRecord{.id = find->ColumnInt(0),
-                         .session_id = find->ColumnInt(1),
+    ASSIGN_OR_RETURN(const io::CaptureKind found, KindOf(find.ColumnText(2)));
+    return CaptureRecord{.id = find.ColumnInt(0),
+                         .session_id = find.ColumnInt(1),
                          .job_id = job_id,
                          .kind = found,
-                         .plan = find->ColumnText(3)};
+                         .plan = find.ColumnText(3)};
   }
   // A resubmitted plan continues the capture of an earlier job of the same
   // session that failed or was cancelled, keeping the frames it recorded.
-  absl::StatusOr<Statement> adopt = db.Prepare(R"sql(
+  ASSIGN_OR_RETURN(Statement adopt, db.Prepare(R"sql(
 UPDATE captures SET job_id = ?1 WHERE id = (
   SELECT c.id FROM captures c JOIN jobs j ON j.id = c.job_id
   WHERE c.session_id = (SELECT session_id FROM jobs WHERE id = ?1)
     AND c.kind = ?2 AND c.plan = ?3 AND j.state IN ('failed', 'cancelled')
   ORDER BY c.id DESC LIMIT 1)
-RETURNING id, session_id)sql");
-  if (!adopt.ok()) return adopt.status();
-  adopt->Bind(1, job_id).Bind(2, io::CaptureKindName(kind)).Bind(3, plan);
-  row = adopt->Step();
+RETURNING id, session_id)sql"));
+  adopt.Bind(1, job_id).Bind(2, io::CaptureKindName(kind)).Bind(3, plan);
+  row = adopt.Step();
   if (!row.ok()) return row.status();
   if (*row) {
-    CaptureRecord capture{.id = adopt->ColumnInt(0),
-                          .session_id = adopt->ColumnInt(1),
+    CaptureRecord capture{.id = adopt.ColumnInt(0),
+                          .session_id = adopt.ColumnInt(1),
                           .job_id = job_id,
                           .kind = kind,
                           .plan = std::string(plan)};
     // Run the statement to its end so that the transaction can commit.
-    if (absl::StatusOr<bool> end = adopt->Step(); !end.ok()) {
-      return end.status();
-    }
-    if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+    RETURN_IF_ERROR(adopt.Step().status());
+    RETURN_IF_ERROR(tx->Commit());
     return capture;
   }
-  absl::StatusOr<Statement> insert = db.Prepare(R"sql(
+  ASSIGN_OR_RETURN(Statement insert, db.Prepare(R"sql(
 INSERT INTO captures (session_id, job_id, kind, plan, create_time_ms)
 SELECT session_id, id, ?2, ?3, ?4 FROM jobs WHERE id = ?1
-RETURNING id, session_id)sql");
-  if (!insert.ok()) return insert.status();
-  insert->Bind(1, job_id)
+RETURNING id, session_id)sql"));
+  insert.Bind(1, job_id)
       .Bind(2, io::CaptureKindName(kind))
       .Bind(3, plan)
       .Bind(4, absl::ToUnixMillis(absl::Now()));
-  row = insert->Step();
+  row = insert.Step();
   if (!row.ok()) return row.status();
   if (!*row) return absl::NotFoundError(absl::StrCat("no job ", job_id));
-  CaptureRecord capture{.id = insert->ColumnInt(0),
-                        .session_id = insert->ColumnInt(1),
+  CaptureRecord capture{.id = insert.ColumnInt(0),
+                        .session_id = insert.ColumnInt(1),
                         .job_id = job_id,
                         .kind = kind,
                         .plan = std::string(plan)};
-  if (absl::StatusOr<bool> end = insert->Step(); !end.ok()) {
-    return end.status();
-  }
-  if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+  RETURN_IF_ERROR(insert.Step().status());
+  RETURN_IF_ERROR(tx->Commit());
   return capture;
 }
 
 absl::StatusOr<std::vector<FrameRecord>> FrameRepository::FramesOfCapture(
     int64_t capture_id) {
   std::unique_lock<std::mutex> lock = store_.db().Lock();
-  absl::StatusOr<Statement> stmt = store_.db().Prepare(absl::StrCat(
-      kSelectFrame, "WHERE f.capture_id = ?1 ORDER BY f.sequence"));
-  if (!stmt.ok()) return stmt.status();
-  stmt->Bind(1, capture_id);
-  return ReadAll(*stmt);
+  ASSIGN_OR_RETURN(
+      Statement stmt,
+      store_.db().Prepare(absl::StrCat(
+          kSelectFrame, "WHERE f.capture_id = ?1 ORDER BY f.sequence")));
+  stmt.Bind(1, capture_id);
+  return ReadAll(stmt);
 }
 
 absl::StatusOr<std::vector<FrameRecord>> FrameRepository::FramesOfSession(
     absl::string_view session, int64_t capture_id, int64_t after_id,
     int limit) {
   std::unique_lock<std::mutex> lock = store_.db().Lock();
-  absl::StatusOr<Statement> exists =
-      store_.db().Prepare("SELECT id FROM sessions WHERE name = ?1");
-  if (!exists.ok()) return exists.status();
-  exists->Bind(1, session);
-  absl::StatusOr<bool> row = exists->Step();
-  if (!row.ok()) return row.status();
-  if (!*row) {
+  ASSIGN_OR_RETURN(
+      Statement exists,
+      store_.db().Prepare("SELECT id FROM sessions WHERE name = ?1"));
+  exists.Bind(1, session);
+  ASSIGN_OR_RETURN(bool row, exists.Step());
+  if (!row) {
     return absl::NotFoundError(
         absl::StrCat("no session named \"", session, "\""));
   }
-  const int64_t session_id = exists->ColumnInt(0);
-  absl::StatusOr<Statement> stmt = store_.db().Prepare(absl::StrCat(
-      kSelectFrame,
-      "WHERE c.session_id = ?1 AND (?2 = 0 OR f.capture_id = ?2) AND f.id > ?3 "
-      "ORDER BY f.id LIMIT ?4"));
-  if (!stmt.ok()) return stmt.status();
-  stmt->Bind(1, session_id)
+  const int64_t session_id = exists.ColumnInt(0);
+  ASSIGN_OR_RETURN(Statement stmt, store_.db().Prepare(absl::StrCat(
+                                       kSelectFrame,
+                                       "WHERE c.session_id = ?1 AND (?2 = 0 OR "
+                                       "f.capture_id = ?2) AND f.id > ?3 "
+                                       "ORDER BY f.id LIMIT ?4")));
+  stmt.Bind(1, session_id)
       .Bind(2, capture_id)
       .Bind(3, after_id)
       .Bind(4, int64_t{limit});
-  return ReadAll(*stmt);
+  return ReadAll(stmt);
 }
 
 absl::StatusOr<std::vector<CaptureRecord>> FrameRepository::CapturesOfSession(
     absl::string_view session) {
   std::unique_lock<std::mutex> lock = store_.db().Lock();
-  absl::StatusOr<Statement> stmt = store_.db().Prepare(R"sql(
+  ASSIGN_OR_RETURN(Statement stmt, store_.db().Prepare(R"sql(
 SELECT s.id, c.id, c.session_id, coalesce(c.job_id, 0), c.kind, c.plan
 FROM sessions s LEFT JOIN captures c ON c.session_id = s.id
 WHERE s.name = ?1 ORDER BY c.id
-)sql");
-  if (!stmt.ok()) return stmt.status();
-  stmt->Bind(1, session);
+)sql"));
+  stmt.Bind(1, session);
   std::vector<CaptureRecord> out;
   bool found = false;
   while (true) {
-    absl::StatusOr<bool> row = stmt->Step();
-    if (!row.ok()) return row.status();
-    if (!*row) break;
+    ASSIGN_OR_RETURN(bool row, stmt.Step());
+    if (!row) break;
     found = true;
-    if (stmt->ColumnIsNull(1)) continue;  // a session without captures
-    ASSIGN_OR_RETURN(const io::CaptureKind kind, KindOf(stmt->ColumnText(4)));
-    out.push_back(CaptureRecord{.id = stmt->ColumnInt(1),
-                                .session_id = stmt->ColumnInt(2),
-                                .job_id = stmt->ColumnInt(3),
+    if (stmt.ColumnIsNull(1)) continue;  // a session without captures
+    ASSIGN_OR_RETURN(const io::CaptureKind kind, KindOf(stmt.ColumnText(4)));
+    out.push_back(CaptureRecord{.id = stmt.ColumnInt(1),
+                                .session_id = stmt.ColumnInt(2),
+                                .job_id = stmt.ColumnInt(3),
                                 .kind = kind,
-                                .plan = stmt->ColumnText(5)});
+                                .plan = stmt.ColumnText(5)});
   }
   if (!found) {
     return absl::NotFoundError(
@@ -210,14 +201,13 @@ WHERE s.name = ?1 ORDER BY c.id
 }
 
 absl::Status FrameRepository::InsertLocked(const FrameRecord& f) {
-  absl::StatusOr<Statement> insert = store_.db().Prepare(R"sql(
+  ASSIGN_OR_RETURN(Statement insert, store_.db().Prepare(R"sql(
 INSERT INTO frames (capture_id, sequence, view_index, stage_position_mm,
   exposure_s, pattern, inverse, format, width_px, height_px, path, sha256,
   camera_time_ms, camera_exposure_s, iso, aperture_f, camera_file_name)
 VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16,
-  ?17))sql");
-  if (!insert.ok()) return insert.status();
-  insert->Bind(1, f.capture_id)
+  ?17))sql"));
+  insert.Bind(1, f.capture_id)
       .Bind(2, int64_t{f.sequence})
       .Bind(3, int64_t{f.view_index})
       .Bind(4, f.stage_position_mm)
@@ -230,33 +220,31 @@ VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16,
       .Bind(11, f.path)
       .Bind(12, f.sha256);
   if (f.camera_time_ms.has_value()) {
-    insert->Bind(13, *f.camera_time_ms);
+    insert.Bind(13, *f.camera_time_ms);
   } else {
-    insert->BindNull(13);
+    insert.BindNull(13);
   }
   int column = 14;
   for (const std::optional<double>& value :
        {f.camera_exposure_s, f.iso, f.aperture_f}) {
     if (value.has_value()) {
-      insert->Bind(column, *value);
+      insert.Bind(column, *value);
     } else {
-      insert->BindNull(column);
+      insert.BindNull(column);
     }
     ++column;
   }
-  insert->Bind(17, f.camera_file_name);
-  return insert->Run();
+  insert.Bind(17, f.camera_file_name);
+  return insert.Run();
 }
 
 absl::Status FrameRepository::Delete(int64_t frame_id) {
-  absl::StatusOr<std::unique_ptr<Transaction>> tx =
-      Transaction::Begin(store_.db());
-  if (!tx.ok()) return tx.status();
-  absl::StatusOr<Statement> remove =
-      store_.db().Prepare("DELETE FROM frames WHERE id = ?1");
-  if (!remove.ok()) return remove.status();
-  if (absl::Status s = remove->Bind(1, frame_id).Run(); !s.ok()) return s;
-  return (*tx)->Commit();
+  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx,
+                   Transaction::Begin(store_.db()));
+  ASSIGN_OR_RETURN(Statement remove,
+                   store_.db().Prepare("DELETE FROM frames WHERE id = ?1"));
+  RETURN_IF_ERROR(remove.Bind(1, frame_id).Run());
+  return tx->Commit();
 }
 
 }  // namespace hdrstereo::store

@@ -57,9 +57,8 @@ absl::StatusOr<JobRecord> ReadJob(const Statement& stmt) {
                                              : JobKind::kProcessing;
   job.session_id = stmt.ColumnInt(2);
   job.session = stmt.ColumnText(3);
-  absl::StatusOr<JobState> state = ParseJobState(stmt.ColumnText(4));
-  if (!state.ok()) return state.status();
-  job.state = *state;
+  ASSIGN_OR_RETURN(JobState state, ParseJobState(stmt.ColumnText(4)));
+  job.state = state;
   job.request = stmt.ColumnText(5);
   job.progress_done = stmt.ColumnInt(6);
   job.progress_total = stmt.ColumnInt(7);
@@ -74,14 +73,12 @@ absl::StatusOr<JobRecord> ReadJob(const Statement& stmt) {
 }
 
 absl::StatusOr<JobRecord> GetLocked(Database& db, int64_t id) {
-  absl::StatusOr<Statement> stmt =
-      db.Prepare(absl::StrCat(kSelectJob, "WHERE j.id = ?1"));
-  if (!stmt.ok()) return stmt.status();
-  stmt->Bind(1, id);
-  absl::StatusOr<bool> row = stmt->Step();
-  if (!row.ok()) return row.status();
-  if (!*row) return absl::NotFoundError(absl::StrCat("no job ", id));
-  return ReadJob(*stmt);
+  ASSIGN_OR_RETURN(Statement stmt,
+                   db.Prepare(absl::StrCat(kSelectJob, "WHERE j.id = ?1")));
+  stmt.Bind(1, id);
+  ASSIGN_OR_RETURN(bool row, stmt.Step());
+  if (!row) return absl::NotFoundError(absl::StrCat("no job ", id));
+  return ReadJob(stmt);
 }
 
 }  // namespace
@@ -108,24 +105,22 @@ bool IsFinal(JobState state) {
 absl::StatusOr<JobEventRecord> JobRepository::AppendEventLocked(
     int64_t id, EventLevel level, absl::string_view message) {
   Database& db = store_.db();
-  absl::StatusOr<JobRecord> job = GetLocked(db, id);
-  if (!job.ok()) return job.status();
-  absl::StatusOr<Statement> insert = db.Prepare(R"sql(
+  ASSIGN_OR_RETURN(JobRecord job, GetLocked(db, id));
+  ASSIGN_OR_RETURN(Statement insert, db.Prepare(R"sql(
 INSERT INTO job_events (job_id, sequence, time_ms, state, progress_done,
                         progress_total, step, level, message)
 VALUES (?1, (SELECT coalesce(max(sequence), 0) + 1 FROM job_events
              WHERE job_id = ?1), ?2, ?3, ?4, ?5, ?6, ?7, ?8)
-RETURNING sequence)sql");
-  if (!insert.ok()) return insert.status();
+RETURNING sequence)sql"));
   JobEventRecord event{.job_id = id,
                        .time_ms = NowMs(),
-                       .state = job->state,
-                       .progress_done = job->progress_done,
-                       .progress_total = job->progress_total,
-                       .step = job->step,
+                       .state = job.state,
+                       .progress_done = job.progress_done,
+                       .progress_total = job.progress_total,
+                       .step = job.step,
                        .level = level,
                        .message = std::string(message)};
-  insert->Bind(1, id)
+  insert.Bind(1, id)
       .Bind(2, event.time_ms)
       .Bind(3, JobStateName(event.state))
       .Bind(4, event.progress_done)
@@ -133,9 +128,8 @@ RETURNING sequence)sql");
       .Bind(6, event.step)
       .Bind(7, LevelName(level))
       .Bind(8, message);
-  absl::StatusOr<bool> row = insert->Step();
-  if (!row.ok()) return row.status();
-  event.sequence = insert->ColumnInt(0);
+  RETURN_IF_ERROR(insert.Step().status());
+  event.sequence = insert.ColumnInt(0);
   return event;
 }
 
@@ -143,37 +137,27 @@ absl::StatusOr<JobRecord> JobRepository::Create(
     JobKind kind, absl::string_view session, absl::string_view request,
     int64_t total, absl::string_view message, absl::string_view submitted_by) {
   Database& db = store_.db();
-  absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
-  if (!tx.ok()) return tx.status();
-  absl::StatusOr<Statement> insert = db.Prepare(R"sql(
+  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  ASSIGN_OR_RETURN(Statement insert, db.Prepare(R"sql(
 INSERT INTO jobs (kind, session_id, state, request, create_time_ms,
                   progress_total, submitted_by)
-SELECT ?1, id, 'queued', ?2, ?3, ?5, ?6 FROM sessions WHERE name = ?4)sql");
-  if (!insert.ok()) return insert.status();
-  if (absl::Status s =
-          insert->Bind(1, kind == JobKind::kCapture ? "capture" : "processing")
-              .Bind(2, request)
-              .Bind(3, NowMs())
-              .Bind(4, session)
-              .Bind(5, total)
-              .Bind(6, submitted_by)
-              .Run();
-      !s.ok()) {
-    return s;
-  }
+SELECT ?1, id, 'queued', ?2, ?3, ?5, ?6 FROM sessions WHERE name = ?4)sql"));
+  RETURN_IF_ERROR(
+      insert.Bind(1, kind == JobKind::kCapture ? "capture" : "processing")
+          .Bind(2, request)
+          .Bind(3, NowMs())
+          .Bind(4, session)
+          .Bind(5, total)
+          .Bind(6, submitted_by)
+          .Run());
   if (db.Changes() == 0) {
     return absl::NotFoundError(
         absl::StrCat("no session named \"", session, "\""));
   }
   const int64_t id = db.LastInsertId();
-  if (absl::StatusOr<JobEventRecord> e =
-          AppendEventLocked(id, EventLevel::kInfo, message);
-      !e.ok()) {
-    return e.status();
-  }
-  absl::StatusOr<JobRecord> job = GetLocked(db, id);
-  if (!job.ok()) return job.status();
-  if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+  RETURN_IF_ERROR(AppendEventLocked(id, EventLevel::kInfo, message).status());
+  ASSIGN_OR_RETURN(JobRecord job, GetLocked(db, id));
+  RETURN_IF_ERROR(tx->Commit());
   return job;
 }
 
@@ -181,43 +165,38 @@ absl::StatusOr<std::vector<JobEventRow>> JobRepository::EventsAfterRow(
     int64_t after_row_id, int limit) {
   Database& db = store_.db();
   std::unique_lock<std::mutex> lock = db.Lock();
-  absl::StatusOr<Statement> stmt = db.Prepare(R"sql(
+  ASSIGN_OR_RETURN(Statement stmt, db.Prepare(R"sql(
 SELECT e.id, e.sequence, e.time_ms, e.state, e.progress_done,
        e.progress_total, e.step, e.level, e.message,
        (SELECT p.state FROM job_events p
         WHERE p.job_id = e.job_id AND p.sequence < e.sequence
         ORDER BY p.sequence DESC LIMIT 1),
        e.job_id
-FROM job_events e WHERE e.id > ?1 ORDER BY e.id LIMIT ?2)sql");
-  if (!stmt.ok()) return stmt.status();
-  stmt->Bind(1, after_row_id).Bind(2, int64_t{limit});
+FROM job_events e WHERE e.id > ?1 ORDER BY e.id LIMIT ?2)sql"));
+  stmt.Bind(1, after_row_id).Bind(2, int64_t{limit});
   std::vector<JobEventRow> rows;
   while (true) {
-    absl::StatusOr<bool> more = stmt->Step();
-    if (!more.ok()) return more.status();
-    if (!*more) break;
+    ASSIGN_OR_RETURN(bool more, stmt.Step());
+    if (!more) break;
     JobEventRow row;
-    row.row_id = stmt->ColumnInt(0);
+    row.row_id = stmt.ColumnInt(0);
     JobEventRecord& event = row.event;
-    event.job_id = stmt->ColumnInt(10);
-    event.sequence = stmt->ColumnInt(1);
-    event.time_ms = stmt->ColumnInt(2);
-    absl::StatusOr<JobState> state = ParseJobState(stmt->ColumnText(3));
-    if (!state.ok()) return state.status();
-    event.state = *state;
-    event.progress_done = stmt->ColumnInt(4);
-    event.progress_total = stmt->ColumnInt(5);
-    event.step = stmt->ColumnText(6);
-    event.level = ParseLevel(stmt->ColumnText(7));
-    event.message = stmt->ColumnText(8);
-    if (!stmt->ColumnIsNull(9)) {
-      absl::StatusOr<JobState> previous = ParseJobState(stmt->ColumnText(9));
-      if (!previous.ok()) return previous.status();
-      row.previous_state = *previous;
+    event.job_id = stmt.ColumnInt(10);
+    event.sequence = stmt.ColumnInt(1);
+    event.time_ms = stmt.ColumnInt(2);
+    ASSIGN_OR_RETURN(JobState state, ParseJobState(stmt.ColumnText(3)));
+    event.state = state;
+    event.progress_done = stmt.ColumnInt(4);
+    event.progress_total = stmt.ColumnInt(5);
+    event.step = stmt.ColumnText(6);
+    event.level = ParseLevel(stmt.ColumnText(7));
+    event.message = stmt.ColumnText(8);
+    if (!stmt.ColumnIsNull(9)) {
+      ASSIGN_OR_RETURN(JobState previous, ParseJobState(stmt.ColumnText(9)));
+      row.previous_state = previous;
     }
-    absl::StatusOr<JobRecord> job = GetLocked(db, event.job_id);
-    if (!job.ok()) return job.status();
-    row.job = *std::move(job);
+    ASSIGN_OR_RETURN(JobRecord job, GetLocked(db, event.job_id));
+    row.job = std::move(job);
     rows.push_back(std::move(row));
   }
   return rows;
@@ -241,21 +220,19 @@ absl::StatusOr<std::vector<JobRecord>> JobRepository::List(
         absl::StrCat("j.state IN (", absl::StrJoin(names, ", "), ")"));
   }
   std::unique_lock<std::mutex> lock = store_.db().Lock();
-  absl::StatusOr<Statement> stmt = store_.db().Prepare(
-      absl::StrCat(kSelectJob, "WHERE ", absl::StrJoin(where, " AND "),
-                   " ORDER BY j.id LIMIT ?3"));
-  if (!stmt.ok()) return stmt.status();
-  stmt->Bind(1, filter.after_id)
+  ASSIGN_OR_RETURN(Statement stmt,
+                   store_.db().Prepare(absl::StrCat(
+                       kSelectJob, "WHERE ", absl::StrJoin(where, " AND "),
+                       " ORDER BY j.id LIMIT ?3")));
+  stmt.Bind(1, filter.after_id)
       .Bind(2, filter.session)
       .Bind(3, int64_t{filter.limit});
   std::vector<JobRecord> jobs;
   while (true) {
-    absl::StatusOr<bool> row = stmt->Step();
-    if (!row.ok()) return row.status();
-    if (!*row) break;
-    absl::StatusOr<JobRecord> job = ReadJob(*stmt);
-    if (!job.ok()) return job.status();
-    jobs.push_back(*std::move(job));
+    ASSIGN_OR_RETURN(bool row, stmt.Step());
+    if (!row) break;
+    ASSIGN_OR_RETURN(JobRecord job, ReadJob(stmt));
+    jobs.push_back(std::move(job));
   }
   return jobs;
 }
@@ -264,57 +241,50 @@ absl::StatusOr<JobEventRecord> JobRepository::SetState(
     int64_t id, JobState state, absl::string_view message,
     absl::string_view error) {
   Database& db = store_.db();
-  absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
-  if (!tx.ok()) return tx.status();
-  absl::StatusOr<Statement> update = db.Prepare(R"sql(
+  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  ASSIGN_OR_RETURN(Statement update, db.Prepare(R"sql(
 UPDATE jobs SET state = ?2, error = ?3,
   start_time_ms = CASE WHEN ?2 = 'running' AND start_time_ms IS NULL
                        THEN ?4 ELSE start_time_ms END,
   end_time_ms = CASE WHEN ?2 IN ('succeeded', 'failed', 'cancelled')
                      THEN ?4 ELSE NULL END
-WHERE id = ?1)sql");
-  if (!update.ok()) return update.status();
-  if (absl::Status s = update->Bind(1, id)
-                           .Bind(2, JobStateName(state))
-                           .Bind(3, error)
-                           .Bind(4, NowMs())
-                           .Run();
-      !s.ok()) {
-    return s;
-  }
+WHERE id = ?1)sql"));
+  RETURN_IF_ERROR(update.Bind(1, id)
+                      .Bind(2, JobStateName(state))
+                      .Bind(3, error)
+                      .Bind(4, NowMs())
+                      .Run());
   if (db.Changes() == 0)
     return absl::NotFoundError(absl::StrCat("no job ", id));
-  absl::StatusOr<JobEventRecord> event = AppendEventLocked(
-      id, state == JobState::kFailed ? EventLevel::kError : EventLevel::kInfo,
-      message);
-  if (!event.ok()) return event.status();
-  if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+  ASSIGN_OR_RETURN(
+      JobEventRecord event,
+      AppendEventLocked(
+          id,
+          state == JobState::kFailed ? EventLevel::kError : EventLevel::kInfo,
+          message));
+  RETURN_IF_ERROR(tx->Commit());
   return event;
 }
 
 absl::StatusOr<JobEventRecord> JobRepository::SetProgressLocked(
     int64_t id, int64_t done, int64_t total, absl::string_view step) {
   Database& db = store_.db();
-  absl::StatusOr<Statement> update = db.Prepare(
-      "UPDATE jobs SET progress_done = ?2, progress_total = ?3, step = ?4 "
-      "WHERE id = ?1");
-  if (!update.ok()) return update.status();
-  if (absl::Status s =
-          update->Bind(1, id).Bind(2, done).Bind(3, total).Bind(4, step).Run();
-      !s.ok()) {
-    return s;
-  }
+  ASSIGN_OR_RETURN(
+      Statement update,
+      db.Prepare(
+          "UPDATE jobs SET progress_done = ?2, progress_total = ?3, step = ?4 "
+          "WHERE id = ?1"));
+  RETURN_IF_ERROR(
+      update.Bind(1, id).Bind(2, done).Bind(3, total).Bind(4, step).Run());
   return AppendEventLocked(id, EventLevel::kInfo, "");
 }
 
 absl::StatusOr<JobEventRecord> JobRepository::AddEvent(
     int64_t id, EventLevel level, absl::string_view message) {
-  absl::StatusOr<std::unique_ptr<Transaction>> tx =
-      Transaction::Begin(store_.db());
-  if (!tx.ok()) return tx.status();
-  absl::StatusOr<JobEventRecord> event = AppendEventLocked(id, level, message);
-  if (!event.ok()) return event.status();
-  if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx,
+                   Transaction::Begin(store_.db()));
+  ASSIGN_OR_RETURN(JobEventRecord event, AppendEventLocked(id, level, message));
+  RETURN_IF_ERROR(tx->Commit());
   return event;
 }
 
@@ -335,28 +305,25 @@ absl::StatusOr<JobEventRecord> JobRepository::SetClusterJob(
 absl::StatusOr<std::vector<JobEventRecord>> JobRepository::Events(
     int64_t id, int64_t after_sequence) {
   std::unique_lock<std::mutex> lock = store_.db().Lock();
-  absl::StatusOr<Statement> stmt = store_.db().Prepare(R"sql(
+  ASSIGN_OR_RETURN(Statement stmt, store_.db().Prepare(R"sql(
 SELECT sequence, time_ms, state, progress_done, progress_total, step, level,
        message
-FROM job_events WHERE job_id = ?1 AND sequence > ?2 ORDER BY sequence)sql");
-  if (!stmt.ok()) return stmt.status();
-  stmt->Bind(1, id).Bind(2, after_sequence);
+FROM job_events WHERE job_id = ?1 AND sequence > ?2 ORDER BY sequence)sql"));
+  stmt.Bind(1, id).Bind(2, after_sequence);
   std::vector<JobEventRecord> events;
   while (true) {
-    absl::StatusOr<bool> row = stmt->Step();
-    if (!row.ok()) return row.status();
-    if (!*row) break;
-    absl::StatusOr<JobState> state = ParseJobState(stmt->ColumnText(2));
-    if (!state.ok()) return state.status();
+    ASSIGN_OR_RETURN(bool row, stmt.Step());
+    if (!row) break;
+    ASSIGN_OR_RETURN(JobState state, ParseJobState(stmt.ColumnText(2)));
     events.push_back({.job_id = id,
-                      .sequence = stmt->ColumnInt(0),
-                      .time_ms = stmt->ColumnInt(1),
-                      .state = *state,
-                      .progress_done = stmt->ColumnInt(3),
-                      .progress_total = stmt->ColumnInt(4),
-                      .step = stmt->ColumnText(5),
-                      .level = ParseLevel(stmt->ColumnText(6)),
-                      .message = stmt->ColumnText(7)});
+                      .sequence = stmt.ColumnInt(0),
+                      .time_ms = stmt.ColumnInt(1),
+                      .state = state,
+                      .progress_done = stmt.ColumnInt(3),
+                      .progress_total = stmt.ColumnInt(4),
+                      .step = stmt.ColumnText(5),
+                      .level = ParseLevel(stmt.ColumnText(6)),
+                      .message = stmt.ColumnText(7)});
   }
   return events;
 }
@@ -365,20 +332,19 @@ absl::StatusOr<std::vector<int64_t>> JobRepository::InterruptUnfinished() {
   std::vector<int64_t> ids;
   {
     std::unique_lock<std::mutex> lock = store_.db().Lock();
-    absl::StatusOr<Statement> stmt = store_.db().Prepare(
-        "SELECT id FROM jobs WHERE state IN ('running', 'paused') ORDER BY id");
-    if (!stmt.ok()) return stmt.status();
+    ASSIGN_OR_RETURN(Statement stmt,
+                     store_.db().Prepare("SELECT id FROM jobs WHERE state IN "
+                                         "('running', 'paused') ORDER BY id"));
     while (true) {
-      absl::StatusOr<bool> row = stmt->Step();
-      if (!row.ok()) return row.status();
-      if (!*row) break;
-      ids.push_back(stmt->ColumnInt(0));
+      ASSIGN_OR_RETURN(bool row, stmt.Step());
+      if (!row) break;
+      ids.push_back(stmt.ColumnInt(0));
     }
   }
   for (int64_t id : ids) {
-    absl::StatusOr<JobEventRecord> event = SetState(
-        id, JobState::kInterrupted, "the daemon stopped while this job ran");
-    if (!event.ok()) return event.status();
+    RETURN_IF_ERROR(SetState(id, JobState::kInterrupted,
+                             "the daemon stopped while this job ran")
+                        .status());
   }
   return ids;
 }

@@ -75,14 +75,12 @@ ScheduleRunRecord ReadRun(const Statement& stmt) {
 }
 
 absl::StatusOr<ScheduleRecord> GetLocked(Database& db, absl::string_view name) {
-  absl::StatusOr<Statement> stmt =
-      db.Prepare(absl::StrCat(kSelectSchedule, "WHERE s.name = ?1"));
-  if (!stmt.ok()) return stmt.status();
-  stmt->Bind(1, name);
-  absl::StatusOr<bool> row = stmt->Step();
-  if (!row.ok()) return row.status();
-  if (!*row) return NotFound(name);
-  return ReadSchedule(*stmt);
+  ASSIGN_OR_RETURN(Statement stmt, db.Prepare(absl::StrCat(
+                                       kSelectSchedule, "WHERE s.name = ?1")));
+  stmt.Bind(1, name);
+  ASSIGN_OR_RETURN(bool row, stmt.Step());
+  if (!row) return NotFound(name);
+  return ReadSchedule(stmt);
 }
 
 Statement& BindOptional(Statement& stmt, int index,
@@ -108,19 +106,17 @@ const char* RunOutcomeName(RunOutcome outcome) {
 
 absl::StatusOr<ScheduleRecord> ScheduleRepository::Create(
     const ScheduleRecord& schedule, int64_t now_ms) {
-  if (absl::Status s = ValidateName(schedule.name, "schedule name"); !s.ok()) {
-    return s;
-  }
+  RETURN_IF_ERROR(ValidateName(schedule.name, "schedule name"));
   Database& db = store_.db();
-  absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
-  if (!tx.ok()) return tx.status();
-  absl::StatusOr<Statement> insert = db.Prepare(
-      "INSERT INTO schedules (name, cron, time_zone, enabled, plan, "
-      "missed_run_policy, create_time_ms, enable_time_ms, created_by, "
-      "enabled_by) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?7, ?8, ?8)");
-  if (!insert.ok()) return insert.status();
+  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  ASSIGN_OR_RETURN(
+      Statement insert,
+      db.Prepare(
+          "INSERT INTO schedules (name, cron, time_zone, enabled, plan, "
+          "missed_run_policy, create_time_ms, enable_time_ms, created_by, "
+          "enabled_by) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?7, ?8, ?8)"));
   absl::Status inserted =
-      insert->Bind(1, schedule.name)
+      insert.Bind(1, schedule.name)
           .Bind(2, schedule.cron)
           .Bind(3, schedule.time_zone)
           .Bind(4, int64_t{schedule.enabled ? 1 : 0})
@@ -136,9 +132,8 @@ absl::StatusOr<ScheduleRecord> ScheduleRepository::Create(
         "a schedule named \"", schedule.name, "\" already exists"));
   }
   if (!inserted.ok()) return inserted;
-  absl::StatusOr<ScheduleRecord> record = GetLocked(db, schedule.name);
-  if (!record.ok()) return record.status();
-  if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+  ASSIGN_OR_RETURN(ScheduleRecord record, GetLocked(db, schedule.name));
+  RETURN_IF_ERROR(tx->Commit());
   return record;
 }
 
@@ -150,119 +145,112 @@ absl::StatusOr<ScheduleRecord> ScheduleRepository::Get(absl::string_view name) {
 absl::StatusOr<std::vector<ScheduleRecord>> ScheduleRepository::List(
     absl::string_view after, int limit) {
   std::unique_lock<std::mutex> lock = store_.db().Lock();
-  absl::StatusOr<Statement> stmt = store_.db().Prepare(absl::StrCat(
-      kSelectSchedule, "WHERE s.name > ?1 ORDER BY s.name LIMIT ?2"));
-  if (!stmt.ok()) return stmt.status();
-  stmt->Bind(1, after).Bind(2, int64_t{limit});
+  ASSIGN_OR_RETURN(
+      Statement stmt,
+      store_.db().Prepare(absl::StrCat(
+          kSelectSchedule, "WHERE s.name > ?1 ORDER BY s.name LIMIT ?2")));
+  stmt.Bind(1, after).Bind(2, int64_t{limit});
   std::vector<ScheduleRecord> out;
   while (true) {
-    absl::StatusOr<bool> row = stmt->Step();
-    if (!row.ok()) return row.status();
-    if (!*row) break;
-    out.push_back(ReadSchedule(*stmt));
+    ASSIGN_OR_RETURN(bool row, stmt.Step());
+    if (!row) break;
+    out.push_back(ReadSchedule(stmt));
   }
   return out;
 }
 
 absl::Status ScheduleRepository::Delete(absl::string_view name) {
   Database& db = store_.db();
-  absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
-  if (!tx.ok()) return tx.status();
-  absl::StatusOr<Statement> stmt =
-      db.Prepare("DELETE FROM schedules WHERE name = ?1");
-  if (!stmt.ok()) return stmt.status();
-  if (absl::Status s = stmt->Bind(1, name).Run(); !s.ok()) return s;
+  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  ASSIGN_OR_RETURN(Statement stmt,
+                   db.Prepare("DELETE FROM schedules WHERE name = ?1"));
+  RETURN_IF_ERROR(stmt.Bind(1, name).Run());
   if (db.Changes() == 0) return NotFound(name);
-  return (*tx)->Commit();
+  return tx->Commit();
 }
 
 absl::StatusOr<ScheduleRecord> ScheduleRepository::SetEnabled(
     absl::string_view name, bool enabled, int64_t now_ms,
     absl::string_view by) {
   Database& db = store_.db();
-  absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
-  if (!tx.ok()) return tx.status();
-  absl::StatusOr<ScheduleRecord> current = GetLocked(db, name);
-  if (!current.ok()) return current.status();
-  if (current->enabled != enabled) {
-    absl::StatusOr<Statement> stmt = db.Prepare(
-        enabled ? "UPDATE schedules SET enabled = 1, enable_time_ms = ?2, "
-                  "enabled_by = ?3 WHERE id = ?1"
-                : "UPDATE schedules SET enabled = 0 WHERE id = ?1");
-    if (!stmt.ok()) return stmt.status();
-    stmt->Bind(1, current->id);
-    if (enabled) stmt->Bind(2, now_ms).Bind(3, by);
-    if (absl::Status s = stmt->Run(); !s.ok()) return s;
+  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  ASSIGN_OR_RETURN(ScheduleRecord current, GetLocked(db, name));
+  if (current.enabled != enabled) {
+    ASSIGN_OR_RETURN(
+        Statement stmt,
+        db.Prepare(
+            enabled ? "UPDATE schedules SET enabled = 1, enable_time_ms = ?2, "
+                      "enabled_by = ?3 WHERE id = ?1"
+                    : "UPDATE schedules SET enabled = 0 WHERE id = ?1"));
+    stmt.Bind(1, current.id);
+    if (enabled) stmt.Bind(2, now_ms).Bind(3, by);
+    RETURN_IF_ERROR(stmt.Run());
   }
-  absl::StatusOr<ScheduleRecord> record = GetLocked(db, name);
-  if (!record.ok()) return record.status();
-  if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+  ASSIGN_OR_RETURN(ScheduleRecord record, GetLocked(db, name));
+  RETURN_IF_ERROR(tx->Commit());
   return record;
 }
 
 absl::StatusOr<ScheduleRunRecord> ScheduleRepository::AddRun(
     const ScheduleRunRecord& run) {
   Database& db = store_.db();
-  absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
-  if (!tx.ok()) return tx.status();
-  absl::StatusOr<Statement> stmt = db.Prepare(
-      "INSERT INTO schedule_runs (schedule_id, due_time_ms, start_time_ms, "
-      "end_time_ms, session, job_ids, outcome, reason, caused_by, "
-      "announced) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, 0)");
-  if (!stmt.ok()) return stmt.status();
-  stmt->Bind(1, run.schedule_id).Bind(2, run.due_time_ms);
-  BindOptional(*stmt, 3, run.start_time_ms);
-  BindOptional(*stmt, 4, run.end_time_ms);
-  stmt->Bind(5, run.session)
+  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  ASSIGN_OR_RETURN(
+      Statement stmt,
+      db.Prepare(
+          "INSERT INTO schedule_runs (schedule_id, due_time_ms, start_time_ms, "
+          "end_time_ms, session, job_ids, outcome, reason, caused_by, "
+          "announced) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, 0)"));
+  stmt.Bind(1, run.schedule_id).Bind(2, run.due_time_ms);
+  BindOptional(stmt, 3, run.start_time_ms);
+  BindOptional(stmt, 4, run.end_time_ms);
+  stmt.Bind(5, run.session)
       .Bind(6, absl::StrJoin(run.job_ids, ","))
       .Bind(7, RunOutcomeName(run.outcome))
       .Bind(8, run.reason)
       .Bind(9, run.caused_by);
-  if (absl::Status s = stmt->Run(); !s.ok()) return s;
+  RETURN_IF_ERROR(stmt.Run());
   ScheduleRunRecord out = run;
   out.id = db.LastInsertId();
-  if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+  RETURN_IF_ERROR(tx->Commit());
   return out;
 }
 
 absl::Status ScheduleRepository::UpdateRun(const ScheduleRunRecord& run) {
   Database& db = store_.db();
-  absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
-  if (!tx.ok()) return tx.status();
-  absl::StatusOr<Statement> stmt = db.Prepare(
-      "UPDATE schedule_runs SET start_time_ms = ?2, end_time_ms = ?3, "
-      "session = ?4, job_ids = ?5, outcome = ?6, reason = ?7 WHERE id = ?1");
-  if (!stmt.ok()) return stmt.status();
-  stmt->Bind(1, run.id);
-  BindOptional(*stmt, 2, run.start_time_ms);
-  BindOptional(*stmt, 3, run.end_time_ms);
-  stmt->Bind(4, run.session)
+  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  ASSIGN_OR_RETURN(
+      Statement stmt,
+      db.Prepare(
+          "UPDATE schedule_runs SET start_time_ms = ?2, end_time_ms = ?3, "
+          "session = ?4, job_ids = ?5, outcome = ?6, reason = ?7 WHERE id = "
+          "?1"));
+  stmt.Bind(1, run.id);
+  BindOptional(stmt, 2, run.start_time_ms);
+  BindOptional(stmt, 3, run.end_time_ms);
+  stmt.Bind(4, run.session)
       .Bind(5, absl::StrJoin(run.job_ids, ","))
       .Bind(6, RunOutcomeName(run.outcome))
       .Bind(7, run.reason);
-  if (absl::Status s = stmt->Run(); !s.ok()) return s;
-  return (*tx)->Commit();
+  RETURN_IF_ERROR(stmt.Run());
+  return tx->Commit();
 }
 
 absl::StatusOr<std::vector<ScheduleRunRecord>> ScheduleRepository::Runs(
     absl::string_view name, int64_t before_due_ms, int limit) {
   std::unique_lock<std::mutex> lock = store_.db().Lock();
-  if (absl::StatusOr<ScheduleRecord> s = GetLocked(store_.db(), name);
-      !s.ok()) {
-    return s.status();
-  }
-  absl::StatusOr<Statement> stmt = store_.db().Prepare(
-      absl::StrCat(kSelectRun,
-                   "WHERE s.name = ?1 AND (?2 = 0 OR r.due_time_ms < ?2) "
-                   "ORDER BY r.due_time_ms DESC LIMIT ?3"));
-  if (!stmt.ok()) return stmt.status();
-  stmt->Bind(1, name).Bind(2, before_due_ms).Bind(3, int64_t{limit});
+  RETURN_IF_ERROR(GetLocked(store_.db(), name).status());
+  ASSIGN_OR_RETURN(Statement stmt,
+                   store_.db().Prepare(absl::StrCat(
+                       kSelectRun,
+                       "WHERE s.name = ?1 AND (?2 = 0 OR r.due_time_ms < ?2) "
+                       "ORDER BY r.due_time_ms DESC LIMIT ?3")));
+  stmt.Bind(1, name).Bind(2, before_due_ms).Bind(3, int64_t{limit});
   std::vector<ScheduleRunRecord> out;
   while (true) {
-    absl::StatusOr<bool> row = stmt->Step();
-    if (!row.ok()) return row.status();
-    if (!*row) break;
-    out.push_back(ReadRun(*stmt));
+    ASSIGN_OR_RETURN(bool row, stmt.Step());
+    if (!row) break;
+    out.push_back(ReadRun(stmt));
   }
   return out;
 }
@@ -270,15 +258,15 @@ absl::StatusOr<std::vector<ScheduleRunRecord>> ScheduleRepository::Runs(
 absl::StatusOr<std::vector<ScheduleRunRecord>>
 ScheduleRepository::RunningRuns() {
   std::unique_lock<std::mutex> lock = store_.db().Lock();
-  absl::StatusOr<Statement> stmt = store_.db().Prepare(
-      absl::StrCat(kSelectRun, "WHERE r.outcome = 'running' ORDER BY r.id"));
-  if (!stmt.ok()) return stmt.status();
+  ASSIGN_OR_RETURN(
+      Statement stmt,
+      store_.db().Prepare(absl::StrCat(
+          kSelectRun, "WHERE r.outcome = 'running' ORDER BY r.id")));
   std::vector<ScheduleRunRecord> out;
   while (true) {
-    absl::StatusOr<bool> row = stmt->Step();
-    if (!row.ok()) return row.status();
-    if (!*row) break;
-    out.push_back(ReadRun(*stmt));
+    ASSIGN_OR_RETURN(bool row, stmt.Step());
+    if (!row) break;
+    out.push_back(ReadRun(stmt));
   }
   return out;
 }

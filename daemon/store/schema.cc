@@ -7,6 +7,7 @@
 #include "absl/strings/string_view.h"
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::store {
 namespace {
@@ -264,19 +265,18 @@ ALTER TABLE jobs ADD COLUMN cluster_job_id INTEGER;
 int LatestSchemaVersion() { return static_cast<int>(kMigrations.size()); }
 
 absl::StatusOr<int> ReadSchemaVersion(Database& db) {
-  absl::StatusOr<Statement> has_table = db.Prepare(
-      "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND "
-      "name = 'schema_version'");
-  if (!has_table.ok()) return has_table.status();
-  absl::StatusOr<bool> row = has_table->Step();
-  if (!row.ok()) return row.status();
-  if (has_table->ColumnInt(0) == 0) {
+  ASSIGN_OR_RETURN(
+      Statement has_table,
+      db.Prepare("SELECT count(*) FROM sqlite_master WHERE type = 'table' AND "
+                 "name = 'schema_version'"));
+  RETURN_IF_ERROR(has_table.Step().status());
+  if (has_table.ColumnInt(0) == 0) {
     // No version table: acceptable only for a database with no tables at all.
-    absl::StatusOr<Statement> any =
-        db.Prepare("SELECT count(*) FROM sqlite_master WHERE type = 'table'");
-    if (!any.ok()) return any.status();
-    if (absl::StatusOr<bool> r = any->Step(); !r.ok()) return r.status();
-    if (any->ColumnInt(0) != 0) {
+    ASSIGN_OR_RETURN(
+        Statement any,
+        db.Prepare("SELECT count(*) FROM sqlite_master WHERE type = 'table'"));
+    RETURN_IF_ERROR(any.Step().status());
+    if (any.ColumnInt(0) != 0) {
       return absl::FailedPreconditionError(
           absl::StrCat(db.path().string(),
                        " has tables but no schema_version table: it is not an "
@@ -284,20 +284,19 @@ absl::StatusOr<int> ReadSchemaVersion(Database& db) {
     }
     return 0;
   }
-  absl::StatusOr<Statement> max =
-      db.Prepare("SELECT coalesce(max(version), 0) FROM schema_version");
-  if (!max.ok()) return max.status();
-  if (absl::StatusOr<bool> r = max->Step(); !r.ok()) return r.status();
-  return static_cast<int>(max->ColumnInt(0));
+  ASSIGN_OR_RETURN(
+      Statement max,
+      db.Prepare("SELECT coalesce(max(version), 0) FROM schema_version"));
+  RETURN_IF_ERROR(max.Step().status());
+  return static_cast<int>(max.ColumnInt(0));
 }
 
 absl::StatusOr<int> Migrate(Database& db) {
   int version;
   {
     std::unique_lock<std::mutex> lock = db.Lock();
-    absl::StatusOr<int> current = ReadSchemaVersion(db);
-    if (!current.ok()) return current.status();
-    version = *current;
+    ASSIGN_OR_RETURN(int current, ReadSchemaVersion(db));
+    version = current;
   }
   if (version > LatestSchemaVersion()) {
     return absl::FailedPreconditionError(absl::StrCat(
@@ -306,29 +305,22 @@ absl::StatusOr<int> Migrate(Database& db) {
         "); refusing to open it: use a newer hdrstereod"));
   }
   while (version < LatestSchemaVersion()) {
-    absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
-    if (!tx.ok()) return tx.status();
-    if (absl::Status s = db.Exec(
-            "CREATE TABLE IF NOT EXISTS schema_version ("
-            "version INTEGER PRIMARY KEY, apply_time_ms INTEGER NOT NULL)");
-        !s.ok()) {
-      return s;
-    }
+    ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+    RETURN_IF_ERROR(db.Exec(
+        "CREATE TABLE IF NOT EXISTS schema_version ("
+        "version INTEGER PRIMARY KEY, apply_time_ms INTEGER NOT NULL)"));
     if (absl::Status s = db.Exec(kMigrations[version]); !s.ok()) {
       return absl::Status(
           s.code(), absl::StrCat("migration to version ", version + 1, ": ",
                                  s.message()));
     }
-    absl::StatusOr<Statement> record = db.Prepare(
-        "INSERT INTO schema_version (version, apply_time_ms) VALUES (?1, ?2)");
-    if (!record.ok()) return record.status();
-    if (absl::Status s = record->Bind(1, int64_t{version + 1})
-                             .Bind(2, absl::ToUnixMillis(absl::Now()))
-                             .Run();
-        !s.ok()) {
-      return s;
-    }
-    if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
+    ASSIGN_OR_RETURN(Statement record,
+                     db.Prepare("INSERT INTO schema_version (version, "
+                                "apply_time_ms) VALUES (?1, ?2)"));
+    RETURN_IF_ERROR(record.Bind(1, int64_t{version + 1})
+                        .Bind(2, absl::ToUnixMillis(absl::Now()))
+                        .Run());
+    RETURN_IF_ERROR(tx->Commit());
     ++version;
   }
   return version;

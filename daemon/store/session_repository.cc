@@ -6,6 +6,7 @@
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
 #include "daemon/store/names.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::store {
 namespace {
@@ -37,33 +38,30 @@ absl::Status NotFound(absl::string_view name) {
 
 // Reads one session; the caller holds the database lock.
 absl::StatusOr<SessionRecord> GetLocked(Database& db, absl::string_view name) {
-  absl::StatusOr<Statement> stmt =
-      db.Prepare(absl::StrCat(kSelectSession, "WHERE s.name = ?1"));
-  if (!stmt.ok()) return stmt.status();
-  stmt->Bind(1, name);
-  absl::StatusOr<bool> row = stmt->Step();
-  if (!row.ok()) return row.status();
-  if (!*row) return NotFound(name);
-  return ReadSession(*stmt);
+  ASSIGN_OR_RETURN(Statement stmt, db.Prepare(absl::StrCat(
+                                       kSelectSession, "WHERE s.name = ?1")));
+  stmt.Bind(1, name);
+  ASSIGN_OR_RETURN(bool row, stmt.Step());
+  if (!row) return NotFound(name);
+  return ReadSession(stmt);
 }
 
 }  // namespace
 
 absl::StatusOr<SessionRecord> SessionRepository::Create(
     absl::string_view name, absl::string_view note) {
-  if (absl::Status s = ValidateName(name, "session name"); !s.ok()) return s;
+  RETURN_IF_ERROR(ValidateName(name, "session name"));
   if (note.size() > kMaxNoteBytes) {
     return absl::InvalidArgumentError(
         absl::StrCat("note has ", note.size(), " bytes; at most ",
                      kMaxNoteBytes, " are allowed"));
   }
   Database& db = store_.db();
-  absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
-  if (!tx.ok()) return tx.status();
-  absl::StatusOr<Statement> insert = db.Prepare(
-      "INSERT INTO sessions (name, note, create_time_ms) VALUES (?1, ?2, ?3)");
-  if (!insert.ok()) return insert.status();
-  absl::Status inserted = insert->Bind(1, name)
+  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  ASSIGN_OR_RETURN(Statement insert,
+                   db.Prepare("INSERT INTO sessions (name, note, "
+                              "create_time_ms) VALUES (?1, ?2, ?3)"));
+  absl::Status inserted = insert.Bind(1, name)
                               .Bind(2, note)
                               .Bind(3, absl::ToUnixMillis(absl::Now()))
                               .Run();
@@ -74,12 +72,9 @@ absl::StatusOr<SessionRecord> SessionRepository::Create(
   if (!inserted.ok()) return inserted;
   // The folder exists before the row is committed; a crash in between leaves
   // only an empty folder, which the next start moves to orphaned/.
-  if (absl::Status s = store_.files().CreateSessionDir(name); !s.ok()) {
-    return s;
-  }
-  absl::StatusOr<SessionRecord> record = GetLocked(db, name);
-  if (!record.ok()) return record.status();
-  if (absl::Status s = (*tx)->Commit(); !s.ok()) {
+  RETURN_IF_ERROR(store_.files().CreateSessionDir(name));
+  ASSIGN_OR_RETURN(SessionRecord record, GetLocked(db, name));
+  if (absl::Status s = tx->Commit(); !s.ok()) {
     store_.files().RemoveSessionDir(name).IgnoreError();
     return s;
   }
@@ -87,7 +82,7 @@ absl::StatusOr<SessionRecord> SessionRepository::Create(
 }
 
 absl::StatusOr<SessionRecord> SessionRepository::Get(absl::string_view name) {
-  if (absl::Status s = ValidateName(name, "session name"); !s.ok()) return s;
+  RETURN_IF_ERROR(ValidateName(name, "session name"));
   std::unique_lock<std::mutex> lock = store_.db().Lock();
   return GetLocked(store_.db(), name);
 }
@@ -95,17 +90,17 @@ absl::StatusOr<SessionRecord> SessionRepository::Get(absl::string_view name) {
 absl::StatusOr<SessionPage> SessionRepository::List(absl::string_view after,
                                                     int limit) {
   std::unique_lock<std::mutex> lock = store_.db().Lock();
-  absl::StatusOr<Statement> stmt = store_.db().Prepare(absl::StrCat(
-      kSelectSession, "WHERE s.name > ?1 ORDER BY s.name LIMIT ?2"));
-  if (!stmt.ok()) return stmt.status();
+  ASSIGN_OR_RETURN(
+      Statement stmt,
+      store_.db().Prepare(absl::StrCat(
+          kSelectSession, "WHERE s.name > ?1 ORDER BY s.name LIMIT ?2")));
   // One extra row tells whether another page follows.
-  stmt->Bind(1, after).Bind(2, int64_t{limit} + 1);
+  stmt.Bind(1, after).Bind(2, int64_t{limit} + 1);
   SessionPage page;
   while (true) {
-    absl::StatusOr<bool> row = stmt->Step();
-    if (!row.ok()) return row.status();
-    if (!*row) break;
-    page.sessions.push_back(ReadSession(*stmt));
+    ASSIGN_OR_RETURN(bool row, stmt.Step());
+    if (!row) break;
+    page.sessions.push_back(ReadSession(stmt));
   }
   if (static_cast<int>(page.sessions.size()) > limit) {
     page.sessions.pop_back();
@@ -116,32 +111,27 @@ absl::StatusOr<SessionPage> SessionRepository::List(absl::string_view after,
 
 absl::StatusOr<DeletedSession> SessionRepository::Delete(
     absl::string_view name) {
-  if (absl::Status s = ValidateName(name, "session name"); !s.ok()) return s;
+  RETURN_IF_ERROR(ValidateName(name, "session name"));
   Database& db = store_.db();
-  absl::StatusOr<std::unique_ptr<Transaction>> tx = Transaction::Begin(db);
-  if (!tx.ok()) return tx.status();
-  absl::StatusOr<SessionRecord> record = GetLocked(db, name);
-  if (!record.ok()) return record.status();
+  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  ASSIGN_OR_RETURN(SessionRecord record, GetLocked(db, name));
 
-  absl::StatusOr<Statement> active = db.Prepare(
-      "SELECT count(*) FROM jobs WHERE session_id = ?1 AND state IN "
-      "('queued', 'running', 'paused')");
-  if (!active.ok()) return active.status();
-  active->Bind(1, record->id);
-  if (absl::StatusOr<bool> row = active->Step(); !row.ok()) {
-    return row.status();
-  }
-  if (int64_t n = active->ColumnInt(0); n > 0) {
+  ASSIGN_OR_RETURN(
+      Statement active,
+      db.Prepare("SELECT count(*) FROM jobs WHERE session_id = ?1 AND state IN "
+                 "('queued', 'running', 'paused')"));
+  active.Bind(1, record.id);
+  RETURN_IF_ERROR(active.Step().status());
+  if (int64_t n = active.ColumnInt(0); n > 0) {
     return absl::FailedPreconditionError(
         absl::StrCat("session \"", name, "\" has ", n,
                      " queued, running or paused job(s); cancel them first"));
   }
-  absl::StatusOr<Statement> remove =
-      db.Prepare("DELETE FROM sessions WHERE id = ?1");
-  if (!remove.ok()) return remove.status();
-  if (absl::Status s = remove->Bind(1, record->id).Run(); !s.ok()) return s;
-  if (absl::Status s = (*tx)->Commit(); !s.ok()) return s;
-  tx->reset();
+  ASSIGN_OR_RETURN(Statement remove,
+                   db.Prepare("DELETE FROM sessions WHERE id = ?1"));
+  RETURN_IF_ERROR(remove.Bind(1, record.id).Run());
+  RETURN_IF_ERROR(tx->Commit());
+  tx.reset();
 
   // The rows are gone; a crash while removing files leaves a folder without
   // a row, which the next start moves to orphaned/.
@@ -152,8 +142,8 @@ absl::StatusOr<DeletedSession> SessionRepository::Delete(
         "was not removed (it moves to orphaned/ at the next start): ",
         s.message()));
   }
-  return DeletedSession{.frames = record->frame_count,
-                        .artifacts = record->artifact_count};
+  return DeletedSession{.frames = record.frame_count,
+                        .artifacts = record.artifact_count};
 }
 
 }  // namespace hdrstereo::store

@@ -6,20 +6,19 @@
 
 #include "absl/strings/str_cat.h"
 #include "daemon/store/schema.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::store {
 namespace {
 
 absl::StatusOr<std::set<std::string>> SessionNames(Database& db) {
   std::unique_lock<std::mutex> lock = db.Lock();
-  absl::StatusOr<Statement> stmt = db.Prepare("SELECT name FROM sessions");
-  if (!stmt.ok()) return stmt.status();
+  ASSIGN_OR_RETURN(Statement stmt, db.Prepare("SELECT name FROM sessions"));
   std::set<std::string> names;
   while (true) {
-    absl::StatusOr<bool> row = stmt->Step();
-    if (!row.ok()) return row.status();
-    if (!*row) break;
-    names.insert(stmt->ColumnText(0));
+    ASSIGN_OR_RETURN(bool row, stmt.Step());
+    if (!row) break;
+    names.insert(stmt.ColumnText(0));
   }
   return names;
 }
@@ -47,35 +46,29 @@ absl::Status CheckReadable(Database& db) {
 
 absl::StatusOr<std::unique_ptr<Store>> Store::Open(
     const std::filesystem::path& data_root) {
-  absl::StatusOr<FileStore> files = FileStore::Open(data_root);
-  if (!files.ok()) return files.status();
+  ASSIGN_OR_RETURN(FileStore files, FileStore::Open(data_root));
 
-  absl::StatusOr<std::unique_ptr<Database>> db =
-      Database::Open(files->database_path());
-  if (!db.ok()) return db.status();
-  if (absl::Status s = CheckReadable(**db); !s.ok()) return s;
+  ASSIGN_OR_RETURN(std::unique_ptr<Database> db,
+                   Database::Open(files.database_path()));
+  RETURN_IF_ERROR(CheckReadable(*db));
   // Migrate refuses a newer database before anything is written to it.
-  absl::StatusOr<int> version = Migrate(**db);
-  if (!version.ok()) return version.status();
+  ASSIGN_OR_RETURN(int version, Migrate(*db));
   {
     // WAL lets readers (the sqlite3 shell, backups) run beside the daemon;
     // synchronous=FULL makes each committed frame row survive a power cut.
-    std::unique_lock<std::mutex> lock = (*db)->Lock();
+    std::unique_lock<std::mutex> lock = db->Lock();
     if (absl::Status s =
-            (*db)->Exec("PRAGMA journal_mode = WAL; PRAGMA synchronous = FULL; "
-                        "PRAGMA foreign_keys = ON;");
+            db->Exec("PRAGMA journal_mode = WAL; PRAGMA synchronous = FULL; "
+                     "PRAGMA foreign_keys = ON;");
         !s.ok()) {
       return s;
     }
   }
 
-  absl::StatusOr<std::set<std::string>> names = SessionNames(**db);
-  if (!names.ok()) return names.status();
-  if (absl::StatusOr<int> swept = files->Sweep(*names); !swept.ok()) {
-    return swept.status();
-  }
+  ASSIGN_OR_RETURN(std::set<std::string> names, SessionNames(*db));
+  RETURN_IF_ERROR(files.Sweep(names).status());
   return std::unique_ptr<Store>(
-      new Store(*std::move(db), *std::move(files), *version));
+      new Store(std::move(db), std::move(files), version));
 }
 
 }  // namespace hdrstereo::store

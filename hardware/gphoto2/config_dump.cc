@@ -18,6 +18,7 @@
 #include "absl/strings/str_replace.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::gphoto2 {
 namespace {
@@ -176,7 +177,7 @@ absl::StatusOr<CameraDump> ParseCameraDump(absl::string_view raw_text,
     ++line_no;
     absl::ConsumeSuffix(&line, "\r");
     if (absl::StartsWith(line, "/main/")) {
-      if (absl::Status s = close(); !s.ok()) return s;
+      RETURN_IF_ERROR(close());
       in_tree = true;
       entry.emplace();
       entry->line = line_no;
@@ -200,7 +201,7 @@ absl::StatusOr<CameraDump> ParseCameraDump(absl::string_view raw_text,
     }
     absl::string_view key, value;
     if (line == "END" || !SplitField(line, &key, &value)) {
-      if (absl::Status s = close(); !s.ok()) return s;
+      RETURN_IF_ERROR(close());
       continue;
     }
     ConfigWidget& w = entry->widget;
@@ -244,7 +245,7 @@ absl::StatusOr<CameraDump> ParseCameraDump(absl::string_view raw_text,
     }
     // Printable, Help and other informational lines are skipped.
   }
-  if (absl::Status s = close(); !s.ok()) return s;
+  RETURN_IF_ERROR(close());
   if (dump.widgets.empty()) {
     return absl::InvalidArgumentError(absl::StrCat(
         dump.source,

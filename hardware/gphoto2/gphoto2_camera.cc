@@ -17,6 +17,7 @@
 #include "absl/time/clock.h"
 #include "hardware/gphoto2/libgphoto2_api.h"
 #include "hardware/gphoto2/widgets.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::gphoto2 {
 namespace {
@@ -283,10 +284,10 @@ absl::StatusOr<std::unique_ptr<Gphoto2Camera>> Gphoto2Camera::OpenWithApi(
   std::string port = options.port;
   if (model.empty() || port.empty()) {
     auto detected = std::make_shared<std::vector<DetectedCamera>>();
-    absl::Status status = camera->Call(
-        "autodetect cameras", options.call_timeout,
-        [detected](Gphoto2Api& api) { return api.Autodetect(detected.get()); });
-    if (!status.ok()) return status;
+    RETURN_IF_ERROR(camera->Call("autodetect cameras", options.call_timeout,
+                                 [detected](Gphoto2Api& api) {
+                                   return api.Autodetect(detected.get());
+                                 }));
     if (detected->empty()) {
       return absl::UnavailableError(
           "no camera found: libgphoto2's autodetect lists none. Is the camera "
@@ -347,10 +348,9 @@ absl::StatusOr<std::unique_ptr<Gphoto2Camera>> Gphoto2Camera::Reopen(
     std::unique_ptr<Gphoto2Camera> probe(
         new Gphoto2Camera(search, std::make_unique<Worker>(new_api())));
     auto found = std::make_shared<std::vector<DetectedCamera>>();
-    absl::Status status = probe->Call(
+    RETURN_IF_ERROR(probe->Call(
         "autodetect cameras", search.call_timeout,
-        [found](Gphoto2Api& api) { return api.Autodetect(found.get()); });
-    if (!status.ok()) return status;
+        [found](Gphoto2Api& api) { return api.Autodetect(found.get()); }));
     detected = std::move(*found);
   }
   std::vector<std::string> seen;
@@ -391,15 +391,14 @@ absl::Status Gphoto2Camera::Call(absl::string_view what, absl::Duration timeout,
   absl::Duration backoff = options_.busy_backoff;
   const absl::Time start = absl::Now();
   for (int attempt = 0;; ++attempt) {
-    absl::StatusOr<Worker::Outcome> outcome = worker_->Run(what, timeout, fn);
-    if (!outcome.ok()) return outcome.status();
-    if (outcome->code >= GP_OK) return absl::OkStatus();
-    if (outcome->code != GP_ERROR_CAMERA_BUSY) {
-      return Gphoto2Error(what, outcome->code, outcome->error_text);
+    ASSIGN_OR_RETURN(Worker::Outcome outcome, worker_->Run(what, timeout, fn));
+    if (outcome.code >= GP_OK) return absl::OkStatus();
+    if (outcome.code != GP_ERROR_CAMERA_BUSY) {
+      return Gphoto2Error(what, outcome.code, outcome.error_text);
     }
     if (attempt >= options_.busy_retries) {
       return absl::UnavailableError(
-          absl::StrCat(what, ": the camera stayed busy (", outcome->error_text,
+          absl::StrCat(what, ": the camera stayed busy (", outcome.error_text,
                        ") through ", attempt + 1, " tries over ",
                        absl::FormatDuration(absl::Now() - start)));
     }
@@ -410,10 +409,9 @@ absl::Status Gphoto2Camera::Call(absl::string_view what, absl::Duration timeout,
 
 absl::StatusOr<std::vector<ConfigWidget>> Gphoto2Camera::ConfigLocked() {
   auto widgets = std::make_shared<std::vector<ConfigWidget>>();
-  absl::Status status =
-      Call("read the camera configuration", options_.call_timeout,
-           [widgets](Gphoto2Api& api) { return api.GetConfig(widgets.get()); });
-  if (!status.ok()) return status;
+  RETURN_IF_ERROR(Call(
+      "read the camera configuration", options_.call_timeout,
+      [widgets](Gphoto2Api& api) { return api.GetConfig(widgets.get()); }));
   return std::move(*widgets);
 }
 
@@ -426,9 +424,8 @@ absl::Status Gphoto2Camera::SetLocked(const std::string& name,
 }
 
 absl::StatusOr<hardware::ExposureSettings> Gphoto2Camera::SettingsLocked() {
-  absl::StatusOr<std::vector<ConfigWidget>> widgets = ConfigLocked();
-  if (!widgets.ok()) return widgets.status();
-  const hardware::ExposureSettings settings = ReadExposureSettings(*widgets);
+  ASSIGN_OR_RETURN(std::vector<ConfigWidget> widgets, ConfigLocked());
+  const hardware::ExposureSettings settings = ReadExposureSettings(widgets);
   exposure_s_ = settings.exposure_s;
   format_ = settings.format;
   return settings;
@@ -483,8 +480,7 @@ absl::StatusOr<hardware::ExposureSettings> Gphoto2Camera::Configure(
   if (settings.iso < 0 || settings.aperture_f < 0) {
     return absl::InvalidArgumentError("ISO and f-number must not be negative");
   }
-  absl::StatusOr<std::vector<ConfigWidget>> widgets = ConfigLocked();
-  if (!widgets.ok()) return widgets.status();
+  ASSIGN_OR_RETURN(std::vector<ConfigWidget> widgets, ConfigLocked());
 
   // Plan every change first: nothing is set unless all of it is valid.
   struct Change {
@@ -492,16 +488,16 @@ absl::StatusOr<hardware::ExposureSettings> Gphoto2Camera::Configure(
     std::string value;
   };
   std::vector<Change> plan;
-  const ConfigWidget* shutter = FindShutterWidget(*widgets);
+  const ConfigWidget* shutter = FindShutterWidget(widgets);
   if (shutter == nullptr) {
     // Cameras hide the shutter speed, or offer only "auto", outside M.
     std::string mode_hint = "; is the mode dial on M (manual)?";
-    if (const ConfigWidget* mode = FindWidget(*widgets, kModeWidgets)) {
+    if (const ConfigWidget* mode = FindWidget(widgets, kModeWidgets)) {
       mode_hint =
           absl::StrCat("; the exposure program ", Named(*mode), " is \"",
                        mode->value, "\": set the mode dial to M (manual)");
     }
-    const ConfigWidget* untimed = FindWidget(*widgets, kShutterWidgets);
+    const ConfigWidget* untimed = FindWidget(widgets, kShutterWidgets);
     if (untimed != nullptr) {
       return absl::FailedPreconditionError(absl::StrCat(
           "the camera's shutter-speed setting ", Named(*untimed),
@@ -522,48 +518,49 @@ absl::StatusOr<hardware::ExposureSettings> Gphoto2Camera::Configure(
   }
   plan.push_back({shutter, speed->choice});
   if (settings.iso > 0) {
-    const ConfigWidget* iso = FindWidget(*widgets, kIsoWidgets);
+    const ConfigWidget* iso = FindWidget(widgets, kIsoWidgets);
     if (iso == nullptr) {
       return absl::InvalidArgumentError(absl::StrCat(
           "the camera has no ISO setting ", WidgetNames(kIsoWidgets)));
     }
-    absl::StatusOr<std::string> choice =
+    ASSIGN_OR_RETURN(
+        std::string choice,
         MatchChoice(*iso, "ISO", [&](const std::vector<std::string>& c) {
           return MatchIso(c, settings.iso);
-        });
-    if (!choice.ok()) return choice.status();
-    plan.push_back({iso, *choice});
+        }));
+    plan.push_back({iso, choice});
   }
   if (settings.aperture_f > 0) {
-    const ConfigWidget* aperture = FindWidget(*widgets, kApertureWidgets);
+    const ConfigWidget* aperture = FindWidget(widgets, kApertureWidgets);
     if (aperture == nullptr) {
       return absl::InvalidArgumentError(
           absl::StrCat("the camera has no aperture setting ",
                        WidgetNames(kApertureWidgets), " (manual lens?)"));
     }
-    absl::StatusOr<std::string> choice =
-        aperture->type == WidgetType::kRange
-            ? RangeValue(*aperture, settings.aperture_f)
-            : MatchChoice(*aperture, "f-number",
-                          [&](const std::vector<std::string>& c) {
-                            return MatchAperture(c, settings.aperture_f);
-                          });
-    if (!choice.ok()) return choice.status();
-    plan.push_back({aperture, *choice});
+    ASSIGN_OR_RETURN(std::string choice,
+                     aperture->type == WidgetType::kRange
+                         ? RangeValue(*aperture, settings.aperture_f)
+                         : MatchChoice(*aperture, "f-number",
+                                       [&](const std::vector<std::string>& c) {
+                                         return MatchAperture(
+                                             c, settings.aperture_f);
+                                       }));
+    plan.push_back({aperture, choice});
   }
   if (settings.format.has_value()) {
-    const ConfigWidget* format = FindWidget(*widgets, kFormatWidgets);
+    const ConfigWidget* format = FindWidget(widgets, kFormatWidgets);
     if (format == nullptr) {
       return absl::InvalidArgumentError(
           absl::StrCat("the camera has no image format setting ",
                        WidgetNames(kFormatWidgets)));
     }
-    absl::StatusOr<std::string> choice = MatchChoice(
-        *format, "image format", [&](const std::vector<std::string>& c) {
-          return MatchFormatChoice(c, *settings.format);
-        });
-    if (!choice.ok()) return choice.status();
-    plan.push_back({format, *choice});
+    ASSIGN_OR_RETURN(std::string choice,
+                     MatchChoice(*format, "image format",
+                                 [&](const std::vector<std::string>& c) {
+                                   return MatchFormatChoice(c,
+                                                            *settings.format);
+                                 }));
+    plan.push_back({format, choice});
   }
   for (const Change& change : plan) {
     if (change.widget->value == change.value) continue;
@@ -576,15 +573,13 @@ absl::StatusOr<hardware::ExposureSettings> Gphoto2Camera::Configure(
 
   for (const Change& change : plan) {
     if (change.widget->value == change.value) continue;
-    absl::Status status = SetLocked(change.widget->name, change.value);
-    if (!status.ok()) return status;
+    RETURN_IF_ERROR(SetLocked(change.widget->name, change.value));
   }
 
   // Read back: the camera may ignore a value (wrong mode) without an error.
-  absl::StatusOr<std::vector<ConfigWidget>> after = ConfigLocked();
-  if (!after.ok()) return after.status();
+  ASSIGN_OR_RETURN(std::vector<ConfigWidget> after, ConfigLocked());
   for (const Change& change : plan) {
-    const ConfigWidget* now = FindWidget(*after, change.widget->name);
+    const ConfigWidget* now = FindWidget(after, change.widget->name);
     if (now != nullptr && now->value != change.value) {
       return absl::FailedPreconditionError(
           absl::StrCat("the camera kept ", change.widget->name, " at \"",
@@ -668,12 +663,11 @@ absl::StatusOr<hardware::Frame> Gphoto2Camera::DownloadLocked(
                      "format to raw, jpeg or raw+jpeg"));
   }
   auto file = std::make_shared<FileData>();
-  absl::Status status =
-      Call(absl::StrCat("download ", path), options_.download_timeout,
-           [folder, name, file](Gphoto2Api& api) {
-             return api.GetFile(folder, name, file.get());
-           });
-  if (!status.ok()) return status;
+  RETURN_IF_ERROR(Call(absl::StrCat("download ", path),
+                       options_.download_timeout,
+                       [folder, name, file](Gphoto2Api& api) {
+                         return api.GetFile(folder, name, file.get());
+                       }));
   if (file->bytes.empty()) {
     return absl::DataLossError(absl::StrCat("downloaded ", path, " is empty"));
   }
@@ -702,12 +696,11 @@ absl::StatusOr<int> Gphoto2Camera::PrepareCaptureGroup() {
   for (int i = 0; i < 64; ++i) {
     auto event = std::make_shared<CameraEvent>();
     const absl::Duration wait = options_.drain_event_wait;
-    absl::Status status =
-        Call("drain pending camera events", wait + options_.call_timeout,
-             [event, wait](Gphoto2Api& api) {
-               return api.WaitForEvent(wait, event.get());
-             });
-    if (!status.ok()) return status;
+    RETURN_IF_ERROR(Call("drain pending camera events",
+                         wait + options_.call_timeout,
+                         [event, wait](Gphoto2Api& api) {
+                           return api.WaitForEvent(wait, event.get());
+                         }));
     if (event->type == EventType::kTimeout) break;
     if (event->type != EventType::kFileAdded) continue;
     Call(absl::StrCat("delete pending ", JoinPath(event->folder, event->name)),
@@ -729,19 +722,17 @@ absl::StatusOr<std::vector<ConfigWidget>> Gphoto2Camera::Config() {
 absl::StatusOr<std::string> Gphoto2Camera::Summary() {
   std::lock_guard<std::mutex> lock(mutex_);
   auto text = std::make_shared<std::string>();
-  absl::Status status =
+  RETURN_IF_ERROR(
       Call("read the camera summary", options_.call_timeout,
-           [text](Gphoto2Api& api) { return api.GetSummary(text.get()); });
-  if (!status.ok()) return status;
+           [text](Gphoto2Api& api) { return api.GetSummary(text.get()); }));
   return *text;
 }
 
 absl::Status Gphoto2Camera::SetConfigValue(const std::string& name,
                                            const std::string& value) {
   std::lock_guard<std::mutex> lock(mutex_);
-  absl::StatusOr<std::vector<ConfigWidget>> widgets = ConfigLocked();
-  if (!widgets.ok()) return widgets.status();
-  const ConfigWidget* widget = FindWidget(*widgets, name);
+  ASSIGN_OR_RETURN(std::vector<ConfigWidget> widgets, ConfigLocked());
+  const ConfigWidget* widget = FindWidget(widgets, name);
   if (widget == nullptr) {
     return absl::InvalidArgumentError(
         absl::StrCat("the camera has no setting \"", name, "\""));
@@ -764,17 +755,15 @@ absl::Status Gphoto2Camera::SetConfigValue(const std::string& name,
 
 absl::Status Gphoto2Camera::SetCaptureTargetLocked(CaptureTarget target) {
   if (target == CaptureTarget::kLeaveAsIs) return absl::OkStatus();
-  absl::StatusOr<std::vector<ConfigWidget>> widgets = ConfigLocked();
-  if (!widgets.ok()) return widgets.status();
-  const ConfigWidget* widget = FindWidget(*widgets, "capturetarget");
+  ASSIGN_OR_RETURN(std::vector<ConfigWidget> widgets, ConfigLocked());
+  const ConfigWidget* widget = FindWidget(widgets, "capturetarget");
   if (widget == nullptr) {
     return absl::NotFoundError("the camera has no capturetarget setting");
   }
-  absl::StatusOr<std::string> choice =
-      MatchCaptureTarget(widget->choices, target);
-  if (!choice.ok()) return choice.status();
-  if (widget->value == *choice) return absl::OkStatus();
-  return SetLocked("capturetarget", *choice);
+  ASSIGN_OR_RETURN(std::string choice,
+                   MatchCaptureTarget(widget->choices, target));
+  if (widget->value == choice) return absl::OkStatus();
+  return SetLocked("capturetarget", choice);
 }
 
 absl::Status Gphoto2Camera::SetCaptureTarget(CaptureTarget target) {
@@ -790,12 +779,10 @@ absl::StatusOr<std::vector<std::string>> Gphoto2Camera::ListFiles(
     const std::string& folder) {
   std::lock_guard<std::mutex> lock(mutex_);
   auto names = std::make_shared<std::vector<std::string>>();
-  absl::Status status =
-      Call(absl::StrCat("list files in ", folder), options_.call_timeout,
-           [folder, names](Gphoto2Api& api) {
-             return api.ListFiles(folder, names.get());
-           });
-  if (!status.ok()) return status;
+  RETURN_IF_ERROR(Call(absl::StrCat("list files in ", folder),
+                       options_.call_timeout, [folder, names](Gphoto2Api& api) {
+                         return api.ListFiles(folder, names.get());
+                       }));
   return *names;
 }
 

@@ -4,6 +4,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/time/clock.h"
+#include "processing/base/status_macros.h"
 
 namespace hdrstereo::sim {
 namespace {
@@ -143,10 +144,8 @@ absl::StatusOr<std::unique_ptr<SimProjector>> SimProjector::Create(
 }
 
 absl::Status SimProjector::Show(const cv::Mat& pattern) {
-  if (absl::Status s = hardware::ValidatePattern(pattern, size_); !s.ok()) {
-    return s;
-  }
-  if (absl::Status s = world_.SetProjectorPattern(pattern); !s.ok()) return s;
+  RETURN_IF_ERROR(hardware::ValidatePattern(pattern, size_));
+  RETURN_IF_ERROR(world_.SetProjectorPattern(pattern));
   world_.SleepModelled(world_.timing().projector_settle_s);
   return absl::OkStatus();
 }

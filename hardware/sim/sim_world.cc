@@ -10,6 +10,7 @@
 #include "absl/strings/str_format.h"
 #include "absl/time/clock.h"
 #include "hardware/sim/noise.h"
+#include "processing/base/status_macros.h"
 #include "processing/io/exif.h"
 
 namespace hdrstereo::sim {
@@ -162,10 +163,9 @@ absl::StatusOr<SimCapture> SimWorld::Render(const ExposureSettings& settings,
         absl::FormatTime("%Y:%m:%d %H:%M:%S", camera_time, absl::UTCTimeZone());
     exif.subsec_time_original = absl::StrFormat(
         "%03d", static_cast<int>(absl::ToUnixMillis(camera_time) % 1000));
-    absl::StatusOr<std::string> stamped =
-        io::EmbedExif(capture.bytes, io::EncodeExifTiff(exif));
-    if (!stamped.ok()) return stamped.status();
-    capture.bytes = *std::move(stamped);
+    ASSIGN_OR_RETURN(std::string stamped,
+                     io::EmbedExif(capture.bytes, io::EncodeExifTiff(exif)));
+    capture.bytes = std::move(stamped);
   }
   std::string extension(ImageFormatName(format));
   if (format == ImageFormat::kJpeg) extension = "jpg";
@@ -231,9 +231,8 @@ absl::StatusOr<SimCapture> SimWorld::Capture(const ExposureSettings& settings,
   }
   ExposureSettings used = settings;
   if (FaultFires(faults.wrong_exposure, call, seed, 4)) used.exposure_s *= 2;
-  absl::StatusOr<SimCapture> fresh = Render(used, format, stage, pattern);
-  if (!fresh.ok()) return fresh.status();
-  SimCapture capture = *std::move(fresh);
+  ASSIGN_OR_RETURN(SimCapture fresh, Render(used, format, stage, pattern));
+  SimCapture capture = std::move(fresh);
   {
     std::lock_guard<std::mutex> lock(mu_);
     if (FaultFires(faults.card_target, call, seed, 5)) target_on_card_ = true;

@@ -1029,11 +1029,11 @@ absl::StatusOr<FusionResult> FuseAlphaExpansion(
                    BuildProblem(candidates, guide, params, confidences));
   std::vector<int32_t> labels = WinnerTakesAll(pr);
   const double setup = Seconds(t0, Clock::now());
-  absl::StatusOr<SolverStats> stats =
-      AlphaExpansion(pr, &labels, params.max_cycles, params.prune_dominated);
-  if (!stats.ok()) return stats.status();
+  ASSIGN_OR_RETURN(
+      SolverStats stats,
+      AlphaExpansion(pr, &labels, params.max_cycles, params.prune_dominated));
   FusionResult result;
-  result.stats = *stats;
+  result.stats = stats;
   result.stats.setup_seconds = setup;
   result.disparity.create(pr.height, pr.width, CV_32FC1);
   float* out = result.disparity.ptr<float>();
