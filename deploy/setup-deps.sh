@@ -5,8 +5,9 @@
 set -euo pipefail
 
 packages=(
-  # build tools
-  build-essential cmake ninja-build ccache pkg-config git clang-format
+  # build tools; clang parses the daemon for its thread-safety analysis
+  # (deploy/check-thread-safety.sh)
+  build-essential cmake ninja-build ccache pkg-config git clang-format clang
   # wire contract
   libgrpc++-dev libgrpc-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
   libabsl-dev libssl-dev

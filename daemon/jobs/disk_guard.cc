@@ -39,7 +39,7 @@ absl::StatusOr<int64_t> DiskGuard::FreeBytes() const {
 absl::StatusOr<int64_t> DiskGuard::BytesPerFrame(io::CaptureKind kind) const {
   std::vector<std::pair<std::string, std::string>> frames;  // session, path
   {
-    std::unique_lock<std::mutex> lock = store_.db().Lock();
+    absl::MutexLock lock(&store_.db().mutex());
     ASSIGN_OR_RETURN(store::Statement stmt, store_.db().Prepare(R"sql(
 SELECT s.name, f.path FROM frames f
 JOIN captures c ON c.id = f.capture_id JOIN sessions s ON s.id = c.session_id

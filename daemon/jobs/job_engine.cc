@@ -26,14 +26,14 @@ absl::Status JobContext::Progress(int64_t done, int64_t total,
                                   absl::string_view step,
                                   const std::function<absl::Status()>& also) {
   {
-    ASSIGN_OR_RETURN(std::unique_ptr<store::Transaction> tx,
-                     store::Transaction::Begin(store_.db()));
+    store::Transaction tx(store_.db());
+    RETURN_IF_ERROR(tx.status());
     if (also != nullptr) {
       RETURN_IF_ERROR(also());
     }
     RETURN_IF_ERROR(
         engine_.jobs_.SetProgressLocked(job_.id, done, total, step).status());
-    RETURN_IF_ERROR(tx->Commit());
+    RETURN_IF_ERROR(tx.Commit());
   }
   engine_.NotifyEvent();
   return absl::OkStatus();
@@ -94,7 +94,7 @@ absl::Status JobEngine::Start() {
     Enqueue(job.kind, job.id);
   }
 
-  std::lock_guard<std::mutex> lock(mutex_);
+  absl::MutexLock lock(&mutex_);
   started_ = true;
   capture_lane_.threads.emplace_back([this] { WorkerLoop(JobKind::kCapture); });
   for (int i = 0; i < std::max(1, options_.processing_threads); ++i) {
@@ -107,7 +107,7 @@ absl::Status JobEngine::Start() {
 void JobEngine::Shutdown() {
   std::vector<std::thread> threads;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    absl::MutexLock lock(&mutex_);
     if (stopping_ && !started_) return;
     stopping_ = true;
     started_ = false;
@@ -116,26 +116,24 @@ void JobEngine::Shutdown() {
       lane->threads.clear();
     }
   }
-  work_cv_.notify_all();
-  control_cv_.notify_all();
-  event_cv_.notify_all();
+  work_cv_.SignalAll();
+  control_cv_.SignalAll();
+  event_cv_.SignalAll();
   for (std::thread& t : threads) t.join();
 }
 
 void JobEngine::Enqueue(JobKind kind, int64_t id) {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    (kind == JobKind::kCapture ? capture_lane_ : processing_lane_)
-        .queue.push_back(id);
-  }
-  work_cv_.notify_all();
+  absl::MutexLock lock(&mutex_);
+  (kind == JobKind::kCapture ? capture_lane_ : processing_lane_)
+      .queue.push_back(id);
+  work_cv_.SignalAll();
 }
 
 absl::StatusOr<JobRecord> JobEngine::Submit(
     JobKind kind, absl::string_view session, absl::string_view request,
     int64_t total, absl::string_view message, absl::string_view submitted_by) {
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    absl::MutexLock lock(&mutex_);
     if (stopping_) return absl::UnavailableError("the daemon is stopping");
   }
   ASSIGN_OR_RETURN(JobRecord job, jobs_.Create(kind, session, request, total,
@@ -148,20 +146,21 @@ absl::StatusOr<JobRecord> JobEngine::Submit(
 }
 
 void JobEngine::WorkerLoop(JobKind kind) {
-  Lane& lane = kind == JobKind::kCapture ? capture_lane_ : processing_lane_;
   while (true) {
     int64_t id;
     {
-      std::unique_lock<std::mutex> lock(mutex_);
-      work_cv_.wait(lock, [&] { return stopping_ || !lane.queue.empty(); });
+      absl::MutexLock lock(&mutex_);
+      std::deque<int64_t>& queue =
+          (kind == JobKind::kCapture ? capture_lane_ : processing_lane_).queue;
+      while (!stopping_ && queue.empty()) work_cv_.Wait(&mutex_);
       if (stopping_) return;
-      id = lane.queue.front();
-      lane.queue.pop_front();
+      id = queue.front();
+      queue.pop_front();
       running_[id] = Control{};
     }
     RunJob(id);
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      absl::MutexLock lock(&mutex_);
       running_.erase(id);
     }
   }
@@ -190,11 +189,7 @@ void JobEngine::RunJob(int64_t id) {
       job->kind == JobKind::kCapture ? capture_runner_ : processing_runner_;
   absl::Status status = runner(context);
 
-  bool stopping;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    stopping = stopping_;
-  }
+  const bool stopping = this->stopping();
   JobState final_state;
   std::string message;
   std::string error;
@@ -228,7 +223,7 @@ void JobEngine::RunJob(int64_t id) {
 }
 
 absl::Status JobEngine::CheckpointFor(int64_t id) {
-  std::unique_lock<std::mutex> lock(mutex_);
+  absl::MutexLock lock(&mutex_);
   bool paused = false;
   while (true) {
     Control& control = running_[id];
@@ -240,7 +235,7 @@ absl::Status JobEngine::CheckpointFor(int64_t id) {
       jobs_.SetState(id, JobState::kPaused, "paused").IgnoreError();
       NotifyEventLocked();
     }
-    control_cv_.wait(lock);
+    control_cv_.Wait(&mutex_);
   }
   if (paused) {
     jobs_.SetState(id, JobState::kRunning, "resumed").IgnoreError();
@@ -254,30 +249,45 @@ absl::Status JobEngine::SuspendWhileFor(
     absl::Duration poll) {
   std::string reason = condition();
   while (!reason.empty()) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    Control& control = running_[id];
-    if (control.suspended.empty()) {
-      spdlog::warn("job {}: suspended: {}", id, reason);
-      jobs_.SetState(id, JobState::kPaused, absl::StrCat("suspended: ", reason))
-          .IgnoreError();
-      NotifyEventLocked();
+    {
+      absl::MutexLock lock(&mutex_);
+      Control& control = running_[id];
+      if (control.suspended.empty()) {
+        spdlog::warn("job {}: suspended: {}", id, reason);
+        jobs_
+            .SetState(id, JobState::kPaused,
+                      absl::StrCat("suspended: ", reason))
+            .IgnoreError();
+        NotifyEventLocked();
+      }
+      control.suspended = reason;
+      if (stopping_) return absl::AbortedError("the daemon is stopping");
+      if (control.cancel) return absl::CancelledError("cancelled");
+      control_cv_.WaitWithTimeout(&mutex_, poll);
+      if (stopping_) return absl::AbortedError("the daemon is stopping");
+      if (control.cancel) return absl::CancelledError("cancelled");
     }
-    control.suspended = reason;
-    if (stopping_) return absl::AbortedError("the daemon is stopping");
-    if (control.cancel) return absl::CancelledError("cancelled");
-    control_cv_.wait_for(lock, absl::ToChronoNanoseconds(poll));
-    if (stopping_) return absl::AbortedError("the daemon is stopping");
-    if (control.cancel) return absl::CancelledError("cancelled");
-    lock.unlock();
+    // The condition is asked without the lock: it talks to devices.
     const std::string now = condition();
     if (!now.empty()) {
       reason = now;
       continue;
     }
-    lock.lock();
-    Control& cleared = running_[id];
-    cleared.suspended.clear();
-    if (cleared.pause) {
+    {
+      absl::MutexLock lock(&mutex_);
+      Control& cleared = running_[id];
+      cleared.suspended.clear();
+      if (!cleared.pause) {
+        spdlog::info("job {}: resumed: the condition cleared (was: {})", id,
+                     reason);
+        jobs_
+            .SetState(id, JobState::kRunning,
+                      absl::StrCat(
+                          "resumed: the condition cleared (was: ", reason, ")"))
+            .IgnoreError();
+        NotifyEventLocked();
+        return absl::OkStatus();
+      }
       // The operator's pause outlasts the condition: never auto-resumed.
       jobs_
           .AddEvent(id, store::EventLevel::kInfo,
@@ -285,20 +295,9 @@ absl::Status JobEngine::SuspendWhileFor(
                                  "); stays paused by the operator"))
           .IgnoreError();
       NotifyEventLocked();
-      lock.unlock();
-      RETURN_IF_ERROR(CheckpointFor(id));
-      reason = condition();  // it may have come back meanwhile
-      continue;
     }
-    spdlog::info("job {}: resumed: the condition cleared (was: {})", id,
-                 reason);
-    jobs_
-        .SetState(
-            id, JobState::kRunning,
-            absl::StrCat("resumed: the condition cleared (was: ", reason, ")"))
-        .IgnoreError();
-    NotifyEventLocked();
-    return absl::OkStatus();
+    RETURN_IF_ERROR(CheckpointFor(id));
+    reason = condition();  // it may have come back meanwhile
   }
   return absl::OkStatus();
 }
@@ -306,7 +305,7 @@ absl::Status JobEngine::SuspendWhileFor(
 absl::StatusOr<JobRecord> JobEngine::Pause(int64_t id) {
   ASSIGN_OR_RETURN(JobRecord job, jobs_.Get(id));
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    absl::MutexLock lock(&mutex_);
     auto it = running_.find(id);
     const bool suspended =
         it != running_.end() && !it->second.suspended.empty();
@@ -318,14 +317,14 @@ absl::StatusOr<JobRecord> JobEngine::Pause(int64_t id) {
     }
     it->second.pause = true;
   }
-  control_cv_.notify_all();
+  control_cv_.SignalAll();
   return job;
 }
 
 absl::StatusOr<JobRecord> JobEngine::Resume(int64_t id) {
   ASSIGN_OR_RETURN(JobRecord job, jobs_.Get(id));
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    absl::MutexLock lock(&mutex_);
     auto it = running_.find(id);
     if (it != running_.end() && !it->second.pause &&
         !it->second.suspended.empty()) {
@@ -340,7 +339,7 @@ absl::StatusOr<JobRecord> JobEngine::Resume(int64_t id) {
     }
     it->second.pause = false;
   }
-  control_cv_.notify_all();
+  control_cv_.SignalAll();
   return jobs_.Get(id);
 }
 
@@ -352,7 +351,7 @@ absl::StatusOr<JobRecord> JobEngine::Cancel(int64_t id) {
   }
   bool was_queued = false;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    absl::MutexLock lock(&mutex_);
     if (auto it = running_.find(id); it != running_.end()) {
       it->second.cancel = true;
     } else {
@@ -369,7 +368,7 @@ absl::StatusOr<JobRecord> JobEngine::Cancel(int64_t id) {
       }
     }
   }
-  control_cv_.notify_all();
+  control_cv_.SignalAll();
   if (was_queued) {
     RETURN_IF_ERROR(
         jobs_.SetState(id, JobState::kCancelled, "cancelled before it started")
@@ -380,30 +379,30 @@ absl::StatusOr<JobRecord> JobEngine::Cancel(int64_t id) {
 }
 
 void JobEngine::NotifyEvent() {
-  std::lock_guard<std::mutex> lock(mutex_);
+  absl::MutexLock lock(&mutex_);
   NotifyEventLocked();
 }
 
 void JobEngine::NotifyEventLocked() {
   ++event_generation_;
-  event_cv_.notify_all();
+  event_cv_.SignalAll();
 }
 
 int64_t JobEngine::event_generation() {
-  std::lock_guard<std::mutex> lock(mutex_);
+  absl::MutexLock lock(&mutex_);
   return event_generation_;
 }
 
 bool JobEngine::stopping() {
-  std::lock_guard<std::mutex> lock(mutex_);
+  absl::MutexLock lock(&mutex_);
   return stopping_;
 }
 
 void JobEngine::WaitForEvents(int64_t seen_generation, absl::Time deadline) {
-  std::unique_lock<std::mutex> lock(mutex_);
-  event_cv_.wait_until(lock, absl::ToChronoTime(deadline), [&] {
-    return stopping_ || event_generation_ != seen_generation;
-  });
+  absl::MutexLock lock(&mutex_);
+  while (!stopping_ && event_generation_ == seen_generation) {
+    if (event_cv_.WaitWithDeadline(&mutex_, deadline)) return;  // timed out
+  }
 }
 
 }  // namespace hdrstereo::jobs

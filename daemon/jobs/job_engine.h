@@ -7,17 +7,17 @@
 #ifndef HDRSTEREO_DAEMON_JOBS_JOB_ENGINE_H_
 #define HDRSTEREO_DAEMON_JOBS_JOB_ENGINE_H_
 
-#include <condition_variable>
 #include <cstdint>
 #include <deque>
 #include <functional>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <thread>
 #include <vector>
 
+#include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
+#include "absl/synchronization/mutex.h"
 #include "absl/time/time.h"
 #include "daemon/store/job_repository.h"
 
@@ -82,10 +82,10 @@ class JobEngine {
 
   // Marks jobs a previous process left running as interrupted, queues the
   // queued (and, if configured, interrupted) ones, starts the threads.
-  absl::Status Start();
+  absl::Status Start() ABSL_LOCKS_EXCLUDED(mutex_);
   // Stops at the next checkpoint of every running job (which becomes
   // interrupted, to be resumed by the next Start()) and joins the threads.
-  void Shutdown();
+  void Shutdown() ABSL_LOCKS_EXCLUDED(mutex_);
 
   // Queues a job submitted by the principal `submitted_by`.
   absl::StatusOr<store::JobRecord> Submit(
@@ -101,9 +101,10 @@ class JobEngine {
 
   // Blocks until any job records a new event or `deadline` passes; watchers
   // then read the new events from the store.
-  void WaitForEvents(int64_t seen_generation, absl::Time deadline);
-  int64_t event_generation();
-  bool stopping();
+  void WaitForEvents(int64_t seen_generation, absl::Time deadline)
+      ABSL_LOCKS_EXCLUDED(mutex_);
+  int64_t event_generation() ABSL_LOCKS_EXCLUDED(mutex_);
+  bool stopping() ABSL_LOCKS_EXCLUDED(mutex_);
 
   store::JobRepository& repository() { return jobs_; }
   store::Store& store() { return store_; }
@@ -120,15 +121,15 @@ class JobEngine {
     std::vector<std::thread> threads;
   };
 
-  void Enqueue(store::JobKind kind, int64_t id);
-  void WorkerLoop(store::JobKind kind);
-  void RunJob(int64_t id);
-  void NotifyEvent();
-  void NotifyEventLocked();
-  absl::Status CheckpointFor(int64_t id);
+  void Enqueue(store::JobKind kind, int64_t id) ABSL_LOCKS_EXCLUDED(mutex_);
+  void WorkerLoop(store::JobKind kind) ABSL_LOCKS_EXCLUDED(mutex_);
+  void RunJob(int64_t id) ABSL_LOCKS_EXCLUDED(mutex_);
+  void NotifyEvent() ABSL_LOCKS_EXCLUDED(mutex_);
+  void NotifyEventLocked() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  absl::Status CheckpointFor(int64_t id) ABSL_LOCKS_EXCLUDED(mutex_);
   absl::Status SuspendWhileFor(int64_t id,
                                const std::function<std::string()>& condition,
-                               absl::Duration poll);
+                               absl::Duration poll) ABSL_LOCKS_EXCLUDED(mutex_);
 
   store::Store& store_;
   store::JobRepository jobs_;
@@ -136,16 +137,17 @@ class JobEngine {
   JobRunner processing_runner_;
   const JobEngineOptions options_;
 
-  std::mutex mutex_;
-  std::condition_variable work_cv_;     // queues changed, or stopping
-  std::condition_variable control_cv_;  // pause/resume/cancel/stop
-  std::condition_variable event_cv_;    // a job event was recorded
-  Lane capture_lane_;
-  Lane processing_lane_;
-  std::map<int64_t, Control> running_;  // controls of running jobs
-  int64_t event_generation_ = 0;
-  bool stopping_ = false;
-  bool started_ = false;
+  absl::Mutex mutex_;
+  absl::CondVar work_cv_;     // queues changed, or stopping
+  absl::CondVar control_cv_;  // pause/resume/cancel/stop
+  absl::CondVar event_cv_;    // a job event was recorded
+  Lane capture_lane_ ABSL_GUARDED_BY(mutex_);
+  Lane processing_lane_ ABSL_GUARDED_BY(mutex_);
+  // Controls of running jobs.
+  std::map<int64_t, Control> running_ ABSL_GUARDED_BY(mutex_);
+  int64_t event_generation_ ABSL_GUARDED_BY(mutex_) = 0;
+  bool stopping_ ABSL_GUARDED_BY(mutex_) = false;
+  bool started_ ABSL_GUARDED_BY(mutex_) = false;
 };
 
 }  // namespace hdrstereo::jobs

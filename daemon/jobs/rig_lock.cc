@@ -28,7 +28,7 @@ std::optional<RigLockState> RigLock::CurrentLocked() {
 }
 
 std::optional<RigLockState> RigLock::Current() {
-  std::lock_guard<std::mutex> lock(mutex_);
+  absl::MutexLock lock(&mutex_);
   return CurrentLocked();
 }
 
@@ -55,7 +55,7 @@ absl::StatusOr<RigLockState> RigLock::Acquire(absl::string_view holder,
     return absl::InvalidArgumentError(absl::StrCat(
         "note has ", note.size(), " bytes; at most ", kMaxRigLockNoteBytes));
   }
-  std::lock_guard<std::mutex> lock(mutex_);
+  absl::MutexLock lock(&mutex_);
   if (std::optional<RigLockState> current = CurrentLocked();
       current.has_value() && current->holder != holder) {
     return absl::FailedPreconditionError(Describe(*current));
@@ -76,7 +76,7 @@ absl::StatusOr<RigLockState> RigLock::Acquire(absl::string_view holder,
 
 absl::StatusOr<RigLockState> RigLock::Release(absl::string_view principal,
                                               bool force) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  absl::MutexLock lock(&mutex_);
   std::optional<RigLockState> current = CurrentLocked();
   if (!current.has_value()) {
     return absl::FailedPreconditionError("the rig is not locked");
@@ -92,7 +92,7 @@ absl::StatusOr<RigLockState> RigLock::Release(absl::string_view principal,
 }
 
 absl::Status RigLock::CheckFor(absl::string_view principal) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  absl::MutexLock lock(&mutex_);
   std::optional<RigLockState> current = CurrentLocked();
   if (!current.has_value() || current->holder == principal) {
     return absl::OkStatus();
@@ -101,7 +101,7 @@ absl::Status RigLock::CheckFor(absl::string_view principal) {
 }
 
 absl::Status RigLock::CheckUnattended() {
-  std::lock_guard<std::mutex> lock(mutex_);
+  absl::MutexLock lock(&mutex_);
   std::optional<RigLockState> current = CurrentLocked();
   if (!current.has_value()) return absl::OkStatus();
   return absl::FailedPreconditionError(Describe(*current));

@@ -12,12 +12,13 @@
 
 #include <functional>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
 
+#include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "absl/synchronization/mutex.h"
 #include "absl/time/time.h"
 #include "daemon/store/rig_lock_repository.h"
 
@@ -68,13 +69,14 @@ class RigLock {
         clock_(std::move(clock)),
         state_(std::move(state)) {}
 
-  std::optional<RigLockState> CurrentLocked();  // mutex_ held
+  std::optional<RigLockState> CurrentLocked()
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   std::string Describe(const RigLockState& state) const;
 
   store::RigLockRepository repository_;
   std::function<absl::Time()> clock_;
-  std::mutex mutex_;
-  std::optional<RigLockState> state_;
+  absl::Mutex mutex_;
+  std::optional<RigLockState> state_ ABSL_GUARDED_BY(mutex_);
 };
 
 }  // namespace hdrstereo::jobs

@@ -102,7 +102,7 @@ Scheduler::~Scheduler() { Stop(); }
 
 absl::Status Scheduler::Start() {
   {
-    std::lock_guard<std::mutex> tick(tick_mutex_);
+    absl::MutexLock tick(&tick_mutex_);
     // A run recorded without jobs was cut off while it started them.
     ASSIGN_OR_RETURN(std::vector<store::ScheduleRunRecord> running,
                      schedules_.RunningRuns());
@@ -114,37 +114,41 @@ absl::Status Scheduler::Start() {
       RETURN_IF_ERROR(schedules_.UpdateRun(run));
     }
   }
-  thread_ = std::thread([this] {
-    std::unique_lock<std::mutex> lock(mutex_);
-    while (!stopping_) {
-      lock.unlock();
-      if (absl::Status s = Tick(); !s.ok()) {
-        spdlog::warn("scheduler: {}", std::string(s.message()));
-      }
-      lock.lock();
-      cv_.wait_for(lock, absl::ToChronoMilliseconds(options_.tick),
-                   [this] { return stopping_ || wake_; });
-      wake_ = false;
-    }
-  });
+  thread_ = std::thread([this] { Loop(); });
   return absl::OkStatus();
+}
+
+void Scheduler::Loop() {
+  while (true) {
+    {
+      absl::MutexLock lock(&mutex_);
+      if (stopping_) return;
+    }
+    if (absl::Status s = Tick(); !s.ok()) {
+      spdlog::warn("scheduler: {}", std::string(s.message()));
+    }
+    absl::MutexLock lock(&mutex_);
+    const absl::Time deadline = absl::Now() + options_.tick;
+    while (!stopping_ && !wake_) {
+      if (cv_.WaitWithDeadline(&mutex_, deadline)) break;  // timed out
+    }
+    wake_ = false;
+  }
 }
 
 void Scheduler::Stop() {
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    absl::MutexLock lock(&mutex_);
     stopping_ = true;
+    cv_.SignalAll();
   }
-  cv_.notify_all();
   if (thread_.joinable()) thread_.join();
 }
 
 void Scheduler::Wake() {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    wake_ = true;
-  }
-  cv_.notify_all();
+  absl::MutexLock lock(&mutex_);
+  wake_ = true;
+  cv_.SignalAll();
 }
 
 std::optional<absl::Time> Scheduler::NextDue(
@@ -208,7 +212,7 @@ absl::Status Scheduler::SettleRunning() {
 }
 
 absl::Status Scheduler::Tick() {
-  std::lock_guard<std::mutex> tick(tick_mutex_);
+  absl::MutexLock tick(&tick_mutex_);
   const absl::Time now = Now();
   RETURN_IF_ERROR(SettleRunning());
   std::string after;

@@ -27,16 +27,16 @@
 #ifndef HDRSTEREO_DAEMON_JOBS_SCHEDULER_H_
 #define HDRSTEREO_DAEMON_JOBS_SCHEDULER_H_
 
-#include <condition_variable>
 #include <cstdint>
 #include <functional>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
 
+#include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "absl/synchronization/mutex.h"
 #include "absl/time/time.h"
 #include "daemon/jobs/capture_plan.h"
 #include "daemon/jobs/cron.h"
@@ -92,14 +92,14 @@ class Scheduler {
   ~Scheduler();  // Stop()
 
   // Settles runs a previous process left running, then ticks on a thread.
-  absl::Status Start();
-  void Stop();
+  absl::Status Start() ABSL_LOCKS_EXCLUDED(tick_mutex_, mutex_);
+  void Stop() ABSL_LOCKS_EXCLUDED(mutex_);
 
   // One pass at clock(): settles finished runs, then starts (or records as
   // skipped) every due time that has come. Public for tests.
-  absl::Status Tick();
+  absl::Status Tick() ABSL_LOCKS_EXCLUDED(tick_mutex_);
   // Wakes the thread for a pass now (a schedule was added or enabled).
-  void Wake();
+  void Wake() ABSL_LOCKS_EXCLUDED(mutex_);
 
   absl::Time Now() const { return options_.clock(); }
   // The next due time after now (and after the newest recorded run);
@@ -109,12 +109,16 @@ class Scheduler {
   store::ScheduleRepository& repository() { return schedules_; }
 
  private:
-  absl::Status SettleRunning();
+  // The thread: a pass every options_.tick, or at Wake(), until Stop().
+  void Loop() ABSL_LOCKS_EXCLUDED(mutex_);
+  absl::Status SettleRunning() ABSL_EXCLUSIVE_LOCKS_REQUIRED(tick_mutex_);
   absl::Status HandleSchedule(const store::ScheduleRecord& schedule,
-                              absl::Time now);
+                              absl::Time now)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(tick_mutex_);
   absl::Status Launch(const store::ScheduleRecord& schedule,
                       const CronSchedule& cron, absl::Time due, absl::Time now,
-                      std::string note);
+                      std::string note)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(tick_mutex_);
 
   store::Store& store_;
   store::ScheduleRepository schedules_;
@@ -122,11 +126,11 @@ class Scheduler {
   ProcessingSubmitter submit_processing_;
   const SchedulerOptions options_;
 
-  std::mutex tick_mutex_;  // one pass at a time
-  std::mutex mutex_;
-  std::condition_variable cv_;
-  bool stopping_ = false;
-  bool wake_ = false;
+  absl::Mutex tick_mutex_;  // one pass at a time
+  absl::Mutex mutex_;
+  absl::CondVar cv_;
+  bool stopping_ ABSL_GUARDED_BY(mutex_) = false;
+  bool wake_ ABSL_GUARDED_BY(mutex_) = false;
   std::thread thread_;
 };
 

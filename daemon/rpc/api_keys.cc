@@ -84,6 +84,7 @@ absl::StatusOr<std::unique_ptr<ApiKeyStore>> ApiKeyStore::Load(
   std::unique_ptr<ApiKeyStore> keys(new ApiKeyStore(store, std::move(clock)));
   ASSIGN_OR_RETURN(std::vector<store::ApiKeyRecord> all,
                    keys->repository_.All());
+  absl::MutexLock lock(&keys->mutex_);  // not yet shared; for the analysis
   for (store::ApiKeyRecord& key : all) {
     std::string id = key.id;
     keys->keys_.emplace(std::move(id), std::move(key));
@@ -125,7 +126,7 @@ absl::StatusOr<NewApiKey> ApiKeyStore::Create(absl::string_view user, Role role,
   record.expire_time_ms = now_ms + absl::ToInt64Milliseconds(ttl);
   RETURN_IF_ERROR(repository_.Insert(record));
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    absl::MutexLock lock(&mutex_);
     keys_.emplace(id, record);
   }
   return NewApiKey{.record = std::move(record),
@@ -145,7 +146,7 @@ absl::StatusOr<VerifiedApiKey> ApiKeyStore::Verify(absl::string_view token) {
   std::string persist_last_used;
   VerifiedApiKey verified;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    absl::MutexLock lock(&mutex_);
     auto it = keys_.find(id);
     absl::StatusOr<std::string> digest =
         it == keys_.end()
@@ -201,7 +202,7 @@ absl::StatusOr<store::ApiKeyRecord> ApiKeyStore::Revoke(absl::string_view id,
                                                         absl::string_view by) {
   // Under the lock, so that no call verifies the key between the database
   // and the cache.
-  std::lock_guard<std::mutex> lock(mutex_);
+  absl::MutexLock lock(&mutex_);
   ASSIGN_OR_RETURN(store::ApiKeyRecord revoked,
                    repository_.Revoke(id, absl::ToUnixMillis(clock_()), by));
   if (auto it = keys_.find(id); it != keys_.end()) {
@@ -215,7 +216,7 @@ std::vector<store::ApiKeyRecord> ApiKeyStore::List(absl::string_view user,
                                                    bool include_inactive) {
   const int64_t now_ms = absl::ToUnixMillis(clock_());
   std::vector<store::ApiKeyRecord> out;
-  std::lock_guard<std::mutex> lock(mutex_);
+  absl::MutexLock lock(&mutex_);
   for (const auto& [id, key] : keys_) {
     if (!user.empty() && key.user != user) continue;
     const bool active =

@@ -14,12 +14,13 @@
 #include <functional>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <string>
 #include <vector>
 
+#include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "absl/synchronization/mutex.h"
 #include "absl/time/time.h"
 #include "daemon/rpc/roles.h"
 #include "daemon/store/api_key_repository.h"
@@ -72,8 +73,10 @@ class ApiKeyStore {
 
   store::ApiKeyRepository repository_;
   std::function<absl::Time()> clock_;
-  std::mutex mutex_;
-  std::map<std::string, store::ApiKeyRecord, std::less<>> keys_;  // by id
+  absl::Mutex mutex_;
+  // By id.
+  std::map<std::string, store::ApiKeyRecord, std::less<>> keys_
+      ABSL_GUARDED_BY(mutex_);
 };
 
 }  // namespace hdrstereo::rpc

@@ -18,64 +18,65 @@ AuditLog::AuditLog(store::Store& store)
 
 AuditLog::~AuditLog() {
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    absl::MutexLock lock(&mutex_);
     stopping_ = true;
+    work_cv_.SignalAll();
   }
-  work_cv_.notify_all();
   writer_.join();
 }
 
 void AuditLog::Record(store::AuditRecord record) {
   if (record.time_ms == 0) record.time_ms = absl::ToUnixMillis(absl::Now());
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    ++recorded_;
-    if (queue_.size() >= kMaxQueued) {
-      ++dropped_;
-      ++written_;  // nothing left to wait for
-      return;
-    }
-    queue_.push_back(std::move(record));
+  absl::MutexLock lock(&mutex_);
+  ++recorded_;
+  if (queue_.size() >= kMaxQueued) {
+    ++dropped_;
+    ++written_;  // nothing left to wait for
+    return;
   }
-  work_cv_.notify_one();
+  queue_.push_back(std::move(record));
+  work_cv_.Signal();
 }
 
 void AuditLog::Flush() {
-  std::unique_lock<std::mutex> lock(mutex_);
+  absl::MutexLock lock(&mutex_);
   const int64_t target = recorded_;
-  done_cv_.wait(lock, [&] { return written_ >= target; });
+  while (written_ < target) done_cv_.Wait(&mutex_);
 }
 
 void AuditLog::WriterLoop() {
-  std::unique_lock<std::mutex> lock(mutex_);
   while (true) {
-    work_cv_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
-    if (queue_.empty() && stopping_) return;
     std::vector<store::AuditRecord> batch;
-    while (!queue_.empty() && batch.size() < kBatch) {
-      batch.push_back(std::move(queue_.front()));
-      queue_.pop_front();
+    size_t taken;
+    {
+      absl::MutexLock lock(&mutex_);
+      while (!stopping_ && queue_.empty()) work_cv_.Wait(&mutex_);
+      if (queue_.empty() && stopping_) return;
+      while (!queue_.empty() && batch.size() < kBatch) {
+        batch.push_back(std::move(queue_.front()));
+        queue_.pop_front();
+      }
+      taken = batch.size();
+      if (dropped_ > 0) {
+        store::AuditRecord note;
+        note.time_ms = absl::ToUnixMillis(absl::Now());
+        note.method = "(audit log)";
+        note.status_code =
+            static_cast<int>(absl::StatusCode::kResourceExhausted);
+        note.message =
+            absl::StrCat(dropped_, " audit rows were dropped: more than ",
+                         kMaxQueued, " were waiting");
+        batch.push_back(std::move(note));
+        dropped_ = 0;
+      }
     }
-    const size_t taken = batch.size();
-    if (dropped_ > 0) {
-      store::AuditRecord note;
-      note.time_ms = absl::ToUnixMillis(absl::Now());
-      note.method = "(audit log)";
-      note.status_code = static_cast<int>(absl::StatusCode::kResourceExhausted);
-      note.message =
-          absl::StrCat(dropped_, " audit rows were dropped: more than ",
-                       kMaxQueued, " were waiting");
-      batch.push_back(std::move(note));
-      dropped_ = 0;
-    }
-    lock.unlock();
     if (absl::Status s = repository_.Append(batch); !s.ok()) {
       spdlog::error("audit log: cannot write {} rows: {}", batch.size(),
                     std::string(s.message()));
     }
-    lock.lock();
+    absl::MutexLock lock(&mutex_);
     written_ += static_cast<int64_t>(taken);
-    done_cv_.notify_all();
+    done_cv_.SignalAll();
   }
 }
 

@@ -9,12 +9,12 @@
 #ifndef HDRSTEREO_DAEMON_RPC_AUDIT_LOG_H_
 #define HDRSTEREO_DAEMON_RPC_AUDIT_LOG_H_
 
-#include <condition_variable>
 #include <cstdint>
 #include <deque>
-#include <mutex>
 #include <thread>
 
+#include "absl/base/thread_annotations.h"
+#include "absl/synchronization/mutex.h"
 #include "daemon/store/audit_repository.h"
 
 namespace hdrstereo::rpc {
@@ -28,26 +28,29 @@ class AuditLog {
 
   // Queues a row (time_ms 0 = now). Beyond kMaxQueued rows waiting, rows are
   // counted and dropped, and one row says how many were.
-  void Record(store::AuditRecord record);
+  void Record(store::AuditRecord record) ABSL_LOCKS_EXCLUDED(mutex_);
   // Returns when every row recorded before the call is in SQLite.
-  void Flush();
+  void Flush() ABSL_LOCKS_EXCLUDED(mutex_);
 
   store::AuditRepository& repository() { return repository_; }
 
   static constexpr size_t kMaxQueued = 100000;
 
  private:
-  void WriterLoop();
+  void WriterLoop() ABSL_LOCKS_EXCLUDED(mutex_);
 
   store::AuditRepository repository_;
-  std::mutex mutex_;
-  std::condition_variable work_cv_;
-  std::condition_variable done_cv_;
-  std::deque<store::AuditRecord> queue_;
-  int64_t recorded_ = 0;  // rows handed to Record()
-  int64_t written_ = 0;   // of those, rows the writer has finished with
-  int64_t dropped_ = 0;   // since the last note about it
-  bool stopping_ = false;
+  absl::Mutex mutex_;
+  absl::CondVar work_cv_;
+  absl::CondVar done_cv_;
+  std::deque<store::AuditRecord> queue_ ABSL_GUARDED_BY(mutex_);
+  // Rows handed to Record().
+  int64_t recorded_ ABSL_GUARDED_BY(mutex_) = 0;
+  // Of those, rows the writer has finished with.
+  int64_t written_ ABSL_GUARDED_BY(mutex_) = 0;
+  // Dropped since the last note about it.
+  int64_t dropped_ ABSL_GUARDED_BY(mutex_) = 0;
+  bool stopping_ ABSL_GUARDED_BY(mutex_) = false;
   std::thread writer_;
 };
 

@@ -229,7 +229,7 @@ void HardwareService::FillProjector(v1::ProjectorStatus* out) {
   out->set_state(v1::DEVICE_STATE_CONNECTED);
   out->set_width_px(projector->resolution().width);
   out->set_height_px(projector->resolution().height);
-  std::lock_guard<std::mutex> lock(showing_mutex_);
+  absl::MutexLock lock(&showing_mutex_);
   out->set_showing(showing_);
 }
 
@@ -368,7 +368,7 @@ grpc::Status HardwareService::ShowPattern(grpc::ServerContext*,
     return DeviceError(s);
   }
   {
-    std::lock_guard<std::mutex> lock(showing_mutex_);
+    absl::MutexLock lock(&showing_mutex_);
     showing_ = pattern->second;
   }
   FillProjector(response);
@@ -387,7 +387,7 @@ grpc::Status HardwareService::BlankProjector(grpc::ServerContext*,
     return DeviceError(s);
   }
   {
-    std::lock_guard<std::mutex> lock(showing_mutex_);
+    absl::MutexLock lock(&showing_mutex_);
     showing_ = "blank";
   }
   FillProjector(response);

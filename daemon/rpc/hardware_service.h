@@ -2,9 +2,10 @@
 #ifndef HDRSTEREO_DAEMON_RPC_HARDWARE_SERVICE_H_
 #define HDRSTEREO_DAEMON_RPC_HARDWARE_SERVICE_H_
 
-#include <mutex>
 #include <string>
 
+#include "absl/base/thread_annotations.h"
+#include "absl/synchronization/mutex.h"
 #include "daemon/jobs/rig_lock.h"
 #include "daemon/rpc/authenticator.h"
 #include "hardware/rig.h"
@@ -61,8 +62,9 @@ class HardwareService final : public v1::Hardware::Service {
   hardware::Rig& rig_;
   jobs::RigLock& lock_;
   Authenticator& authenticator_;
-  std::mutex showing_mutex_;
-  std::string showing_ = "blank";  // what this service last showed
+  absl::Mutex showing_mutex_;
+  // What this service last showed.
+  std::string showing_ ABSL_GUARDED_BY(showing_mutex_) = "blank";
 };
 
 }  // namespace hdrstereo::rpc

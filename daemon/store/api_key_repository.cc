@@ -29,7 +29,8 @@ ApiKeyRecord Read(const Statement& stmt) {
   return k;
 }
 
-absl::StatusOr<ApiKeyRecord> GetLocked(Database& db, absl::string_view id) {
+absl::StatusOr<ApiKeyRecord> GetLocked(Database& db, absl::string_view id)
+    ABSL_EXCLUSIVE_LOCKS_REQUIRED(db.mutex()) {
   ASSIGN_OR_RETURN(Statement stmt,
                    db.Prepare(absl::StrCat(kSelect, "WHERE id = ?1")));
   stmt.Bind(1, id);
@@ -42,7 +43,8 @@ absl::StatusOr<ApiKeyRecord> GetLocked(Database& db, absl::string_view id) {
 
 absl::Status ApiKeyRepository::Insert(const ApiKeyRecord& key) {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(
       Statement insert,
       db.Prepare("INSERT INTO api_keys (id, salt, digest, user, role, note, "
@@ -58,11 +60,11 @@ absl::Status ApiKeyRepository::Insert(const ApiKeyRecord& key) {
                       .Bind(8, key.create_time_ms)
                       .Bind(9, key.expire_time_ms)
                       .Run());
-  return tx->Commit();
+  return tx.Commit();
 }
 
 absl::StatusOr<std::vector<ApiKeyRecord>> ApiKeyRepository::All() {
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(Statement stmt,
                    store_.db().Prepare(
                        absl::StrCat(kSelect, "ORDER BY create_time_ms, id")));
@@ -79,7 +81,8 @@ absl::StatusOr<ApiKeyRecord> ApiKeyRepository::Revoke(absl::string_view id,
                                                       int64_t now_ms,
                                                       absl::string_view by) {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(ApiKeyRecord key, GetLocked(db, id));
   if (key.revoke_time_ms.has_value()) {
     return absl::FailedPreconditionError(
@@ -90,19 +93,20 @@ absl::StatusOr<ApiKeyRecord> ApiKeyRepository::Revoke(absl::string_view id,
                               "revoked_by = ?3 WHERE id = ?1"));
   RETURN_IF_ERROR(update.Bind(1, id).Bind(2, now_ms).Bind(3, by).Run());
   ASSIGN_OR_RETURN(key, GetLocked(db, id));
-  RETURN_IF_ERROR(tx->Commit());
+  RETURN_IF_ERROR(tx.Commit());
   return key;
 }
 
 absl::Status ApiKeyRepository::SetLastUsed(absl::string_view id,
                                            int64_t time_ms) {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(
       Statement update,
       db.Prepare("UPDATE api_keys SET last_used_time_ms = ?2 WHERE id = ?1"));
   RETURN_IF_ERROR(update.Bind(1, id).Bind(2, time_ms).Run());
-  return tx->Commit();
+  return tx.Commit();
 }
 
 }  // namespace hdrstereo::store

@@ -40,8 +40,8 @@ absl::StatusOr<std::vector<ArtifactRecord>> ReadAll(Statement& stmt) {
 }
 
 // The caller holds the database lock.
-absl::StatusOr<int64_t> SessionIdLocked(Database& db,
-                                        absl::string_view session) {
+absl::StatusOr<int64_t> SessionIdLocked(Database& db, absl::string_view session)
+    ABSL_EXCLUSIVE_LOCKS_REQUIRED(db.mutex()) {
   ASSIGN_OR_RETURN(Statement stmt,
                    db.Prepare("SELECT id FROM sessions WHERE name = ?1"));
   stmt.Bind(1, session);
@@ -66,7 +66,7 @@ void BindJob(Statement& stmt, int index, int64_t job_id) {
 absl::StatusOr<std::vector<ArtifactRecord>> ArtifactRepository::ForStep(
     int64_t session_id, absl::string_view step, absl::string_view params_hash) {
   Database& db = store_.db();
-  std::unique_lock<std::mutex> lock = db.Lock();
+  absl::MutexLock lock(&db.mutex());
   ASSIGN_OR_RETURN(
       Statement stmt,
       db.Prepare(absl::StrCat(
@@ -81,7 +81,8 @@ absl::Status ArtifactRepository::ReplaceStep(
     int64_t session_id, int64_t job_id, absl::string_view step,
     const std::vector<ArtifactRecord>& artifacts) {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(
       Statement clear,
       db.Prepare("DELETE FROM artifacts WHERE session_id = ?1 AND step = ?2"));
@@ -112,14 +113,14 @@ ON CONFLICT (session_id, path) DO UPDATE SET job_id = excluded.job_id,
         .Bind(10, now);
     RETURN_IF_ERROR(insert.Run());
   }
-  return tx->Commit();
+  return tx.Commit();
 }
 
 absl::StatusOr<std::vector<ArtifactRecord>> ArtifactRepository::List(
     absl::string_view session, absl::string_view kind, int64_t after_id,
     int limit) {
   Database& db = store_.db();
-  std::unique_lock<std::mutex> lock = db.Lock();
+  absl::MutexLock lock(&db.mutex());
   ASSIGN_OR_RETURN(int64_t session_id, SessionIdLocked(db, session));
   ASSIGN_OR_RETURN(
       Statement stmt,
@@ -137,7 +138,7 @@ absl::StatusOr<std::vector<ArtifactRecord>> ArtifactRepository::List(
 absl::StatusOr<ArtifactRecord> ArtifactRepository::Get(
     absl::string_view session, int64_t artifact_id) {
   Database& db = store_.db();
-  std::unique_lock<std::mutex> lock = db.Lock();
+  absl::MutexLock lock(&db.mutex());
   ASSIGN_OR_RETURN(int64_t session_id, SessionIdLocked(db, session));
   ASSIGN_OR_RETURN(
       Statement stmt,
@@ -156,7 +157,8 @@ absl::Status ArtifactRepository::ReplaceMetrics(
     int64_t session_id, int64_t job_id,
     const std::vector<MetricRecord>& metrics) {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(Statement clear,
                    db.Prepare("DELETE FROM metrics WHERE session_id = ?1"));
   RETURN_IF_ERROR(clear.Bind(1, session_id).Run());
@@ -181,13 +183,13 @@ VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)
         .Bind(12, now);
     RETURN_IF_ERROR(insert.Run());
   }
-  return tx->Commit();
+  return tx.Commit();
 }
 
 absl::StatusOr<std::vector<MetricRecord>> ArtifactRepository::Metrics(
     int64_t session_id) {
   Database& db = store_.db();
-  std::unique_lock<std::mutex> lock = db.Lock();
+  absl::MutexLock lock(&db.mutex());
   ASSIGN_OR_RETURN(Statement stmt, db.Prepare(R"sql(
 SELECT method, ground_truth, rmse, mae, bad_0_5, bad_1, bad_2, bad_4,
   coverage, coalesce(job_id, 0)

@@ -8,7 +8,8 @@ namespace hdrstereo::store {
 absl::Status AuditRepository::Append(const std::vector<AuditRecord>& records) {
   if (records.empty()) return absl::OkStatus();
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   for (const AuditRecord& r : records) {
     ASSIGN_OR_RETURN(
         Statement insert,
@@ -26,12 +27,12 @@ absl::Status AuditRepository::Append(const std::vector<AuditRecord>& records) {
                         .Bind(9, r.message)
                         .Run());
   }
-  return tx->Commit();
+  return tx.Commit();
 }
 
 absl::StatusOr<std::vector<AuditRecord>> AuditRepository::List(
     const AuditFilter& filter) {
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(Statement stmt, store_.db().Prepare(R"sql(
 SELECT id, time_ms, principal, role, auth_method, peer, method, subject,
        status_code, message

@@ -153,17 +153,22 @@ int64_t Database::LastInsertId() const {
 
 int Database::Changes() const { return sqlite3_changes(db_); }
 
-absl::StatusOr<std::unique_ptr<Transaction>> Transaction::Begin(Database& db) {
-  std::unique_lock<std::mutex> lock = db.Lock();
-  RETURN_IF_ERROR(db.Exec("BEGIN IMMEDIATE"));
-  return std::unique_ptr<Transaction>(new Transaction(db, std::move(lock)));
+Transaction::Transaction(Database& db) : db_(db) {
+  db.mutex().Lock();
+  status_ = db.Exec("BEGIN IMMEDIATE");
+  done_ = !status_.ok();  // nothing to roll back
 }
 
 Transaction::~Transaction() {
+  db_.AssertHeld();
   if (!done_) db_.Exec("ROLLBACK").IgnoreError();
+  db_.mutex().Unlock();
 }
 
 absl::Status Transaction::Commit() {
+  db_.AssertHeld();
+  if (!status_.ok()) return status_;
+  if (done_) return absl::FailedPreconditionError("transaction already ended");
   absl::Status status = db_.Exec("COMMIT");
   if (status.ok()) done_ = true;
   return status;

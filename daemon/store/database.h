@@ -10,13 +10,14 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
 
+#include "absl/base/thread_annotations.h"
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "absl/synchronization/mutex.h"
 
 namespace hdrstereo::store {
 
@@ -58,9 +59,11 @@ class Statement {
 
 // One SQLite connection shared by the daemon's threads. A statement from
 // another thread would silently join an open transaction on the same
-// connection, so every use holds the connection's lock: Lock() for reads,
-// Transaction (which takes the lock itself) for writes. The lock is not
-// recursive.
+// connection, so every use holds the connection's mutex: for reads
+// `absl::MutexLock lock(&db.mutex());`, for writes a Transaction (which takes
+// it itself). The mutex is not recursive. Clang's -Wthread-safety checks the
+// callers (deploy/check-thread-safety.sh); a statement, once prepared, must
+// not outlive the lock it was prepared under.
 class Database {
  public:
   enum class Mode { kReadWriteCreate, kReadWrite, kReadOnly };
@@ -69,14 +72,20 @@ class Database {
       const std::filesystem::path& path, Mode mode = Mode::kReadWriteCreate);
   ~Database();
 
-  absl::StatusOr<Statement> Prepare(absl::string_view sql);
+  absl::StatusOr<Statement> Prepare(absl::string_view sql)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   // Runs one or more statements that take no parameters.
-  absl::Status Exec(absl::string_view sql);
-  int64_t LastInsertId() const;
-  int Changes() const;
+  absl::Status Exec(absl::string_view sql)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  int64_t LastInsertId() const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  int Changes() const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
 
-  [[nodiscard]] std::unique_lock<std::mutex> Lock() {
-    return std::unique_lock(mutex_);
+  absl::Mutex& mutex() ABSL_LOCK_RETURNED(mutex_) { return mutex_; }
+  // For code that runs inside a caller's transaction through a callback,
+  // where the analysis cannot follow the lock: checks at run time that the
+  // mutex is held, and tells the analysis so.
+  void AssertHeld() const ABSL_ASSERT_EXCLUSIVE_LOCK(mutex_) {
+    mutex_.AssertHeld();
   }
   const std::filesystem::path& path() const { return path_; }
 
@@ -84,24 +93,31 @@ class Database {
   Database(sqlite3* db, std::filesystem::path path)
       : db_(db), path_(std::move(path)) {}
 
-  sqlite3* db_;
-  std::filesystem::path path_;
-  std::mutex mutex_;
+  sqlite3* const db_;
+  const std::filesystem::path path_;
+  mutable absl::Mutex mutex_;
 };
 
-// Takes the database's lock and runs BEGIN IMMEDIATE; ROLLBACK on destruction
-// unless Commit() succeeded.
-class Transaction {
+// A write transaction: takes the database's mutex for its lifetime and runs
+// BEGIN IMMEDIATE; ROLLBACK on destruction unless Commit() succeeded.
+//   Transaction tx(db);
+//   RETURN_IF_ERROR(tx.status());
+//   ... db.Prepare(...) ...
+//   RETURN_IF_ERROR(tx.Commit());
+class ABSL_SCOPED_LOCKABLE Transaction {
  public:
-  static absl::StatusOr<std::unique_ptr<Transaction>> Begin(Database& db);
-  ~Transaction();
+  explicit Transaction(Database& db) ABSL_EXCLUSIVE_LOCK_FUNCTION(db.mutex());
+  ~Transaction() ABSL_UNLOCK_FUNCTION();
+  Transaction(const Transaction&) = delete;
+  Transaction& operator=(const Transaction&) = delete;
+
+  // Whether BEGIN succeeded; nothing may run in a transaction that did not.
+  const absl::Status& status() const { return status_; }
   absl::Status Commit();
 
  private:
-  Transaction(Database& db, std::unique_lock<std::mutex> lock)
-      : db_(db), lock_(std::move(lock)) {}
   Database& db_;
-  std::unique_lock<std::mutex> lock_;
+  absl::Status status_;
   bool done_ = false;
 };
 

@@ -73,7 +73,8 @@ absl::StatusOr<std::vector<FrameRecord>> ReadAll(Statement& stmt) {
 absl::StatusOr<CaptureRecord> FrameRepository::CaptureForJob(
     int64_t job_id, io::CaptureKind kind, absl::string_view plan) {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(
       Statement find,
       db.Prepare(
@@ -109,7 +110,7 @@ RETURNING id, session_id)sql"));
                           .plan = std::string(plan)};
     // Run the statement to its end so that the transaction can commit.
     RETURN_IF_ERROR(adopt.Step().status());
-    RETURN_IF_ERROR(tx->Commit());
+    RETURN_IF_ERROR(tx.Commit());
     return capture;
   }
   ASSIGN_OR_RETURN(Statement insert, db.Prepare(R"sql(
@@ -129,13 +130,13 @@ RETURNING id, session_id)sql"));
                         .kind = kind,
                         .plan = std::string(plan)};
   RETURN_IF_ERROR(insert.Step().status());
-  RETURN_IF_ERROR(tx->Commit());
+  RETURN_IF_ERROR(tx.Commit());
   return capture;
 }
 
 absl::StatusOr<std::vector<FrameRecord>> FrameRepository::FramesOfCapture(
     int64_t capture_id) {
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(
       Statement stmt,
       store_.db().Prepare(absl::StrCat(
@@ -147,7 +148,7 @@ absl::StatusOr<std::vector<FrameRecord>> FrameRepository::FramesOfCapture(
 absl::StatusOr<std::vector<FrameRecord>> FrameRepository::FramesOfSession(
     absl::string_view session, int64_t capture_id, int64_t after_id,
     int limit) {
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(
       Statement exists,
       store_.db().Prepare("SELECT id FROM sessions WHERE name = ?1"));
@@ -172,7 +173,7 @@ absl::StatusOr<std::vector<FrameRecord>> FrameRepository::FramesOfSession(
 
 absl::StatusOr<std::vector<CaptureRecord>> FrameRepository::CapturesOfSession(
     absl::string_view session) {
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(Statement stmt, store_.db().Prepare(R"sql(
 SELECT s.id, c.id, c.session_id, coalesce(c.job_id, 0), c.kind, c.plan
 FROM sessions s LEFT JOIN captures c ON c.session_id = s.id
@@ -201,6 +202,7 @@ WHERE s.name = ?1 ORDER BY c.id
 }
 
 absl::Status FrameRepository::InsertLocked(const FrameRecord& f) {
+  store_.db().AssertHeld();
   ASSIGN_OR_RETURN(Statement insert, store_.db().Prepare(R"sql(
 INSERT INTO frames (capture_id, sequence, view_index, stage_position_mm,
   exposure_s, pattern, inverse, format, width_px, height_px, path, sha256,
@@ -239,12 +241,12 @@ VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16,
 }
 
 absl::Status FrameRepository::Delete(int64_t frame_id) {
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx,
-                   Transaction::Begin(store_.db()));
+  Transaction tx(store_.db());
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(Statement remove,
                    store_.db().Prepare("DELETE FROM frames WHERE id = ?1"));
   RETURN_IF_ERROR(remove.Bind(1, frame_id).Run());
-  return tx->Commit();
+  return tx.Commit();
 }
 
 }  // namespace hdrstereo::store

@@ -72,7 +72,8 @@ class FrameRepository {
       absl::string_view session, int64_t capture_id, int64_t after_id,
       int limit);
 
-  // Inside a transaction the caller holds.
+  // Inside a transaction the caller holds (checked at run time: callers
+  // reach it through callbacks the analysis cannot follow).
   absl::Status InsertLocked(const FrameRecord& frame);
   absl::Status Delete(int64_t frame_id);
 

@@ -72,7 +72,8 @@ absl::StatusOr<JobRecord> ReadJob(const Statement& stmt) {
   return job;
 }
 
-absl::StatusOr<JobRecord> GetLocked(Database& db, int64_t id) {
+absl::StatusOr<JobRecord> GetLocked(Database& db, int64_t id)
+    ABSL_EXCLUSIVE_LOCKS_REQUIRED(db.mutex()) {
   ASSIGN_OR_RETURN(Statement stmt,
                    db.Prepare(absl::StrCat(kSelectJob, "WHERE j.id = ?1")));
   stmt.Bind(1, id);
@@ -103,8 +104,7 @@ bool IsFinal(JobState state) {
 }
 
 absl::StatusOr<JobEventRecord> JobRepository::AppendEventLocked(
-    int64_t id, EventLevel level, absl::string_view message) {
-  Database& db = store_.db();
+    Database& db, int64_t id, EventLevel level, absl::string_view message) {
   ASSIGN_OR_RETURN(JobRecord job, GetLocked(db, id));
   ASSIGN_OR_RETURN(Statement insert, db.Prepare(R"sql(
 INSERT INTO job_events (job_id, sequence, time_ms, state, progress_done,
@@ -137,7 +137,8 @@ absl::StatusOr<JobRecord> JobRepository::Create(
     JobKind kind, absl::string_view session, absl::string_view request,
     int64_t total, absl::string_view message, absl::string_view submitted_by) {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(Statement insert, db.Prepare(R"sql(
 INSERT INTO jobs (kind, session_id, state, request, create_time_ms,
                   progress_total, submitted_by)
@@ -155,16 +156,17 @@ SELECT ?1, id, 'queued', ?2, ?3, ?5, ?6 FROM sessions WHERE name = ?4)sql"));
         absl::StrCat("no session named \"", session, "\""));
   }
   const int64_t id = db.LastInsertId();
-  RETURN_IF_ERROR(AppendEventLocked(id, EventLevel::kInfo, message).status());
+  RETURN_IF_ERROR(
+      AppendEventLocked(db, id, EventLevel::kInfo, message).status());
   ASSIGN_OR_RETURN(JobRecord job, GetLocked(db, id));
-  RETURN_IF_ERROR(tx->Commit());
+  RETURN_IF_ERROR(tx.Commit());
   return job;
 }
 
 absl::StatusOr<std::vector<JobEventRow>> JobRepository::EventsAfterRow(
     int64_t after_row_id, int limit) {
   Database& db = store_.db();
-  std::unique_lock<std::mutex> lock = db.Lock();
+  absl::MutexLock lock(&db.mutex());
   ASSIGN_OR_RETURN(Statement stmt, db.Prepare(R"sql(
 SELECT e.id, e.sequence, e.time_ms, e.state, e.progress_done,
        e.progress_total, e.step, e.level, e.message,
@@ -203,7 +205,7 @@ FROM job_events e WHERE e.id > ?1 ORDER BY e.id LIMIT ?2)sql"));
 }
 
 absl::StatusOr<JobRecord> JobRepository::Get(int64_t id) {
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   return GetLocked(store_.db(), id);
 }
 
@@ -219,7 +221,7 @@ absl::StatusOr<std::vector<JobRecord>> JobRepository::List(
     where.push_back(
         absl::StrCat("j.state IN (", absl::StrJoin(names, ", "), ")"));
   }
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(Statement stmt,
                    store_.db().Prepare(absl::StrCat(
                        kSelectJob, "WHERE ", absl::StrJoin(where, " AND "),
@@ -241,7 +243,8 @@ absl::StatusOr<JobEventRecord> JobRepository::SetState(
     int64_t id, JobState state, absl::string_view message,
     absl::string_view error) {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(Statement update, db.Prepare(R"sql(
 UPDATE jobs SET state = ?2, error = ?3,
   start_time_ms = CASE WHEN ?2 = 'running' AND start_time_ms IS NULL
@@ -259,16 +262,17 @@ WHERE id = ?1)sql"));
   ASSIGN_OR_RETURN(
       JobEventRecord event,
       AppendEventLocked(
-          id,
+          db, id,
           state == JobState::kFailed ? EventLevel::kError : EventLevel::kInfo,
           message));
-  RETURN_IF_ERROR(tx->Commit());
+  RETURN_IF_ERROR(tx.Commit());
   return event;
 }
 
 absl::StatusOr<JobEventRecord> JobRepository::SetProgressLocked(
     int64_t id, int64_t done, int64_t total, absl::string_view step) {
   Database& db = store_.db();
+  db.AssertHeld();
   ASSIGN_OR_RETURN(
       Statement update,
       db.Prepare(
@@ -276,35 +280,38 @@ absl::StatusOr<JobEventRecord> JobRepository::SetProgressLocked(
           "WHERE id = ?1"));
   RETURN_IF_ERROR(
       update.Bind(1, id).Bind(2, done).Bind(3, total).Bind(4, step).Run());
-  return AppendEventLocked(id, EventLevel::kInfo, "");
+  return AppendEventLocked(db, id, EventLevel::kInfo, "");
 }
 
 absl::StatusOr<JobEventRecord> JobRepository::AddEvent(
     int64_t id, EventLevel level, absl::string_view message) {
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx,
-                   Transaction::Begin(store_.db()));
-  ASSIGN_OR_RETURN(JobEventRecord event, AppendEventLocked(id, level, message));
-  RETURN_IF_ERROR(tx->Commit());
+  Database& db = store_.db();
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
+  ASSIGN_OR_RETURN(JobEventRecord event,
+                   AppendEventLocked(db, id, level, message));
+  RETURN_IF_ERROR(tx.Commit());
   return event;
 }
 
 absl::StatusOr<JobEventRecord> JobRepository::SetClusterJob(
     int64_t id, int64_t cluster_job_id, absl::string_view message) {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(
       Statement stmt,
       db.Prepare("UPDATE jobs SET cluster_job_id = ?2 WHERE id = ?1"));
   RETURN_IF_ERROR(stmt.Bind(1, id).Bind(2, cluster_job_id).Run());
   ASSIGN_OR_RETURN(JobEventRecord event,
-                   AppendEventLocked(id, EventLevel::kInfo, message));
-  RETURN_IF_ERROR(tx->Commit());
+                   AppendEventLocked(db, id, EventLevel::kInfo, message));
+  RETURN_IF_ERROR(tx.Commit());
   return event;
 }
 
 absl::StatusOr<std::vector<JobEventRecord>> JobRepository::Events(
     int64_t id, int64_t after_sequence) {
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(Statement stmt, store_.db().Prepare(R"sql(
 SELECT sequence, time_ms, state, progress_done, progress_total, step, level,
        message
@@ -331,7 +338,7 @@ FROM job_events WHERE job_id = ?1 AND sequence > ?2 ORDER BY sequence)sql"));
 absl::StatusOr<std::vector<int64_t>> JobRepository::InterruptUnfinished() {
   std::vector<int64_t> ids;
   {
-    std::unique_lock<std::mutex> lock = store_.db().Lock();
+    absl::MutexLock lock(&store_.db().mutex());
     ASSIGN_OR_RETURN(Statement stmt,
                      store_.db().Prepare("SELECT id FROM jobs WHERE state IN "
                                          "('running', 'paused') ORDER BY id"));

@@ -124,14 +124,16 @@ class JobRepository {
 
   // Inside an open transaction (the caller holds it): progress update and
   // its event, for callers that commit other rows in the same transaction
-  // (e.g. a frame and the progress it advances).
+  // (e.g. a frame and the progress it advances). Checks at run time that the
+  // database's mutex is held.
   absl::StatusOr<JobEventRecord> SetProgressLocked(int64_t id, int64_t done,
                                                    int64_t total,
                                                    absl::string_view step);
 
  private:
-  absl::StatusOr<JobEventRecord> AppendEventLocked(int64_t id, EventLevel level,
-                                                   absl::string_view message);
+  static absl::StatusOr<JobEventRecord> AppendEventLocked(
+      Database& db, int64_t id, EventLevel level, absl::string_view message)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(db.mutex());
   Store& store_;
 };
 

@@ -1,8 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "daemon/store/metrics_repository.h"
 
-#include <mutex>
-
 #include "daemon/store/database.h"
 #include "daemon/store/job_repository.h"
 #include "processing/base/status_macros.h"
@@ -10,7 +8,8 @@
 namespace hdrstereo::store {
 namespace {
 
-absl::StatusOr<int64_t> Count(Database& db, absl::string_view sql) {
+absl::StatusOr<int64_t> Count(Database& db, absl::string_view sql)
+    ABSL_EXCLUSIVE_LOCKS_REQUIRED(db.mutex()) {
   ASSIGN_OR_RETURN(Statement stmt, db.Prepare(sql));
   ASSIGN_OR_RETURN(bool row, stmt.Step());
   return row ? stmt.ColumnInt(0) : 0;
@@ -20,7 +19,7 @@ absl::StatusOr<int64_t> Count(Database& db, absl::string_view sql) {
 
 absl::StatusOr<StoreTotals> MetricsRepository::Read() {
   Database& db = store_.db();
-  std::unique_lock<std::mutex> lock = db.Lock();
+  absl::MutexLock lock(&db.mutex());
   StoreTotals totals;
   for (JobState state :
        {JobState::kQueued, JobState::kRunning, JobState::kPaused,

@@ -6,7 +6,7 @@
 namespace hdrstereo::store {
 
 absl::StatusOr<std::optional<RigLockRecord>> RigLockRepository::Get() {
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(
       Statement stmt,
       store_.db().Prepare("SELECT holder, note, lock_time_ms, expire_time_ms "
@@ -22,7 +22,8 @@ absl::StatusOr<std::optional<RigLockRecord>> RigLockRepository::Get() {
 
 absl::Status RigLockRepository::Put(const RigLockRecord& record) {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(
       Statement stmt,
       db.Prepare("INSERT OR REPLACE INTO rig_lock (id, holder, note, "
@@ -32,14 +33,15 @@ absl::Status RigLockRepository::Put(const RigLockRecord& record) {
                       .Bind(3, record.lock_time_ms)
                       .Bind(4, record.expire_time_ms)
                       .Run());
-  return tx->Commit();
+  return tx.Commit();
 }
 
 absl::Status RigLockRepository::Clear() {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   RETURN_IF_ERROR(db.Exec("DELETE FROM rig_lock"));
-  return tx->Commit();
+  return tx.Commit();
 }
 
 }  // namespace hdrstereo::store

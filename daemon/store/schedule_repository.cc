@@ -74,7 +74,8 @@ ScheduleRunRecord ReadRun(const Statement& stmt) {
   return r;
 }
 
-absl::StatusOr<ScheduleRecord> GetLocked(Database& db, absl::string_view name) {
+absl::StatusOr<ScheduleRecord> GetLocked(Database& db, absl::string_view name)
+    ABSL_EXCLUSIVE_LOCKS_REQUIRED(db.mutex()) {
   ASSIGN_OR_RETURN(Statement stmt, db.Prepare(absl::StrCat(
                                        kSelectSchedule, "WHERE s.name = ?1")));
   stmt.Bind(1, name);
@@ -108,7 +109,8 @@ absl::StatusOr<ScheduleRecord> ScheduleRepository::Create(
     const ScheduleRecord& schedule, int64_t now_ms) {
   RETURN_IF_ERROR(ValidateName(schedule.name, "schedule name"));
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(
       Statement insert,
       db.Prepare(
@@ -133,18 +135,18 @@ absl::StatusOr<ScheduleRecord> ScheduleRepository::Create(
   }
   if (!inserted.ok()) return inserted;
   ASSIGN_OR_RETURN(ScheduleRecord record, GetLocked(db, schedule.name));
-  RETURN_IF_ERROR(tx->Commit());
+  RETURN_IF_ERROR(tx.Commit());
   return record;
 }
 
 absl::StatusOr<ScheduleRecord> ScheduleRepository::Get(absl::string_view name) {
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   return GetLocked(store_.db(), name);
 }
 
 absl::StatusOr<std::vector<ScheduleRecord>> ScheduleRepository::List(
     absl::string_view after, int limit) {
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(
       Statement stmt,
       store_.db().Prepare(absl::StrCat(
@@ -161,19 +163,21 @@ absl::StatusOr<std::vector<ScheduleRecord>> ScheduleRepository::List(
 
 absl::Status ScheduleRepository::Delete(absl::string_view name) {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(Statement stmt,
                    db.Prepare("DELETE FROM schedules WHERE name = ?1"));
   RETURN_IF_ERROR(stmt.Bind(1, name).Run());
   if (db.Changes() == 0) return NotFound(name);
-  return tx->Commit();
+  return tx.Commit();
 }
 
 absl::StatusOr<ScheduleRecord> ScheduleRepository::SetEnabled(
     absl::string_view name, bool enabled, int64_t now_ms,
     absl::string_view by) {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(ScheduleRecord current, GetLocked(db, name));
   if (current.enabled != enabled) {
     ASSIGN_OR_RETURN(
@@ -187,14 +191,15 @@ absl::StatusOr<ScheduleRecord> ScheduleRepository::SetEnabled(
     RETURN_IF_ERROR(stmt.Run());
   }
   ASSIGN_OR_RETURN(ScheduleRecord record, GetLocked(db, name));
-  RETURN_IF_ERROR(tx->Commit());
+  RETURN_IF_ERROR(tx.Commit());
   return record;
 }
 
 absl::StatusOr<ScheduleRunRecord> ScheduleRepository::AddRun(
     const ScheduleRunRecord& run) {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(
       Statement stmt,
       db.Prepare(
@@ -212,13 +217,14 @@ absl::StatusOr<ScheduleRunRecord> ScheduleRepository::AddRun(
   RETURN_IF_ERROR(stmt.Run());
   ScheduleRunRecord out = run;
   out.id = db.LastInsertId();
-  RETURN_IF_ERROR(tx->Commit());
+  RETURN_IF_ERROR(tx.Commit());
   return out;
 }
 
 absl::Status ScheduleRepository::UpdateRun(const ScheduleRunRecord& run) {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(
       Statement stmt,
       db.Prepare(
@@ -233,12 +239,12 @@ absl::Status ScheduleRepository::UpdateRun(const ScheduleRunRecord& run) {
       .Bind(6, RunOutcomeName(run.outcome))
       .Bind(7, run.reason);
   RETURN_IF_ERROR(stmt.Run());
-  return tx->Commit();
+  return tx.Commit();
 }
 
 absl::StatusOr<std::vector<ScheduleRunRecord>> ScheduleRepository::Runs(
     absl::string_view name, int64_t before_due_ms, int limit) {
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   RETURN_IF_ERROR(GetLocked(store_.db(), name).status());
   ASSIGN_OR_RETURN(Statement stmt,
                    store_.db().Prepare(absl::StrCat(
@@ -257,7 +263,7 @@ absl::StatusOr<std::vector<ScheduleRunRecord>> ScheduleRepository::Runs(
 
 absl::StatusOr<std::vector<ScheduleRunRecord>>
 ScheduleRepository::RunningRuns() {
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(
       Statement stmt,
       store_.db().Prepare(absl::StrCat(
@@ -273,7 +279,7 @@ ScheduleRepository::RunningRuns() {
 
 absl::StatusOr<std::vector<ScheduleRunRecord>>
 ScheduleRepository::UnannouncedRuns(int limit) {
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(Statement stmt,
                    store_.db().Prepare(absl::StrCat(
                        kSelectRun,

@@ -294,7 +294,7 @@ absl::StatusOr<int> ReadSchemaVersion(Database& db) {
 absl::StatusOr<int> Migrate(Database& db) {
   int version;
   {
-    std::unique_lock<std::mutex> lock = db.Lock();
+    absl::MutexLock lock(&db.mutex());
     ASSIGN_OR_RETURN(int current, ReadSchemaVersion(db));
     version = current;
   }
@@ -305,7 +305,8 @@ absl::StatusOr<int> Migrate(Database& db) {
         "); refusing to open it: use a newer hdrstereod"));
   }
   while (version < LatestSchemaVersion()) {
-    ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+    Transaction tx(db);
+    RETURN_IF_ERROR(tx.status());
     RETURN_IF_ERROR(db.Exec(
         "CREATE TABLE IF NOT EXISTS schema_version ("
         "version INTEGER PRIMARY KEY, apply_time_ms INTEGER NOT NULL)"));
@@ -320,7 +321,7 @@ absl::StatusOr<int> Migrate(Database& db) {
     RETURN_IF_ERROR(record.Bind(1, int64_t{version + 1})
                         .Bind(2, absl::ToUnixMillis(absl::Now()))
                         .Run());
-    RETURN_IF_ERROR(tx->Commit());
+    RETURN_IF_ERROR(tx.Commit());
     ++version;
   }
   return version;

@@ -16,7 +16,8 @@ int LatestSchemaVersion();
 
 // The version recorded in `db`, 0 for an empty database. Fails with
 // FAILED_PRECONDITION when the file is not a SQLite database or is corrupt.
-absl::StatusOr<int> ReadSchemaVersion(Database& db);
+absl::StatusOr<int> ReadSchemaVersion(Database& db)
+    ABSL_EXCLUSIVE_LOCKS_REQUIRED(db.mutex());
 
 // Brings `db` to LatestSchemaVersion(); returns the version reached. Fails
 // with FAILED_PRECONDITION, changing nothing, when the database is newer than

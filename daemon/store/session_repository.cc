@@ -37,13 +37,38 @@ absl::Status NotFound(absl::string_view name) {
 }
 
 // Reads one session; the caller holds the database lock.
-absl::StatusOr<SessionRecord> GetLocked(Database& db, absl::string_view name) {
+absl::StatusOr<SessionRecord> GetLocked(Database& db, absl::string_view name)
+    ABSL_EXCLUSIVE_LOCKS_REQUIRED(db.mutex()) {
   ASSIGN_OR_RETURN(Statement stmt, db.Prepare(absl::StrCat(
                                        kSelectSession, "WHERE s.name = ?1")));
   stmt.Bind(1, name);
   ASSIGN_OR_RETURN(bool row, stmt.Step());
   if (!row) return NotFound(name);
   return ReadSession(stmt);
+}
+
+// The session's rows, in one transaction; FAILED_PRECONDITION while it has
+// unfinished jobs.
+absl::StatusOr<SessionRecord> DeleteRows(Database& db, absl::string_view name) {
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
+  ASSIGN_OR_RETURN(SessionRecord record, GetLocked(db, name));
+  ASSIGN_OR_RETURN(
+      Statement active,
+      db.Prepare("SELECT count(*) FROM jobs WHERE session_id = ?1 AND state IN "
+                 "('queued', 'running', 'paused')"));
+  active.Bind(1, record.id);
+  RETURN_IF_ERROR(active.Step().status());
+  if (int64_t n = active.ColumnInt(0); n > 0) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("session \"", name, "\" has ", n,
+                     " queued, running or paused job(s); cancel them first"));
+  }
+  ASSIGN_OR_RETURN(Statement remove,
+                   db.Prepare("DELETE FROM sessions WHERE id = ?1"));
+  RETURN_IF_ERROR(remove.Bind(1, record.id).Run());
+  RETURN_IF_ERROR(tx.Commit());
+  return record;
 }
 
 }  // namespace
@@ -57,7 +82,8 @@ absl::StatusOr<SessionRecord> SessionRepository::Create(
                      kMaxNoteBytes, " are allowed"));
   }
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(Statement insert,
                    db.Prepare("INSERT INTO sessions (name, note, "
                               "create_time_ms) VALUES (?1, ?2, ?3)"));
@@ -74,7 +100,7 @@ absl::StatusOr<SessionRecord> SessionRepository::Create(
   // only an empty folder, which the next start moves to orphaned/.
   RETURN_IF_ERROR(store_.files().CreateSessionDir(name));
   ASSIGN_OR_RETURN(SessionRecord record, GetLocked(db, name));
-  if (absl::Status s = tx->Commit(); !s.ok()) {
+  if (absl::Status s = tx.Commit(); !s.ok()) {
     store_.files().RemoveSessionDir(name).IgnoreError();
     return s;
   }
@@ -83,13 +109,13 @@ absl::StatusOr<SessionRecord> SessionRepository::Create(
 
 absl::StatusOr<SessionRecord> SessionRepository::Get(absl::string_view name) {
   RETURN_IF_ERROR(ValidateName(name, "session name"));
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   return GetLocked(store_.db(), name);
 }
 
 absl::StatusOr<SessionPage> SessionRepository::List(absl::string_view after,
                                                     int limit) {
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(
       Statement stmt,
       store_.db().Prepare(absl::StrCat(
@@ -112,26 +138,7 @@ absl::StatusOr<SessionPage> SessionRepository::List(absl::string_view after,
 absl::StatusOr<DeletedSession> SessionRepository::Delete(
     absl::string_view name) {
   RETURN_IF_ERROR(ValidateName(name, "session name"));
-  Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
-  ASSIGN_OR_RETURN(SessionRecord record, GetLocked(db, name));
-
-  ASSIGN_OR_RETURN(
-      Statement active,
-      db.Prepare("SELECT count(*) FROM jobs WHERE session_id = ?1 AND state IN "
-                 "('queued', 'running', 'paused')"));
-  active.Bind(1, record.id);
-  RETURN_IF_ERROR(active.Step().status());
-  if (int64_t n = active.ColumnInt(0); n > 0) {
-    return absl::FailedPreconditionError(
-        absl::StrCat("session \"", name, "\" has ", n,
-                     " queued, running or paused job(s); cancel them first"));
-  }
-  ASSIGN_OR_RETURN(Statement remove,
-                   db.Prepare("DELETE FROM sessions WHERE id = ?1"));
-  RETURN_IF_ERROR(remove.Bind(1, record.id).Run());
-  RETURN_IF_ERROR(tx->Commit());
-  tx.reset();
+  ASSIGN_OR_RETURN(SessionRecord record, DeleteRows(store_.db(), name));
 
   // The rows are gone; a crash while removing files leaves a folder without
   // a row, which the next start moves to orphaned/.

@@ -12,7 +12,7 @@ namespace hdrstereo::store {
 namespace {
 
 absl::StatusOr<std::set<std::string>> SessionNames(Database& db) {
-  std::unique_lock<std::mutex> lock = db.Lock();
+  absl::MutexLock lock(&db.mutex());
   ASSIGN_OR_RETURN(Statement stmt, db.Prepare("SELECT name FROM sessions"));
   std::set<std::string> names;
   while (true) {
@@ -26,7 +26,7 @@ absl::StatusOr<std::set<std::string>> SessionNames(Database& db) {
 // The first real read of a file that is not a database fails here, before
 // anything was written to it.
 absl::Status CheckReadable(Database& db) {
-  std::unique_lock<std::mutex> lock = db.Lock();
+  absl::MutexLock lock(&db.mutex());
   absl::StatusOr<Statement> stmt = db.Prepare("PRAGMA quick_check");
   if (!stmt.ok()) {
     return absl::FailedPreconditionError(absl::StrCat(
@@ -56,7 +56,7 @@ absl::StatusOr<std::unique_ptr<Store>> Store::Open(
   {
     // WAL lets readers (the sqlite3 shell, backups) run beside the daemon;
     // synchronous=FULL makes each committed frame row survive a power cut.
-    std::unique_lock<std::mutex> lock = db->Lock();
+    absl::MutexLock lock(&db->mutex());
     if (absl::Status s =
             db->Exec("PRAGMA journal_mode = WAL; PRAGMA synchronous = FULL; "
                      "PRAGMA foreign_keys = ON;");

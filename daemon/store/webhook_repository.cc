@@ -45,7 +45,8 @@ WebhookRecord ReadHook(const Statement& stmt) {
   return h;
 }
 
-absl::StatusOr<WebhookRecord> GetLocked(Database& db, int64_t id) {
+absl::StatusOr<WebhookRecord> GetLocked(Database& db, int64_t id)
+    ABSL_EXCLUSIVE_LOCKS_REQUIRED(db.mutex()) {
   ASSIGN_OR_RETURN(Statement stmt,
                    db.Prepare(absl::StrCat(kSelectHook, "WHERE h.id = ?1")));
   stmt.Bind(1, id);
@@ -80,7 +81,8 @@ const char* OutboxStateName(OutboxState state) {
 absl::StatusOr<WebhookRecord> WebhookRepository::Create(
     const WebhookRecord& hook) {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(
       Statement insert,
       db.Prepare("INSERT INTO webhooks (url, events, salt, note, created_by, "
@@ -93,17 +95,17 @@ absl::StatusOr<WebhookRecord> WebhookRepository::Create(
                       .Bind(6, hook.create_time_ms)
                       .Run());
   ASSIGN_OR_RETURN(WebhookRecord created, GetLocked(db, db.LastInsertId()));
-  RETURN_IF_ERROR(tx->Commit());
+  RETURN_IF_ERROR(tx.Commit());
   return created;
 }
 
 absl::StatusOr<WebhookRecord> WebhookRepository::Get(int64_t id) {
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   return GetLocked(store_.db(), id);
 }
 
 absl::StatusOr<std::vector<WebhookRecord>> WebhookRepository::List() {
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(Statement stmt, store_.db().Prepare(absl::StrCat(
                                        kSelectHook, "ORDER BY h.id")));
   std::vector<WebhookRecord> hooks;
@@ -117,18 +119,20 @@ absl::StatusOr<std::vector<WebhookRecord>> WebhookRepository::List() {
 
 absl::StatusOr<WebhookRecord> WebhookRepository::Delete(int64_t id) {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(WebhookRecord hook, GetLocked(db, id));
   ASSIGN_OR_RETURN(Statement remove,
                    db.Prepare("DELETE FROM webhooks WHERE id = ?1"));
   RETURN_IF_ERROR(remove.Bind(1, id).Run());
-  RETURN_IF_ERROR(tx->Commit());
+  RETURN_IF_ERROR(tx.Commit());
   return hook;
 }
 
 absl::StatusOr<int64_t> WebhookRepository::JobEventCursor() {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(Statement newest,
                    db.Prepare("SELECT coalesce(max(id), 0) FROM job_events"));
   ASSIGN_OR_RETURN(bool has_newest, newest.Step());
@@ -146,7 +150,7 @@ absl::StatusOr<int64_t> WebhookRepository::JobEventCursor() {
                               "job_event_id) VALUES (1, ?1) ON CONFLICT (id) "
                               "DO UPDATE SET job_event_id = ?1"));
   RETURN_IF_ERROR(write.Bind(1, cursor).Run());
-  RETURN_IF_ERROR(tx->Commit());
+  RETURN_IF_ERROR(tx.Commit());
   return cursor;
 }
 
@@ -154,7 +158,8 @@ absl::Status WebhookRepository::Enqueue(
     const std::vector<OutboxEntry>& entries, int64_t job_event_cursor,
     const std::vector<int64_t>& announced_runs, int64_t now_ms) {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   for (const OutboxEntry& entry : entries) {
     // A hook deleted since the caller listed the hooks drops its entry.
     ASSIGN_OR_RETURN(Statement insert, db.Prepare(R"sql(
@@ -179,12 +184,12 @@ SELECT ?1, ?2, ?3, ?4, 'pending', ?5, ?5 WHERE EXISTS (
         db.Prepare("UPDATE schedule_runs SET announced = 1 WHERE id = ?1"));
     RETURN_IF_ERROR(mark.Bind(1, run).Run());
   }
-  return tx->Commit();
+  return tx.Commit();
 }
 
 absl::StatusOr<std::vector<DueDelivery>> WebhookRepository::Due(int64_t now_ms,
                                                                 int limit) {
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(Statement stmt, store_.db().Prepare(R"sql(
 SELECT e.id, e.webhook_id, h.url, h.salt, e.event_id, e.type, e.body,
        e.attempts
@@ -209,7 +214,7 @@ ORDER BY e.next_attempt_time_ms, e.id LIMIT ?2)sql"));
 }
 
 absl::StatusOr<std::optional<int64_t>> WebhookRepository::NextDue() {
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(Statement stmt,
                    store_.db().Prepare("SELECT min(next_attempt_time_ms) FROM "
                                        "webhook_events WHERE state = "
@@ -224,7 +229,8 @@ absl::Status WebhookRepository::RecordAttempt(
     int http_status, absl::string_view error, OutboxState state,
     int64_t next_attempt_ms) {
   Database& db = store_.db();
-  ASSIGN_OR_RETURN(std::unique_ptr<Transaction> tx, Transaction::Begin(db));
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
   // The hook may have been deleted while the request was out.
   ASSIGN_OR_RETURN(Statement exists,
                    db.Prepare("SELECT 1 FROM webhook_events WHERE id = ?1"));
@@ -250,12 +256,12 @@ WHERE id = ?1)sql"));
                       .Bind(3, OutboxStateName(state))
                       .Bind(4, next_attempt_ms)
                       .Run());
-  return tx->Commit();
+  return tx.Commit();
 }
 
 absl::StatusOr<std::vector<DeliveryAttempt>> WebhookRepository::Attempts(
     int64_t webhook_id, int64_t before_id, int limit) {
-  std::unique_lock<std::mutex> lock = store_.db().Lock();
+  absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(Statement stmt, store_.db().Prepare(R"sql(
 SELECT d.id, e.webhook_id, e.event_id, e.type, d.attempt, d.time_ms,
        d.duration_ms, d.http_status, d.error, e.state

@@ -11,7 +11,6 @@
 
 #include <algorithm>
 #include <bit>
-#include <cctype>
 #include <cstring>
 #include <exception>
 #include <opencv2/imgcodecs.hpp>
@@ -29,13 +28,6 @@
 
 namespace hdrstereo::io {
 namespace {
-
-std::string LowerExtension(const std::filesystem::path& path) {
-  std::string ext = path.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return std::tolower(c); });
-  return ext;
-}
 
 absl::Status CheckFloatImage(const std::filesystem::path& path,
                              const cv::Mat& image) {

@@ -19,7 +19,6 @@
 #include "processing/io/hdr_formats.h"
 
 namespace hdrstereo::io {
-namespace {
 
 std::string LowerExtension(const std::filesystem::path& path) {
   std::string ext = path.extension().string();
@@ -27,8 +26,6 @@ std::string LowerExtension(const std::filesystem::path& path) {
                  [](unsigned char c) { return std::tolower(c); });
   return ext;
 }
-
-}  // namespace
 
 bool IsRawExtension(const std::filesystem::path& path) {
   static const char* const kRaw[] = {".cr2", ".cr3", ".crw", ".nef", ".nrw",

@@ -72,6 +72,10 @@ cv::Mat To8Bit(const cv::Mat& pixels);
 // Reads a whole file into memory.
 absl::StatusOr<std::string> ReadFileBytes(const std::filesystem::path& path);
 
+// The file's extension with its dot, lower-cased (".jpg" for "A.JPG"), as
+// the decoders and writers choose a format by it.
+std::string LowerExtension(const std::filesystem::path& path);
+
 }  // namespace hdrstereo::io
 
 #endif  // HDRSTEREO_PROCESSING_IO_IMAGE_H_

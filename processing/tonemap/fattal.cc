@@ -12,6 +12,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "processing/base/status_macros.h"
+#include "processing/tonemap/pooled_quantiles.h"
 
 namespace hdrstereo::tonemap {
 namespace {
@@ -85,25 +86,6 @@ float MedianDifference(const cv::Mat& a, const cv::Mat& b, float lo, float hi) {
   std::vector<float>& v = d.empty() ? all : d;
   std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
   return v[v.size() / 2];
-}
-
-// Pooled quantiles q_lo, q_hi of all views (subsampled 2x2).
-std::pair<float, float> PooledQuantiles(const std::vector<cv::Mat>& mats,
-                                        double q_lo, double q_hi) {
-  std::vector<float> pool;
-  for (const cv::Mat& m : mats) {
-    for (int y = 0; y < m.rows; y += 2) {
-      const float* p = m.ptr<float>(y);
-      for (int x = 0; x < m.cols; x += 2) pool.push_back(p[x]);
-    }
-  }
-  const size_t n = pool.size();
-  const size_t a = static_cast<size_t>(q_lo * (n - 1));
-  const size_t b = static_cast<size_t>(q_hi * (n - 1));
-  std::nth_element(pool.begin(), pool.begin() + a, pool.end());
-  const float lo = pool[a];
-  std::nth_element(pool.begin(), pool.begin() + b, pool.end());
-  return {lo, pool[b]};
 }
 
 }  // namespace

@@ -15,6 +15,7 @@
 #include "processing/base/status_macros.h"
 #include "processing/filters/fast_bilateral.h"
 #include "processing/tonemap/fattal.h"
+#include "processing/tonemap/pooled_quantiles.h"
 
 namespace hdrstereo::tonemap {
 namespace {
@@ -211,34 +212,13 @@ std::vector<cv::Mat> ToneMapDrago(const std::vector<cv::Mat>& views,
   return out;
 }
 
-// Values at fractions `lo` and `1 - hi` of the pooled distribution of all
-// views (every second pixel of every second row).
-std::pair<float, float> PooledPercentiles(const std::vector<cv::Mat>& mats,
-                                          double lo, double hi) {
-  std::vector<float> pool;
-  for (const cv::Mat& m : mats) {
-    for (int y = 0; y < m.rows; y += 2) {
-      const float* p = m.ptr<float>(y);
-      for (int x = 0; x < m.cols; x += 2) pool.push_back(p[x]);
-    }
-  }
-  const size_t n = pool.size();
-  const size_t i_lo = std::min(n - 1, static_cast<size_t>(lo * (n - 1)));
-  const size_t i_hi =
-      std::min(n - 1, static_cast<size_t>((1.0 - hi) * (n - 1)));
-  std::nth_element(pool.begin(), pool.begin() + i_hi, pool.end());
-  const float v_hi = pool[i_hi];
-  std::nth_element(pool.begin(), pool.begin() + i_lo, pool.begin() + i_hi + 1);
-  return {pool[i_lo], v_hi};
-}
-
 // Stretches the pooled display luminances linearly (clip_low -> 0,
 // clip_high -> 1) and encodes every view.
 std::vector<cv::Mat> StretchAndEncode(const std::vector<cv::Mat>& views,
                                       const PairLuminance& pl,
                                       const std::vector<cv::Mat>& ld,
                                       const Params& p) {
-  auto [lo, hi] = PooledPercentiles(ld, p.clip_low, p.clip_high);
+  auto [lo, hi] = PooledQuantiles(ld, p.clip_low, 1.0 - p.clip_high);
   // A (nearly) uniform image has no range to stretch: map its level to white
   // instead of amplifying rounding noise.
   if (!(hi - lo > 1e-3f * hi)) {

@@ -66,38 +66,41 @@ class CaptureTest : public ::hdrstereo::testing::DaemonFixture {
     absl::StatusOr<std::unique_ptr<store::Database>> db = store::Database::Open(
         data_root() / "hdrstereo.db", store::Database::Mode::kReadOnly);
     ASSERT_TRUE(db.ok());
-    std::unique_lock<std::mutex> lock = (*db)->Lock();
-    absl::StatusOr<store::Statement> stmt = (*db)->Prepare(
-        "SELECT f.capture_id, f.sequence, f.path, f.sha256 FROM frames f "
-        "JOIN captures c ON c.id = f.capture_id JOIN sessions s ON "
-        "s.id = c.session_id WHERE s.name = ?1 ORDER BY f.capture_id, "
-        "f.sequence");
-    ASSERT_TRUE(stmt.ok());
-    stmt->Bind(1, session);
-    const fs::path session_dir = data_root() / "sessions" / session;
-    std::set<fs::path> recorded;
-    std::map<int64_t, int> next_sequence;
-    while (*stmt->Step()) {
-      const int64_t capture = stmt->ColumnInt(0);
-      EXPECT_EQ(stmt->ColumnInt(1), next_sequence[capture]++)
-          << "gap or duplicate in capture " << capture;
-      const fs::path path = stmt->ColumnText(2);
-      absl::StatusOr<std::string> sha = io::Sha256HexOfFile(session_dir / path);
-      ASSERT_TRUE(sha.ok()) << path << " is missing";
-      EXPECT_EQ(*sha, stmt->ColumnText(3)) << path << " does not match";
-      recorded.insert(path);
-    }
-    EXPECT_EQ(static_cast<int>(recorded.size()), expected);
-    for (const auto& entry :
-         fs::recursive_directory_iterator(session_dir / "captures")) {
-      // truth/ holds the simulator's exact truth, not frames.
-      if (entry.is_regular_file() &&
-          entry.path().parent_path().filename() != "truth") {
-        EXPECT_TRUE(recorded.contains(fs::relative(entry.path(), session_dir)))
-            << "orphan file " << entry.path();
+    {
+      absl::MutexLock lock(&(*db)->mutex());
+      absl::StatusOr<store::Statement> stmt = (*db)->Prepare(
+          "SELECT f.capture_id, f.sequence, f.path, f.sha256 FROM frames f "
+          "JOIN captures c ON c.id = f.capture_id JOIN sessions s ON "
+          "s.id = c.session_id WHERE s.name = ?1 ORDER BY f.capture_id, "
+          "f.sequence");
+      ASSERT_TRUE(stmt.ok());
+      stmt->Bind(1, session);
+      const fs::path session_dir = data_root() / "sessions" / session;
+      std::set<fs::path> recorded;
+      std::map<int64_t, int> next_sequence;
+      while (*stmt->Step()) {
+        const int64_t capture = stmt->ColumnInt(0);
+        EXPECT_EQ(stmt->ColumnInt(1), next_sequence[capture]++)
+            << "gap or duplicate in capture " << capture;
+        const fs::path path = stmt->ColumnText(2);
+        absl::StatusOr<std::string> sha =
+            io::Sha256HexOfFile(session_dir / path);
+        ASSERT_TRUE(sha.ok()) << path << " is missing";
+        EXPECT_EQ(*sha, stmt->ColumnText(3)) << path << " does not match";
+        recorded.insert(path);
       }
-    }
-    lock.unlock();
+      EXPECT_EQ(static_cast<int>(recorded.size()), expected);
+      for (const auto& entry :
+           fs::recursive_directory_iterator(session_dir / "captures")) {
+        // truth/ holds the simulator's exact truth, not frames.
+        if (entry.is_regular_file() &&
+            entry.path().parent_path().filename() != "truth") {
+          EXPECT_TRUE(
+              recorded.contains(fs::relative(entry.path(), session_dir)))
+              << "orphan file " << entry.path();
+        }
+      }
+    }  // the statement and the lock end before the separate integrity check
     EXPECT_EQ(Sql("PRAGMA integrity_check"), "ok");
   }
 
@@ -109,7 +112,7 @@ class CaptureTest : public ::hdrstereo::testing::DaemonFixture {
         data_root() / "hdrstereo.db", store::Database::Mode::kReadOnly);
     EXPECT_TRUE(db.ok());
     if (!db.ok()) return 0;
-    std::unique_lock<std::mutex> lock = (*db)->Lock();
+    absl::MutexLock lock(&(*db)->mutex());
     absl::StatusOr<store::Statement> stmt = (*db)->Prepare(
         "SELECT f.path, f.exposure_s, f.camera_exposure_s, f.iso, "
         "f.camera_file_name FROM frames f JOIN captures c ON c.id = "

@@ -172,7 +172,7 @@ TEST_F(DaemonCliTest, UnusableDataRootsAreRefusedWithoutChangingThem) {
     absl::StatusOr<std::unique_ptr<store::Database>> db =
         store::Database::Open(data_root() / "hdrstereo.db");
     ASSERT_TRUE(db.ok());
-    std::unique_lock<std::mutex> lock = (*db)->Lock();
+    absl::MutexLock lock(&(*db)->mutex());
     ASSERT_TRUE((*db)
                     ->Exec("INSERT INTO schema_version VALUES (42, 0); "
                            "PRAGMA wal_checkpoint(TRUNCATE);")

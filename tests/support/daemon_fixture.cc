@@ -101,7 +101,7 @@ std::string DaemonFixture::Sql(const std::string& query) {
       data_root() / "hdrstereo.db", store::Database::Mode::kReadOnly);
   EXPECT_TRUE(db.ok()) << db.status();
   if (!db.ok()) return "";
-  std::unique_lock<std::mutex> lock = (*db)->Lock();
+  absl::MutexLock lock(&(*db)->mutex());
   absl::StatusOr<store::Statement> stmt = (*db)->Prepare(query);
   EXPECT_TRUE(stmt.ok()) << stmt.status();
   if (!stmt.ok()) return "";

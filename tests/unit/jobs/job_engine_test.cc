@@ -316,7 +316,7 @@ TEST_F(JobEngineTest, ShutdownInterruptsAndTheNextStartResumes) {
   }
   // A crash leaves a job "running": simulate one too.
   {
-    std::unique_lock<std::mutex> lock = store_->db().Lock();
+    absl::MutexLock lock(&store_->db().mutex());
     ASSERT_TRUE(store_->db()
                     .Exec("INSERT INTO jobs (kind, session_id, state, request, "
                           "create_time_ms) SELECT 'capture', id, 'running', "

@@ -28,7 +28,8 @@ class FrameRepositoryTest : public testing::StoreTest {
   // Records `n` frames (sequence 0..n-1, alternating views) of `capture`.
   void Record(const CaptureRecord& capture, int n) {
     FrameRepository frames(*store_);
-    ASSERT_OK_AND_ASSIGN(auto tx, Transaction::Begin(store_->db()));
+    Transaction tx(store_->db());
+    ASSERT_OK(tx.status());
     for (int i = 0; i < n; ++i) {
       FrameRecord f;
       f.capture_id = capture.id;
@@ -42,7 +43,7 @@ class FrameRepositoryTest : public testing::StoreTest {
       f.camera_time_ms = 1000 + i;
       ASSERT_OK(frames.InsertLocked(f));
     }
-    ASSERT_OK(tx->Commit());
+    ASSERT_OK(tx.Commit());
   }
 };
 

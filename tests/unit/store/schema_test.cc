@@ -20,7 +20,7 @@ using ::testing::HasSubstr;
 using ::testing::IsSupersetOf;
 
 std::string QueryText(Database& db, const std::string& sql) {
-  std::unique_lock<std::mutex> lock = db.Lock();
+  absl::MutexLock lock(&db.mutex());
   absl::StatusOr<Statement> stmt = db.Prepare(sql);
   EXPECT_TRUE(stmt.ok()) << stmt.status();
   if (!stmt.ok()) return "";
@@ -40,7 +40,7 @@ TEST(SchemaTest, FreshDatabaseGetsEveryTableInWalModeWithForeignKeys) {
 
   std::set<std::string> tables;
   {
-    std::unique_lock<std::mutex> lock = db.Lock();
+    absl::MutexLock lock(&db.mutex());
     absl::StatusOr<Statement> stmt =
         db.Prepare("SELECT name FROM sqlite_master WHERE type = 'table'");
     ASSERT_TRUE(stmt.ok());
@@ -66,7 +66,7 @@ TEST(SchemaTest, NewerDatabaseIsRefusedAndLeftUntouched) {
     absl::StatusOr<std::unique_ptr<Store>> store = Store::Open(dir.path());
     ASSERT_TRUE(store.ok());
     Database& db = (*store)->db();
-    std::unique_lock<std::mutex> lock = db.Lock();
+    absl::MutexLock lock(&db.mutex());
     ASSERT_TRUE(db.Exec("INSERT INTO schema_version VALUES (999, 0); "
                         "PRAGMA wal_checkpoint(TRUNCATE);")
                     .ok());
@@ -102,7 +102,7 @@ TEST(SchemaTest, ForeignDatabaseWithoutVersionTableIsRefused) {
     absl::StatusOr<std::unique_ptr<Database>> db =
         Database::Open(dir / "hdrstereo.db");
     ASSERT_TRUE(db.ok());
-    std::unique_lock<std::mutex> lock = (*db)->Lock();
+    absl::MutexLock lock(&(*db)->mutex());
     ASSERT_TRUE((*db)->Exec("CREATE TABLE photos (id INTEGER)").ok());
   }
   absl::StatusOr<std::unique_ptr<Store>> store = Store::Open(dir.path());

@@ -89,7 +89,7 @@ TEST_F(SessionRepositoryTest, DeleteIsRefusedWhileAJobIsActive) {
   absl::StatusOr<SessionRecord> s = sessions_->Create("busy", "");
   ASSERT_TRUE(s.ok());
   {
-    std::unique_lock<std::mutex> lock = store_->db().Lock();
+    absl::MutexLock lock(&store_->db().mutex());
     absl::StatusOr<Statement> insert = store_->db().Prepare(
         "INSERT INTO jobs (kind, session_id, state, request, create_time_ms) "
         "VALUES ('capture', ?1, 'running', x'', 0)");
