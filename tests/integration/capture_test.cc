@@ -10,20 +10,17 @@
 #include <signal.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
-#include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <set>
 
 #include "absl/strings/str_cat.h"
-#include "daemon/store/database.h"
 #include "hardware/sim/scene.h"
 #include "hardware/sim/sim_world.h"
 #include "hdrstereo/v1/sessions.grpc.pb.h"
-#include "processing/io/exif.h"
-#include "processing/io/sha256.h"
 #include "tests/support/daemon_fixture.h"
 
 namespace hdrstereo {
@@ -44,109 +41,6 @@ class CaptureTest : public ::hdrstereo::testing::DaemonFixture {
     scene_path_ = WriteScene("lab-lamp", patch);
     StartDaemon({"--sim-scene", scene_path_.string(), "--sim-time-scale",
                  absl::StrCat(time_scale)});
-  }
-
-  int64_t Submit(std::vector<std::string> args) {
-    nlohmann::json job = CliJson(std::move(args));
-    return job.contains("id") ? JsonInt(job["id"]) : 0;
-  }
-
-  nlohmann::json Job(int64_t id) {
-    return CliJson({"jobs", "show", std::to_string(id)});
-  }
-
-  int64_t FramesDone(int64_t id) {
-    const nlohmann::json job = Job(id);
-    return job.contains("progress") ? JsonInt(job["progress"]["done"]) : 0;
-  }
-
-  // Every recorded frame's file exists and matches its sha256; no file under
-  // captures/ lacks a row; sequences are 0..n-1 without gaps or duplicates.
-  void ExpectConsistentStore(const std::string& session, int expected) {
-    absl::StatusOr<std::unique_ptr<store::Database>> db = store::Database::Open(
-        data_root() / "hdrstereo.db", store::Database::Mode::kReadOnly);
-    ASSERT_TRUE(db.ok());
-    {
-      absl::MutexLock lock(&(*db)->mutex());
-      absl::StatusOr<store::Statement> stmt = (*db)->Prepare(
-          "SELECT f.capture_id, f.sequence, f.path, f.sha256 FROM frames f "
-          "JOIN captures c ON c.id = f.capture_id JOIN sessions s ON "
-          "s.id = c.session_id WHERE s.name = ?1 ORDER BY f.capture_id, "
-          "f.sequence");
-      ASSERT_TRUE(stmt.ok());
-      stmt->Bind(1, session);
-      const fs::path session_dir = data_root() / "sessions" / session;
-      std::set<fs::path> recorded;
-      std::map<int64_t, int> next_sequence;
-      while (*stmt->Step()) {
-        const int64_t capture = stmt->ColumnInt(0);
-        EXPECT_EQ(stmt->ColumnInt(1), next_sequence[capture]++)
-            << "gap or duplicate in capture " << capture;
-        const fs::path path = stmt->ColumnText(2);
-        absl::StatusOr<std::string> sha =
-            io::Sha256HexOfFile(session_dir / path);
-        ASSERT_TRUE(sha.ok()) << path << " is missing";
-        EXPECT_EQ(*sha, stmt->ColumnText(3)) << path << " does not match";
-        recorded.insert(path);
-      }
-      EXPECT_EQ(static_cast<int>(recorded.size()), expected);
-      for (const auto& entry :
-           fs::recursive_directory_iterator(session_dir / "captures")) {
-        // truth/ holds the simulator's exact truth, not frames.
-        if (entry.is_regular_file() &&
-            entry.path().parent_path().filename() != "truth") {
-          EXPECT_TRUE(
-              recorded.contains(fs::relative(entry.path(), session_dir)))
-              << "orphan file " << entry.path();
-        }
-      }
-    }  // the statement and the lock end before the separate integrity check
-    EXPECT_EQ(Sql("PRAGMA integrity_check"), "ok");
-  }
-
-  // Every frame file's own EXIF says what its row says: the exposure that
-  // was set (within the 1/6 stop the check allows) and the camera-reported
-  // values recorded with it. Returns how many frames were checked.
-  int ExpectFilesMatchTheirRows(const std::string& session) {
-    absl::StatusOr<std::unique_ptr<store::Database>> db = store::Database::Open(
-        data_root() / "hdrstereo.db", store::Database::Mode::kReadOnly);
-    EXPECT_TRUE(db.ok());
-    if (!db.ok()) return 0;
-    absl::MutexLock lock(&(*db)->mutex());
-    absl::StatusOr<store::Statement> stmt = (*db)->Prepare(
-        "SELECT f.path, f.exposure_s, f.camera_exposure_s, f.iso, "
-        "f.camera_file_name FROM frames f JOIN captures c ON c.id = "
-        "f.capture_id JOIN sessions s ON s.id = c.session_id WHERE s.name = "
-        "?1");
-    EXPECT_TRUE(stmt.ok());
-    stmt->Bind(1, session);
-    int checked = 0;
-    std::set<std::string> names;
-    while (*stmt->Step()) {
-      const std::string path = stmt->ColumnText(0);
-      const io::ExifInfo exif = io::ParseExifFromFile(
-          ReadFileOrDie(data_root() / "sessions" / session / path));
-      EXPECT_TRUE(exif.exposure_s.has_value()) << path;
-      EXPECT_FALSE(stmt->ColumnIsNull(2)) << path;
-      EXPECT_LE(std::abs(std::log2(exif.exposure_s.value_or(0) /
-                                   stmt->ColumnDouble(1))),
-                1.0 / 6)
-          << path << " was exposed " << exif.exposure_s.value_or(0)
-          << " s, its row says " << stmt->ColumnDouble(1) << " s";
-      EXPECT_DOUBLE_EQ(exif.exposure_s.value_or(0), stmt->ColumnDouble(2))
-          << path;
-      EXPECT_DOUBLE_EQ(exif.iso.value_or(0), stmt->ColumnDouble(3)) << path;
-      EXPECT_TRUE(names.insert(stmt->ColumnText(4)).second)
-          << "camera file name " << stmt->ColumnText(4) << " twice";
-      ++checked;
-    }
-    return checked;
-  }
-
-  int64_t EventsLike(const std::string& pattern) {
-    return std::stoll(Sql(
-        absl::StrCat("SELECT count(*) FROM job_events WHERE message LIKE '%",
-                     pattern, "%'")));
   }
 
   fs::path scene_path_;
@@ -286,11 +180,7 @@ TEST_F(CaptureTest, KilledDuringStructuredLightResumesWithNothingMissing) {
   EXPECT_EQ(Sql(absl::StrCat("SELECT count(*) FROM job_events WHERE job_id = ",
                              job, " AND state = 'interrupted'")),
             std::to_string(kills));
-  // No temporary file survived anywhere in the data root.
-  for (const auto& entry : fs::recursive_directory_iterator(data_root())) {
-    EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos)
-        << entry.path();
-  }
+  ExpectNoTempFiles();
 }
 
 TEST_F(CaptureTest, PauseResumeAndCancelLeaveTheRigSafe) {
@@ -618,10 +508,7 @@ TEST_F(DiskGuardTest, DiskFillingMidCaptureSuspendsAndResumesByItself) {
   EXPECT_GT(recorded, 0);
   EXPECT_LT(recorded, 120);
   ExpectConsistentStore("full", recorded);
-  for (const auto& entry : fs::recursive_directory_iterator(data_root())) {
-    EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos)
-        << entry.path();
-  }
+  ExpectNoTempFiles();
   // A person cannot resume into the condition; it says why.
   CommandResult resume = Cli({"jobs", "resume", std::to_string(job)});
   EXPECT_NE(resume.exit_code, 0);

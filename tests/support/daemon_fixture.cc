@@ -3,13 +3,21 @@
 
 #include <signal.h>
 
+#include <cmath>
+#include <functional>
+#include <map>
+#include <set>
+
 #include "absl/strings/ascii.h"
+#include "absl/strings/str_cat.h"
 #include "absl/strings/str_replace.h"
 #include "absl/strings/str_split.h"
 #include "absl/time/clock.h"
 #include "daemon/store/database.h"
 #include "hardware/sim/bundled_scenes.h"
 #include "processing/io/atomic_file.h"
+#include "processing/io/exif.h"
+#include "processing/io/sha256.h"
 
 namespace hdrstereo::testing {
 
@@ -144,6 +152,110 @@ bool DaemonFixture::WaitForJobState(int64_t job_id, const std::string& state,
     absl::SleepFor(absl::Milliseconds(50));
   }
   return false;
+}
+
+int64_t DaemonFixture::Submit(std::vector<std::string> args) {
+  nlohmann::json job = CliJson(std::move(args));
+  return job.contains("id") ? JsonInt(job["id"]) : 0;
+}
+
+nlohmann::json DaemonFixture::Job(int64_t id) {
+  return CliJson({"jobs", "show", std::to_string(id)});
+}
+
+int64_t DaemonFixture::FramesDone(int64_t id) {
+  const nlohmann::json job = Job(id);
+  return job.contains("progress") ? JsonInt(job["progress"]["done"]) : 0;
+}
+
+void DaemonFixture::ForEachFrameRow(
+    const std::string& session, const std::string& columns,
+    const std::function<void(store::Statement&)>& row) {
+  absl::StatusOr<std::unique_ptr<store::Database>> db = store::Database::Open(
+      data_root() / "hdrstereo.db", store::Database::Mode::kReadOnly);
+  ASSERT_TRUE(db.ok()) << db.status();
+  absl::MutexLock lock(&(*db)->mutex());
+  absl::StatusOr<store::Statement> stmt = (*db)->Prepare(absl::StrCat(
+      "SELECT ", columns,
+      " FROM frames f JOIN captures c ON c.id = f.capture_id JOIN sessions s "
+      "ON s.id = c.session_id WHERE s.name = ?1 ORDER BY f.capture_id, "
+      "f.sequence"));
+  ASSERT_TRUE(stmt.ok()) << stmt.status();
+  stmt->Bind(1, session);
+  for (absl::StatusOr<bool> more = stmt->Step(); more.ok() && *more;
+       more = stmt->Step()) {
+    row(*stmt);
+  }
+}
+
+void DaemonFixture::ExpectConsistentStore(const std::string& session,
+                                          int expected) {
+  const fs::path session_dir = data_root() / "sessions" / session;
+  std::set<fs::path> recorded;
+  std::map<int64_t, int> next_sequence;
+  ForEachFrameRow(
+      session, "f.capture_id, f.sequence, f.path, f.sha256",
+      [&](store::Statement& frame) {
+        const int64_t capture = frame.ColumnInt(0);
+        EXPECT_EQ(frame.ColumnInt(1), next_sequence[capture]++)
+            << "gap or duplicate in capture " << capture;
+        const fs::path path = frame.ColumnText(2);
+        absl::StatusOr<std::string> sha =
+            io::Sha256HexOfFile(session_dir / path);
+        EXPECT_EQ(sha.value_or("missing"), frame.ColumnText(3))
+            << path << (sha.ok() ? " does not match its row" : " is missing");
+        recorded.insert(path);
+      });
+  EXPECT_EQ(static_cast<int>(recorded.size()), expected);
+  for (const auto& entry :
+       fs::recursive_directory_iterator(session_dir / "captures")) {
+    // truth/ holds the simulator's exact truth, not frames.
+    if (entry.is_regular_file() &&
+        entry.path().parent_path().filename() != "truth") {
+      EXPECT_TRUE(recorded.contains(fs::relative(entry.path(), session_dir)))
+          << "orphan file " << entry.path();
+    }
+  }
+  EXPECT_EQ(Sql("PRAGMA integrity_check"), "ok");
+}
+
+int DaemonFixture::ExpectFilesMatchTheirRows(const std::string& session) {
+  int checked = 0;
+  std::set<std::string> names;
+  ForEachFrameRow(
+      session,
+      "f.path, f.exposure_s, f.camera_exposure_s, f.iso, f.camera_file_name",
+      [&](store::Statement& frame) {
+        const std::string path = frame.ColumnText(0);
+        const io::ExifInfo exif = io::ParseExifFromFile(
+            ReadFileOrDie(data_root() / "sessions" / session / path));
+        EXPECT_TRUE(exif.exposure_s.has_value()) << path;
+        EXPECT_FALSE(frame.ColumnIsNull(2)) << path;
+        EXPECT_LE(std::abs(std::log2(exif.exposure_s.value_or(0) /
+                                     frame.ColumnDouble(1))),
+                  1.0 / 6)
+            << path << " was exposed " << exif.exposure_s.value_or(0)
+            << " s, its row says " << frame.ColumnDouble(1) << " s";
+        EXPECT_DOUBLE_EQ(exif.exposure_s.value_or(0), frame.ColumnDouble(2))
+            << path;
+        EXPECT_DOUBLE_EQ(exif.iso.value_or(0), frame.ColumnDouble(3)) << path;
+        EXPECT_TRUE(names.insert(frame.ColumnText(4)).second)
+            << "camera file name " << frame.ColumnText(4) << " twice";
+        ++checked;
+      });
+  return checked;
+}
+
+int64_t DaemonFixture::EventsLike(const std::string& pattern) {
+  return std::stoll(Sql(absl::StrCat(
+      "SELECT count(*) FROM job_events WHERE message LIKE '%", pattern, "%'")));
+}
+
+void DaemonFixture::ExpectNoTempFiles() {
+  for (const auto& entry : fs::recursive_directory_iterator(data_root())) {
+    EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos)
+        << entry.path();
+  }
 }
 
 std::string DaemonFixture::daemon_log() const {

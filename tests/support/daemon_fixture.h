@@ -9,10 +9,12 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "daemon/store/database.h"
 #include "nlohmann/json.hpp"
 #include "tests/support/subprocess.h"
 #include "tests/support/temp_dir.h"
@@ -63,7 +65,37 @@ class DaemonFixture : public ::testing::Test {
   bool WaitForJobState(int64_t job_id, const std::string& state,
                        absl::Duration timeout = absl::Seconds(120));
 
+  // Submits a job with the CLI (`args` such as {"capture", "sl", "lab"});
+  // its id, 0 when it was refused.
+  int64_t Submit(std::vector<std::string> args);
+  // `hdrstereo jobs show ID` as JSON.
+  nlohmann::json Job(int64_t id);
+  // The job's progress: frames (or steps) done.
+  int64_t FramesDone(int64_t id);
+  // How many job events (of any job) have a message containing `pattern`
+  // (an SQL LIKE pattern without the surrounding %).
+  int64_t EventsLike(const std::string& pattern);
+
+  // The session's capture store is consistent: every recorded frame's file
+  // exists and matches its sha256; no file under captures/ lacks a row;
+  // sequences are 0..n-1 per capture without gaps or duplicates; `expected`
+  // frames in all; PRAGMA integrity_check is ok.
+  void ExpectConsistentStore(const std::string& session, int expected);
+  // Every frame file's own EXIF says what its row says: the exposure that
+  // was set (within the 1/6 stop the check allows) and the camera-reported
+  // values recorded with it; no camera file name twice. Returns how many
+  // frames were checked.
+  int ExpectFilesMatchTheirRows(const std::string& session);
+  // No temporary file (a write that never completed) anywhere in the data
+  // root.
+  void ExpectNoTempFiles();
+
   std::string daemon_log() const;
+
+  // Calls `row` with the statement on each frame of `session` (in capture
+  // and sequence order), selecting `columns` from frames f.
+  void ForEachFrameRow(const std::string& session, const std::string& columns,
+                       const std::function<void(store::Statement&)>& row);
 
   TempDir dir_;
   std::optional<Process> daemon_;
