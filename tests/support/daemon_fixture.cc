@@ -221,10 +221,12 @@ void DaemonFixture::ExpectConsistentStore(const std::string& session,
 
 int DaemonFixture::ExpectFilesMatchTheirRows(const std::string& session) {
   int checked = 0;
-  std::set<std::string> names;
+  std::set<std::string> names_and_times;
+  std::set<std::string> hashes;
   ForEachFrameRow(
       session,
-      "f.path, f.exposure_s, f.camera_exposure_s, f.iso, f.camera_file_name",
+      "f.path, f.exposure_s, f.camera_exposure_s, f.iso, f.camera_file_name, "
+      "f.camera_time_ms, f.sha256",
       [&](store::Statement& frame) {
         const std::string path = frame.ColumnText(0);
         const io::ExifInfo exif = io::ParseExifFromFile(
@@ -239,8 +241,12 @@ int DaemonFixture::ExpectFilesMatchTheirRows(const std::string& session) {
         EXPECT_DOUBLE_EQ(exif.exposure_s.value_or(0), frame.ColumnDouble(2))
             << path;
         EXPECT_DOUBLE_EQ(exif.iso.value_or(0), frame.ColumnDouble(3)) << path;
-        EXPECT_TRUE(names.insert(frame.ColumnText(4)).second)
-            << "camera file name " << frame.ColumnText(4) << " twice";
+        const std::string name_and_time = absl::StrCat(
+            frame.ColumnText(4), " taken at ", frame.ColumnText(5), " ms");
+        EXPECT_TRUE(names_and_times.insert(name_and_time).second)
+            << path << ": camera file " << name_and_time << " twice";
+        EXPECT_TRUE(hashes.insert(frame.ColumnText(6)).second)
+            << path << ": the same bytes as another frame";
         ++checked;
       });
   return checked;

@@ -83,8 +83,10 @@ class DaemonFixture : public ::testing::Test {
   void ExpectConsistentStore(const std::string& session, int expected);
   // Every frame file's own EXIF says what its row says: the exposure that
   // was set (within the 1/6 stop the check allows) and the camera-reported
-  // values recorded with it; no camera file name twice. Returns how many
-  // frames were checked.
+  // values recorded with it; no frame is another one again (the same bytes,
+  // or the same camera file name and time: a file name alone repeats, e.g.
+  // capt0000.jpg for every RAM capture or a counter that starts again).
+  // Returns how many frames were checked.
   int ExpectFilesMatchTheirRows(const std::string& session);
   // No temporary file (a write that never completed) anywhere in the data
   // root.
