@@ -80,10 +80,6 @@ class HardwareTest : public ::hdrstereo::testing::DaemonFixture {
                  "--baseline-mm", "50", "--no-ambient"});
     return IdOf(job);
   }
-
-  nlohmann::json Job(int64_t id) {
-    return CliJson({"jobs", "show", std::to_string(id)});
-  }
 };
 
 TEST_F(HardwareTest, StatusShowsEveryDeviceConnectedInSimulation) {
