@@ -18,6 +18,7 @@
 #include "daemon/store/frame_repository.h"
 #include "hardware/reconnecting_camera.h"
 #include "processing/base/status_macros.h"
+#include "processing/io/atomic_file.h"
 #include "processing/io/capture_layout.h"
 #include "processing/io/sha256.h"
 
@@ -30,6 +31,11 @@ namespace sl = structured_light;
 // A frame whose camera drops more often than this while it is taken fails
 // the job (a camera that drops at every capture is broken, not unplugged).
 constexpr int kMaxDropsPerFrame = 3;
+// A frame whose write finds the disk full this often in a row, each time
+// without a suspension (the disk condition said the rest fits), fails the
+// job: the estimate or the margin does not suit this filesystem, and the
+// camera would otherwise be fired again and again.
+constexpr int kMaxDiskFullWrites = 3;
 
 // Frames already recorded for this capture whose files are intact, by
 // sequence. Rows whose file is missing or differs are deleted (the frame is
@@ -197,11 +203,20 @@ absl::Status PersistFrame(JobContext& context, store::FrameRepository& frames,
   return recorded;
 }
 
+// What the disk condition asks at a frame boundary.
+struct DiskNeed {
+  int64_t frames = 0;  // not written yet; a frame being written counts
+  int64_t bytes_per_frame = 0;
+  // Why the last write of a frame found the disk full ("" when none did):
+  // said first, so that the suspension names it.
+  std::string write_failure;
+};
+
 // Why the next frame cannot be taken now ("" when it can): the suspenders,
 // asked at every frame boundary.
 std::string BlockingCondition(const CaptureConditions& conditions,
                               hardware::Camera& camera, hardware::Stage& stage,
-                              int64_t frame_bytes) {
+                              const DiskNeed& disk_need) {
   // A camera that dropped is being reopened (ReconnectingCamera): wait.
   if (const hardware::ConnectionState link = camera.Connection();
       !link.connected) {
@@ -237,9 +252,12 @@ std::string BlockingCondition(const CaptureConditions& conditions,
                         absl::StrJoin(warnings, " "));
   }
   if (conditions.disk != nullptr) {
-    if (absl::Status s = conditions.disk->CheckRoomForFrame(frame_bytes);
+    if (absl::Status s = conditions.disk->CheckRoomForRest(
+            disk_need.frames, disk_need.bytes_per_frame);
         !s.ok()) {
-      return std::string(s.message());
+      return disk_need.write_failure.empty()
+                 ? std::string(s.message())
+                 : absl::StrCat(disk_need.write_failure, "; ", s.message());
     }
   }
   return "";
@@ -368,16 +386,68 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
     if (pending.valid()) pending.wait();
   };
 
-  // The next frame must fit with room to spare, checked before it is taken:
-  // a disk found full by a failing write could not even record the job's
-  // end.
-  int64_t frame_bytes = 0;
+  // The frames not written yet must fit with room to spare, checked before
+  // each is taken: a disk found full by a failing write could not even
+  // record the job's end. A write that finds the disk full all the same
+  // (space taken between the check and the write) does not fail the job:
+  // its frame is taken again, after the disk condition.
+  FrameSizeEstimate frame_size;
   if (disk != nullptr) {
-    ASSIGN_OR_RETURN(int64_t per_frame, disk->BytesPerFrame(capture.kind));
-    frame_bytes = per_frame;
+    ASSIGN_OR_RETURN(frame_size.before_first, disk->BytesPerFrame(kind));
+    ASSIGN_OR_RETURN(frame_size.largest_so_far, disk->LargestFrame(capture.id));
   }
-  for (const FrameSpec& spec : specs) {
-    if (done->contains(spec.sequence)) continue;
+  // `count` includes the frame being written, which is not written yet.
+  auto frames_left = [&] { return total - count + (pending.valid() ? 1 : 0); };
+  size_t pending_index = 0;   // in specs, of the frame being written
+  std::string write_failure;  // see DiskNeed
+  int disk_full_in_a_row = 0;
+  // Finishes the write in flight and returns where the frames go on: at
+  // `next`, or, when the write found the disk full, at the frame it was for
+  // (a frame taken since is dropped and taken again after it).
+  auto finish_pending = [&](size_t next) -> absl::StatusOr<size_t> {
+    const bool writing = pending.valid();
+    absl::Status written = FinishPending(pending);
+    if (!io::IsDiskFull(written)) {
+      RETURN_IF_ERROR(written);
+      if (writing) {
+        write_failure.clear();
+        disk_full_in_a_row = 0;
+      }
+      return next;
+    }
+    --count;
+    write_failure =
+        absl::StrCat("frame ", Describe(specs[pending_index], views),
+                     " was not stored: ", written.message());
+    if (++disk_full_in_a_row >= kMaxDiskFullWrites) {
+      return absl::ResourceExhaustedError(absl::StrCat(
+          write_failure, "; the disk was full at ", disk_full_in_a_row,
+          " writes in a row although its free space held the rest of the "
+          "plan (a user quota? a margin too small for this filesystem? "
+          "raise --disk-margin-mb)"));
+    }
+    context.Warn(
+        absl::StrCat(write_failure, "; it is taken again once there is room"));
+    return pending_index;
+  };
+  for (size_t next = 0;;) {
+    if (next == specs.size()) {
+      ASSIGN_OR_RETURN(next, finish_pending(next));  // the last frame's write
+      if (next == specs.size()) break;
+    }
+    const FrameSpec& spec = specs[next];
+    if (done->contains(spec.sequence)) {
+      ++next;
+      continue;
+    }
+    // A frame still being written while the rest does not fit is finished
+    // first: its write may have found the disk full, and then the
+    // suspension names that and its frame is taken again.
+    if (pending.valid() && disk != nullptr &&
+        !disk->CheckRoomForRest(frames_left(), frame_size.bytes()).ok()) {
+      ASSIGN_OR_RETURN(next, finish_pending(next));
+      continue;
+    }
     absl::StatusOr<hardware::Frame> frame;
     CameraReport report;
     // A frame whose camera dropped (a camera call failed and the camera
@@ -389,12 +459,16 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
       RETURN_IF_ERROR(context.SuspendWhile(
           [&] {
             std::string why =
-                BlockingCondition(conditions, camera, stage, frame_bytes);
+                BlockingCondition(conditions, camera, stage,
+                                  {.frames = frames_left(),
+                                   .bytes_per_frame = frame_size.bytes(),
+                                   .write_failure = write_failure});
             was_suspended = was_suspended || !why.empty();
             return why;
           },
           conditions.poll));
       if (was_suspended) {
+        disk_full_in_a_row = 0;
         // The stage may have been touched meanwhile: home it again.
         RETURN_IF_ERROR(stage.Home());
         position = std::nan("");
@@ -497,8 +571,7 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
       exposure = std::nan("");
     }
     checker.Remember(report);
-    frame_bytes =
-        std::max(frame_bytes, static_cast<int64_t>(frame->bytes.size()));
+    frame_size.Delivered(static_cast<int64_t>(frame->bytes.size()));
 
     store::FrameRecord record;
     record.capture_id = capture.id;
@@ -521,8 +594,13 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
     record.sha256 = report.sha256;
     // The previous frame must be recorded before this one (progress is
     // sequential); then this one is persisted while the rig takes the next.
-    RETURN_IF_ERROR(FinishPending(pending));
+    ASSIGN_OR_RETURN(const size_t go_on, finish_pending(next));
+    if (go_on != next) {
+      next = go_on;
+      continue;
+    }
     ++count;
+    pending_index = next++;
     pending = std::async(
         std::launch::async,
         [&context, &frames, &job, total, done = count,
@@ -532,7 +610,6 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
                               bytes, done, total, step);
         });
   }
-  RETURN_IF_ERROR(FinishPending(pending));
 
   const absl::Duration loop_time = absl::Now() - loop_start;
   if (count > first_count && loop_time > absl::ZeroDuration()) {

@@ -48,7 +48,9 @@ using TruthWriter = std::function<absl::Status(
 // the job is suspended (JobContext::SuspendWhile) and resumes by itself.
 struct CaptureConditions {
   // The rest of the plan must fit on the data root (with the guard's
-  // margin); nullptr: not checked.
+  // margin; DiskGuard::CheckRoomForRest); a frame whose write finds the
+  // disk full all the same is taken again after this condition, rather
+  // than failing the job. nullptr: not checked.
   const DiskGuard* disk = nullptr;
   // 0 disables; a camera that does not report its battery passes.
   int min_battery_percent = 0;

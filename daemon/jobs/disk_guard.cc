@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <optional>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -37,17 +38,32 @@ absl::StatusOr<int64_t> DiskGuard::FreeBytes() const {
 }
 
 absl::StatusOr<int64_t> DiskGuard::BytesPerFrame(io::CaptureKind kind) const {
+  std::optional<int64_t> latest;  // the most recent capture of `kind`
+  {
+    absl::MutexLock lock(&store_.db().mutex());
+    ASSIGN_OR_RETURN(store::Statement stmt, store_.db().Prepare(R"sql(
+SELECT c.id FROM captures c JOIN frames f ON f.capture_id = c.id
+WHERE c.kind = ?1 ORDER BY c.id DESC LIMIT 1)sql"));
+    stmt.Bind(1, io::CaptureKindName(kind));
+    ASSIGN_OR_RETURN(bool row, stmt.Step());
+    if (row) latest = stmt.ColumnInt(0);
+  }
+  int64_t largest = 0;
+  if (latest.has_value()) {
+    ASSIGN_OR_RETURN(largest, LargestFrame(*latest));
+  }
+  return largest > 0 ? largest : options_.frame_bytes_guess;
+}
+
+absl::StatusOr<int64_t> DiskGuard::LargestFrame(int64_t capture_id) const {
   std::vector<std::pair<std::string, std::string>> frames;  // session, path
   {
     absl::MutexLock lock(&store_.db().mutex());
     ASSIGN_OR_RETURN(store::Statement stmt, store_.db().Prepare(R"sql(
 SELECT s.name, f.path FROM frames f
 JOIN captures c ON c.id = f.capture_id JOIN sessions s ON s.id = c.session_id
-WHERE f.capture_id = (SELECT c2.id FROM captures c2 JOIN frames f2
-                      ON f2.capture_id = c2.id WHERE c2.kind = ?1
-                      ORDER BY c2.id DESC LIMIT 1)
-LIMIT 256)sql"));
-    stmt.Bind(1, io::CaptureKindName(kind));
+WHERE f.capture_id = ?1 LIMIT 256)sql"));
+    stmt.Bind(1, capture_id);
     while (true) {
       ASSIGN_OR_RETURN(bool row, stmt.Step());
       if (!row) break;
@@ -61,7 +77,7 @@ LIMIT 256)sql"));
         store_.files().SessionDir(session) / path, ec);
     if (!ec) largest = std::max(largest, static_cast<int64_t>(size));
   }
-  return largest > 0 ? largest : options_.frame_bytes_guess;
+  return largest;
 }
 
 absl::StatusOr<int64_t> DiskGuard::NeededBytes(io::CaptureKind kind,
@@ -92,16 +108,25 @@ absl::Status DiskGuard::CheckRoomFor(io::CaptureKind kind,
       " margin); free space or use a smaller plan"));
 }
 
-absl::Status DiskGuard::CheckRoomForFrame(int64_t frame_bytes) const {
-  ASSIGN_OR_RETURN(int64_t free, FreeBytes());
-  const int64_t needed = 2 * frame_bytes + options_.margin_bytes;
+absl::Status CheckRestFits(const RestOfPlan& rest, int64_t free,
+                           const std::filesystem::path& root) {
+  const int64_t needed = rest.NeededBytes();
   if (free >= needed) return absl::OkStatus();
   return absl::ResourceExhaustedError(absl::StrCat(
-      "the disk is full: the data root ", store_.files().root().string(),
-      " has ", HumanBytes(free), " free, the next frame needs ",
-      HumanBytes(needed), " (a frame of ", HumanBytes(frame_bytes),
-      " twice and a ", HumanBytes(options_.margin_bytes),
+      "disk has ", HumanBytes(free), " free on the data root ", root.string(),
+      ", the rest of the plan needs ", HumanBytes(needed), " (", rest.frames,
+      " frames of ", HumanBytes(rest.bytes_per_frame), " and a ",
+      HumanBytes(rest.margin),
       " margin); the capture resumes by itself once space is freed"));
+}
+
+absl::Status DiskGuard::CheckRoomForRest(int64_t frames,
+                                         int64_t bytes_per_frame) const {
+  ASSIGN_OR_RETURN(int64_t free, FreeBytes());
+  return CheckRestFits({.frames = frames,
+                        .bytes_per_frame = bytes_per_frame,
+                        .margin = options_.margin_bytes},
+                       free, store_.files().root());
 }
 
 absl::StatusOr<int64_t> DiskGuard::PendingCaptureBytes() const {

@@ -117,7 +117,8 @@ absl::Status FileStore::WriteSessionFile(absl::string_view session,
   fs::path path = SessionDir(session) / relative;
   std::error_code ec;
   fs::create_directories(path.parent_path(), ec);
-  if (ec) return FsError(ec, "cannot create", path.parent_path());
+  // errno values: a full disk is told apart (io::IsDiskFull).
+  if (ec) return io::FileError(ec.value(), "cannot create", path.parent_path());
   return io::WriteFileAtomically(path, data);
 }
 

@@ -41,7 +41,9 @@ class FileStore {
   absl::Status RemoveSessionDir(absl::string_view session);
 
   // Writes `relative` (inside the session folder; no "..", not absolute)
-  // atomically, creating parent folders.
+  // atomically, creating parent folders. A full disk is io::IsDiskFull
+  // (RESOURCE_EXHAUSTED naming the path and the free space) and leaves
+  // neither the file nor a temporary one.
   absl::Status WriteSessionFile(absl::string_view session,
                                 const std::filesystem::path& relative,
                                 absl::string_view data);

@@ -446,7 +446,7 @@ Scene ParseSceneJson(const Json& root) {
       CheckKeys(c, p,
                 {"busy_first_calls", "timeout", "disconnect",
                  "disconnect_failed_reopens", "corrupt", "previous_file",
-                 "wrong_exposure", "card_target"});
+                 "wrong_exposure", "card_target", "hold", "hold_fifo"});
       s.camera_faults.busy_first_calls =
           GetInt(c, p, "busy_first_calls", 0, 0, 1000000);
       s.camera_faults.timeout = ParseTrigger(c, p, "timeout");
@@ -457,6 +457,11 @@ Scene ParseSceneJson(const Json& root) {
       s.camera_faults.previous_file = ParseTrigger(c, p, "previous_file");
       s.camera_faults.wrong_exposure = ParseTrigger(c, p, "wrong_exposure");
       s.camera_faults.card_target = ParseTrigger(c, p, "card_target");
+      s.camera_faults.hold = ParseTrigger(c, p, "hold");
+      s.camera_faults.hold_fifo = GetString(c, p, "hold_fifo", "");
+      if (s.camera_faults.hold.enabled() && s.camera_faults.hold_fifo.empty()) {
+        Fail(p + ".hold_fifo", "required with hold (the FIFO it waits on)");
+      }
     }
     if (j.contains("stage")) {
       const Json& c = j.at("stage");

@@ -195,6 +195,13 @@ struct CameraFaults {
   FaultTrigger wrong_exposure;  // exposes twice as long as set (EXIF says so)
   FaultTrigger card_target;     // the capture target switches to the card
                                 // until PrepareCaptureGroup sets RAM again
+  // Not a camera fault but a test's handle on a moment: the capture call
+  // waits, before it exposes, until a byte (or end of file) can be read from
+  // the FIFO `hold_fifo`. A test's open of the FIFO for writing returns once
+  // the camera is held, so the test acts between a capture job's checks at
+  // the frame boundary and the frame's write; its write releases the camera.
+  FaultTrigger hold;
+  std::string hold_fifo;  // required with `hold`
 };
 
 struct StageFaults {

@@ -1,8 +1,13 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "hardware/sim/sim_world.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <thread>
 
 #include "absl/strings/ascii.h"
@@ -26,6 +31,30 @@ bool FaultFires(const FaultTrigger& trigger, int64_t call, uint64_t seed,
       HashCombine(HashCombine(seed, stream), static_cast<uint64_t>(call)));
   return u < trigger.probability;
 }
+
+namespace {
+
+// The hold fault: waits until a byte (or end of file) arrives on the FIFO at
+// `path`. Opening it for reading also lets the test's open for writing
+// return: that is how the test knows the camera is held.
+absl::Status WaitForRelease(const std::string& path, int64_t call) {
+  int fd = -1;
+  do {
+    fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  } while (fd < 0 && errno == EINTR);
+  if (fd < 0) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("hold fault (call ", call, "): cannot open the FIFO ",
+                     path, ": ", std::strerror(errno)));
+  }
+  char byte = 0;
+  while (::read(fd, &byte, 1) < 0 && errno == EINTR) {
+  }
+  ::close(fd);
+  return absl::OkStatus();
+}
+
+}  // namespace
 
 SimWorld::SimWorld(Scene scene)
     : renderer_(std::move(scene)), faults_(renderer_.scene().camera_faults) {}
@@ -210,6 +239,9 @@ absl::StatusOr<SimCapture> SimWorld::Capture(const ExposureSettings& settings,
   }
   const uint64_t seed = scene().seed;
   const double capture_s = timing().CaptureSeconds(settings.exposure_s);
+  if (FaultFires(faults.hold, call, seed, 7)) {
+    RETURN_IF_ERROR(WaitForRelease(faults.hold_fifo, call));
+  }
   if (call <= faults.busy_first_calls) {
     return absl::UnavailableError(
         absl::StrCat("camera busy (simulated fault, call ", call, ")"));

@@ -2,6 +2,7 @@
 #include "processing/io/atomic_file.h"
 
 #include <fcntl.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -10,6 +11,7 @@
 #include <system_error>
 
 #include "absl/status/statusor.h"
+#include "absl/strings/cord.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -19,9 +21,22 @@
 namespace hdrstereo::io {
 namespace {
 
-absl::Status ErrnoStatus(int err, absl::string_view what,
-                         const std::filesystem::path& path) {
-  return absl::ErrnoToStatus(err, absl::StrCat(what, " ", path.string()));
+// Marks a disk-full error (IsDiskFull); the payload is the errno's name.
+constexpr absl::string_view kDiskFullPayload = "hdrstereo.io/disk-full";
+
+// Free bytes for an unprivileged writer on the filesystem of `path` (of its
+// nearest folder that exists); -1 when none can be asked.
+int64_t FreeBytesNear(const std::filesystem::path& path) {
+  for (std::filesystem::path p = path.parent_path(); !p.empty();
+       p = p.parent_path()) {
+    struct statvfs fs;
+    if (::statvfs(p.c_str(), &fs) == 0) {
+      return static_cast<int64_t>(fs.f_bavail) *
+             static_cast<int64_t>(fs.f_frsize);
+    }
+    if (p == p.parent_path()) break;
+  }
+  return -1;
 }
 
 std::string RandomSuffix() {
@@ -36,7 +51,7 @@ absl::StatusOr<AtomicFileWriter> AtomicFileWriter::Open(
   std::filesystem::path temp = path;
   temp += absl::StrCat(kTempFileMarker, RandomSuffix());
   int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-  if (fd < 0) return ErrnoStatus(errno, "cannot create", temp);
+  if (fd < 0) return FileError(errno, "cannot create", temp);
   return AtomicFileWriter(std::move(path), std::move(temp), fd);
 }
 
@@ -74,7 +89,9 @@ absl::Status AtomicFileWriter::Append(absl::string_view data) {
     ssize_t n = ::write(fd_, data.data(), data.size());
     if (n < 0) {
       if (errno == EINTR) continue;
-      return ErrnoStatus(errno, "cannot write", temp_path_);
+      const int err = errno;
+      Abandon();
+      return FileError(err, "cannot write", path_);
     }
     data.remove_prefix(static_cast<size_t>(n));
   }
@@ -87,21 +104,43 @@ absl::Status AtomicFileWriter::Commit() {
         absl::StrCat("writer for ", path_.string(), " is already spent"));
   }
   if (::fsync(fd_) != 0) {
-    absl::Status status = ErrnoStatus(errno, "cannot fsync", temp_path_);
+    const int err = errno;
     Abandon();
-    return status;
+    return FileError(err, "cannot fsync", path_);
   }
   if (::close(std::exchange(fd_, -1)) != 0) {
-    absl::Status status = ErrnoStatus(errno, "cannot close", temp_path_);
+    const int err = errno;
     ::unlink(temp_path_.c_str());
-    return status;
+    return FileError(err, "cannot close", path_);
   }
   if (::rename(temp_path_.c_str(), path_.c_str()) != 0) {
-    absl::Status status = ErrnoStatus(errno, "cannot rename onto", path_);
+    const int err = errno;
     ::unlink(temp_path_.c_str());
-    return status;
+    return FileError(err, "cannot rename onto", path_);
   }
   return SyncDirectory(path_.parent_path().empty() ? "." : path_.parent_path());
+}
+
+absl::Status FileError(int err, absl::string_view what,
+                       const std::filesystem::path& path) {
+  absl::Status status =
+      absl::ErrnoToStatus(err, absl::StrCat(what, " ", path.string()));
+  if (err != ENOSPC && err != EDQUOT) return status;
+  const absl::string_view name = err == ENOSPC ? "ENOSPC" : "EDQUOT";
+  const int64_t free = FreeBytesNear(path);
+  absl::Status full(
+      absl::StatusCode::kResourceExhausted,
+      absl::StrCat(
+          "disk full (", name, "): ", status.message(),
+          free >= 0 ? absl::StrCat("; ", free, " bytes free on its filesystem")
+                    : ""));
+  full.SetPayload(kDiskFullPayload, absl::Cord(name));
+  return full;
+}
+
+bool IsDiskFull(const absl::Status& status) {
+  return status.code() == absl::StatusCode::kResourceExhausted &&
+         status.GetPayload(kDiskFullPayload).has_value();
 }
 
 absl::Status WriteFileAtomically(const std::filesystem::path& path,
@@ -113,11 +152,11 @@ absl::Status WriteFileAtomically(const std::filesystem::path& path,
 
 absl::Status SyncDirectory(const std::filesystem::path& dir) {
   int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd < 0) return ErrnoStatus(errno, "cannot open folder", dir);
+  if (fd < 0) return FileError(errno, "cannot open folder", dir);
   int rc = ::fsync(fd);
   int err = errno;
   ::close(fd);
-  if (rc != 0) return ErrnoStatus(err, "cannot fsync folder", dir);
+  if (rc != 0) return FileError(err, "cannot fsync folder", dir);
   return absl::OkStatus();
 }
 

@@ -21,7 +21,9 @@ namespace hdrstereo::io {
 inline constexpr absl::string_view kTempFileMarker = ".tmp-";
 
 // Writes a file in pieces; nothing is visible at `path` until Commit()
-// succeeds. Destroying an uncommitted writer removes its temporary file.
+// succeeds. Destroying an uncommitted writer removes its temporary file, and
+// so does a failed Append() or Commit(): the space a write that ran out of it
+// had taken is free again when the error is returned.
 class AtomicFileWriter {
  public:
   // Creates the temporary file. Parent folders must exist.
@@ -33,6 +35,7 @@ class AtomicFileWriter {
   AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
   ~AtomicFileWriter();
 
+  // A failed Append spends the writer (see above).
   absl::Status Append(absl::string_view data);
   // fsync, rename over the target, fsync the folder. The writer is spent
   // afterwards, whether or not this succeeds.
@@ -51,7 +54,22 @@ class AtomicFileWriter {
   int fd_ = -1;
 };
 
-// Writes `data` to `path` atomically (see above).
+// The status of a file operation (`what`, e.g. "cannot write") on `path`
+// that failed with errno `err`: absl::ErrnoToStatus's code and "WHAT PATH:
+// strerror". ENOSPC and EDQUOT (no space left, quota full) are a disk-full
+// error instead (IsDiskFull), which also names the free space left on the
+// filesystem of `path`.
+absl::Status FileError(int err, absl::string_view what,
+                       const std::filesystem::path& path);
+
+// True for the error of a write that found its filesystem full (FileError
+// with ENOSPC or EDQUOT): RESOURCE_EXHAUSTED "disk full: cannot write PATH:
+// No space left on device; N bytes free on its filesystem", marked so that
+// it is told apart from other exhausted resources (open files, memory).
+bool IsDiskFull(const absl::Status& status);
+
+// Writes `data` to `path` atomically (see above); a disk-full error names
+// `path` and leaves no temporary file.
 absl::Status WriteFileAtomically(const std::filesystem::path& path,
                                  absl::string_view data);
 

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -18,10 +19,13 @@
 #include <set>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "hardware/sim/scene.h"
 #include "hardware/sim/sim_world.h"
 #include "hdrstereo/v1/sessions.grpc.pb.h"
+#include "tests/support/camera_hold.h"
 #include "tests/support/daemon_fixture.h"
+#include "tests/support/tmpfs.h"
 
 namespace hdrstereo {
 namespace {
@@ -417,27 +421,17 @@ TEST_F(CaptureTest, AFaultOnTheRetakeTooFailsTheFrameNamingBothValues) {
 class DiskGuardTest : public CaptureTest {
  protected:
   void SetUp() override {
-    fs::create_directories(data_root());
-    const std::string mount =
-        absl::StrCat("mount -t tmpfs -o size=", kSizeBytes, " tmpfs ",
-                     data_root().string(), " 2>&1");
-    if (std::system(mount.c_str()) != 0) {
-      GTEST_SKIP() << "cannot mount a tmpfs (needs root and permission to "
-                      "mount): "
-                   << mount;
-    }
-    mounted_ = true;
+    tmpfs_.emplace(data_root(), kSizeBytes);
+    if (!tmpfs_->mounted()) GTEST_SKIP() << tmpfs_->error();
   }
   void TearDown() override {
     if (daemon_.has_value()) StopDaemon();
-    if (mounted_) {
-      const std::string umount = "umount " + data_root().string();
-      EXPECT_EQ(std::system(umount.c_str()), 0) << umount;
-    }
+    tmpfs_.reset();
   }
   void StartSmall(const std::string& frame_guess_mb,
-                  const std::string& margin_mb = "0", double time_scale = 0) {
-    scene_path_ = WriteScene("lab-lamp", SmallLabLamp());
+                  const std::string& margin_mb = "0", double time_scale = 0,
+                  const nlohmann::json& patch = SmallLabLamp()) {
+    scene_path_ = WriteScene("lab-lamp", patch);
     StartDaemon({"--sim-scene", scene_path_.string(), "--disk-margin-mb",
                  margin_mb, "--frame-bytes-guess-mb", frame_guess_mb,
                  "--sim-time-scale", absl::StrCat(time_scale)});
@@ -453,7 +447,7 @@ class DiskGuardTest : public CaptureTest {
   }
 
   static constexpr int64_t kSizeBytes = 24 << 20;
-  bool mounted_ = false;
+  std::optional<::hdrstereo::testing::TmpfsMount> tmpfs_;
 };
 
 TEST_F(DiskGuardTest, ACaptureThatCannotFitIsRefusedWithBothNumbers) {
@@ -489,26 +483,46 @@ TEST_F(DiskGuardTest, TheLastCaptureOfTheSameKindSetsTheEstimate) {
   EXPECT_EQ(JsonInt(info["pending_capture_bytes"]), 0);
 }
 
-// The disk fills up in the middle of a capture: the job is suspended at a
-// frame boundary, before a write fails, naming both numbers; what was
-// recorded stays intact (no file without its row, no row without its file,
-// no temporary file); once space is freed it resumes by itself and takes
-// only the missing frames.
-TEST_F(DiskGuardTest, DiskFillingMidCaptureSuspendsAndResumesByItself) {
+// The rest of the plan does not fit: the job is suspended at a frame
+// boundary, before a write fails, with a reason that names the free space
+// and what the rest needs (the frames not yet written at the capture's
+// largest frame so far, and the margin); what was recorded stays intact (no
+// file without its row, no row without its file, no temporary file); once
+// space is freed it resumes by itself and takes only the missing frames.
+TEST_F(DiskGuardTest, TheRestOfThePlanNotFittingSuspendsAndResumesByItself) {
   // A 1 MB margin: what the database needs to record the job's events.
   StartSmall("0", "1");
   ASSERT_EQ(Cli({"session", "create", "full"}).exit_code, 0);
-  FillLeaving(2 << 20);
+  FillLeaving(2 << 20);  // far less than 120 frames
   const int64_t job = Submit({"capture", "sl", "full"});
   ASSERT_GT(job, 0);
   ASSERT_TRUE(WaitForJobState(job, "paused")) << daemon_log();
-  EXPECT_EQ(EventsLike("suspended: the disk is full"), 1);
-  EXPECT_EQ(EventsLike("the next frame needs"), 1);
   const int recorded = std::stoi(Sql("SELECT count(*) FROM frames"));
   EXPECT_GT(recorded, 0);
   EXPECT_LT(recorded, 120);
   ExpectConsistentStore("full", recorded);
   ExpectNoTempFiles();
+  // Both numbers: the frames not written x the largest frame + the margin.
+  int64_t largest = 0;
+  for (const auto& entry :
+       fs::recursive_directory_iterator(data_root() / "sessions" / "full")) {
+    if (entry.is_regular_file()) {
+      largest = std::max(largest, static_cast<int64_t>(entry.file_size()));
+    }
+  }
+  const int64_t left = 120 - recorded;
+  const std::string reason =
+      Sql("SELECT message FROM job_events WHERE message LIKE 'suspended: %'");
+  EXPECT_THAT(reason, HasSubstr("suspended: disk has "));
+  EXPECT_THAT(
+      reason,
+      HasSubstr(absl::StrCat(
+          "free on the data root ", data_root().string(),
+          ", the rest of the plan needs ",
+          absl::StrFormat("%.1f MB", (left * largest + (1 << 20)) / 1e6), " (",
+          left, " frames of ", absl::StrFormat("%.0f kB", largest / 1e3),
+          " and a 1.0 MB margin)")));
+  EXPECT_EQ(EventsLike("suspended: "), 1);
   // A person cannot resume into the condition; it says why.
   CommandResult resume = Cli({"jobs", "resume", std::to_string(job)});
   EXPECT_NE(resume.exit_code, 0);
@@ -517,6 +531,77 @@ TEST_F(DiskGuardTest, DiskFillingMidCaptureSuspendsAndResumesByItself) {
   ASSERT_TRUE(WaitForJobState(job, "succeeded")) << daemon_log();
   EXPECT_EQ(EventsLike("resumed: the condition cleared"), 1);
   ExpectConsistentStore("full", 120);
+}
+
+// Space taken between the frame boundary's check and the frame's write (by
+// another process): the write itself finds the disk full. To make that
+// moment certain, the simulated camera is held (its hold fault, a FIFO) in
+// the capture call of one frame, after that boundary's checks passed; the
+// test fills the disk then and releases the camera, so that this frame's
+// write hits ENOSPC. (A filler started on a job event would race the
+// capture: the check and the write are microseconds apart.) The job is
+// suspended, not failed, naming the full disk; nothing half-written is
+// left; once the filler is removed the same frame is taken again and the
+// capture finishes with every frame once.
+TEST_F(DiskGuardTest, ENOSPCInTheWriteSuspendsAndTakesTheSameFrameAgain) {
+  constexpr int kHeld = 40;  // camera call 40: the frame of sequence 39
+  ::hdrstereo::testing::CameraHold hold(dir_ / "hold");
+  nlohmann::json patch = SmallLabLamp();
+  patch["faults"] = {
+      {"camera",
+       {{"hold", {{"calls", {kHeld}}}}, {"hold_fifo", hold.path().string()}}}};
+  StartSmall("0", "1", 0, patch);
+  ASSERT_EQ(Cli({"session", "create", "nospace"}).exit_code, 0);
+  const int64_t job = Submit({"capture", "sl", "nospace"});
+  ASSERT_GT(job, 0);
+  ASSERT_TRUE(hold.WaitUntilHeld(absl::Seconds(120))) << daemon_log();
+  // The frame before was being written while the camera was taken: let it
+  // be recorded, so that the space goes before the held frame's write only.
+  const std::string before = std::to_string(kHeld - 1);
+  const absl::Time deadline = absl::Now() + absl::Seconds(60);
+  while (Sql("SELECT count(*) FROM frames") != before &&
+         absl::Now() < deadline) {
+    absl::SleepFor(absl::Milliseconds(10));
+  }
+  ASSERT_EQ(Sql("SELECT count(*) FROM frames"), before);
+  int64_t smallest = kSizeBytes;
+  for (const auto& entry :
+       fs::recursive_directory_iterator(data_root() / "sessions" / "nospace")) {
+    if (entry.is_regular_file()) {
+      smallest = std::min(smallest, static_cast<int64_t>(entry.file_size()));
+    }
+  }
+  FillLeaving(smallest / 2);  // room for the database, not for a frame
+  hold.Release();
+  ASSERT_TRUE(WaitForJobState(job, "paused")) << daemon_log();
+
+  // Nothing half-written: no temporary file, no file without its row, no row
+  // without its file; the held frame has neither.
+  ExpectNoTempFiles();
+  EXPECT_EQ(Sql("SELECT count(*) FROM frames"), before);
+  ExpectConsistentStore("nospace", kHeld - 1);
+  EXPECT_EQ(EventsLike("suspended: frame % was not stored: disk full (ENOSPC): "
+                       "cannot write %: No space left on device; % bytes free "
+                       "on its filesystem; disk has %, the rest of the plan "
+                       "needs %"),
+            1);
+  EXPECT_EQ(EventsLike("it is taken again once there is room"), 1);
+  EXPECT_EQ(Sql(absl::StrCat("SELECT state FROM jobs WHERE id = ", job)),
+            "paused");
+
+  fs::remove(data_root() / "filler");
+  ASSERT_TRUE(WaitForJobState(job, "succeeded")) << daemon_log();
+  EXPECT_EQ(EventsLike("resumed: the condition cleared (was: frame "), 1);
+  ExpectConsistentStore("nospace", 120);
+  ExpectNoTempFiles();
+  // The frame whose write failed is the one recorded at its place now.
+  const std::string held_path =
+      Sql(absl::StrCat("SELECT path FROM frames WHERE sequence = ", kHeld - 1));
+  EXPECT_EQ(EventsLike(absl::StrCat(
+                "cannot write ",
+                (data_root() / "sessions" / "nospace" / held_path).string(),
+                ": No space left on device")),
+            3);  // the warning, the suspension and the resumption
 }
 
 // A condition that goes true while one job is paused by a person and

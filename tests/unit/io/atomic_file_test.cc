@@ -6,10 +6,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <string>
 
 #include "tests/support/status_matchers.h"
 #include "tests/support/temp_dir.h"
+#include "tests/support/tmpfs.h"
 
 namespace hdrstereo::io {
 namespace {
@@ -19,6 +21,7 @@ using ::testing::HasSubstr;
 
 using ::hdrstereo::testing::ReadFileOrDie;
 using ::hdrstereo::testing::TempDir;
+using ::hdrstereo::testing::TmpfsMount;
 
 int CountTempFiles(const std::filesystem::path& dir) {
   int n = 0;
@@ -99,6 +102,65 @@ TEST(AtomicFileTest, MissingFolderIsAClearError) {
                                HasSubstr("No such file or directory")));
   EXPECT_NE(status.message().find("no/such/dir"), absl::string_view::npos)
       << status;
+}
+
+// A write that finds its filesystem full (a 64 kB tmpfs): a disk-full error
+// naming the target and the space left, the old content kept, no temporary
+// file, and the space the failed write had taken free again.
+TEST(AtomicFileTest, AFullDiskIsDiskFullNamingThePathAndLeavesNoTempFile) {
+  TempDir dir;
+  TmpfsMount small(dir / "small", 64 << 10);
+  if (!small.mounted()) GTEST_SKIP() << small.error();
+  const std::filesystem::path target = dir / "small" / "frame.png";
+  ASSERT_OK(WriteFileAtomically(target, "old frame"));
+  const absl::Status full =
+      WriteFileAtomically(target, std::string(1 << 20, 'x'));
+  EXPECT_THAT(full, StatusIs(absl::StatusCode::kResourceExhausted,
+                             HasSubstr("disk full (ENOSPC): cannot write " +
+                                       target.string() +
+                                       ": No space left on device; ")));
+  EXPECT_THAT(std::string(full.message()),
+              HasSubstr(" bytes free on its filesystem"));
+  EXPECT_TRUE(IsDiskFull(full));
+  EXPECT_EQ(CountTempFiles(dir / "small"), 0);
+  EXPECT_EQ(ReadFileOrDie(target), "old frame");
+  EXPECT_OK(WriteFileAtomically(target, std::string(32 << 10, 'y')));
+}
+
+// The writer is spent by the failed Append and its temporary file gone at
+// once, not only when the writer is destroyed.
+TEST(AtomicFileTest, AnAppendThatFindsTheDiskFullRemovesTheTempFileAtOnce) {
+  TempDir dir;
+  TmpfsMount small(dir / "small", 64 << 10);
+  if (!small.mounted()) GTEST_SKIP() << small.error();
+  ASSERT_OK_AND_ASSIGN(AtomicFileWriter writer,
+                       AtomicFileWriter::Open(dir / "small" / "f"));
+  EXPECT_TRUE(IsDiskFull(writer.Append(std::string(1 << 20, 'x'))));
+  EXPECT_EQ(CountTempFiles(dir / "small"), 0);
+  EXPECT_THAT(writer.Commit(), StatusIs(absl::StatusCode::kFailedPrecondition,
+                                        HasSubstr("already spent")));
+  EXPECT_FALSE(std::filesystem::exists(dir / "small" / "f"));
+}
+
+// Only no space and a full quota are a full disk; other exhausted resources
+// keep their code but are not mistaken for it, nor is a message alone.
+TEST(AtomicFileTest, OnlyNoSpaceAndAFullQuotaAreDiskFull) {
+  TempDir dir;
+  const std::filesystem::path path = dir / "f";
+  const absl::Status quota = FileError(EDQUOT, "cannot write", path);
+  EXPECT_TRUE(IsDiskFull(quota));
+  EXPECT_THAT(quota, StatusIs(absl::StatusCode::kResourceExhausted,
+                              HasSubstr("disk full (EDQUOT): cannot write " +
+                                        path.string())));
+  const absl::Status files = FileError(EMFILE, "cannot create", path);
+  EXPECT_THAT(files, StatusIs(absl::StatusCode::kResourceExhausted,
+                              HasSubstr("cannot create " + path.string())));
+  EXPECT_FALSE(IsDiskFull(files));
+  EXPECT_FALSE(IsDiskFull(absl::ResourceExhaustedError(
+      "disk full (ENOSPC): cannot write " + path.string())));
+  EXPECT_THAT(FileError(ENOENT, "cannot open", path),
+              StatusIs(absl::StatusCode::kNotFound,
+                       HasSubstr("No such file or directory")));
 }
 
 }  // namespace

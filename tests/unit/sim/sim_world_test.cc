@@ -4,9 +4,12 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <future>
 #include <opencv2/imgcodecs.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "tests/support/camera_hold.h"
+#include "tests/support/temp_dir.h"
 #include "tests/unit/sim/test_scenes.h"
 
 namespace hdrstereo::sim {
@@ -162,6 +165,41 @@ TEST(SimWorldTest, CameraFaultsFireOnTheConfiguredCalls) {
   EXPECT_TRUE(decoded.empty() || cv::norm(decoded, bad->image) > 0)
       << "the corrupted file decodes to the true image";
   EXPECT_EQ(world.capture_calls(), 6);
+}
+
+// The hold: the listed call waits until the test releases it; the test's
+// wait returns only once the camera is held (both ends block on the FIFO).
+TEST(SimWorldTest, AHeldCaptureWaitsForTheRelease) {
+  hdrstereo::testing::TempDir dir;
+  hdrstereo::testing::CameraHold hold(dir / "hold");
+  Scene scene = SmallBundledScene("textured");
+  scene.camera_faults.hold.calls = {2};
+  scene.camera_faults.hold_fifo = hold.path().string();
+  SimWorld world(scene);
+  const ExposureSettings s{1.0 / 60, 100};
+  ASSERT_TRUE(world.Capture(s, ImageFormat::kPng).ok());  // call 1: not held
+  std::future<absl::StatusOr<SimCapture>> held = std::async(
+      std::launch::async, [&] { return world.Capture(s, ImageFormat::kPng); });
+  ASSERT_TRUE(hold.WaitUntilHeld());
+  EXPECT_EQ(world.capture_calls(), 2);
+  hold.Release();
+  absl::StatusOr<SimCapture> released = held.get();
+  ASSERT_TRUE(released.ok()) << released.status();
+  EXPECT_FALSE(released->bytes.empty());
+}
+
+TEST(SimWorldTest, AHoldNeedsItsFifo) {
+  absl::StatusOr<Scene> scene = ParseScene(testing::SmallSceneJson(
+      "", R"("faults": {"camera": {"hold": {"calls": [3]}}})"));
+  EXPECT_EQ(scene.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(scene.status().message()),
+              ::testing::HasSubstr("faults.camera.hold_fifo"));
+  scene = ParseScene(testing::SmallSceneJson(
+      "", R"("faults": {"camera": {"hold": {"calls": [3]},
+                                   "hold_fifo": "/run/hold"}})"));
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  EXPECT_EQ(scene->camera_faults.hold.calls, std::vector<int>{3});
+  EXPECT_EQ(scene->camera_faults.hold_fifo, "/run/hold");
 }
 
 TEST(SimWorldTest, ProbabilisticFaultsAreSeeded) {

@@ -6,14 +6,19 @@
 
 #include <fstream>
 
+#include "processing/io/atomic_file.h"
+#include "tests/support/status_matchers.h"
 #include "tests/support/temp_dir.h"
+#include "tests/support/tmpfs.h"
 
 namespace hdrstereo::store {
 namespace {
 
 namespace fs = std::filesystem;
 using ::hdrstereo::testing::ReadFileOrDie;
+using ::hdrstereo::testing::StatusIs;
 using ::hdrstereo::testing::TempDir;
+using ::hdrstereo::testing::TmpfsMount;
 using ::testing::HasSubstr;
 
 TEST(FileStoreTest, DataRootThatIsAFileIsRefused) {
@@ -67,6 +72,33 @@ TEST(FileStoreTest, SweepKeepsKnownSessionsAndMovesOrphansAside) {
     ++kept;
   }
   EXPECT_EQ(kept, 1);
+}
+
+// A session file that does not fit on the data root's filesystem (a 256 kB
+// tmpfs): io::IsDiskFull, naming the file; neither it nor a temporary file
+// is left, and a file that fits is written afterwards.
+TEST(FileStoreTest, AFileThatDoesNotFitIsDiskFullAndLeavesNothing) {
+  TempDir dir;
+  TmpfsMount small(dir / "root", 256 << 10);
+  if (!small.mounted()) GTEST_SKIP() << small.error();
+  ASSERT_OK_AND_ASSIGN(FileStore store, FileStore::Open(dir / "root"));
+  ASSERT_OK(store.CreateSessionDir("s1"));
+  const absl::Status full = store.WriteSessionFile(
+      "s1", "captures/1/left/f.png", std::string(1 << 20, 'x'));
+  EXPECT_TRUE(io::IsDiskFull(full)) << full;
+  EXPECT_THAT(
+      full,
+      StatusIs(
+          absl::StatusCode::kResourceExhausted,
+          HasSubstr(
+              "cannot write " +
+              (store.SessionDir("s1") / "captures/1/left/f.png").string())));
+  for (const auto& entry :
+       fs::recursive_directory_iterator(store.SessionDir("s1"))) {
+    EXPECT_FALSE(entry.is_regular_file()) << entry.path();
+  }
+  EXPECT_OK(store.WriteSessionFile("s1", "captures/1/left/f.png",
+                                   std::string(64 << 10, 'y')));
 }
 
 }  // namespace
