@@ -158,4 +158,8 @@ absl::Status SimProjector::Blank() {
   return absl::OkStatus();
 }
 
+absl::Status SimProjector::Check() {
+  return world_.ProjectorCall(/*shows_pattern=*/false);
+}
+
 }  // namespace hdrstereo::sim

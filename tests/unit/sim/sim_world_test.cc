@@ -217,6 +217,36 @@ TEST(SimWorldTest, LowBatteryComesAndGoesByReadings) {
   EXPECT_THAT(levels, ElementsAre(100, 100, 12, 12, 100, 100));
 }
 
+// The projector is lost on its Nth Show or Blank, stays lost (nothing
+// projected) for `lasts` calls, Check included, and comes back showing
+// black.
+TEST(SimWorldTest, ProjectorLostOnAPatternComesBackByItself) {
+  Scene scene = SmallBundledScene("lab-lamp");
+  scene.projector_faults.lost = {.begins = {.calls = {2}}, .lasts = 3};
+  SimWorld world(scene);
+  absl::StatusOr<std::unique_ptr<SimProjector>> projector =
+      SimProjector::Create(world);
+  ASSERT_THAT(projector, IsOk());
+  const cv::Mat white((*projector)->resolution(), CV_8UC1, cv::Scalar(255));
+  EXPECT_THAT((*projector)->Show(white), IsOk());  // pattern 1
+  EXPECT_THAT((*projector)->Check(), IsOk());      // not a pattern
+  EXPECT_THAT((*projector)->Blank(),               // pattern 2: lost
+              StatusIs(absl::StatusCode::kUnavailable,
+                       HasSubstr("projector lost (simulated fault")));
+  EXPECT_TRUE(world.ProjectorPattern().empty()) << "a lost projector shines";
+  EXPECT_THAT((*projector)->Check(), StatusIs(absl::StatusCode::kUnavailable,
+                                              HasSubstr("projector lost")));
+  EXPECT_THAT(
+      (*projector)->Show(white),
+      StatusIs(absl::StatusCode::kUnavailable, HasSubstr("projector lost")));
+  EXPECT_THAT((*projector)->Check(), IsOk());  // back
+  const cv::Mat shown = world.ProjectorPattern();
+  ASSERT_EQ(shown.size(), white.size());
+  EXPECT_EQ(cv::countNonZero(shown), 0) << "back, it shows black";
+  EXPECT_THAT((*projector)->Show(white), IsOk());
+  EXPECT_EQ(cv::countNonZero(world.ProjectorPattern()), white.total());
+}
+
 TEST(SimWorldTest, ProjectorPatternValidation) {
   SimWorld lab(SmallBundledScene("lab-lamp"));
   EXPECT_TRUE(lab.SetProjectorPattern(cv::Mat(768, 1024, CV_8UC1)).ok());
