@@ -37,6 +37,11 @@ class Projector {
   virtual absl::Status Show(const cv::Mat& pattern) = 0;
   // Shows black.
   virtual absl::Status Blank() = 0;
+  // Whether the projector is still there, without showing anything: OK, or
+  // UNAVAILABLE saying what was lost (the display connection, the window).
+  // Cheap enough to ask before every frame; returns within the driver's
+  // own timeout.
+  virtual absl::Status Check() = 0;
 };
 
 }  // namespace hdrstereo::hardware

@@ -59,6 +59,8 @@ void PrintJob(const v1::Job& job) {
        {"cluster job", job.cluster_job_id() == 0
                            ? "-"
                            : absl::StrCat("Slurm ", job.cluster_job_id())},
+       {"suspended",
+        job.suspension_reason().empty() ? "-" : job.suspension_reason()},
        {"error", job.error().empty() ? "-" : job.error()}});
 }
 
@@ -320,8 +322,9 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
             std::cout << "no jobs\n";
             return;
           }
+          // REASON: why it failed, or why a condition suspends it.
           Table table({"ID", "SESSION", "KIND", "STATE", "PROGRESS", "CREATED",
-                       "BY", "ERROR"});
+                       "BY", "REASON"});
           for (const v1::Job& j : r.jobs()) {
             table.AddRow(
                 {absl::StrCat(j.id()), j.session(),
@@ -329,7 +332,10 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
                  StateName(j.state()),
                  absl::StrCat(j.progress().done(), "/", j.progress().total()),
                  FormatTime(j.create_time()),
-                 j.submitted_by().empty() ? "-" : j.submitted_by(), j.error()});
+                 j.submitted_by().empty() ? "-" : j.submitted_by(),
+                 j.suspension_reason().empty()
+                     ? j.error()
+                     : absl::StrCat("suspended: ", j.suspension_reason())});
           }
           table.Print(std::cout);
         });

@@ -8,6 +8,7 @@
 #include <future>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <set>
 
 #include "absl/cleanup/cleanup.h"
@@ -28,8 +29,9 @@ namespace {
 namespace fs = std::filesystem;
 namespace sl = structured_light;
 
-// A frame whose camera drops more often than this while it is taken fails
-// the job (a camera that drops at every capture is broken, not unplugged).
+// A frame whose camera drops (or whose projector is lost) more often than
+// this while it is taken fails the job (a device that drops at every frame
+// is broken, not unplugged).
 constexpr int kMaxDropsPerFrame = 3;
 // A frame whose write finds the disk full this often in a row, each time
 // without a suspension (the disk condition said the rest fits), fails the
@@ -213,9 +215,11 @@ struct DiskNeed {
 };
 
 // Why the next frame cannot be taken now ("" when it can): the suspenders,
-// asked at every frame boundary.
+// asked at every frame boundary. `projector`: the one the plan needs
+// (structured light), else nullptr.
 std::string BlockingCondition(const CaptureConditions& conditions,
                               hardware::Camera& camera, hardware::Stage& stage,
+                              hardware::Projector* projector,
                               const DiskNeed& disk_need) {
   // A camera that dropped is being reopened (ReconnectingCamera): wait.
   if (const hardware::ConnectionState link = camera.Connection();
@@ -250,6 +254,11 @@ std::string BlockingCondition(const CaptureConditions& conditions,
   if (!warnings.empty()) {
     return absl::StrCat("the stage reports warning flags ",
                         absl::StrJoin(warnings, " "));
+  }
+  if (projector != nullptr) {
+    if (absl::Status s = projector->Check(); !s.ok()) {
+      return absl::StrCat("the projector is lost: ", s.message());
+    }
   }
   if (conditions.disk != nullptr) {
     if (absl::Status s = conditions.disk->CheckRoomForRest(
@@ -314,6 +323,9 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   hardware::Camera& camera = *rig.camera();
   hardware::Stage& stage = *rig.stage();
   hardware::Projector* projector = rig.projector();
+  // Structured light needs the projector: a lost one is waited for.
+  hardware::Projector* const watched_projector =
+      plan.has_structured_light() ? projector : nullptr;
 
   store::FrameRepository frames(context.store());
   ASSIGN_OR_RETURN(const io::CaptureKind kind, PlanKind(plan));
@@ -369,10 +381,9 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
     }
     return absl::OkStatus();
   };
-  std::string showing;  // pattern id on the projector, "" = blank
-  if (projector != nullptr) {
-    RETURN_IF_ERROR(projector->Blank());
-  }
+  // Pattern id on the projector, "" = blank; unknown at the start and after
+  // a suspension (a projector that was lost may show anything).
+  std::optional<std::string> showing;
   const int views = ViewsOf(plan);
   // Done before the first frame, and again after the camera came back.
   bool camera_prepared = false;
@@ -453,13 +464,14 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
     // A frame whose camera dropped (a camera call failed and the camera
     // counts one more drop) is taken again once the camera is back: the
     // job suspends at this frame boundary until it is.
-    for (int drops = 0;; ++drops) {
+    // The same for a projector that was lost while its pattern was set.
+    for (int drops = 0, projector_losses = 0;;) {
       RETURN_IF_ERROR(context.Checkpoint());
       bool was_suspended = false;
       RETURN_IF_ERROR(context.SuspendWhile(
           [&] {
             std::string why =
-                BlockingCondition(conditions, camera, stage,
+                BlockingCondition(conditions, camera, stage, watched_projector,
                                   {.frames = frames_left(),
                                    .bytes_per_frame = frame_size.bytes(),
                                    .write_failure = write_failure});
@@ -472,6 +484,7 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
         // The stage may have been touched meanwhile: home it again.
         RETURN_IF_ERROR(stage.Home());
         position = std::nan("");
+        showing.reset();
       }
       if (!(std::abs(position - spec.stage_position_mm) < 1e-6)) {
         moved = true;
@@ -495,17 +508,36 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
                                spec.pattern->inverse ? "i" : "")
                 : "";
         if (wanted != showing) {
-          if (spec.pattern.has_value()) {
-            ASSIGN_OR_RETURN(
-                cv::Mat image,
-                sl::Render(*spec.pattern, projector->resolution()));
-            if (absl::Status s = timed([&] { return projector->Show(image); });
-                !s.ok()) {
-              return s;
+          ASSIGN_OR_RETURN(
+              const cv::Mat image,
+              spec.pattern.has_value()
+                  ? sl::Render(*spec.pattern, projector->resolution())
+                  : absl::StatusOr<cv::Mat>(cv::Mat()));
+          const absl::Status shown = timed([&] {
+            return spec.pattern.has_value() ? projector->Show(image)
+                                            : projector->Blank();
+          });
+          if (!shown.ok()) {
+            // Lost (the condition says so): waited for at this boundary,
+            // then the pattern is shown again.
+            if (watched_projector == nullptr ||
+                watched_projector->Check().ok()) {
+              return shown;
             }
-          } else if (absl::Status s = timed([&] { return projector->Blank(); });
-                     !s.ok()) {
-            return s;
+            if (++projector_losses > kMaxDropsPerFrame) {
+              return absl::Status(
+                  shown.code(),
+                  absl::StrCat(
+                      "frame ", Describe(spec, views),
+                      ": the projector was lost ", projector_losses,
+                      " times while taking it; last: ", shown.message()));
+            }
+            context.Warn(
+                absl::StrCat("frame ", Describe(spec, views),
+                             ": the projector was lost (", shown.message(),
+                             "); the frame is taken again once it is back"));
+            showing.reset();
+            continue;
           }
           showing = wanted;
         }
@@ -569,6 +601,7 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
                                 "); the frame is taken again once it is back"));
       camera_prepared = false;
       exposure = std::nan("");
+      ++drops;
     }
     checker.Remember(report);
     frame_size.Delivered(static_cast<int64_t>(frame->bytes.size()));

@@ -248,19 +248,21 @@ absl::Status JobEngine::SuspendWhileFor(
     int64_t id, const std::function<std::string()>& condition,
     absl::Duration poll) {
   std::string reason = condition();
+  std::string recorded;  // the reason the job's record holds
   while (!reason.empty()) {
     {
       absl::MutexLock lock(&mutex_);
       Control& control = running_[id];
-      if (control.suspended.empty()) {
+      if (!control.suspended) {
         spdlog::warn("job {}: suspended: {}", id, reason);
-        jobs_
-            .SetState(id, JobState::kPaused,
-                      absl::StrCat("suspended: ", reason))
-            .IgnoreError();
+        jobs_.Suspend(id, reason).IgnoreError();
+        NotifyEventLocked();
+      } else if (reason != recorded) {
+        jobs_.UpdateSuspensionReason(id, reason).IgnoreError();
         NotifyEventLocked();
       }
-      control.suspended = reason;
+      control.suspended = true;
+      recorded = reason;
       if (stopping_) return absl::AbortedError("the daemon is stopping");
       if (control.cancel) return absl::CancelledError("cancelled");
       control_cv_.WaitWithTimeout(&mutex_, poll);
@@ -276,7 +278,7 @@ absl::Status JobEngine::SuspendWhileFor(
     {
       absl::MutexLock lock(&mutex_);
       Control& cleared = running_[id];
-      cleared.suspended.clear();
+      cleared.suspended = false;
       if (!cleared.pause) {
         spdlog::info("job {}: resumed: the condition cleared (was: {})", id,
                      reason);
@@ -290,9 +292,8 @@ absl::Status JobEngine::SuspendWhileFor(
       }
       // The operator's pause outlasts the condition: never auto-resumed.
       jobs_
-          .AddEvent(id, store::EventLevel::kInfo,
-                    absl::StrCat("condition cleared (was: ", reason,
-                                 "); stays paused by the operator"))
+          .EndSuspension(id, absl::StrCat("condition cleared (was: ", reason,
+                                          "); stays paused by the operator"))
           .IgnoreError();
       NotifyEventLocked();
     }
@@ -307,8 +308,7 @@ absl::StatusOr<JobRecord> JobEngine::Pause(int64_t id) {
   {
     absl::MutexLock lock(&mutex_);
     auto it = running_.find(id);
-    const bool suspended =
-        it != running_.end() && !it->second.suspended.empty();
+    const bool suspended = it != running_.end() && it->second.suspended;
     if (it == running_.end() ||
         (job.state != JobState::kRunning && !suspended)) {
       return absl::FailedPreconditionError(
@@ -326,11 +326,13 @@ absl::StatusOr<JobRecord> JobEngine::Resume(int64_t id) {
   {
     absl::MutexLock lock(&mutex_);
     auto it = running_.find(id);
-    if (it != running_.end() && !it->second.pause &&
-        !it->second.suspended.empty()) {
-      return absl::FailedPreconditionError(absl::StrCat(
-          "job ", id, " is suspended by a condition (", it->second.suspended,
-          "); it resumes by itself when that clears"));
+    if (it != running_.end() && !it->second.pause && it->second.suspended) {
+      // Read again under the lock: the reason the record holds now.
+      ASSIGN_OR_RETURN(JobRecord suspended, jobs_.Get(id));
+      return absl::FailedPreconditionError(
+          absl::StrCat("job ", id, " is suspended by a condition (",
+                       suspended.suspension_reason,
+                       "); it resumes by itself when that clears"));
     }
     if (it == running_.end() || !it->second.pause) {
       return absl::FailedPreconditionError(

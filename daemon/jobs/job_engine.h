@@ -39,9 +39,11 @@ class JobContext {
   // Call at frame boundaries with what must hold for the job to go on:
   // `condition` returns why the job cannot continue ("" when it can). While
   // it has a reason the job is paused with origin "condition" (event
-  // "suspended: <reason>"), `condition` is asked again every `poll`, and
-  // once it clears the job resumes by itself (event "resumed: ...") unless
-  // an operator paused it meanwhile (then it waits for their Resume).
+  // "suspended: <reason>"; the job's suspension_reason holds the latest
+  // reason until the suspension ends), `condition` is asked again every
+  // `poll`, and once it clears the job resumes by itself (event "resumed:
+  // ...") unless an operator paused it meanwhile (then it waits for their
+  // Resume).
   // CANCELLED and ABORTED as for Checkpoint().
   absl::Status SuspendWhile(const std::function<std::string()>& condition,
                             absl::Duration poll);
@@ -114,7 +116,8 @@ class JobEngine {
   struct Control {
     bool pause = false;  // by an operator
     bool cancel = false;
-    std::string suspended;  // the condition's reason while suspended by one
+    // Suspended by a condition (its reason: the job's suspension_reason).
+    bool suspended = false;
   };
   struct Lane {
     std::deque<int64_t> queue;

@@ -78,6 +78,7 @@ void ToProto(const store::JobRecord& job, v1::Job* out) {
   out->set_error(job.error);
   out->set_submitted_by(job.submitted_by);
   out->set_cluster_job_id(job.cluster_job_id.value_or(0));
+  out->set_suspension_reason(job.suspension_reason);
   *out->mutable_create_time() =
       TimeUtil::MillisecondsToTimestamp(job.create_time_ms);
   if (job.start_time_ms) {

@@ -46,7 +46,8 @@ int64_t NowMs() { return absl::ToUnixMillis(absl::Now()); }
 constexpr absl::string_view kSelectJob = R"sql(
 SELECT j.id, j.kind, j.session_id, s.name, j.state, j.request,
        j.progress_done, j.progress_total, j.step, j.error, j.create_time_ms,
-       j.start_time_ms, j.end_time_ms, j.submitted_by, j.cluster_job_id
+       j.start_time_ms, j.end_time_ms, j.submitted_by, j.cluster_job_id,
+       j.suspension_reason
 FROM jobs j JOIN sessions s ON s.id = j.session_id
 )sql";
 
@@ -69,6 +70,7 @@ absl::StatusOr<JobRecord> ReadJob(const Statement& stmt) {
   if (!stmt.ColumnIsNull(12)) job.end_time_ms = stmt.ColumnInt(12);
   job.submitted_by = stmt.ColumnText(13);
   if (!stmt.ColumnIsNull(14)) job.cluster_job_id = stmt.ColumnInt(14);
+  job.suspension_reason = stmt.ColumnText(15);
   return job;
 }
 
@@ -239,14 +241,58 @@ absl::StatusOr<std::vector<JobRecord>> JobRepository::List(
   return jobs;
 }
 
+template <typename T>
+absl::StatusOr<JobEventRecord> JobRepository::UpdateWithEvent(
+    int64_t id, absl::string_view update, const T& value,
+    absl::string_view message) {
+  Database& db = store_.db();
+  Transaction tx(db);
+  RETURN_IF_ERROR(tx.status());
+  ASSIGN_OR_RETURN(Statement stmt, db.Prepare(update));
+  RETURN_IF_ERROR(stmt.Bind(1, id).Bind(2, value).Run());
+  ASSIGN_OR_RETURN(JobEventRecord event,
+                   AppendEventLocked(db, id, EventLevel::kInfo, message));
+  RETURN_IF_ERROR(tx.Commit());
+  return event;
+}
+
 absl::StatusOr<JobEventRecord> JobRepository::SetState(
     int64_t id, JobState state, absl::string_view message,
     absl::string_view error) {
+  return ChangeState(id, state, message, error, "");
+}
+
+absl::StatusOr<JobEventRecord> JobRepository::Suspend(
+    int64_t id, absl::string_view reason) {
+  return ChangeState(id, JobState::kPaused, absl::StrCat("suspended: ", reason),
+                     "", reason);
+}
+
+absl::Status JobRepository::UpdateSuspensionReason(int64_t id,
+                                                   absl::string_view reason) {
+  Database& db = store_.db();
+  absl::MutexLock lock(&db.mutex());
+  ASSIGN_OR_RETURN(Statement update,
+                   db.Prepare("UPDATE jobs SET suspension_reason = ?2 "
+                              "WHERE id = ?1 AND suspension_reason != ''"));
+  return update.Bind(1, id).Bind(2, reason).Run();
+}
+
+absl::StatusOr<JobEventRecord> JobRepository::EndSuspension(
+    int64_t id, absl::string_view message) {
+  return UpdateWithEvent(id,
+                         "UPDATE jobs SET suspension_reason = ?2 WHERE id = ?1",
+                         absl::string_view(""), message);  // not NULL
+}
+
+absl::StatusOr<JobEventRecord> JobRepository::ChangeState(
+    int64_t id, JobState state, absl::string_view message,
+    absl::string_view error, absl::string_view suspension_reason) {
   Database& db = store_.db();
   Transaction tx(db);
   RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(Statement update, db.Prepare(R"sql(
-UPDATE jobs SET state = ?2, error = ?3,
+UPDATE jobs SET state = ?2, error = ?3, suspension_reason = ?5,
   start_time_ms = CASE WHEN ?2 = 'running' AND start_time_ms IS NULL
                        THEN ?4 ELSE start_time_ms END,
   end_time_ms = CASE WHEN ?2 IN ('succeeded', 'failed', 'cancelled')
@@ -256,6 +302,7 @@ WHERE id = ?1)sql"));
                       .Bind(2, JobStateName(state))
                       .Bind(3, error)
                       .Bind(4, NowMs())
+                      .Bind(5, suspension_reason)
                       .Run());
   if (db.Changes() == 0)
     return absl::NotFoundError(absl::StrCat("no job ", id));
@@ -296,17 +343,9 @@ absl::StatusOr<JobEventRecord> JobRepository::AddEvent(
 
 absl::StatusOr<JobEventRecord> JobRepository::SetClusterJob(
     int64_t id, int64_t cluster_job_id, absl::string_view message) {
-  Database& db = store_.db();
-  Transaction tx(db);
-  RETURN_IF_ERROR(tx.status());
-  ASSIGN_OR_RETURN(
-      Statement stmt,
-      db.Prepare("UPDATE jobs SET cluster_job_id = ?2 WHERE id = ?1"));
-  RETURN_IF_ERROR(stmt.Bind(1, id).Bind(2, cluster_job_id).Run());
-  ASSIGN_OR_RETURN(JobEventRecord event,
-                   AppendEventLocked(db, id, EventLevel::kInfo, message));
-  RETURN_IF_ERROR(tx.Commit());
-  return event;
+  return UpdateWithEvent(id,
+                         "UPDATE jobs SET cluster_job_id = ?2 WHERE id = ?1",
+                         cluster_job_id, message);
 }
 
 absl::StatusOr<std::vector<JobEventRecord>> JobRepository::Events(

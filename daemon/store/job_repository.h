@@ -50,6 +50,9 @@ struct JobRecord {
   // The batch job on the cluster that runs this processing job (Slurm's job
   // id), once submitted.
   std::optional<int64_t> cluster_job_id;
+  // While a condition suspends the job (state paused): why, e.g. "the
+  // camera battery is at 12%, below --min-battery-percent 20%"; "" otherwise.
+  std::string suspension_reason;
 };
 
 enum class EventLevel { kInfo, kWarning, kError };
@@ -97,10 +100,21 @@ class JobRepository {
   absl::StatusOr<std::vector<JobRecord>> List(const JobFilter& filter);
 
   // Changes the state (setting start/end times as fitting) and appends an
-  // event. `error` is stored for failed jobs.
+  // event. `error` is stored for failed jobs. Any state change ends a
+  // suspension (the reason is cleared).
   absl::StatusOr<JobEventRecord> SetState(int64_t id, JobState state,
                                           absl::string_view message,
                                           absl::string_view error = "");
+  // A condition suspends the job: state paused, `reason` kept as its
+  // suspension_reason, event "suspended: <reason>".
+  absl::StatusOr<JobEventRecord> Suspend(int64_t id, absl::string_view reason);
+  // The condition of a suspended job says something new (e.g. the next
+  // reconnect attempt): only the reason changes; no event.
+  absl::Status UpdateSuspensionReason(int64_t id, absl::string_view reason);
+  // The condition cleared while the state stays (a person's pause outlasts
+  // it): the reason is cleared and the info event `message` appended.
+  absl::StatusOr<JobEventRecord> EndSuspension(int64_t id,
+                                               absl::string_view message);
   // Appends a warning or info event without changing the job.
   absl::StatusOr<JobEventRecord> AddEvent(int64_t id, EventLevel level,
                                           absl::string_view message);
@@ -131,6 +145,17 @@ class JobRepository {
                                                    absl::string_view step);
 
  private:
+  // SetState, keeping `suspension_reason` with the new state.
+  absl::StatusOr<JobEventRecord> ChangeState(
+      int64_t id, JobState state, absl::string_view message,
+      absl::string_view error, absl::string_view suspension_reason);
+  // In one transaction: `update` (?1: the job's id, ?2: `value`) and the
+  // info event `message`.
+  template <typename T>
+  absl::StatusOr<JobEventRecord> UpdateWithEvent(int64_t id,
+                                                 absl::string_view update,
+                                                 const T& value,
+                                                 absl::string_view message);
   static absl::StatusOr<JobEventRecord> AppendEventLocked(
       Database& db, int64_t id, EventLevel level, absl::string_view message)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(db.mutex());

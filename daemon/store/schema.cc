@@ -14,7 +14,7 @@ namespace {
 
 // Append only: a released migration is never edited. Times are Unix
 // milliseconds (UTC); lengths in millimetres; exposures in seconds.
-constexpr std::array<absl::string_view, 7> kMigrations = {
+constexpr std::array<absl::string_view, 8> kMigrations = {
     // 1: the tables of DESIGN.md.
     R"sql(
 CREATE TABLE rigs (
@@ -257,6 +257,11 @@ CREATE INDEX schedule_runs_unannounced ON schedule_runs(id) WHERE announced = 0;
     // so that a restarted daemon finds it again.
     R"sql(
 ALTER TABLE jobs ADD COLUMN cluster_job_id INTEGER;
+)sql",
+    // 8: suspenders. Why a condition holds a job suspended ('' otherwise);
+    // the event log keeps the history, this column the present.
+    R"sql(
+ALTER TABLE jobs ADD COLUMN suspension_reason TEXT NOT NULL DEFAULT '';
 )sql",
 };
 

@@ -7,6 +7,7 @@
 // Xlib defines Status as a macro, which would break absl::Status.
 #undef Status
 
+#include <cstdio>
 #include <cstring>
 #include <opencv2/imgproc.hpp>
 
@@ -16,6 +17,18 @@
 #include "processing/base/status_macros.h"
 
 namespace hdrstereo::display {
+namespace {
+
+// Xlib's default I/O error handler ends the process. This one (process-wide:
+// Xlib has no other kind) only says what happened; then each display's exit
+// handler runs: ours marks the projector lost, Xlib's default (any other
+// display) still exits.
+int ReportLostConnection(Display* display) {
+  std::fprintf(stderr, "X connection to %s lost\n", DisplayString(display));
+  return 0;
+}
+
+}  // namespace
 
 struct X11Projector::Handles {
   Display* display = nullptr;
@@ -23,11 +36,24 @@ struct X11Projector::Handles {
   GC gc = nullptr;
   Visual* visual = nullptr;
   int depth = 0;
+  // What the X server told us (StructureNotify events on the window).
+  bool connection_lost = false;
+  bool window_destroyed = false;
+  bool window_mapped = true;
+
+  // Xlib calls this after the I/O error handler (ReportLostConnection)
+  // instead of exit(): the display is then dead, and every later Xlib call
+  // on it returns at once.
+  static void OnConnectionLost(Display*, void* self) {
+    static_cast<Handles*>(self)->connection_lost = true;
+  }
 
   ~Handles() {
     if (display == nullptr) return;
-    if (gc != nullptr) XFreeGC(display, gc);
-    if (window != 0) XDestroyWindow(display, window);
+    if (!connection_lost) {
+      if (gc != nullptr) XFreeGC(display, gc);
+      if (window != 0 && !window_destroyed) XDestroyWindow(display, window);
+    }
     XCloseDisplay(display);
   }
 };
@@ -55,6 +81,8 @@ absl::StatusOr<std::unique_ptr<X11Projector>> X11Projector::Open(
   }
   x->visual = visual_info.visual;
   x->depth = visual_info.depth;
+  XSetIOErrorHandler(&ReportLostConnection);
+  XSetIOErrorExitHandler(x->display, &Handles::OnConnectionLost, x.get());
 
   cv::Size size(options.width_px > 0 ? options.width_px
                                      : DisplayWidth(x->display, screen),
@@ -75,6 +103,8 @@ absl::StatusOr<std::unique_ptr<X11Projector>> X11Projector::Open(
       CWOverrideRedirect | CWBackPixel | CWColormap | CWBorderPixel,
       &attributes);
   XStoreName(x->display, x->window, "hdrstereo projector");
+  // Destroyed, unmapped, mapped again: Check() reads these.
+  XSelectInput(x->display, x->window, StructureNotifyMask);
   // Hide the cursor with an empty pixmap cursor.
   char empty = 0;
   Pixmap blank = XCreateBitmapFromData(x->display, x->window, &empty, 1, 1);
@@ -108,6 +138,10 @@ absl::Status X11Projector::Show(const cv::Mat& pattern) {
       pattern, bgra,
       pattern.channels() == 1 ? cv::COLOR_GRAY2BGRA : cv::COLOR_BGR2BGRA);
   std::lock_guard<std::mutex> lock(mutex_);
+  // Drawing into a window that is gone would be an X error, which ends
+  // the process: first a round trip, so that what the server did to the
+  // window before now is known.
+  RETURN_IF_ERROR(SyncAndCheckLocked());
   if (x_->visual->red_mask != 0xff0000 || x_->visual->green_mask != 0xff00 ||
       x_->visual->blue_mask != 0xff) {
     return absl::UnavailableError(
@@ -124,14 +158,60 @@ absl::Status X11Projector::Show(const cv::Mat& pattern) {
             static_cast<unsigned>(size_.height));
   image->data = nullptr;  // owned by `bgra`
   XDestroyImage(image);
-  // XSync returns once the server has processed the request.
-  XSync(x_->display, False);
+  // Returns once the server has processed the request.
+  RETURN_IF_ERROR(SyncAndCheckLocked());
   absl::SleepFor(options_.settle_time);
   return absl::OkStatus();
 }
 
 absl::Status X11Projector::Blank() {
   return Show(cv::Mat::zeros(size_, CV_8UC1));
+}
+
+absl::Status X11Projector::Check() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return CheckLocked();
+}
+
+absl::Status X11Projector::SyncAndCheckLocked() {
+  if (!x_->connection_lost) XSync(x_->display, False);
+  return CheckLocked();
+}
+
+absl::Status X11Projector::CheckLocked() {
+  // XPending reads what has arrived without waiting for more; a closed
+  // connection is found there (Xlib's I/O error, see
+  // Handles::OnConnectionLost).
+  while (!x_->connection_lost && XPending(x_->display) > 0) {
+    XEvent event;
+    XNextEvent(x_->display, &event);
+    if (event.type == DestroyNotify &&
+        event.xdestroywindow.window == x_->window) {
+      x_->window_destroyed = true;
+    } else if (event.type == UnmapNotify && event.xunmap.window == x_->window) {
+      x_->window_mapped = false;
+    } else if (event.type == MapNotify && event.xmap.window == x_->window) {
+      x_->window_mapped = true;
+    }
+  }
+  const std::string display = DisplayString(x_->display);
+  if (x_->connection_lost) {
+    return absl::UnavailableError(absl::StrCat(
+        "lost the connection to X display \"", display,
+        "\" (the X server stopped or closed it); restart hdrstereod once the "
+        "display is back"));
+  }
+  if (x_->window_destroyed) {
+    return absl::UnavailableError(absl::StrCat(
+        "the projector window on X display \"", display,
+        "\" was destroyed by another X client; restart hdrstereod"));
+  }
+  if (!x_->window_mapped) {
+    return absl::UnavailableError(absl::StrCat(
+        "the projector window on X display \"", display,
+        "\" was unmapped by another X client; it is back once mapped again"));
+  }
+  return absl::OkStatus();
 }
 
 }  // namespace hdrstereo::display

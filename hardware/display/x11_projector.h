@@ -3,6 +3,13 @@
 // A projector driven as a borderless fullscreen X11 window: the projector is
 // an X screen (or a region of one, for a second monitor in a Xinerama
 // layout), and every pattern is copied to it pixel for pixel.
+//
+// The projector is lost when the connection to the X server breaks (the
+// server stopped, the connection was killed) or another client destroys or
+// unmaps the window. A lost connection does not end the process (Xlib's
+// default would): every later call returns UNAVAILABLE, and the connection
+// is not reopened (the daemon must be restarted). An unmapped window is
+// back once it is mapped again.
 #ifndef HDRSTEREO_HARDWARE_DISPLAY_X11_PROJECTOR_H_
 #define HDRSTEREO_HARDWARE_DISPLAY_X11_PROJECTOR_H_
 
@@ -38,11 +45,18 @@ class X11Projector final : public hardware::Projector {
   cv::Size resolution() const override { return size_; }
   absl::Status Show(const cv::Mat& pattern) override;
   absl::Status Blank() override;
+  // Reads what the X server has sent (never waits for it): UNAVAILABLE when
+  // the connection is lost or the window destroyed or unmapped.
+  absl::Status Check() override;
 
  private:
   struct Handles;
   X11Projector(const X11ProjectorOptions& options, cv::Size size,
                std::unique_ptr<Handles> handles);
+  // mutex_ held. What the server has sent so far (Check), or everything up
+  // to now (after a round trip).
+  absl::Status CheckLocked();
+  absl::Status SyncAndCheckLocked();
 
   const X11ProjectorOptions options_;
   const cv::Size size_;

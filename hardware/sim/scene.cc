@@ -170,13 +170,17 @@ Mat3 LookAt(const Vec3& from, const Vec3& to, const std::string& path) {
   return Mat3(x[0], y[0], z[0], x[1], y[1], z[1], x[2], y[2], z[2]);
 }
 
+// A FaultTrigger at obj[key]: {"calls": [...], "probability": p}, plus the
+// `extra` fields its caller reads.
 FaultTrigger ParseTrigger(const Json& obj, const std::string& path,
-                          const std::string& key) {
+                          const std::string& key,
+                          std::set<std::string> extra = {}) {
   FaultTrigger t;
   if (!obj.contains(key)) return t;
   const std::string p = Join(path, key);
   const Json& j = obj.at(key);
-  CheckKeys(j, p, {"calls", "probability"});
+  extra.insert({"calls", "probability"});
+  CheckKeys(j, p, extra);
   if (j.contains("calls")) {
     const Json& calls = j.at("calls");
     if (!calls.is_array()) Fail(p + ".calls", "expected an array of integers");
@@ -189,6 +193,35 @@ FaultTrigger ParseTrigger(const Json& obj, const std::string& path,
   }
   t.probability = GetNumber(j, p, "probability", 0.0, 0.0, 1.0);
   return t;
+}
+
+// A FaultWindow at obj[key]: the trigger's fields and "lasts", plus the
+// `extra` fields its caller reads.
+FaultWindow ParseWindow(const Json& obj, const std::string& path,
+                        const std::string& key,
+                        std::set<std::string> extra = {}) {
+  FaultWindow w;
+  if (!obj.contains(key)) return w;
+  extra.insert("lasts");
+  w.begins = ParseTrigger(obj, path, key, extra);
+  w.lasts = GetInt(obj.at(key), Join(path, key), "lasts", w.lasts, 1, 1000000);
+  return w;
+}
+
+// A Zaber warning flag: two capital letters, or "--" (none) where
+// `none_allowed`.
+std::string GetWarningFlag(const Json& obj, const std::string& path,
+                           const std::string& key, const std::string& fallback,
+                           bool none_allowed) {
+  std::string flag = GetString(obj, path, key, fallback);
+  const bool letters =
+      flag.size() == 2 && std::isupper(flag[0]) && std::isupper(flag[1]);
+  if (!letters && !(none_allowed && flag == "--")) {
+    Fail(Join(path, key), none_allowed
+                              ? "expected two capital letters or \"--\""
+                              : "expected two capital letters");
+  }
+  return flag;
 }
 
 ResponseCurve ParseResponse(const Json& obj, const std::string& path,
@@ -439,14 +472,15 @@ Scene ParseSceneJson(const Json& root) {
   }
   if (root.contains("faults")) {
     const Json& j = root.at("faults");
-    CheckKeys(j, "faults", {"camera", "stage"});
+    CheckKeys(j, "faults", {"camera", "stage", "projector"});
     if (j.contains("camera")) {
       const Json& c = j.at("camera");
       const std::string p = "faults.camera";
       CheckKeys(c, p,
                 {"busy_first_calls", "timeout", "disconnect",
                  "disconnect_failed_reopens", "corrupt", "previous_file",
-                 "wrong_exposure", "card_target", "hold", "hold_fifo"});
+                 "wrong_exposure", "card_target", "hold", "hold_fifo",
+                 "low_battery"});
       s.camera_faults.busy_first_calls =
           GetInt(c, p, "busy_first_calls", 0, 0, 1000000);
       s.camera_faults.timeout = ParseTrigger(c, p, "timeout");
@@ -462,21 +496,38 @@ Scene ParseSceneJson(const Json& root) {
       if (s.camera_faults.hold.enabled() && s.camera_faults.hold_fifo.empty()) {
         Fail(p + ".hold_fifo", "required with hold (the FIFO it waits on)");
       }
+      s.camera_faults.low_battery =
+          ParseWindow(c, p, "low_battery", {"percent"});
+      if (c.contains("low_battery")) {
+        s.camera_faults.low_battery_percent =
+            GetInt(c.at("low_battery"), p + ".low_battery", "percent",
+                   s.camera_faults.low_battery_percent, 0, 100);
+      }
     }
     if (j.contains("stage")) {
       const Json& c = j.at("stage");
       const std::string p = "faults.stage";
-      CheckKeys(c, p, {"silent", "garbled", "stall", "warning_flag"});
+      CheckKeys(
+          c, p,
+          {"silent", "garbled", "stall", "warning_flag", "warning_window"});
       s.stage_faults.silent = ParseTrigger(c, p, "silent");
       s.stage_faults.garbled = ParseTrigger(c, p, "garbled");
       s.stage_faults.stall = ParseTrigger(c, p, "stall");
-      std::string flag = GetString(c, p, "warning_flag", "--");
-      const bool letters =
-          flag.size() == 2 && std::isupper(flag[0]) && std::isupper(flag[1]);
-      if (flag != "--" && !letters) {
-        Fail(p + ".warning_flag", "expected two capital letters or \"--\"");
+      s.stage_faults.warning_flag =
+          GetWarningFlag(c, p, "warning_flag", "--", /*none_allowed=*/true);
+      s.stage_faults.warning_window =
+          ParseWindow(c, p, "warning_window", {"flag"});
+      if (c.contains("warning_window")) {
+        s.stage_faults.warning_window_flag = GetWarningFlag(
+            c.at("warning_window"), p + ".warning_window", "flag",
+            s.stage_faults.warning_window_flag, /*none_allowed=*/false);
       }
-      s.stage_faults.warning_flag = flag;
+    }
+    if (j.contains("projector")) {
+      const Json& c = j.at("projector");
+      const std::string p = "faults.projector";
+      CheckKeys(c, p, {"lost"});
+      s.projector_faults.lost = ParseWindow(c, p, "lost");
     }
   }
   return s;

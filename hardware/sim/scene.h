@@ -177,6 +177,16 @@ struct FaultTrigger {
   bool enabled() const { return !calls.empty() || probability > 0.0; }
 };
 
+// A fault that comes and goes: it begins on a call `begins` fires on and
+// holds on `lasts` calls from there, that one included (a call that begins
+// it again while it holds extends it). Which calls count is said where
+// each window is used; calls are counted, not seconds, so that a test does
+// not depend on the machine's speed.
+struct FaultWindow {
+  FaultTrigger begins;
+  int lasts = 1;
+};
+
 struct CameraFaults {
   int busy_first_calls = 0;  // the first N capture calls fail with "busy"
   FaultTrigger timeout;      // DEADLINE_EXCEEDED, nothing delivered
@@ -202,6 +212,11 @@ struct CameraFaults {
   // the frame boundary and the frame's write; its write releases the camera.
   FaultTrigger hold;
   std::string hold_fifo;  // required with `hold`
+  // The battery is low for a while: calls are battery readings (each
+  // Camera::Info), which report `low_battery_percent` while the window
+  // holds and 100 otherwise.
+  FaultWindow low_battery;
+  int low_battery_percent = 5;
 };
 
 struct StageFaults {
@@ -209,6 +224,21 @@ struct StageFaults {
   FaultTrigger garbled;  // the reply's bytes are scrambled
   FaultTrigger stall;    // a move command never finishes (BUSY until stop)
   std::string warning_flag = "--";  // e.g. "FS", "WL": shown on every reply
+  // A warning that comes and goes (e.g. "WH", temperature high): calls are
+  // the commands addressed to the device, on whose replies (and in
+  // `warnings`) `warning_window_flag` shows while the window holds. It
+  // cannot be cleared.
+  FaultWindow warning_window;
+  std::string warning_window_flag = "WH";
+};
+
+struct ProjectorFaults {
+  // The projector is lost for a while (its display gone, its cable
+  // pulled): it begins on the Nth Show or Blank (`begins` counts only
+  // those) and holds on `lasts` calls to the projector (Show, Blank and
+  // Check: the first is the one that fails). While lost, every call fails
+  // with UNAVAILABLE and nothing is projected; back, it shows black.
+  FaultWindow lost;
 };
 
 struct Scene {
@@ -225,6 +255,7 @@ struct Scene {
   TimingModel timing;
   CameraFaults camera_faults;
   StageFaults stage_faults;
+  ProjectorFaults projector_faults;
 
   // Index of the object called `name`, or -1.
   int FindObject(absl::string_view name) const;

@@ -62,7 +62,7 @@ absl::StatusOr<hardware::CameraInfo> SimCamera::Info() {
                             ")"),
       .serial = absl::StrCat("sim-", world_.scene().seed),
       .port = "sim",
-      .battery_percent = 100,
+      .battery_percent = world_.ReadBattery(),
       .min_exposure_s = kMinExposureS,
       .max_exposure_s = kMaxExposureS,
   };
@@ -145,15 +145,21 @@ absl::StatusOr<std::unique_ptr<SimProjector>> SimProjector::Create(
 
 absl::Status SimProjector::Show(const cv::Mat& pattern) {
   RETURN_IF_ERROR(hardware::ValidatePattern(pattern, size_));
+  RETURN_IF_ERROR(world_.ProjectorCall(/*shows_pattern=*/true));
   RETURN_IF_ERROR(world_.SetProjectorPattern(pattern));
   world_.SleepModelled(world_.timing().projector_settle_s);
   return absl::OkStatus();
 }
 
 absl::Status SimProjector::Blank() {
+  RETURN_IF_ERROR(world_.ProjectorCall(/*shows_pattern=*/true));
   world_.BlankProjector();
   world_.SleepModelled(world_.timing().projector_settle_s);
   return absl::OkStatus();
+}
+
+absl::Status SimProjector::Check() {
+  return world_.ProjectorCall(/*shows_pattern=*/false);
 }
 
 }  // namespace hdrstereo::sim

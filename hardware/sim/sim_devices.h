@@ -49,6 +49,8 @@ class SimProjector final : public hardware::Projector {
   cv::Size resolution() const override { return size_; }
   absl::Status Show(const cv::Mat& pattern) override;
   absl::Status Blank() override;
+  // UNAVAILABLE while the scene's projector_faults.lost window holds.
+  absl::Status Check() override;
 
  private:
   SimProjector(SimWorld& world, cv::Size size) : world_(world), size_(size) {}

@@ -32,6 +32,14 @@ bool FaultFires(const FaultTrigger& trigger, int64_t call, uint64_t seed,
   return u < trigger.probability;
 }
 
+bool FaultWindowState::Call(bool can_begin) {
+  ++calls_;
+  if (can_begin && FaultFires(window_.begins, ++begin_calls_, seed_, stream_)) {
+    holds_through_ = std::max(holds_through_, calls_ + window_.lasts - 1);
+  }
+  return calls_ <= holds_through_;
+}
+
 namespace {
 
 // The hold fault: waits until a byte (or end of file) arrives on the FIFO at
@@ -57,7 +65,11 @@ absl::Status WaitForRelease(const std::string& path, int64_t call) {
 }  // namespace
 
 SimWorld::SimWorld(Scene scene)
-    : renderer_(std::move(scene)), faults_(renderer_.scene().camera_faults) {}
+    : renderer_(std::move(scene)),
+      faults_(renderer_.scene().camera_faults),
+      low_battery_(faults_.low_battery, renderer_.scene().seed, 7),
+      projector_lost_(renderer_.scene().projector_faults.lost,
+                      renderer_.scene().seed, 8) {}
 
 void SimWorld::SetStagePosition(double mm) {
   std::lock_guard<std::mutex> lock(mu_);
@@ -103,6 +115,29 @@ void SimWorld::ProjectorOff() {
 cv::Mat SimWorld::ProjectorPattern() const {
   std::lock_guard<std::mutex> lock(mu_);
   return pattern_;
+}
+
+absl::Status SimWorld::ProjectorCall(bool shows_pattern) {
+  const ProjectorModel& p = scene().projector;
+  std::lock_guard<std::mutex> lock(mu_);
+  const bool lost = projector_lost_.Call(shows_pattern);
+  if (lost) {
+    pattern_.release();
+  } else if (projector_out_) {
+    pattern_ = cv::Mat::zeros(p.height, p.width, CV_8UC1);
+  }
+  projector_out_ = lost;
+  if (lost) {
+    return absl::UnavailableError(
+        "projector lost (simulated fault: no signal; it comes back by "
+        "itself)");
+  }
+  return absl::OkStatus();
+}
+
+int SimWorld::ReadBattery() {
+  std::lock_guard<std::mutex> lock(mu_);
+  return low_battery_.Call() ? faults_.low_battery_percent : 100;
 }
 
 RadianceFrame SimWorld::RenderRadiance() const {

@@ -7,9 +7,12 @@
 //
 // Adapters for the hardware interfaces map:
 //   Camera::Configure/Capture -> SimWorld::Capture(ExposureSettings, format)
+//   Camera::Info              -> ReadBattery()
 //   Stage                     -> StageEmulator (a Zaber device on a pty),
 //                                or SetStagePosition() directly
-//   Projector::Show/Blank     -> SetProjectorPattern() / BlankProjector()
+//   Projector::Show/Blank     -> ProjectorCall(), then SetProjectorPattern()
+//                                / BlankProjector()
+//   Projector::Check          -> ProjectorCall()
 #ifndef HDRSTEREO_HARDWARE_SIM_SIM_WORLD_H_
 #define HDRSTEREO_HARDWARE_SIM_SIM_WORLD_H_
 
@@ -29,6 +32,25 @@
 #include "hardware/sim/truth.h"
 
 namespace hdrstereo::sim {
+
+// Which calls a FaultWindow holds on, call by call (seeded, reproducible).
+// Not thread-safe: its owner locks.
+class FaultWindowState {
+ public:
+  FaultWindowState(const FaultWindow& window, uint64_t seed, uint64_t stream)
+      : window_(window), seed_(seed), stream_(stream) {}
+  // One more call; `can_begin`: whether it is one of the calls that
+  // window.begins counts. True when the fault holds on it.
+  bool Call(bool can_begin = true);
+
+ private:
+  FaultWindow window_;
+  uint64_t seed_;
+  uint64_t stream_;
+  int64_t begin_calls_ = 0;
+  int64_t calls_ = 0;
+  int64_t holds_through_ = 0;  // the last call it holds on
+};
 
 struct SimCapture {
   std::string bytes;  // the encoded file, as a camera would deliver it
@@ -69,6 +91,17 @@ class SimWorld {
   void BlankProjector();  // all-black pattern: only the black level shines
   void ProjectorOff();    // no light at all
   cv::Mat ProjectorPattern() const;
+  // Every call to the projector (SimProjector: Show and Blank with
+  // `shows_pattern`, Check without) is counted here first: OK, or
+  // UNAVAILABLE "projector lost" while a projector_faults.lost window
+  // holds. While lost nothing is projected; the first call after it finds
+  // the projector showing black.
+  absl::Status ProjectorCall(bool shows_pattern);
+
+  // The battery level the camera reports (CameraInfo::battery_percent):
+  // 100, or camera_faults.low_battery_percent while a low_battery window
+  // holds. Each call is one reading.
+  int ReadBattery();
 
   // Noise-free radiance, depth and ids at the current stage position.
   RadianceFrame RenderRadiance() const;
@@ -127,6 +160,9 @@ class SimWorld {
   absl::Time last_camera_time_ = absl::UnixEpoch();
   std::optional<SimCapture> last_delivered_;  // for the previous-file fault
   std::optional<SimCapture> held_;            // pending in the camera
+  FaultWindowState low_battery_;
+  FaultWindowState projector_lost_;
+  bool projector_out_ = false;  // a lost window holds on the last call
 };
 
 // One camera frame without a SimWorld: render `view` lit by

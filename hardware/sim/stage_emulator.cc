@@ -48,7 +48,9 @@ StageEmulatorOptions StageEmulatorOptions::FromScene(const Scene& scene) {
 
 StageEmulator::StageEmulator(const StageEmulatorOptions& options,
                              SimWorld* world)
-    : options_(options), world_(world) {
+    : options_(options),
+      world_(world),
+      warning_window_(options.faults.warning_window, options.seed, 14) {
   max_position_ = MicrostepsForMm(options_.travel_mm);
   position_ =
       std::clamp<int64_t>(MicrostepsForMm(options_.start_mm), 0, max_position_);
@@ -190,6 +192,7 @@ void StageEmulator::StartMoveLocked(int64_t target, bool homing, bool stall) {
 }
 
 std::string StageEmulator::FlagLocked() const {
+  if (warning_window_holds_) return options_.faults.warning_window_flag;
   if (options_.faults.warning_flag != "--") return options_.faults.warning_flag;
   if (!homed_) return "WR";
   return "--";
@@ -222,6 +225,7 @@ void StageEmulator::HandleLine(const std::string& raw_line) {
   std::string warning_flag;
   {
     std::lock_guard<std::mutex> lock(mu_);
+    warning_window_holds_ = warning_window_.Call();
     UpdateLocked(std::chrono::steady_clock::now());
     warning_flag = FlagLocked();
     auto reject = [&](const char* why) {
@@ -282,6 +286,9 @@ void StageEmulator::HandleLine(const std::string& raw_line) {
     } else if (cmd[0] == "warnings" &&
                (cmd.size() == 1 || (cmd.size() == 2 && cmd[1] == "clear"))) {
       std::vector<std::string> flags;
+      if (warning_window_holds_) {
+        flags.push_back(options_.faults.warning_window_flag);
+      }
       if (options_.faults.warning_flag != "--") {
         flags.push_back(options_.faults.warning_flag);
       }

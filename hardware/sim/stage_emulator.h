@@ -20,7 +20,8 @@
 // "... BADCOMMAND" (unknown command), "... BADAXIS" (axis other than 0/1).
 // Commands for other device numbers get no reply. The warning flag is "WR"
 // (no reference position) until the first home completes, or the configured
-// fault flag (e.g. "FS") when set.
+// fault flag (e.g. "FS") when set, or the warning window's flag (e.g. "WH")
+// on the commands where that window holds.
 //
 // Units: positions are microsteps of microstep_um (default 0.047625 um, an
 // X-LSQ150B with 64 microsteps); speed data = microsteps/s * 1.6384.
@@ -47,10 +48,9 @@
 
 #include "absl/status/statusor.h"
 #include "hardware/sim/scene.h"
+#include "hardware/sim/sim_world.h"
 
 namespace hdrstereo::sim {
-
-class SimWorld;
 
 struct StageEmulatorOptions {
   double microstep_um = 0.047625;
@@ -112,6 +112,8 @@ class StageEmulator {
   bool moving_ = false;
   bool homing_ = false;
   bool stalled_ = false;
+  FaultWindowState warning_window_;
+  bool warning_window_holds_ = false;  // on the command being answered
   int64_t move_from_ = 0;
   int64_t move_to_ = 0;
   std::chrono::steady_clock::time_point move_start_;

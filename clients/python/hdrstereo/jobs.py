@@ -41,10 +41,19 @@ class Job:
     def done(self) -> bool:
         return self.message.state in _ENDED
 
+    @property
+    def suspension_reason(self) -> str:
+        """Why a condition holds the job suspended (state 'paused'), e.g.
+        'the camera battery is at 12%, below --min-battery-percent 20%';
+        '' when none does. As last read: refresh() reads it again."""
+        return self.message.suspension_reason
+
     def __repr__(self) -> str:
         p = self.message.progress
+        suspended = (f", suspended={self.suspension_reason!r}"
+                     if self.suspension_reason else "")
         return (f"Job(id={self.id}, session={self.session!r}, state="
-                f"{self.state!r}, progress={p.done}/{p.total})")
+                f"{self.state!r}, progress={p.done}/{p.total}{suspended})")
 
     def refresh(self) -> "Job":
         """Reads the job again from the daemon."""

@@ -40,25 +40,29 @@ def _merge(base: dict, patch: dict) -> dict:
     return base
 
 
-def small_scene(folder: Path) -> Path:
+def small_scene(folder: Path, patch: Optional[dict] = None) -> Path:
+    """The small lab-lamp, with `patch` (e.g. faults) merged in."""
     scene = json.loads((SOURCE_DIR / "hardware/sim/scenes/lab-lamp.json")
                        .read_text())
     path = folder / "lab-lamp-small.json"
-    path.write_text(json.dumps(_merge(scene, SMALL_LAB_LAMP)))
+    path.write_text(json.dumps(_merge(_merge(scene, SMALL_LAB_LAMP),
+                                      patch or {})))
     return path
 
 
 class Daemon:
-    """A running hdrstereod; `address` is what a client connects to."""
+    """A running hdrstereod; `address` is what a client connects to.
+    `scene` is merged into the small lab-lamp scene."""
 
-    def __init__(self, folder: Path, extra: list[str]):
+    def __init__(self, folder: Path, extra: list[str],
+                 scene: Optional[dict] = None):
         self.folder = folder
         self.data_root = folder / "data"
         ready = folder / "ready"
         self.log = folder / "daemon.log"
         argv = [HDRSTEREOD, "--data-root", str(self.data_root),
                 "--ready-file", str(ready), "--hardware", "sim",
-                "--sim-scene", str(small_scene(folder))]
+                "--sim-scene", str(small_scene(folder, scene))]
         if "--listen" not in extra:
             argv += ["--listen", "127.0.0.1:0"]
         with open(self.log, "wb") as log:

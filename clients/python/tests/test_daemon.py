@@ -305,6 +305,36 @@ def test_raw_calls_map_errors(client) -> None:
 
 
 @pytest.fixture(scope="module")
+def low_battery_daemon(tmp_path_factory):
+    """The camera's battery reads 12% for six readings from the 30th (one
+    reading per frame, then one a second while a capture waits), below
+    --min-battery-percent 20."""
+    d = Daemon(tmp_path_factory.mktemp("battery"),
+               ["--min-battery-percent", "20"],
+               scene={"faults": {"camera": {"low_battery": {
+                   "calls": [30], "lasts": 6, "percent": 12}}}})
+    yield d
+    assert d.stop() == 0, d.log.read_text(errors="replace")
+
+
+def test_a_suspended_job_says_why_until_it_resumes(low_battery_daemon) -> None:
+    with hdrstereo.Client(low_battery_daemon.address, timeout=30) as c:
+        c.sessions.create("battery")
+        job = c.capture.structured_light("battery")
+        seen = []
+        for event in job.watch():
+            if event.message.startswith("suspended: "):
+                job.refresh()
+                seen.append((job.state, job.suspension_reason))
+                assert "suspended='the camera battery" in repr(job)
+        reason = "the camera battery is at 12%, below --min-battery-percent 20%"
+        assert seen == [("paused", reason)]
+        assert job.state == "succeeded"
+        assert job.suspension_reason == ""
+        assert "suspended=" not in repr(job)
+
+
+@pytest.fixture(scope="module")
 def slow_daemon(tmp_path_factory):
     """Simulated hardware in real time, so a capture lasts a few seconds."""
     d = Daemon(tmp_path_factory.mktemp("slow"), ["--sim-time-scale", "1"])

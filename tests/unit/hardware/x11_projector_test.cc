@@ -9,12 +9,67 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "absl/strings/str_cat.h"
+#include "tests/support/status_matchers.h"
 #include "tests/support/xvfb.h"
+
+// Last: Xlib's macros (Status, None, Bool) clash with C++ names.
+#include <X11/Xlib.h>
+#undef Status
 
 namespace hdrstereo::display {
 namespace {
 
+using ::hdrstereo::testing::IsOk;
+using ::hdrstereo::testing::StatusIs;
 using ::hdrstereo::testing::Xvfb;
+using ::testing::HasSubstr;
+
+// Another X client on the same display, doing to the projector's window
+// what a person or a desktop could do.
+class OtherClient {
+ public:
+  explicit OtherClient(const std::string& display)
+      : display_(XOpenDisplay(display.c_str())) {}
+  ~OtherClient() {
+    if (display_ != nullptr) XCloseDisplay(display_);
+  }
+  bool ok() const { return display_ != nullptr; }
+
+  // The top-level window called "hdrstereo projector" (0 if none).
+  Window Projector() {
+    Window root_return = 0, parent = 0;
+    Window* children = nullptr;
+    unsigned count = 0;
+    Window found = 0;
+    XQueryTree(display_, DefaultRootWindow(display_), &root_return, &parent,
+               &children, &count);
+    for (unsigned i = 0; i < count && found == 0; ++i) {
+      char* name = nullptr;
+      if (XFetchName(display_, children[i], &name) != 0 && name != nullptr) {
+        if (std::string(name) == "hdrstereo projector") found = children[i];
+        XFree(name);
+      }
+    }
+    if (children != nullptr) XFree(children);
+    return found;
+  }
+  void Unmap(Window window) {
+    XUnmapWindow(display_, window);
+    XSync(display_, False);
+  }
+  void Map(Window window) {
+    XMapWindow(display_, window);
+    XSync(display_, False);
+  }
+  void Destroy(Window window) {
+    XDestroyWindow(display_, window);
+    XSync(display_, False);
+  }
+
+ private:
+  Display* display_;
+};
 
 // Column Gray-code bit plane `bit` (0 = most significant of 10 bits).
 cv::Mat GrayCodeColumns(cv::Size size, int bit) {
@@ -95,6 +150,57 @@ TEST_F(X11ProjectorTest, WrongSizeOrTypeIsRefusedAndScreenUnchanged) {
             absl::StatusCode::kInvalidArgument);
   cv::Mat shown = xvfb_->Screenshot({0, 0, 800, 600});
   EXPECT_EQ(cv::countNonZero(shown.reshape(1) != 255), 0);
+}
+
+// Check() reports a window another client unmapped or destroyed, and a lost
+// display, as UNAVAILABLE naming what is gone, without ending the process
+// (Xlib's default for a lost connection); an unmapped window that is mapped
+// again is back. Show() into a lost projector is refused the same way.
+TEST_F(X11ProjectorTest, ALostWindowOrDisplayIsReportedNotFatal) {
+  absl::StatusOr<std::unique_ptr<X11Projector>> projector = X11Projector::Open(
+      {.display = xvfb_->display(), .settle_time = absl::ZeroDuration()});
+  ASSERT_TRUE(projector.ok()) << projector.status();
+  EXPECT_THAT((*projector)->Check(), IsOk());
+  const cv::Mat white(600, 800, CV_8UC1, cv::Scalar(255));
+  {
+    OtherClient other(xvfb_->display());
+    ASSERT_TRUE(other.ok());
+    const Window window = other.Projector();
+    ASSERT_NE(window, 0u);
+
+    other.Unmap(window);
+    // Show waits for the server, so it knows of the unmap.
+    EXPECT_THAT((*projector)->Show(white),
+                StatusIs(absl::StatusCode::kUnavailable,
+                         HasSubstr("was unmapped by another X client")));
+    EXPECT_THAT((*projector)->Check(),
+                StatusIs(absl::StatusCode::kUnavailable,
+                         HasSubstr(absl::StrCat("the projector window on X "
+                                                "display \"",
+                                                xvfb_->display(), "\""))));
+    other.Map(window);
+    EXPECT_THAT((*projector)->Show(white), IsOk());
+    EXPECT_THAT((*projector)->Check(), IsOk());
+
+    other.Destroy(window);
+    EXPECT_THAT((*projector)->Blank(),
+                StatusIs(absl::StatusCode::kUnavailable,
+                         HasSubstr("was destroyed by another X client")));
+    EXPECT_THAT((*projector)->Check(),
+                StatusIs(absl::StatusCode::kUnavailable,
+                         HasSubstr("was destroyed by another X client")));
+  }  // the other client disconnects while the server still runs
+
+  xvfb_.reset();  // the X server stops
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_THAT((*projector)->Check(),
+                StatusIs(absl::StatusCode::kUnavailable,
+                         HasSubstr("lost the connection to X display")));
+  }
+  EXPECT_THAT((*projector)->Show(white),
+              StatusIs(absl::StatusCode::kUnavailable,
+                       HasSubstr("lost the connection to X display")));
+  projector->reset();  // closing a lost display does not end the process
 }
 
 TEST(X11ProjectorOpenTest, MissingDisplayIsAClearError) {

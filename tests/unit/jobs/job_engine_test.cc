@@ -45,6 +45,13 @@ bool WaitForState(JobEngine& engine, int64_t id, JobState state) {
   });
 }
 
+// What the job's record says of its suspension now.
+std::string SuspensionReason(JobEngine& engine, int64_t id) {
+  absl::StatusOr<store::JobRecord> job = engine.repository().Get(id);
+  EXPECT_TRUE(job.ok()) << job.status();
+  return job.ok() ? job->suspension_reason : "(no job)";
+}
+
 class JobEngineTest : public ::testing::Test {
  protected:
   void SetUp() override { OpenStore(); }
@@ -199,18 +206,29 @@ TEST_F(JobEngineTest, AConditionSuspendsAndItsClearingResumes) {
   ASSERT_TRUE(WaitForState(engine, job->id, JobState::kPaused));
   EXPECT_TRUE(Log().empty()) << "a step ran into the condition";
   EXPECT_EQ(EventsWith(engine, job->id, "suspended: the rig is unsafe"), 1);
+  EXPECT_EQ(SuspensionReason(engine, job->id), "the rig is unsafe");
   // Nobody can resume into the condition.
   EXPECT_THAT(engine.Resume(job->id),
               StatusIs(absl::StatusCode::kFailedPrecondition,
                        HasSubstr("suspended by a condition (the rig is "
                                  "unsafe); it resumes by itself")));
+  // The record follows the condition's latest word, without a new event.
+  SetCondition("the rig is still unsafe");
+  ASSERT_TRUE(WaitUntil(engine, [&] {
+    return SuspensionReason(engine, job->id) == "the rig is still unsafe";
+  }));
+  EXPECT_THAT(engine.Resume(job->id),
+              StatusIs(absl::StatusCode::kFailedPrecondition,
+                       HasSubstr("(the rig is still unsafe)")));
+  EXPECT_EQ(EventsWith(engine, job->id, "suspended: "), 1);
   SetCondition("");
   ASSERT_TRUE(WaitForState(engine, job->id, JobState::kSucceeded));
   EXPECT_EQ(Log().size(), 3u);
   EXPECT_EQ(EventsWith(engine, job->id,
                        "resumed: the condition cleared (was: the rig is "
-                       "unsafe)"),
+                       "still unsafe)"),
             1);
+  EXPECT_EQ(SuspensionReason(engine, job->id), "");
 }
 
 TEST_F(JobEngineTest, AnOperatorsPauseIsNeverAutoResumed) {
@@ -229,6 +247,8 @@ TEST_F(JobEngineTest, AnOperatorsPauseIsNeverAutoResumed) {
   absl::StatusOr<store::JobRecord> now = engine.repository().Get(job->id);
   ASSERT_TRUE(now.ok());
   EXPECT_EQ(now->state, JobState::kPaused);
+  // Paused by the person now, not by the condition.
+  EXPECT_EQ(now->suspension_reason, "");
   EXPECT_TRUE(Log().empty());
   EXPECT_EQ(EventsWith(engine, job->id, "resumed: the condition"), 0);
   ASSERT_TRUE(engine.Resume(job->id).ok());
@@ -246,8 +266,10 @@ TEST_F(JobEngineTest, CancelAndShutdownWorkWhileSuspended) {
       engine.Submit(JobKind::kCapture, "s", "", 0, "test", "tester");
   ASSERT_TRUE(first.ok() && second.ok());
   ASSERT_TRUE(WaitForState(engine, first->id, JobState::kPaused));
+  EXPECT_EQ(SuspensionReason(engine, first->id), "the camera does not answer");
   ASSERT_TRUE(engine.Cancel(first->id).ok());
   ASSERT_TRUE(WaitForState(engine, first->id, JobState::kCancelled));
+  EXPECT_EQ(SuspensionReason(engine, first->id), "");
   // The next job starts into the same condition and is suspended too.
   ASSERT_TRUE(WaitForState(engine, second->id, JobState::kPaused));
   EXPECT_TRUE(Log().empty());
@@ -256,6 +278,7 @@ TEST_F(JobEngineTest, CancelAndShutdownWorkWhileSuspended) {
       engine.repository().Get(second->id);
   ASSERT_TRUE(stopped.ok());
   EXPECT_EQ(stopped->state, JobState::kInterrupted);
+  EXPECT_EQ(stopped->suspension_reason, "");
 }
 
 TEST_F(JobEngineTest, CancelQueuedAndRunningJobs) {

@@ -1,16 +1,21 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "hardware/sim/scene.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <string>
 
+#include "tests/support/status_matchers.h"
 #include "tests/unit/sim/test_scenes.h"
 
 namespace hdrstereo::sim {
 namespace {
 
 using ::hdrstereo::sim::testing::SmallSceneJson;
+using ::hdrstereo::testing::StatusIs;
+using ::testing::ElementsAre;
+using ::testing::HasSubstr;
 
 TEST(SceneTest, BundledScenesLoad) {
   const std::vector<std::string> names = BundledSceneNames();
@@ -84,6 +89,61 @@ TEST(SceneTest, ErrorsNameTheBadField) {
   ExpectErrorNames(SmallSceneJson("", R"("sensor": {"response":
                                           {"kind": "log"}})"),
                    "sensor.response.kind");
+}
+
+// The faults that come and go (FaultWindow): each field is read, and a bad
+// value is refused naming its field.
+TEST(SceneTest, FaultWindowsAreReadAndTheirErrorsNameTheField) {
+  const Scene scene = testing::ParseOrDie(SmallSceneJson("", R"("faults": {
+      "camera": {"low_battery": {"calls": [7], "lasts": 4, "percent": 12}},
+      "stage": {"warning_window": {"probability": 0.5, "lasts": 9,
+                                   "flag": "WV"}},
+      "projector": {"lost": {"calls": [3, 30], "lasts": 6}}})"));
+  EXPECT_THAT(scene.camera_faults.low_battery.begins.calls, ElementsAre(7));
+  EXPECT_EQ(scene.camera_faults.low_battery.lasts, 4);
+  EXPECT_EQ(scene.camera_faults.low_battery_percent, 12);
+  EXPECT_DOUBLE_EQ(scene.stage_faults.warning_window.begins.probability, 0.5);
+  EXPECT_EQ(scene.stage_faults.warning_window.lasts, 9);
+  EXPECT_EQ(scene.stage_faults.warning_window_flag, "WV");
+  EXPECT_THAT(scene.projector_faults.lost.begins.calls, ElementsAre(3, 30));
+  EXPECT_EQ(scene.projector_faults.lost.lasts, 6);
+  // Defaults: one call long, 5 %, "WH".
+  const Scene defaults = testing::ParseOrDie(SmallSceneJson("", R"("faults": {
+      "camera": {"low_battery": {"calls": [1]}},
+      "stage": {"warning_window": {"calls": [1]}}})"));
+  EXPECT_EQ(defaults.camera_faults.low_battery.lasts, 1);
+  EXPECT_EQ(defaults.camera_faults.low_battery_percent, 5);
+  EXPECT_EQ(defaults.stage_faults.warning_window_flag, "WH");
+  EXPECT_TRUE(defaults.projector_faults.lost.begins.calls.empty());
+
+  const std::pair<const char*, const char*> bad[] = {
+      {R"("camera": {"low_battery": {"calls": [0]}})",
+       "faults.camera.low_battery.calls[0]: expected a call number >= 1"},
+      {R"("camera": {"low_battery": {"lasts": 0}})",
+       "faults.camera.low_battery.lasts: must be in [1, 1000000], got 0"},
+      {R"("camera": {"low_battery": {"percent": 101}})",
+       "faults.camera.low_battery.percent: must be in [0, 100], got 101"},
+      {R"("camera": {"low_battery": {"level": 3}})",
+       "faults.camera.low_battery.level: unknown field"},
+      {R"("stage": {"warning_window": {"flag": "--"}})",
+       "faults.stage.warning_window.flag: expected two capital letters"},
+      {R"("stage": {"warning_window": {"lasts": 1.5}})",
+       "faults.stage.warning_window.lasts: expected an integer"},
+      {R"("stage": {"warning_window": {"probability": 2}})",
+       "faults.stage.warning_window.probability: must be in [0, 1], got 2"},
+      {R"("projector": {"lost": {"lasts": -3}})",
+       "faults.projector.lost.lasts: must be in [1, 1000000], got -3"},
+      {R"("projector": {"lost": {"percent": 3}})",
+       "faults.projector.lost.percent: unknown field"},
+      {R"("projector": {"gone": {}})", "faults.projector.gone: unknown field"},
+  };
+  for (const auto& [faults, message] : bad) {
+    EXPECT_THAT(
+        ParseScene(
+            SmallSceneJson("", absl::StrCat(R"("faults": {)", faults, "}"))),
+        StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr(message)))
+        << faults;
+  }
 }
 
 TEST(SceneTest, DefaultsAndDerivedValues) {

@@ -8,7 +8,9 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "hardware/sim/sim_devices.h"
 #include "tests/support/camera_hold.h"
+#include "tests/support/status_matchers.h"
 #include "tests/support/temp_dir.h"
 #include "tests/unit/sim/test_scenes.h"
 
@@ -16,6 +18,10 @@ namespace hdrstereo::sim {
 namespace {
 
 using ::hdrstereo::sim::testing::SmallBundledScene;
+using ::hdrstereo::testing::IsOk;
+using ::hdrstereo::testing::StatusIs;
+using ::testing::ElementsAre;
+using ::testing::HasSubstr;
 
 std::string Bytes(const cv::Mat& m) {
   return std::string(m.datastart, m.dataend);
@@ -213,6 +219,70 @@ TEST(SimWorldTest, ProbabilisticFaultsAreSeeded) {
   }
   // Binomial(2000, 0.3): mean 600, sd 20.5; allow 5 sd.
   EXPECT_NEAR(fired, 600, 103);
+}
+
+// A window holds on `lasts` calls from each call it begins on; one that
+// begins again while it holds is extended.
+TEST(SimWorldTest, FaultWindowsHoldForTheirCallsAndOverlap) {
+  FaultWindowState window({.begins = {.calls = {2, 3, 9}}, .lasts = 3}, 1, 1);
+  std::vector<int> holds;
+  for (int call = 1; call <= 12; ++call) holds.push_back(window.Call());
+  EXPECT_THAT(holds, ElementsAre(0, 1, 1, 1, 1, 0, 0, 0, 1, 1, 1, 0));
+  // Only the calls that may begin it count for `begins`.
+  FaultWindowState patterns({.begins = {.calls = {2}}, .lasts = 2}, 1, 1);
+  EXPECT_FALSE(patterns.Call(/*can_begin=*/false));
+  EXPECT_FALSE(patterns.Call(/*can_begin=*/true));  // begin call 1
+  EXPECT_FALSE(patterns.Call(/*can_begin=*/false));
+  EXPECT_TRUE(patterns.Call(/*can_begin=*/true));  // begin call 2
+  EXPECT_TRUE(patterns.Call(/*can_begin=*/false));
+  EXPECT_FALSE(patterns.Call(/*can_begin=*/false));
+}
+
+// The battery reads low for `lasts` readings from the Nth, then full again,
+// as the simulated camera reports it.
+TEST(SimWorldTest, LowBatteryComesAndGoesByReadings) {
+  Scene scene = SmallBundledScene("textured");
+  scene.camera_faults.low_battery = {.begins = {.calls = {3}}, .lasts = 2};
+  scene.camera_faults.low_battery_percent = 12;
+  SimWorld world(scene);
+  SimCamera camera(world, {});
+  std::vector<int> levels;
+  for (int reading = 1; reading <= 6; ++reading) {
+    absl::StatusOr<hardware::CameraInfo> info = camera.Info();
+    ASSERT_THAT(info, IsOk());
+    levels.push_back(info->battery_percent);
+  }
+  EXPECT_THAT(levels, ElementsAre(100, 100, 12, 12, 100, 100));
+}
+
+// The projector is lost on its Nth Show or Blank, stays lost (nothing
+// projected) for `lasts` calls, Check included, and comes back showing
+// black.
+TEST(SimWorldTest, ProjectorLostOnAPatternComesBackByItself) {
+  Scene scene = SmallBundledScene("lab-lamp");
+  scene.projector_faults.lost = {.begins = {.calls = {2}}, .lasts = 3};
+  SimWorld world(scene);
+  absl::StatusOr<std::unique_ptr<SimProjector>> projector =
+      SimProjector::Create(world);
+  ASSERT_THAT(projector, IsOk());
+  const cv::Mat white((*projector)->resolution(), CV_8UC1, cv::Scalar(255));
+  EXPECT_THAT((*projector)->Show(white), IsOk());  // pattern 1
+  EXPECT_THAT((*projector)->Check(), IsOk());      // not a pattern
+  EXPECT_THAT((*projector)->Blank(),               // pattern 2: lost
+              StatusIs(absl::StatusCode::kUnavailable,
+                       HasSubstr("projector lost (simulated fault")));
+  EXPECT_TRUE(world.ProjectorPattern().empty()) << "a lost projector shines";
+  EXPECT_THAT((*projector)->Check(), StatusIs(absl::StatusCode::kUnavailable,
+                                              HasSubstr("projector lost")));
+  EXPECT_THAT(
+      (*projector)->Show(white),
+      StatusIs(absl::StatusCode::kUnavailable, HasSubstr("projector lost")));
+  EXPECT_THAT((*projector)->Check(), IsOk());  // back
+  const cv::Mat shown = world.ProjectorPattern();
+  ASSERT_EQ(shown.size(), white.size());
+  EXPECT_EQ(cv::countNonZero(shown), 0) << "back, it shows black";
+  EXPECT_THAT((*projector)->Show(white), IsOk());
+  EXPECT_EQ(cv::countNonZero(world.ProjectorPattern()), white.total());
 }
 
 TEST(SimWorldTest, ProjectorPatternValidation) {

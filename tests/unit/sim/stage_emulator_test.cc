@@ -270,6 +270,22 @@ TEST(StageEmulatorTest, GarbledAndSilentFaults) {
   EXPECT_EQ(r.data, "0");
 }
 
+// A warning window shows its flag on the replies of `lasts` commands from
+// the Nth (and in `warnings`, where it cannot be cleared), then goes.
+TEST(StageEmulatorTest, WarningWindowComesAndGoesByCommands) {
+  StageEmulatorOptions options;
+  options.faults.warning_window = {.begins = {.calls = {2}}, .lasts = 2};
+  options.faults.warning_window_flag = "WH";
+  auto stage = StartOrDie(options);
+  ASSERT_NE(stage, nullptr);
+  SerialClient client(stage->device_path());
+  EXPECT_EQ(Parse(client.Query("/1 1 get pos")).warning, "WR");            // 1
+  EXPECT_EQ(Parse(client.Query("/1 1 get pos")).warning, "WH");            // 2
+  EXPECT_EQ(Parse(client.Query("/1 1 warnings clear")).data, "02 WH WR");  // 3
+  EXPECT_EQ(Parse(client.Query("/1 1 get pos")).warning, "WR");            // 4
+  EXPECT_EQ(Parse(client.Query("/1 1 warnings")).data, "01 WR");           // 5
+}
+
 TEST(StageEmulatorTest, WarningFlagFaultIsReportedAndClearable) {
   StageEmulatorOptions options;
   options.faults.warning_flag = "FS";
