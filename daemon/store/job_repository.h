@@ -9,10 +9,12 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "daemon/store/event_kind.h"
 #include "daemon/store/store.h"
 
 namespace hdrstereo::store {
@@ -54,6 +56,19 @@ struct JobRecord {
 
 enum class EventLevel { kInfo, kWarning, kError };
 
+// What the metrics count an event as (daemon/store/event_kind.h); most
+// events are not counted.
+struct EventTag {
+  EventTag() = default;
+  explicit EventTag(EventKind kind) : kind(kind) {}
+  EventTag(EventKind kind, std::string subject, double seconds)
+      : kind(kind), subject(std::move(subject)), seconds(seconds) {}
+
+  EventKind kind = EventKind::kNone;
+  std::string subject;            // kStepComputed: the pipeline step
+  std::optional<double> seconds;  // kStepComputed: how long it took
+};
+
 struct JobEventRecord {
   int64_t job_id = 0;
   int64_t sequence = 0;
@@ -64,6 +79,7 @@ struct JobEventRecord {
   std::string step;
   EventLevel level = EventLevel::kInfo;
   std::string message;
+  EventTag tag;
 };
 
 // A job event with its job and the state of the job's event before it
@@ -97,13 +113,15 @@ class JobRepository {
   absl::StatusOr<std::vector<JobRecord>> List(const JobFilter& filter);
 
   // Changes the state (setting start/end times as fitting) and appends an
-  // event. `error` is stored for failed jobs.
+  // event, tagged with `tag`. `error` is stored for failed jobs.
   absl::StatusOr<JobEventRecord> SetState(int64_t id, JobState state,
                                           absl::string_view message,
-                                          absl::string_view error = "");
+                                          absl::string_view error = "",
+                                          const EventTag& tag = {});
   // Appends a warning or info event without changing the job.
   absl::StatusOr<JobEventRecord> AddEvent(int64_t id, EventLevel level,
-                                          absl::string_view message);
+                                          absl::string_view message,
+                                          const EventTag& tag = {});
 
   absl::StatusOr<std::vector<JobEventRecord>> Events(int64_t id,
                                                      int64_t after_sequence);
@@ -132,8 +150,8 @@ class JobRepository {
 
  private:
   static absl::StatusOr<JobEventRecord> AppendEventLocked(
-      Database& db, int64_t id, EventLevel level, absl::string_view message)
-      ABSL_EXCLUSIVE_LOCKS_REQUIRED(db.mutex());
+      Database& db, int64_t id, EventLevel level, absl::string_view message,
+      const EventTag& tag = {}) ABSL_EXCLUSIVE_LOCKS_REQUIRED(db.mutex());
   Store& store_;
 };
 
