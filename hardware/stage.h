@@ -11,6 +11,8 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/strings/cord.h"
+#include "absl/strings/string_view.h"
 
 namespace hdrstereo::hardware {
 
@@ -35,6 +37,21 @@ class Stage {
   virtual absl::Status Stop() = 0;
   virtual double travel_mm() const = 0;
 };
+
+// A move that was accepted but did not finish in time (the stage stalled)
+// is DEADLINE_EXCEEDED like a controller that does not answer at all;
+// drivers make it with StalledError so that callers can tell the two apart.
+inline constexpr char kStalledPayloadUrl[] =
+    "type.hdrstereo.org/hdrstereo.hardware.StageStalled";
+inline absl::Status StalledError(absl::string_view message) {
+  absl::Status status = absl::DeadlineExceededError(message);
+  status.SetPayload(kStalledPayloadUrl, absl::Cord());
+  return status;
+}
+inline bool IsStalled(const absl::Status& status) {
+  return absl::IsDeadlineExceeded(status) &&
+         status.GetPayload(kStalledPayloadUrl).has_value();
+}
 
 }  // namespace hdrstereo::hardware
 

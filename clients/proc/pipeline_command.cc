@@ -15,12 +15,15 @@
 #include <CLI/CLI.hpp>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "clients/proc/command_registry.h"
 #include "processing/base/status_macros.h"
@@ -50,13 +53,24 @@ class PrintingObserver : public pipeline::RunObserver {
   void Warn(const std::string& message) override {
     std::cerr << "warning: " << message << "\n";
   }
+  void StepComputed(const std::string& step, absl::Duration took) override {
+    seconds_[step] = absl::ToDoubleSeconds(took);
+    std::cerr << absl::StreamFormat("%s: computed in %.2f s\n", step,
+                                    seconds_[step]);
+  }
+
+  // How long each computed step took.
+  const std::map<std::string, double>& seconds() const { return seconds_; }
+
+ private:
+  std::map<std::string, double> seconds_;
 };
 
 // The run itself; `input` and the steps are the caller's choice.
 absl::StatusOr<pipeline::RunSummary> RunOn(const pipeline::SessionInput& input,
                                            pipeline::RunOptions options,
-                                           pipeline::JsonRunStore& store) {
-  PrintingObserver observer;
+                                           pipeline::JsonRunStore& store,
+                                           PrintingObserver& observer) {
   ASSIGN_OR_RETURN(pipeline::RunSummary summary,
                    pipeline::Run(input, options, store, observer));
   std::cerr << "computed: " << absl::StrJoin(summary.computed, ", ")
@@ -81,12 +95,14 @@ absl::Status RunPipeline(const PipelineArgs& args) {
   options.steps = args.steps;
   options.force = args.force;
   options.threads = args.threads;
-  return RunOn(input, options, store).status();
+  PrintingObserver observer;
+  return RunOn(input, options, store, observer).status();
 }
 
 // The records of every step the run went through, for the daemon.
 absl::StatusOr<pipeline::JobResult> ResultOf(
-    const pipeline::RunSummary& summary, const pipeline::JsonRunStore& store) {
+    const pipeline::RunSummary& summary, const pipeline::JsonRunStore& store,
+    const PrintingObserver& observer) {
   pipeline::JobResult result;
   for (const auto* steps : {&summary.computed, &summary.reused}) {
     for (const std::string& step : *steps) {
@@ -95,10 +111,15 @@ absl::StatusOr<pipeline::JobResult> ResultOf(
         return absl::InternalError(
             absl::StrCat("step ", step, " ran but left no record"));
       }
-      result.steps.push_back({.step = step,
-                              .input_hash = entry->first,
-                              .computed = steps == &summary.computed,
-                              .artifacts = entry->second});
+      const auto seconds = observer.seconds().find(step);
+      result.steps.push_back(
+          {.step = step,
+           .input_hash = entry->first,
+           .computed = steps == &summary.computed,
+           .artifacts = entry->second,
+           .seconds = seconds == observer.seconds().end()
+                          ? std::nullopt
+                          : std::optional<double>(seconds->second)});
     }
   }
   return result;
@@ -119,9 +140,10 @@ absl::Status RunJob(const PipelineArgs& args) {
     options.steps = request.steps;
     options.force = request.force;
     options.threads = args.threads;
+    PrintingObserver observer;
     ASSIGN_OR_RETURN(pipeline::RunSummary summary,
-                     RunOn(request.input, options, store));
-    return ResultOf(summary, store);
+                     RunOn(request.input, options, store, observer));
+    return ResultOf(summary, store, observer);
   };
   absl::StatusOr<pipeline::JobResult> result = run();
   pipeline::JobResult written = result.ok()

@@ -15,6 +15,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
+#include "daemon/jobs/device_log.h"
 #include "daemon/jobs/frame_check.h"
 #include "daemon/store/frame_repository.h"
 #include "hardware/reconnecting_camera.h"
@@ -185,10 +186,12 @@ absl::Status PersistFrame(JobContext& context, store::FrameRepository& frames,
                              const_cast<char*>(bytes.data())),
                      cv::IMREAD_UNCHANGED);
     if (decoded.empty()) {
-      return absl::DataLossError(
-          absl::StrCat("frame ", record.path,
-                       " arrived corrupt from the camera (it does "
-                       "not decode); resubmit the capture to take it again"));
+      return store::WithEventKind(
+          absl::DataLossError(absl::StrCat(
+              "frame ", record.path,
+              " arrived corrupt from the camera (it does "
+              "not decode); resubmit the capture to take it again")),
+          store::EventKind::kCorrupt);
     }
     record.width_px = decoded.cols;
     record.height_px = decoded.rows;
@@ -351,19 +354,15 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
     if (moved) stage.Stop().IgnoreError();
   };
 
-  ASSIGN_OR_RETURN(hardware::StageState state, stage.State());
+  // Every device call is timed, and its error marked with its kind.
+  DeviceLog devices(context.store(), job.id);
+  ASSIGN_OR_RETURN(
+      hardware::StageState state,
+      devices.Time(store::Device::kStage, [&] { return stage.State(); }));
   if (!state.homed) {
-    RETURN_IF_ERROR(stage.Home());
+    RETURN_IF_ERROR(
+        devices.Sample(store::Device::kStage, [&] { return stage.Home(); }));
   }
-  // Time inside device calls versus the whole loop: the rest is the daemon's
-  // own overhead (pattern rendering, hashing, writing, recording).
-  absl::Duration device_time;
-  auto timed = [&device_time](auto&& call) {
-    const absl::Time start = absl::Now();
-    auto result = call();
-    device_time += absl::Now() - start;
-    return result;
-  };
   const BaseSettings base = SettingsOf(plan);
   double position = std::nan("");
   double exposure = std::nan("");
@@ -373,8 +372,9 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   FrameChecker checker;
   for (const auto& [sequence, frame] : *done) checker.Remember(ReportOf(frame));
   auto prepare_camera = [&]() -> absl::Status {
-    ASSIGN_OR_RETURN(int discarded,
-                     timed([&] { return camera.PrepareCaptureGroup(); }));
+    ASSIGN_OR_RETURN(int discarded, devices.Time(store::Device::kCamera, [&] {
+      return camera.PrepareCaptureGroup();
+    }));
     if (discarded > 0) {
       context.Warn(absl::StrCat("discarded ", discarded,
                                 " file(s) the camera still held from before"));
@@ -388,7 +388,10 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   // Done before the first frame, and again after the camera came back.
   bool camera_prepared = false;
 
+  // Time inside device calls versus the whole loop: the rest is the daemon's
+  // own overhead (pattern rendering, hashing, writing, recording).
   const absl::Time loop_start = absl::Now();
+  const absl::Duration devices_before_loop = devices.total();
   const int64_t first_count = count;
   // At most one frame is being written while the next is captured; it is
   // always finished before the job returns, whatever the outcome.
@@ -482,24 +485,21 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
       if (was_suspended) {
         disk_full_in_a_row = 0;
         // The stage may have been touched meanwhile: home it again.
-        RETURN_IF_ERROR(stage.Home());
+        RETURN_IF_ERROR(devices.Sample(store::Device::kStage,
+                                       [&] { return stage.Home(); }));
         position = std::nan("");
         showing.reset();
       }
       if (!(std::abs(position - spec.stage_position_mm) < 1e-6)) {
         moved = true;
-        if (absl::Status s =
-                timed([&] { return stage.MoveTo(spec.stage_position_mm); });
+        if (absl::Status s = devices.Sample(
+                store::Device::kStage,
+                [&] { return stage.MoveTo(spec.stage_position_mm); });
             !s.ok()) {
           return s;
         }
         position = spec.stage_position_mm;
-        if (base.settle_s > 0) {
-          timed([&] {
-            absl::SleepFor(absl::Seconds(base.settle_s));
-            return 0;
-          });
-        }
+        if (base.settle_s > 0) devices.Wait(absl::Seconds(base.settle_s));
       }
       if (projector != nullptr) {
         const std::string wanted =
@@ -513,10 +513,11 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
               spec.pattern.has_value()
                   ? sl::Render(*spec.pattern, projector->resolution())
                   : absl::StatusOr<cv::Mat>(cv::Mat()));
-          const absl::Status shown = timed([&] {
-            return spec.pattern.has_value() ? projector->Show(image)
-                                            : projector->Blank();
-          });
+          const absl::Status shown =
+              devices.Sample(store::Device::kProjector, [&] {
+                return spec.pattern.has_value() ? projector->Show(image)
+                                                : projector->Blank();
+              });
           if (!shown.ok()) {
             // Lost (the condition says so): waited for at this boundary,
             // then the pattern is shown again.
@@ -550,7 +551,8 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
         }
         if (exposure != spec.exposure_s) {
           ASSIGN_OR_RETURN(
-              hardware::ExposureSettings applied, timed([&] {
+              hardware::ExposureSettings applied,
+              devices.Time(store::Device::kCamera, [&] {
                 return camera.Configure({.exposure_s = spec.exposure_s,
                                          .iso = base.iso,
                                          .aperture_f = base.aperture_f,
@@ -564,19 +566,24 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
         // before the job fails.
         std::optional<Mismatch> first_mismatch;
         for (int attempt = 0;; ++attempt) {
-          frame = timed([&] { return camera.Capture(); });
+          frame = devices.Sample(store::Device::kCamera,
+                                 [&] { return camera.Capture(); });
           if (!frame.ok()) return frame.status();
           report = ReadCameraReport(*frame);
           std::optional<Mismatch> mismatch = checker.Check(in_effect, report);
           if (!mismatch.has_value()) return absl::OkStatus();
           if (attempt > 0) {
-            return absl::DataLossError(absl::StrCat(
-                "frame ", Describe(spec, views),
-                " failed verification twice: ", first_mismatch->message,
-                "; then ", mismatch->message, "; nothing was recorded for it"));
+            return store::WithEventKind(
+                absl::DataLossError(absl::StrCat(
+                    "frame ", Describe(spec, views),
+                    " failed verification twice: ", first_mismatch->message,
+                    "; then ", mismatch->message,
+                    "; nothing was recorded for it")),
+                mismatch->kind);
           }
           context.Warn(absl::StrCat("frame ", Describe(spec, views), ": ",
-                                    mismatch->message, "; taking it again"));
+                                    mismatch->message, "; taking it again"),
+                       store::EventTag(mismatch->kind));
           first_mismatch = std::move(mismatch);
           RETURN_IF_ERROR(prepare_camera());
         }
@@ -588,17 +595,20 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
         return took;
       }
       if (drops >= kMaxDropsPerFrame) {
-        return absl::Status(
-            took.code(),
-            absl::StrCat("frame ", Describe(spec, views),
-                         ": the camera dropped ", drops + 1,
-                         " times while taking it; last: ", took.message()));
+        return store::WithEventKind(
+            absl::Status(
+                took.code(),
+                absl::StrCat("frame ", Describe(spec, views),
+                             ": the camera dropped ", drops + 1,
+                             " times while taking it; last: ", took.message())),
+            store::EventKind::kCameraDisconnected);
       }
       // Nothing of this frame was recorded; the camera comes back with its
       // own settings and perhaps files from before.
       context.Warn(absl::StrCat("frame ", Describe(spec, views),
                                 ": the camera dropped (", took.message(),
-                                "); the frame is taken again once it is back"));
+                                "); the frame is taken again once it is back"),
+                   store::EventTag(store::EventKind::kCameraDisconnected));
       camera_prepared = false;
       exposure = std::nan("");
       ++drops;
@@ -646,6 +656,7 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
 
   const absl::Duration loop_time = absl::Now() - loop_start;
   if (count > first_count && loop_time > absl::ZeroDuration()) {
+    const absl::Duration device_time = devices.total() - devices_before_loop;
     const absl::Duration own = loop_time - device_time;
     context.Info(absl::StrFormat(
         "%d frames in %.2f s: %.2f s in the devices, %.3f s (%.2f%%) in the "
@@ -655,10 +666,13 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
         100.0 * absl::ToDoubleSeconds(own) / absl::ToDoubleSeconds(loop_time)));
   }
   if (projector != nullptr) {
-    RETURN_IF_ERROR(projector->Blank());
+    RETURN_IF_ERROR(devices.Sample(store::Device::kProjector,
+                                   [&] { return projector->Blank(); }));
   }
   if (plan.has_bracketed_stereo() || plan.has_structured_light()) {
-    RETURN_IF_ERROR(stage.MoveTo(limits.home_position_mm));
+    RETURN_IF_ERROR(devices.Sample(store::Device::kStage, [&] {
+      return stage.MoveTo(limits.home_position_mm);
+    }));
   }
   std::move(safe).Cancel();
   if (write_truth && plan.has_bracketed_stereo()) {

@@ -64,7 +64,7 @@ std::optional<Mismatch> FrameChecker::Check(
       report.time_has_subseconds && precise_times_.contains(*report.time_ms);
   if (same_bytes || same_name_and_time || same_precise_time) {
     return Mismatch{
-        kMismatchPreviousFile,
+        store::EventKind::kPreviousFile,
         absl::StrCat(
             "the camera delivered a frame already taken in this capture (",
             report.file_name.empty() ? "" : report.file_name,
@@ -76,7 +76,7 @@ std::optional<Mismatch> FrameChecker::Check(
   }
   if (report.stored_to == hardware::StoredTo::kCard) {
     return Mismatch{
-        kMismatchCaptureTarget,
+        store::EventKind::kCardTarget,
         absl::StrCat("the camera stored ",
                      report.file_name.empty() ? "the frame" : report.file_name,
                      " on its card, not in RAM: the capture "
@@ -86,7 +86,7 @@ std::optional<Mismatch> FrameChecker::Check(
       !(Stops(*report.exposure_s, requested.exposure_s) <=
         kExposureToleranceStops)) {
     return Mismatch{
-        kMismatchExposure,
+        store::EventKind::kWrongExposure,
         absl::StrFormat("the camera exposed %s, not the %s set (%.2f stops "
                         "off; at most 1/6 is accepted)",
                         Seconds(*report.exposure_s),
@@ -96,7 +96,7 @@ std::optional<Mismatch> FrameChecker::Check(
   if (report.iso.has_value() && requested.iso > 0 &&
       std::abs(*report.iso - requested.iso) > 0.5) {
     return Mismatch{
-        kMismatchIso,
+        store::EventKind::kWrongIso,
         absl::StrFormat("the camera used ISO %g, not the ISO %d set",
                         *report.iso, requested.iso)};
   }
@@ -104,7 +104,7 @@ std::optional<Mismatch> FrameChecker::Check(
       !(2 * Stops(*report.aperture_f, requested.aperture_f) <=
         kExposureToleranceStops)) {
     return Mismatch{
-        kMismatchAperture,
+        store::EventKind::kWrongAperture,
         absl::StrFormat("the camera used f/%.3g, not the f/%.3g set",
                         *report.aperture_f, requested.aperture_f)};
   }

@@ -19,6 +19,7 @@
 #include <utility>
 
 #include "absl/status/status.h"
+#include "daemon/store/event_kind.h"
 #include "hardware/camera.h"
 
 namespace hdrstereo::jobs {
@@ -38,15 +39,9 @@ struct CameraReport {
 // Reads the report from a delivered frame (hashes its bytes).
 CameraReport ReadCameraReport(const hardware::Frame& frame);
 
-// Kinds of verification failure, as metric labels and event text.
-inline constexpr char kMismatchExposure[] = "exposure";
-inline constexpr char kMismatchIso[] = "iso";
-inline constexpr char kMismatchAperture[] = "aperture";
-inline constexpr char kMismatchPreviousFile[] = "previous_file";
-inline constexpr char kMismatchCaptureTarget[] = "capture_target";
-
 struct Mismatch {
-  std::string kind;     // one of kMismatch*
+  // kPreviousFile, kCardTarget, kWrongExposure, kWrongIso or kWrongAperture.
+  store::EventKind kind = store::EventKind::kNone;
   std::string message;  // names the expected and the reported value
 };
 

@@ -39,16 +39,16 @@ absl::Status JobContext::Progress(int64_t done, int64_t total,
   return absl::OkStatus();
 }
 
-void JobContext::Info(absl::string_view message) {
+void JobContext::Info(absl::string_view message, const store::EventTag& tag) {
   spdlog::info("job {} ({}): {}", job_.id, job_.session, std::string(message));
-  engine_.jobs_.AddEvent(job_.id, store::EventLevel::kInfo, message)
+  engine_.jobs_.AddEvent(job_.id, store::EventLevel::kInfo, message, tag)
       .IgnoreError();
   engine_.NotifyEvent();
 }
 
-void JobContext::Warn(absl::string_view message) {
+void JobContext::Warn(absl::string_view message, const store::EventTag& tag) {
   spdlog::warn("job {} ({}): {}", job_.id, job_.session, std::string(message));
-  engine_.jobs_.AddEvent(job_.id, store::EventLevel::kWarning, message)
+  engine_.jobs_.AddEvent(job_.id, store::EventLevel::kWarning, message, tag)
       .IgnoreError();
   engine_.NotifyEvent();
 }
@@ -193,6 +193,7 @@ void JobEngine::RunJob(int64_t id) {
   JobState final_state;
   std::string message;
   std::string error;
+  store::EventTag tag;
   if (status.ok()) {
     final_state = JobState::kSucceeded;
     message = "succeeded";
@@ -207,9 +208,10 @@ void JobEngine::RunJob(int64_t id) {
     final_state = JobState::kFailed;
     error = std::string(status.message());
     message = absl::StrCat("failed: ", error);
+    tag.kind = store::EventKindOf(status);
   }
   absl::StatusOr<store::JobEventRecord> event =
-      jobs_.SetState(id, final_state, message, error);
+      jobs_.SetState(id, final_state, message, error, tag);
   if (!event.ok()) {
     spdlog::error("job {}: cannot record its end: {}", id,
                   std::string(event.status().message()));

@@ -52,8 +52,9 @@ class JobContext {
   // transaction, e.g. to insert the frame row that this progress counts.
   absl::Status Progress(int64_t done, int64_t total, absl::string_view step,
                         const std::function<absl::Status()>& also = nullptr);
-  void Warn(absl::string_view message);
-  void Info(absl::string_view message);
+  // Record an event; `tag` says what the metrics count it as.
+  void Warn(absl::string_view message, const store::EventTag& tag = {});
+  void Info(absl::string_view message, const store::EventTag& tag = {});
 
  private:
   friend class JobEngine;
@@ -66,7 +67,7 @@ class JobContext {
 
 // Runs one job to its end. Returning OK means succeeded; CANCELLED and
 // ABORTED come from Checkpoint(); anything else fails the job with its
-// message.
+// message (and the event kind it was marked with, store::WithEventKind).
 using JobRunner = std::function<absl::Status(JobContext& context)>;
 
 struct JobEngineOptions {

@@ -250,6 +250,13 @@ class StoreAdapter : public pipeline::RunStore {
   const int64_t job_id_;
 };
 
+// The event of a computed step, which the step-time metric counts.
+void StepComputedEvent(JobContext& context, const std::string& step,
+                       double seconds) {
+  context.Info(absl::StrFormat("%s: computed in %.2f s", step, seconds),
+               store::EventTag(store::EventKind::kStepComputed, step, seconds));
+}
+
 class JobObserver : public pipeline::RunObserver {
  public:
   explicit JobObserver(JobContext& context) : context_(context) {}
@@ -260,6 +267,9 @@ class JobObserver : public pipeline::RunObserver {
   }
   void Info(const std::string& message) override { context_.Info(message); }
   void Warn(const std::string& message) override { context_.Warn(message); }
+  void StepComputed(const std::string& step, absl::Duration took) override {
+    StepComputedEvent(context_, step, absl::ToDoubleSeconds(took));
+  }
 
  private:
   JobContext& context_;
@@ -536,6 +546,9 @@ absl::Status RunProcessingJob(const hardware::Rig& rig,
     std::vector<std::string> computed, reused;
     for (const pipeline::StepRecord& step : result.steps) {
       (step.computed ? computed : reused).push_back(step.step);
+      if (step.computed && step.seconds.has_value()) {
+        StepComputedEvent(context, step.step, *step.seconds);
+      }
       for (const pipeline::Artifact& a : step.artifacts) {
         if (a.kind == "report" && absl::EndsWith(a.path, ".html")) {
           context.Info(

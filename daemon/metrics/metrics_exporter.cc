@@ -6,22 +6,28 @@
 #include <prometheus/metric_family.h>
 #include <spdlog/spdlog.h>
 
-#include <array>
 #include <exception>
 #include <limits>
+#include <optional>
 #include <utility>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "absl/types/span.h"
+#include "daemon/store/event_kind.h"
 #include "daemon/store/metrics_repository.h"
+#include "processing/pipeline/pipeline.h"
 
 namespace hdrstereo::metrics {
 
 namespace {
 
-// Upper bounds of the frame time histogram's buckets, in seconds.
-constexpr std::array<double, 9> kFrameSecondsBuckets = {0.1, 0.25, 0.5, 1, 2,
-                                                        5,   10,   30,  60};
+// Upper bounds of the histograms' buckets, in seconds: a capture's frames
+// and device calls (a 30 s exposure included), and processing steps.
+constexpr double kCaptureSecondsBuckets[] = {0.1, 0.25, 0.5, 1, 2,
+                                             5,   10,   30,  60};
+constexpr double kStepSecondsBuckets[] = {0.1, 0.5, 1,   5,   10,
+                                          30,  60,  300, 900, 3600};
 
 prometheus::MetricFamily Family(std::string name, std::string help,
                                 prometheus::MetricType type) {
@@ -50,9 +56,10 @@ prometheus::MetricFamily Single(std::string name, std::string help,
   return family;
 }
 
-prometheus::ClientMetric Histogram(const std::vector<double>& samples) {
+prometheus::ClientMetric Histogram(const std::vector<double>& samples,
+                                   absl::Span<const double> bounds) {
   prometheus::ClientMetric metric;
-  for (double bound : kFrameSecondsBuckets) {
+  for (double bound : bounds) {
     prometheus::ClientMetric::Bucket bucket;
     bucket.upper_bound = bound;
     metric.histogram.bucket.push_back(bucket);
@@ -68,6 +75,37 @@ prometheus::ClientMetric Histogram(const std::vector<double>& samples) {
   }
   metric.histogram.sample_count = samples.size();
   return metric;
+}
+
+prometheus::ClientMetric Labelled(
+    prometheus::ClientMetric metric,
+    std::vector<prometheus::ClientMetric::Label> labels) {
+  metric.label = std::move(labels);
+  return metric;
+}
+
+// Counts of the event kinds of `family`, one series per kind; device errors
+// are labelled by device and kind.
+prometheus::MetricFamily EventCounts(const store::StoreTotals& totals,
+                                     store::EventFamily family,
+                                     std::string name, std::string help) {
+  prometheus::MetricFamily out =
+      Family(std::move(name), std::move(help), prometheus::MetricType::Counter);
+  for (store::EventKind kind : store::KindsOf(family)) {
+    std::vector<prometheus::ClientMetric::Label> labels;
+    if (const std::optional<store::Device> device = store::DeviceOf(kind)) {
+      labels.push_back({"device", store::DeviceName(*device)});
+    }
+    labels.push_back({"kind", store::LabelOf(kind)});
+    const auto count = totals.events_by_kind.find(kind);
+    out.metric.push_back(
+        Labelled(Value(prometheus::MetricType::Counter,
+                       count == totals.events_by_kind.end()
+                           ? 0
+                           : static_cast<double>(count->second)),
+                 std::move(labels)));
+  }
+  return out;
 }
 
 }  // namespace
@@ -110,8 +148,40 @@ class StoreCollector : public prometheus::Collectable {
           Family("hdrstereo_capture_frame_seconds",
                  "Time between consecutive frames of a capture job",
                  MetricType::Histogram);
-      frame_time.metric.push_back(Histogram(totals->frame_seconds));
+      frame_time.metric.push_back(
+          Histogram(totals->frame_seconds, kCaptureSecondsBuckets));
       out.push_back(std::move(frame_time));
+      out.push_back(EventCounts(
+          *totals, store::EventFamily::kVerificationFailure,
+          "hdrstereo_frame_verification_failures_total",
+          "Frames rejected by their check against the camera, by kind"));
+      out.push_back(EventCounts(*totals, store::EventFamily::kDeviceError,
+                                "hdrstereo_device_errors_total",
+                                "Failed device calls of capture jobs"));
+      prometheus::MetricFamily device_time = Family(
+          "hdrstereo_device_seconds",
+          "Time of each capture, stage move and projector pattern of capture "
+          "jobs",
+          MetricType::Histogram);
+      for (const auto& [device, seconds] : totals->device_seconds) {
+        device_time.metric.push_back(
+            Labelled(Histogram(seconds, kCaptureSecondsBuckets),
+                     {{"device", store::DeviceName(device)}}));
+      }
+      out.push_back(std::move(device_time));
+      prometheus::MetricFamily steps = Family(
+          "hdrstereo_processing_step_seconds",
+          "Time of each computed processing step", MetricType::Histogram);
+      for (const std::string& step : pipeline::AllSteps()) {
+        const auto seconds = totals->step_seconds.find(step);
+        steps.metric.push_back(
+            Labelled(Histogram(seconds == totals->step_seconds.end()
+                                   ? std::vector<double>()
+                                   : seconds->second,
+                               kStepSecondsBuckets),
+                     {{"step", step}}));
+      }
+      out.push_back(std::move(steps));
     } else {
       spdlog::warn("metrics: reading the store failed: {}",
                    totals.status().ToString());

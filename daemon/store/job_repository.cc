@@ -43,6 +43,16 @@ EventLevel ParseLevel(absl::string_view name) {
 
 int64_t NowMs() { return absl::ToUnixMillis(absl::Now()); }
 
+// The tag of an event row whose kind, subject and seconds are the columns
+// from `first` on.
+absl::StatusOr<EventTag> ReadTag(const Statement& stmt, int first) {
+  EventTag tag;
+  ASSIGN_OR_RETURN(tag.kind, ParseEventKind(stmt.ColumnText(first)));
+  tag.subject = stmt.ColumnText(first + 1);
+  if (!stmt.ColumnIsNull(first + 2)) tag.seconds = stmt.ColumnDouble(first + 2);
+  return tag;
+}
+
 constexpr absl::string_view kSelectJob = R"sql(
 SELECT j.id, j.kind, j.session_id, s.name, j.state, j.request,
        j.progress_done, j.progress_total, j.step, j.error, j.create_time_ms,
@@ -106,13 +116,15 @@ bool IsFinal(JobState state) {
 }
 
 absl::StatusOr<JobEventRecord> JobRepository::AppendEventLocked(
-    Database& db, int64_t id, EventLevel level, absl::string_view message) {
+    Database& db, int64_t id, EventLevel level, absl::string_view message,
+    const EventTag& tag) {
   ASSIGN_OR_RETURN(JobRecord job, GetLocked(db, id));
   ASSIGN_OR_RETURN(Statement insert, db.Prepare(R"sql(
 INSERT INTO job_events (job_id, sequence, time_ms, state, progress_done,
-                        progress_total, step, level, message)
+                        progress_total, step, level, message, kind, subject,
+                        seconds)
 VALUES (?1, (SELECT coalesce(max(sequence), 0) + 1 FROM job_events
-             WHERE job_id = ?1), ?2, ?3, ?4, ?5, ?6, ?7, ?8)
+             WHERE job_id = ?1), ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11)
 RETURNING sequence)sql"));
   JobEventRecord event{.job_id = id,
                        .time_ms = NowMs(),
@@ -121,7 +133,8 @@ RETURNING sequence)sql"));
                        .progress_total = job.progress_total,
                        .step = job.step,
                        .level = level,
-                       .message = std::string(message)};
+                       .message = std::string(message),
+                       .tag = tag};
   insert.Bind(1, id)
       .Bind(2, event.time_ms)
       .Bind(3, JobStateName(event.state))
@@ -129,7 +142,14 @@ RETURNING sequence)sql"));
       .Bind(5, event.progress_total)
       .Bind(6, event.step)
       .Bind(7, LevelName(level))
-      .Bind(8, message);
+      .Bind(8, message)
+      .Bind(9, EventKindName(tag.kind))
+      .Bind(10, tag.subject);
+  if (tag.seconds.has_value()) {
+    insert.Bind(11, *tag.seconds);
+  } else {
+    insert.BindNull(11);
+  }
   RETURN_IF_ERROR(insert.Step().status());
   event.sequence = insert.ColumnInt(0);
   return event;
@@ -175,7 +195,7 @@ SELECT e.id, e.sequence, e.time_ms, e.state, e.progress_done,
        (SELECT p.state FROM job_events p
         WHERE p.job_id = e.job_id AND p.sequence < e.sequence
         ORDER BY p.sequence DESC LIMIT 1),
-       e.job_id
+       e.job_id, e.kind, e.subject, e.seconds
 FROM job_events e WHERE e.id > ?1 ORDER BY e.id LIMIT ?2)sql"));
   stmt.Bind(1, after_row_id).Bind(2, int64_t{limit});
   std::vector<JobEventRow> rows;
@@ -195,6 +215,7 @@ FROM job_events e WHERE e.id > ?1 ORDER BY e.id LIMIT ?2)sql"));
     event.step = stmt.ColumnText(6);
     event.level = ParseLevel(stmt.ColumnText(7));
     event.message = stmt.ColumnText(8);
+    ASSIGN_OR_RETURN(event.tag, ReadTag(stmt, 11));
     if (!stmt.ColumnIsNull(9)) {
       ASSIGN_OR_RETURN(JobState previous, ParseJobState(stmt.ColumnText(9)));
       row.previous_state = previous;
@@ -258,14 +279,14 @@ absl::StatusOr<JobEventRecord> JobRepository::UpdateWithEvent(
 
 absl::StatusOr<JobEventRecord> JobRepository::SetState(
     int64_t id, JobState state, absl::string_view message,
-    absl::string_view error) {
-  return ChangeState(id, state, message, error, "");
+    absl::string_view error, const EventTag& tag) {
+  return ChangeState(id, state, message, error, "", tag);
 }
 
 absl::StatusOr<JobEventRecord> JobRepository::Suspend(
     int64_t id, absl::string_view reason) {
   return ChangeState(id, JobState::kPaused, absl::StrCat("suspended: ", reason),
-                     "", reason);
+                     "", reason, {});
 }
 
 absl::Status JobRepository::UpdateSuspensionReason(int64_t id,
@@ -287,7 +308,8 @@ absl::StatusOr<JobEventRecord> JobRepository::EndSuspension(
 
 absl::StatusOr<JobEventRecord> JobRepository::ChangeState(
     int64_t id, JobState state, absl::string_view message,
-    absl::string_view error, absl::string_view suspension_reason) {
+    absl::string_view error, absl::string_view suspension_reason,
+    const EventTag& tag) {
   Database& db = store_.db();
   Transaction tx(db);
   RETURN_IF_ERROR(tx.status());
@@ -311,7 +333,7 @@ WHERE id = ?1)sql"));
       AppendEventLocked(
           db, id,
           state == JobState::kFailed ? EventLevel::kError : EventLevel::kInfo,
-          message));
+          message, tag));
   RETURN_IF_ERROR(tx.Commit());
   return event;
 }
@@ -331,12 +353,13 @@ absl::StatusOr<JobEventRecord> JobRepository::SetProgressLocked(
 }
 
 absl::StatusOr<JobEventRecord> JobRepository::AddEvent(
-    int64_t id, EventLevel level, absl::string_view message) {
+    int64_t id, EventLevel level, absl::string_view message,
+    const EventTag& tag) {
   Database& db = store_.db();
   Transaction tx(db);
   RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(JobEventRecord event,
-                   AppendEventLocked(db, id, level, message));
+                   AppendEventLocked(db, id, level, message, tag));
   RETURN_IF_ERROR(tx.Commit());
   return event;
 }
@@ -353,7 +376,7 @@ absl::StatusOr<std::vector<JobEventRecord>> JobRepository::Events(
   absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(Statement stmt, store_.db().Prepare(R"sql(
 SELECT sequence, time_ms, state, progress_done, progress_total, step, level,
-       message
+       message, kind, subject, seconds
 FROM job_events WHERE job_id = ?1 AND sequence > ?2 ORDER BY sequence)sql"));
   stmt.Bind(1, id).Bind(2, after_sequence);
   std::vector<JobEventRecord> events;
@@ -361,6 +384,7 @@ FROM job_events WHERE job_id = ?1 AND sequence > ?2 ORDER BY sequence)sql"));
     ASSIGN_OR_RETURN(bool row, stmt.Step());
     if (!row) break;
     ASSIGN_OR_RETURN(JobState state, ParseJobState(stmt.ColumnText(2)));
+    ASSIGN_OR_RETURN(EventTag tag, ReadTag(stmt, 8));
     events.push_back({.job_id = id,
                       .sequence = stmt.ColumnInt(0),
                       .time_ms = stmt.ColumnInt(1),
@@ -369,7 +393,8 @@ FROM job_events WHERE job_id = ?1 AND sequence > ?2 ORDER BY sequence)sql"));
                       .progress_total = stmt.ColumnInt(4),
                       .step = stmt.ColumnText(5),
                       .level = ParseLevel(stmt.ColumnText(6)),
-                      .message = stmt.ColumnText(7)});
+                      .message = stmt.ColumnText(7),
+                      .tag = std::move(tag)});
   }
   return events;
 }

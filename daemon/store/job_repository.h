@@ -9,10 +9,12 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "daemon/store/event_kind.h"
 #include "daemon/store/store.h"
 
 namespace hdrstereo::store {
@@ -57,6 +59,19 @@ struct JobRecord {
 
 enum class EventLevel { kInfo, kWarning, kError };
 
+// What the metrics count an event as (daemon/store/event_kind.h); most
+// events are not counted.
+struct EventTag {
+  EventTag() = default;
+  explicit EventTag(EventKind kind) : kind(kind) {}
+  EventTag(EventKind kind, std::string subject, double seconds)
+      : kind(kind), subject(std::move(subject)), seconds(seconds) {}
+
+  EventKind kind = EventKind::kNone;
+  std::string subject;            // kStepComputed: the pipeline step
+  std::optional<double> seconds;  // kStepComputed: how long it took
+};
+
 struct JobEventRecord {
   int64_t job_id = 0;
   int64_t sequence = 0;
@@ -67,6 +82,7 @@ struct JobEventRecord {
   std::string step;
   EventLevel level = EventLevel::kInfo;
   std::string message;
+  EventTag tag;
 };
 
 // A job event with its job and the state of the job's event before it
@@ -100,11 +116,12 @@ class JobRepository {
   absl::StatusOr<std::vector<JobRecord>> List(const JobFilter& filter);
 
   // Changes the state (setting start/end times as fitting) and appends an
-  // event. `error` is stored for failed jobs. Any state change ends a
-  // suspension (the reason is cleared).
+  // event, tagged with `tag`. `error` is stored for failed jobs. Any state
+  // change ends a suspension (the reason is cleared).
   absl::StatusOr<JobEventRecord> SetState(int64_t id, JobState state,
                                           absl::string_view message,
-                                          absl::string_view error = "");
+                                          absl::string_view error = "",
+                                          const EventTag& tag = {});
   // A condition suspends the job: state paused, `reason` kept as its
   // suspension_reason, event "suspended: <reason>".
   absl::StatusOr<JobEventRecord> Suspend(int64_t id, absl::string_view reason);
@@ -117,7 +134,8 @@ class JobRepository {
                                                absl::string_view message);
   // Appends a warning or info event without changing the job.
   absl::StatusOr<JobEventRecord> AddEvent(int64_t id, EventLevel level,
-                                          absl::string_view message);
+                                          absl::string_view message,
+                                          const EventTag& tag = {});
 
   absl::StatusOr<std::vector<JobEventRecord>> Events(int64_t id,
                                                      int64_t after_sequence);
@@ -148,7 +166,8 @@ class JobRepository {
   // SetState, keeping `suspension_reason` with the new state.
   absl::StatusOr<JobEventRecord> ChangeState(
       int64_t id, JobState state, absl::string_view message,
-      absl::string_view error, absl::string_view suspension_reason);
+      absl::string_view error, absl::string_view suspension_reason,
+      const EventTag& tag);
   // In one transaction: `update` (?1: the job's id, ?2: `value`) and the
   // info event `message`.
   template <typename T>
@@ -157,8 +176,8 @@ class JobRepository {
                                                  const T& value,
                                                  absl::string_view message);
   static absl::StatusOr<JobEventRecord> AppendEventLocked(
-      Database& db, int64_t id, EventLevel level, absl::string_view message)
-      ABSL_EXCLUSIVE_LOCKS_REQUIRED(db.mutex());
+      Database& db, int64_t id, EventLevel level, absl::string_view message,
+      const EventTag& tag = {}) ABSL_EXCLUSIVE_LOCKS_REQUIRED(db.mutex());
   Store& store_;
 };
 

@@ -61,6 +61,38 @@ WINDOW w AS (PARTITION BY job_id ORDER BY done)
     if (frames.ColumnIsNull(1) || frames.ColumnInt(1) != 1) continue;
     totals.frame_seconds.push_back(frames.ColumnDouble(0) / 1000.0);
   }
+  for (EventFamily family :
+       {EventFamily::kVerificationFailure, EventFamily::kDeviceError}) {
+    for (EventKind kind : KindsOf(family)) totals.events_by_kind[kind] = 0;
+  }
+  ASSIGN_OR_RETURN(Statement kinds, db.Prepare(R"sql(
+SELECT kind, count(*) FROM job_events WHERE kind != '' GROUP BY kind)sql"));
+  for (;;) {
+    ASSIGN_OR_RETURN(bool row, kinds.Step());
+    if (!row) break;
+    ASSIGN_OR_RETURN(EventKind kind, ParseEventKind(kinds.ColumnText(0)));
+    if (totals.events_by_kind.contains(kind)) {
+      totals.events_by_kind[kind] = kinds.ColumnInt(1);
+    }
+  }
+  for (Device device : kAllDevices) totals.device_seconds[device] = {};
+  ASSIGN_OR_RETURN(Statement calls,
+                   db.Prepare("SELECT device, seconds FROM device_time"));
+  for (;;) {
+    ASSIGN_OR_RETURN(bool row, calls.Step());
+    if (!row) break;
+    ASSIGN_OR_RETURN(Device device, ParseDevice(calls.ColumnText(0)));
+    totals.device_seconds[device].push_back(calls.ColumnDouble(1));
+  }
+  ASSIGN_OR_RETURN(Statement steps, db.Prepare(R"sql(
+SELECT subject, seconds FROM job_events
+WHERE kind = ?1 AND seconds IS NOT NULL)sql"));
+  steps.Bind(1, EventKindName(EventKind::kStepComputed));
+  for (;;) {
+    ASSIGN_OR_RETURN(bool row, steps.Step());
+    if (!row) break;
+    totals.step_seconds[steps.ColumnText(0)].push_back(steps.ColumnDouble(1));
+  }
   return totals;
 }
 

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "daemon/store/event_kind.h"
 #include "daemon/store/store.h"
 
 namespace hdrstereo::store {
@@ -25,6 +26,14 @@ struct StoreTotals {
   // Seconds between consecutive frames of a capture job (from its job
   // events' progress), one entry per frame after the first.
   std::vector<double> frame_seconds;
+  // Job events by kind: every kind of the verification failure and device
+  // error families, 0 included.
+  std::map<EventKind, int64_t> events_by_kind;
+  // Seconds of each device call capture jobs timed, by device (every
+  // device, empty included).
+  std::map<Device, std::vector<double>> device_seconds;
+  // Seconds of each computed processing step, by step name.
+  std::map<std::string, std::vector<double>> step_seconds;
 };
 
 class MetricsRepository {

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "daemon/store/schema.h"
 
+#include <algorithm>
 #include <array>
 
 #include "absl/strings/str_cat.h"
@@ -263,6 +264,24 @@ ALTER TABLE jobs ADD COLUMN cluster_job_id INTEGER;
     R"sql(
 ALTER TABLE jobs ADD COLUMN suspension_reason TEXT NOT NULL DEFAULT '';
 )sql",
+    // 9: metrics. What a job event counts for (daemon/store/event_kind.h;
+    // '' for events that are not counted), what it is about (the pipeline
+    // step of a computed step) and how long it took; one row per device
+    // call a capture job timed (a capture, a move, a projector pattern).
+    R"sql(
+ALTER TABLE job_events ADD COLUMN kind TEXT NOT NULL DEFAULT '';
+ALTER TABLE job_events ADD COLUMN subject TEXT NOT NULL DEFAULT '';
+ALTER TABLE job_events ADD COLUMN seconds REAL;
+CREATE INDEX job_events_by_kind ON job_events(kind) WHERE kind != '';
+CREATE TABLE device_time (
+  id INTEGER PRIMARY KEY,
+  job_id INTEGER NOT NULL REFERENCES jobs(id) ON DELETE CASCADE,
+  device TEXT NOT NULL CHECK (device IN ('camera', 'stage', 'projector')),
+  seconds REAL NOT NULL,
+  time_ms INTEGER NOT NULL
+);
+CREATE INDEX device_time_by_job ON device_time(job_id);
+)sql",
 };
 
 }  // namespace
@@ -296,7 +315,7 @@ absl::StatusOr<int> ReadSchemaVersion(Database& db) {
   return static_cast<int>(max.ColumnInt(0));
 }
 
-absl::StatusOr<int> Migrate(Database& db) {
+absl::StatusOr<int> Migrate(Database& db, int target) {
   int version;
   {
     absl::MutexLock lock(&db.mutex());
@@ -309,7 +328,7 @@ absl::StatusOr<int> Migrate(Database& db) {
         ", newer than this hdrstereod supports (", LatestSchemaVersion(),
         "); refusing to open it: use a newer hdrstereod"));
   }
-  while (version < LatestSchemaVersion()) {
+  while (version < std::min(target, LatestSchemaVersion())) {
     Transaction tx(db);
     RETURN_IF_ERROR(tx.status());
     RETURN_IF_ERROR(db.Exec(

@@ -19,10 +19,11 @@ int LatestSchemaVersion();
 absl::StatusOr<int> ReadSchemaVersion(Database& db)
     ABSL_EXCLUSIVE_LOCKS_REQUIRED(db.mutex());
 
-// Brings `db` to LatestSchemaVersion(); returns the version reached. Fails
+// Brings `db` to `target` (tests stop at an older version to migrate from
+// it), at most LatestSchemaVersion(); returns the version reached. Fails
 // with FAILED_PRECONDITION, changing nothing, when the database is newer than
 // this binary.
-absl::StatusOr<int> Migrate(Database& db);
+absl::StatusOr<int> Migrate(Database& db, int target = LatestSchemaVersion());
 
 }  // namespace hdrstereo::store
 

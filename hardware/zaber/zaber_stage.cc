@@ -159,7 +159,7 @@ absl::Status ZaberStage::WaitUntilIdle(absl::Duration timeout,
     if (absl::Now() >= deadline) {
       Stop().IgnoreError();
       absl::StatusOr<hardware::StageState> state = State();
-      return absl::DeadlineExceededError(absl::StrFormat(
+      return hardware::StalledError(absl::StrFormat(
           "%s did not finish within %s (target %.3f mm, stopped at %s); is "
           "the stage stalled?",
           what, absl::FormatDuration(timeout), target_mm,

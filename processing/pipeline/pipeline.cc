@@ -19,6 +19,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/synchronization/mutex.h"
+#include "absl/time/clock.h"
 #include "processing/base/options.h"
 #include "processing/base/status_macros.h"
 #include "processing/io/image.h"
@@ -129,6 +130,7 @@ bool Runner::Verified(const std::vector<Artifact>& artifacts) const {
 absl::Status Runner::ExecuteStep(const StepSpec& spec) {
   const std::string step = spec.name;
   RETURN_IF_ERROR(state_.Checkpoint());
+  const absl::Time start = absl::Now();
   ASSIGN_OR_RETURN(const auto inputs, InputsOf(spec));
   // The step's options, built once: hashed here, used by `run` below.
   StepContext context(session_, state_, step, "");
@@ -181,6 +183,7 @@ absl::Status Runner::ExecuteStep(const StepSpec& spec) {
   m.size_bytes = static_cast<int64_t>(manifest.size());
   RETURN_IF_ERROR(state_.Record(step, hash, outputs));
   state_.SetOutputs(step, std::move(outputs));
+  state_.StepComputed(step, absl::Now() - start);
   absl::MutexLock l(&computed_mu_);
   computed_.push_back(step);
   return absl::OkStatus();

@@ -31,6 +31,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/time/time.h"
 #include "processing/experiment/thesis_experiment.h"
 #include "processing/io/capture_layout.h"
 #include "processing/structured_light/decode.h"
@@ -143,6 +144,9 @@ class RunObserver {
                         const std::string& what) = 0;
   virtual void Info(const std::string& message) = 0;
   virtual void Warn(const std::string& message) = 0;
+  // `step` was computed (not reused) and recorded, `took` after it started
+  // (wall time, its inputs' hashing included).
+  virtual void StepComputed(const std::string& step, absl::Duration took) = 0;
 };
 
 // The option structs the steps run with. A step's cache key holds the

@@ -424,10 +424,12 @@ absl::Status WriteJobResult(const fs::path& job_dir, const JobResult& result) {
     json artifacts = json::array();
     for (const Artifact& a : r.artifacts)
       artifacts.push_back(ArtifactToJson(a));
-    steps.push_back(json{{"step", r.step},
-                         {"input_hash", r.input_hash},
-                         {"computed", r.computed},
-                         {"artifacts", artifacts}});
+    json step{{"step", r.step},
+              {"input_hash", r.input_hash},
+              {"computed", r.computed},
+              {"artifacts", artifacts}};
+    if (r.seconds.has_value()) step["seconds"] = *r.seconds;
+    steps.push_back(std::move(step));
   }
   const json j{{"code", absl::StatusCodeToString(result.status.code())},
                {"message", std::string(result.status.message())},
@@ -451,6 +453,7 @@ absl::StatusOr<JobResult> ReadJobResult(const fs::path& job_dir) {
       for (const json& a : s.at("artifacts")) {
         r.artifacts.push_back(ArtifactFromJson(a));
       }
+      if (s.contains("seconds")) r.seconds = s.at("seconds").get<double>();
       result.steps.push_back(std::move(r));
     }
     return result;

@@ -107,6 +107,9 @@ struct StepRecord {
   std::string input_hash;
   bool computed = false;
   std::vector<Artifact> artifacts;  // paths relative to the session folder
+  // A computed step: how long it took (RunObserver::StepComputed); absent
+  // from results written before it was kept.
+  std::optional<double> seconds;
 };
 
 // result.json: the run's status (code and message) and, when it is OK, the

@@ -24,6 +24,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/synchronization/mutex.h"
+#include "absl/time/time.h"
 #include "processing/hdr/stack.h"
 #include "processing/pipeline/frame_selection.h"
 #include "processing/pipeline/pipeline.h"
@@ -92,6 +93,8 @@ class RunState {
       ABSL_LOCKS_EXCLUDED(mu_);
   void Info(const std::string& message) ABSL_LOCKS_EXCLUDED(mu_);
   void Warn(const std::string& message) ABSL_LOCKS_EXCLUDED(mu_);
+  void StepComputed(const std::string& step, absl::Duration took)
+      ABSL_LOCKS_EXCLUDED(mu_);
   std::vector<Artifact> Lookup(const std::string& step,
                                const std::string& input_hash)
       ABSL_LOCKS_EXCLUDED(mu_);

@@ -102,6 +102,11 @@ void RunState::Warn(const std::string& message) {
   observer_.Warn(message);
 }
 
+void RunState::StepComputed(const std::string& step, absl::Duration took) {
+  absl::MutexLock l(&mu_);
+  observer_.StepComputed(step, took);
+}
+
 std::vector<Artifact> RunState::Lookup(const std::string& step,
                                        const std::string& input_hash) {
   absl::MutexLock l(&mu_);

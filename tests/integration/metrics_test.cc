@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
-// The Prometheus endpoint of a running daemon, scraped with libcurl after a
-// simulated capture and compared with what the store records.
+// The Prometheus endpoint of a running daemon, scraped with libcurl after
+// simulated captures (with seeded faults) and processing, and compared with
+// what the faults imply and what the store records.
 #include <arpa/inet.h>
 #include <curl/curl.h>
 #include <gmock/gmock.h>
@@ -16,7 +17,10 @@
 #include <map>
 #include <sstream>
 #include <string>
+#include <utility>
+#include <vector>
 
+#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "tests/support/daemon_fixture.h"
@@ -25,6 +29,7 @@
 namespace hdrstereo {
 namespace {
 
+using ::hdrstereo::testing::CommandResult;
 using ::testing::HasSubstr;
 using ::testing::Not;
 
@@ -96,17 +101,46 @@ std::map<std::string, double> ParseSamples(const std::string& text) {
   return samples;
 }
 
-class MetricsTest : public testing::DaemonFixture {};
+class MetricsTest : public testing::DaemonFixture {
+ protected:
+  // Starts the daemon on simulated hardware (SmallLabLamp modified by
+  // `patch`, simulated time 0) serving metrics on a free port; returns it.
+  int StartWithMetrics(const nlohmann::json& patch = testing::SmallLabLamp()) {
+    ListeningSocket probe;  // a free port, released for the daemon
+    const int port = probe.port();
+    probe.Close();
+    StartDaemon({"--sim-scene", WriteScene("lab-lamp", patch).string(),
+                 "--sim-time-scale", "0", "--metrics-listen",
+                 absl::StrCat("127.0.0.1:", port)});
+    EXPECT_THAT(
+        daemon_log(),
+        HasSubstr(absl::StrCat("serving metrics on http://127.0.0.1:", port)));
+    return port;
+  }
+
+  int64_t SqlCount(const std::string& query) {
+    int64_t n = -1;
+    EXPECT_TRUE(absl::SimpleAtoi(Sql(query), &n)) << query;
+    return n;
+  }
+};
+
+// The samples of the metric `name` by their labels: {"kind=\"corrupt\"": 0,
+// ...}.
+std::map<std::string, double> Series(const std::map<std::string, double>& m,
+                                     const std::string& name) {
+  std::map<std::string, double> out;
+  const std::string prefix = absl::StrCat(name, "{");
+  for (const auto& [key, value] : m) {
+    if (absl::StartsWith(key, prefix) && absl::EndsWith(key, "}")) {
+      out[key.substr(prefix.size(), key.size() - prefix.size() - 1)] = value;
+    }
+  }
+  return out;
+}
 
 TEST_F(MetricsTest, ScrapeAfterSimulatedCaptureMatchesTheStore) {
-  ListeningSocket probe;  // a free port, released for the daemon
-  const int port = probe.port();
-  probe.Close();
-  StartDaemon({"--sim-scene",
-               WriteScene("lab-lamp", testing::SmallLabLamp()).string(),
-               "--metrics-listen", absl::StrCat("127.0.0.1:", port)});
-  EXPECT_THAT(daemon_log(), HasSubstr(absl::StrCat(
-                                "serving metrics on http://127.0.0.1:", port)));
+  const int port = StartWithMetrics();
   ASSERT_EQ(Cli({"session", "create", "lab"}).exit_code, 0);
   testing::CommandResult capture = Cli({"capture", "stereo", "lab", "--watch"});
   ASSERT_EQ(capture.exit_code, 0) << capture.out << capture.err;
@@ -138,6 +172,151 @@ TEST_F(MetricsTest, ScrapeAfterSimulatedCaptureMatchesTheStore) {
       static_cast<double>(std::filesystem::space(data_root()).available);
   EXPECT_NEAR(m["hdrstereo_data_root_free_bytes"], free_bytes, 64 << 20);
   EXPECT_GT(m["hdrstereo_data_root_free_bytes"], 0);
+}
+
+// Seeded faults, each fired once at a known call, give exactly the counts
+// they imply, by kind, in the store and on the endpoint; every capture,
+// stage move and projector pattern is one device-time sample; the counts
+// are read from the store, so they survive a restart of the daemon.
+TEST_F(MetricsTest, SeededFaultsAreCountedByKindAndDeviceCallsAreTimed) {
+  // The small bracketed stereo capture: frame 0 (ambient) and 1-8 (left)
+  // at 0 mm, 9-16 (right) at 150 mm. The simulated camera counts capture
+  // calls from 1 per daemon run; a frame that fails its check is taken
+  // once more (one more call).
+  nlohmann::json patch = testing::SmallLabLamp();
+  patch["faults"] = {
+      {"camera",
+       {{"previous_file", {{"calls", {3}}}},   // frame 2, retaken by call 4
+        {"wrong_exposure", {{"calls", {7}}}},  // frame 5, retaken by call 8
+        {"card_target", {{"calls", {11}}}},    // frame 8, retaken by call 12
+        {"timeout", {{"calls", {15}}}}}}};     // frame 11: the job fails
+  const int port = StartWithMetrics(patch);
+  ASSERT_EQ(Cli({"session", "create", "lab"}).exit_code, 0);
+  EXPECT_EQ(Cli({"capture", "stereo", "lab", "--watch"}).exit_code, 1);
+  ASSERT_EQ(Sql("SELECT count(*) FROM frames"), "11");  // frames 0-10
+  // The same plan again takes frames 11-16 (calls 16-21).
+  CommandResult again = Cli({"capture", "stereo", "lab", "--watch"});
+  ASSERT_EQ(again.exit_code, 0) << again.out << again.err;
+  ASSERT_EQ(Sql("SELECT count(*) FROM frames"), "17");
+  const std::map<std::string, double> before = ParseSamples(Scrape(port));
+
+  // A new daemon (the stage controller's commands count from 1 again):
+  // with the simulated time at 0, a capture's stage commands are 1 "get
+  // maxspeed" at the start, the job's State() (2-3) and Home() (4-5), the
+  // first frame's conditions (6-7), then its MoveTo: State() (8-9) and
+  // "move abs" (10), whose three tries are all garbled: the job fails.
+  EXPECT_EQ(StopDaemon(), 0);
+  patch["faults"] = {{"stage", {{"garbled", {{"calls", {10, 11, 12}}}}}}};
+  const int restarted = StartWithMetrics(patch);
+  ASSERT_EQ(Cli({"session", "create", "garbled"}).exit_code, 0);
+  EXPECT_EQ(Cli({"capture", "stereo", "garbled", "--watch"}).exit_code, 1);
+  EXPECT_THAT(Sql("SELECT error FROM jobs WHERE id = 3"),
+              HasSubstr("answered \"move abs 0\" with garbage"));
+
+  const std::map<std::string, double> m = ParseSamples(Scrape(restarted));
+  const std::map<std::string, double> failures =
+      Series(m, "hdrstereo_frame_verification_failures_total");
+  EXPECT_EQ(failures,
+            (std::map<std::string, double>{{R"(kind="previous_file")", 1},
+                                           {R"(kind="wrong_exposure")", 1},
+                                           {R"(kind="wrong_iso")", 0},
+                                           {R"(kind="wrong_aperture")", 0},
+                                           {R"(kind="card_target")", 1},
+                                           {R"(kind="corrupt")", 0}}));
+  // Read from the store: the restart lost none of them.
+  EXPECT_EQ(Series(before, "hdrstereo_frame_verification_failures_total"),
+            failures);
+  // Each failure is the warning that took its frame again.
+  for (const auto& [kind, message] :
+       std::vector<std::pair<std::string, std::string>>{
+           {"previous_file", "already taken in this capture"},
+           {"wrong_exposure", "not the 1/"},
+           {"card_target", "on its card, not in RAM"}}) {
+    EXPECT_EQ(SqlCount(absl::StrCat(
+                  "SELECT count(*) FROM job_events WHERE kind = '", kind,
+                  "' AND level = 'warning' AND message LIKE '%", message,
+                  "%taking it again'")),
+              1)
+        << kind;
+  }
+  EXPECT_EQ(Series(m, "hdrstereo_device_errors_total"),
+            (std::map<std::string, double>{
+                {R"(device="camera",kind="timeout")", 1},
+                {R"(device="camera",kind="busy")", 0},
+                {R"(device="camera",kind="disconnected")", 0},
+                {R"(device="camera",kind="error")", 0},
+                {R"(device="stage",kind="silent")", 0},
+                {R"(device="stage",kind="garbled")", 1},
+                {R"(device="stage",kind="stalled")", 0},
+                {R"(device="stage",kind="flag")", 0},
+                {R"(device="stage",kind="error")", 0},
+                {R"(device="projector",kind="error")", 0}}));
+  // Each device error is the event that failed its job.
+  EXPECT_EQ(Sql("SELECT message FROM job_events WHERE kind = 'camera_timeout' "
+                "AND state = 'failed'"),
+            "failed: camera timed out (simulated fault, call 15)");
+  EXPECT_EQ(SqlCount("SELECT count(*) FROM job_events WHERE kind = "
+                     "'stage_garbled' AND state = 'failed' AND job_id = 3"),
+            1);
+  // Nothing else was counted.
+  EXPECT_EQ(SqlCount("SELECT count(*) FROM job_events WHERE kind != ''"), 5);
+
+  // Camera: 15 + 6 captures. Stage: job 1 homes and moves to 0 and 150 mm;
+  // job 2 moves to 150 mm and home at the end; job 3 homes and its move
+  // fails. Projector: blank at the start of each job and the end of job 2.
+  const std::map<std::string, double> calls =
+      Series(m, "hdrstereo_device_seconds_count");
+  EXPECT_EQ(calls,
+            (std::map<std::string, double>{{R"(device="camera")", 21},
+                                           {R"(device="stage")", 7},
+                                           {R"(device="projector")", 4}}));
+  for (const char* device : {"camera", "stage", "projector"}) {
+    const std::string labels = absl::StrCat("device=\"", device, "\"");
+    EXPECT_EQ(
+        SqlCount(absl::StrCat(
+            "SELECT count(*) FROM device_time WHERE device = '", device, "'")),
+        calls.at(labels));
+    EXPECT_EQ(m.at(absl::StrCat("hdrstereo_device_seconds_bucket{", labels,
+                                ",le=\"+Inf\"}")),
+              calls.at(labels));
+  }
+  EXPECT_EQ(m.at("hdrstereo_suspensions_total"), 0);
+  EXPECT_EQ(m.at("hdrstereo_metrics_store_read_ok"), 1);
+}
+
+// A processing job gives one step-time sample per step it computed; a job
+// that reuses every step gives none.
+TEST_F(MetricsTest, EveryComputedProcessingStepIsOneSample) {
+  const int port = StartWithMetrics();
+  ASSERT_EQ(Cli({"session", "create", "lab"}).exit_code, 0);
+  ASSERT_EQ(Cli({"capture", "stereo", "lab", "--watch"}).exit_code, 0);
+  for (int run = 0; run < 2; ++run) {
+    CommandResult process =
+        Cli({"process", "lab", "--steps", "hdr", "--watch"});
+    ASSERT_EQ(process.exit_code, 0) << process.out << process.err;
+  }
+
+  const std::map<std::string, double> m = ParseSamples(Scrape(port));
+  // Every step of the pipeline has its series; hdr and what it needs ran
+  // once (the second job reused them).
+  std::map<std::string, double> expected;
+  for (const char* step :
+       {"decode", "rectify", "response", "hdr", "tonemap", "stereo", "fusion",
+        "sl_groundtruth", "evaluate", "export", "report"}) {
+    expected[absl::StrCat("step=\"", step, "\"")] = 0;
+  }
+  for (const char* step : {"decode", "rectify", "response", "hdr"}) {
+    expected[absl::StrCat("step=\"", step, "\"")] = 1;
+  }
+  EXPECT_EQ(Series(m, "hdrstereo_processing_step_seconds_count"), expected);
+  EXPECT_EQ(SqlCount("SELECT count(*) FROM job_events WHERE kind = "
+                     "'step_computed' AND subject = 'hdr' AND seconds >= 0 "
+                     "AND message LIKE 'hdr: computed in % s'"),
+            1);
+  EXPECT_EQ(SqlCount("SELECT count(*) FROM job_events WHERE kind = "
+                     "'step_computed'"),
+            4);
+  EXPECT_GT(m.at("hdrstereo_processing_step_seconds_sum{step=\"hdr\"}"), 0);
 }
 
 TEST_F(MetricsTest, OffByDefault) {

@@ -158,6 +158,12 @@ TEST_F(SlurmBackendTest, ASessionProcessedOnSlurmRecordsTheLocalArtifacts) {
   EXPECT_THAT(events, HasSubstr(absl::StrCat("Slurm job ", slurm_job,
                                              ": RUNNING on node ")));
   EXPECT_THAT(events, HasSubstr("computed: decode, rectify, response"));
+  // Each step the node computed comes with its time (for the step-time
+  // metric), as in a local run: every step that recorded artifacts.
+  EXPECT_EQ(
+      Sql(absl::StrCat("SELECT count(*) FROM job_events WHERE job_id = ", job,
+                       " AND kind = 'step_computed' AND seconds >= 0")),
+      Sql("SELECT count(DISTINCT step) FROM artifacts"));
   // What the operator sees of it.
   CommandResult show = Cli({"jobs", "show", std::to_string(job)});
   EXPECT_THAT(show.out, ::testing::ContainsRegex(absl::StrCat(

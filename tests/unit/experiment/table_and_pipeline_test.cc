@@ -40,6 +40,7 @@ class Quiet : public pipeline::RunObserver {
   void Progress(int64_t, int64_t, const std::string&) override {}
   void Info(const std::string&) override {}
   void Warn(const std::string&) override {}
+  void StepComputed(const std::string&, absl::Duration) override {}
 };
 
 TEST(ThesisExperimentTest, TableAndProcessedSessionAgree) {

@@ -233,6 +233,7 @@ TEST_F(ZaberStageTest, SilentDeviceIsADeadlineNamingTheCommand) {
   EXPECT_EQ(status.code(), absl::StatusCode::kDeadlineExceeded) << status;
   EXPECT_THAT(Message(status), HasSubstr("did not answer \"home\""));
   EXPECT_THAT(Message(status), HasSubstr("3 tries"));
+  EXPECT_FALSE(hardware::IsStalled(status));  // silent, not stalled
   EXPECT_EQ(emulator_->commands_received(), 4);
   // The device answers again afterwards and the driver recovers.
   EXPECT_TRUE(stage_->Home().ok());
@@ -330,6 +331,7 @@ TEST_F(ZaberStageTest, StalledMoveTimesOutAndStops) {
   EXPECT_EQ(status.code(), absl::StatusCode::kDeadlineExceeded) << status;
   EXPECT_THAT(Message(status), HasSubstr("move to 1.000 mm did not finish"));
   EXPECT_THAT(Message(status), HasSubstr("stalled"));
+  EXPECT_TRUE(hardware::IsStalled(status));
   // The driver sent "stop": the stage is idle where it got stuck, halfway.
   EXPECT_FALSE(emulator_->Busy());
   EXPECT_NEAR(emulator_->PositionMm(), 0.5, kMicrostepMm);
@@ -349,6 +351,7 @@ TEST_F(ZaberStageTest, StalledHomingTimesOutAndStops) {
   EXPECT_EQ(status.code(), absl::StatusCode::kDeadlineExceeded) << status;
   EXPECT_THAT(Message(status), HasSubstr("homing did not finish"));
   EXPECT_THAT(Message(status), HasSubstr("stalled"));
+  EXPECT_TRUE(hardware::IsStalled(status));
   EXPECT_FALSE(emulator_->Busy());
   EXPECT_FALSE(emulator_->Homed());
   absl::StatusOr<hardware::StageState> state = stage_->State();

@@ -14,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
+#include "absl/strings/str_cat.h"
 #include "processing/io/exif.h"
 
 namespace hdrstereo::jobs {
@@ -50,7 +51,9 @@ io::ExifInfo At(double exposure_s, int iso, double f, const char* subsec) {
 
 // "ok", or what the checker found (so that a failure prints it).
 std::string Verdict(const std::optional<Mismatch>& m) {
-  return m.has_value() ? m->kind + ": " + m->message : "ok";
+  return m.has_value()
+             ? absl::StrCat(store::EventKindName(m->kind), ": ", m->message)
+             : "ok";
 }
 
 const hardware::ExposureSettings kSet{.exposure_s = 1.0 / 125,
@@ -84,7 +87,7 @@ TEST(FrameCheckTest, ExposureToleranceIsOneSixthStop) {
   std::optional<Mismatch> off = checker.Check(
       kSet, ReadCameraReport(Stamped(At(beyond, 100, 8, "2"), 2, "B.PNG")));
   ASSERT_TRUE(off.has_value());
-  EXPECT_EQ(off->kind, kMismatchExposure);
+  EXPECT_EQ(off->kind, store::EventKind::kWrongExposure);
   EXPECT_THAT(off->message, HasSubstr("not the 1/125 s set"));
   EXPECT_THAT(off->message, HasSubstr("0.20 stops off"));
 }
@@ -94,13 +97,13 @@ TEST(FrameCheckTest, AnotherIsoOrFNumberIsCaughtNamingBothValues) {
   std::optional<Mismatch> iso = checker.Check(
       kSet, ReadCameraReport(Stamped(At(1.0 / 125, 200, 8, "1"), 1, "A.PNG")));
   ASSERT_TRUE(iso.has_value());
-  EXPECT_EQ(iso->kind, kMismatchIso);
+  EXPECT_EQ(iso->kind, store::EventKind::kWrongIso);
   EXPECT_THAT(iso->message, HasSubstr("ISO 200, not the ISO 100 set"));
   std::optional<Mismatch> f = checker.Check(
       kSet,
       ReadCameraReport(Stamped(At(1.0 / 125, 100, 5.6, "1"), 1, "A.PNG")));
   ASSERT_TRUE(f.has_value());
-  EXPECT_EQ(f->kind, kMismatchAperture);
+  EXPECT_EQ(f->kind, store::EventKind::kWrongAperture);
   EXPECT_THAT(f->message, HasSubstr("f/5.6, not the f/8 set"));
   // Settings left "as is" (0) are not checked.
   EXPECT_EQ(
@@ -121,14 +124,14 @@ TEST(FrameCheckTest, ThePreviousFileAgainIsCaughtThreeWays) {
   // The same bytes.
   std::optional<Mismatch> again = checker.Check(kSet, ReadCameraReport(first));
   ASSERT_TRUE(again.has_value());
-  EXPECT_EQ(again->kind, kMismatchPreviousFile);
+  EXPECT_EQ(again->kind, store::EventKind::kPreviousFile);
   EXPECT_THAT(again->message, HasSubstr("IMG_0001.PNG, identical bytes"));
   // Other bytes (re-encoded) but the same sub-second camera time.
   std::optional<Mismatch> same_time =
       checker.Check(kSet, ReadCameraReport(Stamped(At(1.0 / 125, 100, 8, "100"),
                                                    2, "IMG_0002.PNG")));
   ASSERT_TRUE(same_time.has_value());
-  EXPECT_EQ(same_time->kind, kMismatchPreviousFile);
+  EXPECT_EQ(same_time->kind, store::EventKind::kPreviousFile);
   // The same name and whole-second time (no sub-seconds).
   io::ExifInfo coarse = At(1.0 / 125, 100, 8, "");
   checker.Remember(ReadCameraReport(Stamped(coarse, 3, "capt0000.jpg")));
@@ -150,7 +153,7 @@ TEST(FrameCheckTest, AFileOnTheCardIsCaught) {
   frame.stored_to = hardware::StoredTo::kCard;
   std::optional<Mismatch> m = checker.Check(kSet, ReadCameraReport(frame));
   ASSERT_TRUE(m.has_value());
-  EXPECT_EQ(m->kind, kMismatchCaptureTarget);
+  EXPECT_EQ(m->kind, store::EventKind::kCardTarget);
   EXPECT_THAT(m->message, HasSubstr("IMG_0001.PNG on its card, not in RAM"));
 }
 
@@ -183,7 +186,7 @@ TEST(FrameCheckRealDataTest, OlympusBracketMatchesItsOwnExposureOnly) {
     other.exposure_s = files[(i + 1) % 3].second;
     std::optional<Mismatch> m = checker.Check(other, report);
     ASSERT_TRUE(m.has_value()) << files[i].first;
-    EXPECT_EQ(m->kind, kMismatchExposure);
+    EXPECT_EQ(m->kind, store::EventKind::kWrongExposure);
     checker.Remember(report);
   }
 }

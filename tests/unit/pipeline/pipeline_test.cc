@@ -85,6 +85,9 @@ class Recorder : public RunObserver {
   void Warn(const std::string& message) override {
     warnings.push_back(message);
   }
+  void StepComputed(const std::string& step, absl::Duration took) override {
+    step_times[step].push_back(took);
+  }
   bool Warned(const std::string& part) const {
     for (const std::string& w : warnings) {
       if (absl::StrContains(w, part)) return true;
@@ -95,7 +98,21 @@ class Recorder : public RunObserver {
   int checkpoints = 0;
   std::vector<std::string> progress;
   std::vector<std::string> warnings;
+  std::map<std::string, std::vector<absl::Duration>> step_times;
 };
+
+// The steps whose time `recorder` was told, once each and not negative.
+std::vector<std::string> TimedSteps(const Recorder& recorder) {
+  std::vector<std::string> steps;
+  for (const auto& [step, times] : recorder.step_times) {
+    EXPECT_EQ(times.size(), 1u) << step;
+    for (absl::Duration took : times) {
+      EXPECT_GE(took, absl::ZeroDuration()) << step;
+    }
+    steps.push_back(step);
+  }
+  return steps;
+}
 
 std::vector<std::string> Methods() {
   std::vector<std::string> m = {"ldr"};
@@ -255,6 +272,7 @@ void FullRunWritesEveryFileWithItsRecordedHash() {
   ASSERT_TRUE(p.status.ok()) << p.status;
   EXPECT_EQ(p.summary.computed, AllSteps());
   EXPECT_TRUE(p.summary.reused.empty());
+  EXPECT_EQ(AsSet(TimedSteps(p.recorder)), AsSet(AllSteps()));
   EXPECT_EQ(p.summary.report_path, "report/index.html");
   std::vector<std::string> expected = {
       "decoded/left/exposures.txt",
@@ -347,6 +365,7 @@ void SecondRunRecomputesNothing() {
       pipeline::Run(Discover(c->dir), {}, c->store, rec);
   ASSERT_TRUE(s.ok()) << s.status();
   EXPECT_TRUE(s->computed.empty()) << ::testing::PrintToString(s->computed);
+  EXPECT_TRUE(rec.step_times.empty());  // a reused step took no time
   EXPECT_EQ(s->reused, AllSteps());
   EXPECT_EQ(s->metrics.size(), 2 * Methods().size());
   EXPECT_EQ(c->store.metrics_calls, 1);  // from the first run only
@@ -363,6 +382,7 @@ void DeletedArtifactRecomputesOnlyItsStep() {
   // Deterministic outputs: the recomputed files are byte-identical, so
   // nothing downstream of them is recomputed.
   EXPECT_EQ(s->computed, (std::vector<std::string>{"tonemap", "fusion"}));
+  EXPECT_EQ(TimedSteps(rec), (std::vector<std::string>{"fusion", "tonemap"}));
   EXPECT_TRUE(fs::exists(c->dir / "tonemapped/drago/im1.png"));
   EXPECT_TRUE(fs::exists(c->dir / "disparity/fused.pfm"));
 }

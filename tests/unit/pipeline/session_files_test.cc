@@ -165,11 +165,13 @@ TEST(JobFilesTest, AResultKeepsItsStatusAndStepRecords) {
        .steps = {{.step = "hdr",
                   .input_hash = "h1",
                   .computed = true,
-                  .artifacts = {File("hdr/im0.pfm"), File("hdr/im1.pfm")}},
+                  .artifacts = {File("hdr/im0.pfm"), File("hdr/im1.pfm")},
+                  .seconds = 2.5},
                  {.step = "response",
                   .input_hash = "h0",
                   .computed = false,
-                  .artifacts = {}}}}));
+                  .artifacts = {},
+                  .seconds = std::nullopt}}}));
   ASSERT_OK_AND_ASSIGN(JobResult ok, ReadJobResult(tmp.path()));
   EXPECT_OK(ok.status);
   ASSERT_EQ(ok.steps.size(), 2u);
@@ -178,7 +180,9 @@ TEST(JobFilesTest, AResultKeepsItsStatusAndStepRecords) {
   EXPECT_TRUE(ok.steps[0].computed);
   ASSERT_EQ(ok.steps[0].artifacts.size(), 2u);
   EXPECT_EQ(ok.steps[0].artifacts[1].sha256, "sha-hdr/im1.pfm");
+  EXPECT_EQ(ok.steps[0].seconds, 2.5);
   EXPECT_FALSE(ok.steps[1].computed);
+  EXPECT_EQ(ok.steps[1].seconds, std::nullopt);
 
   ASSERT_OK(WriteJobResult(tmp.path(), {.status = absl::FailedPreconditionError(
                                             "frame x is missing"),

@@ -8,13 +8,18 @@
 #include <set>
 #include <string>
 
+#include "daemon/store/device_time_repository.h"
+#include "daemon/store/job_repository.h"
+#include "daemon/store/metrics_repository.h"
 #include "daemon/store/store.h"
+#include "tests/support/status_matchers.h"
 #include "tests/support/temp_dir.h"
 
 namespace hdrstereo::store {
 namespace {
 
 using ::hdrstereo::testing::ReadFileOrDie;
+using ::hdrstereo::testing::StatusIs;
 using ::hdrstereo::testing::TempDir;
 using ::testing::HasSubstr;
 using ::testing::IsSupersetOf;
@@ -110,6 +115,54 @@ TEST(SchemaTest, ForeignDatabaseWithoutVersionTableIsRefused) {
   EXPECT_EQ(store.status().code(), absl::StatusCode::kFailedPrecondition);
   EXPECT_THAT(std::string(store.status().message()),
               HasSubstr("not an hdrstereo database"));
+}
+
+// A database written before the metrics (version 8) with a job and its
+// events: migration 9 keeps them, counted as nothing (their kind is ''),
+// and new events and device time are counted beside them.
+TEST(SchemaTest, MigrationToMetricsKeepsOldEventsUncounted) {
+  constexpr int kBeforeMetrics = 8;
+  TempDir dir;
+  {
+    ASSERT_OK_AND_ASSIGN(std::unique_ptr<Database> db,
+                         Database::Open(dir / "hdrstereo.db"));
+    ASSERT_OK_AND_ASSIGN(int version, Migrate(*db, kBeforeMetrics));
+    ASSERT_EQ(version, kBeforeMetrics);
+    Transaction tx(*db);
+    ASSERT_OK(tx.status());
+    ASSERT_OK(db->Exec(R"sql(
+INSERT INTO sessions (name, create_time_ms) VALUES ('old', 0);
+INSERT INTO jobs (kind, session_id, state, request, create_time_ms)
+VALUES ('capture', 1, 'failed', '', 0);
+INSERT INTO job_events (job_id, sequence, time_ms, state, progress_done,
+                        progress_total, level, message)
+VALUES (1, 1, 0, 'failed', 0, 17, 'error', 'failed: camera timed out');
+)sql"));
+    EXPECT_THAT(db->Prepare("SELECT kind FROM job_events").status(),
+                StatusIs(absl::StatusCode::kInternal, HasSubstr("kind")));
+    ASSERT_OK(tx.Commit());
+  }
+
+  ASSERT_OK_AND_ASSIGN(std::unique_ptr<Store> store, Store::Open(dir.path()));
+  EXPECT_EQ(store->schema_version(), LatestSchemaVersion());
+  JobRepository jobs(*store);
+  ASSERT_OK_AND_ASSIGN(std::vector<JobEventRecord> old, jobs.Events(1, 0));
+  ASSERT_EQ(old.size(), 1u);
+  EXPECT_EQ(old[0].message, "failed: camera timed out");
+  EXPECT_EQ(old[0].tag.kind, EventKind::kNone);
+  EXPECT_EQ(old[0].tag.seconds, std::nullopt);
+  ASSERT_OK_AND_ASSIGN(StoreTotals before, MetricsRepository(*store).Read());
+  EXPECT_EQ(before.events_by_kind.at(EventKind::kCameraTimeout), 0);
+
+  ASSERT_OK(jobs.AddEvent(1, EventLevel::kWarning, "frame 3: previous file",
+                          EventTag(EventKind::kPreviousFile))
+                .status());
+  ASSERT_OK(DeviceTimeRepository(*store).Record(
+      1, {{.device = Device::kStage, .seconds = 1.25, .time_ms = 5}}));
+  ASSERT_OK_AND_ASSIGN(StoreTotals after, MetricsRepository(*store).Read());
+  EXPECT_EQ(after.events_by_kind.at(EventKind::kPreviousFile), 1);
+  EXPECT_EQ(after.events_by_kind.at(EventKind::kCameraTimeout), 0);
+  EXPECT_EQ(after.device_seconds.at(Device::kStage), std::vector<double>{1.25});
 }
 
 }  // namespace
