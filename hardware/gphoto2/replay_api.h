@@ -12,7 +12,10 @@
 // camera would deliver with the settings now in effect (e.g. a simulated
 // frame); without one, Capture is GP_ERROR_NOT_SUPPORTED. A source error is
 // GP_ERROR, or GP_ERROR_IO (a camera gone from USB) when it is ABORTED or
-// FAILED_PRECONDITION.
+// FAILED_PRECONDITION. Live view (CapturePreview) asks a second source, the
+// same way, for a live-view frame, and sets the dump's viewfinder toggle
+// (kViewfinderWidgets) to 1 as a camera in live view reports it; without
+// that source it is GP_ERROR_NOT_SUPPORTED.
 //
 // Autodetect lists the dump's model on port "replay:<dump file>". Like the
 // library, not thread-safe: the driver makes every call on one thread.
@@ -44,7 +47,8 @@ using FrameSource = std::function<absl::StatusOr<ReplayFile>(
 
 class ReplayApi final : public Gphoto2Api {
  public:
-  explicit ReplayApi(CameraDump dump, FrameSource frames = nullptr);
+  explicit ReplayApi(CameraDump dump, FrameSource frames = nullptr,
+                     FrameSource previews = nullptr);
 
   int Autodetect(std::vector<DetectedCamera>* cameras) override;
   int Open(const std::string& model, const std::string& port) override;
@@ -53,6 +57,7 @@ class ReplayApi final : public Gphoto2Api {
   int SetConfigValue(const std::string& name,
                      const std::string& value) override;
   int Capture(std::string* folder, std::string* name) override;
+  int CapturePreview(FileData* file) override;
   int WaitForEvent(absl::Duration timeout, CameraEvent* event) override;
   int ListFiles(const std::string& folder,
                 std::vector<std::string>* names) override;
@@ -74,9 +79,13 @@ class ReplayApi final : public Gphoto2Api {
 
   // Sets last_error_ and returns `code`.
   int Fail(int code, std::string text);
+  // The file `source` makes with the settings now in effect, or the code
+  // to fail with.
+  int FromSource(const FrameSource& source, ReplayFile* file);
 
   const CameraDump dump_;
   const FrameSource frames_;
+  const FrameSource previews_;
   std::vector<ConfigWidget> widgets_;
   // (folder, name) -> bytes.
   std::map<std::pair<std::string, std::string>, std::string> files_;
