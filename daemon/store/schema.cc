@@ -15,7 +15,7 @@ namespace {
 
 // Append only: a released migration is never edited. Times are Unix
 // milliseconds (UTC); lengths in millimetres; exposures in seconds.
-constexpr std::array<absl::string_view, 9> kMigrations = {
+constexpr std::array<absl::string_view, 10> kMigrations = {
     // 1: the tables of DESIGN.md.
     R"sql(
 CREATE TABLE rigs (
@@ -281,6 +281,13 @@ CREATE TABLE device_time (
   time_ms INTEGER NOT NULL
 );
 CREATE INDEX device_time_by_job ON device_time(job_id);
+)sql",
+    // 10: projector timing. What a structured-light capture measured of its
+    // projector: the latency its probe found (NULL: not probed) and the
+    // display's refresh rate (NULL: unknown).
+    R"sql(
+ALTER TABLE captures ADD COLUMN projector_latency_s REAL;
+ALTER TABLE captures ADD COLUMN projector_refresh_hz REAL;
 )sql",
 };
 
