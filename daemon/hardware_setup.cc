@@ -98,7 +98,8 @@ hardware::Slot<hardware::Camera> SimulatedCamera(sim::SimWorld& world) {
 
 // The real driver over a replay of `dump`; each capture is a frame the
 // simulator renders at the shutter speed (and ISO) the driver chose among
-// the replayed camera's choices, as JPEG or, for a RAW format, DNG.
+// the replayed camera's choices, as JPEG or, for a RAW format, DNG; each
+// live-view frame the simulator's preview at those settings.
 hardware::Slot<hardware::Camera> ReplayedCamera(const Config& config,
                                                 const gphoto2::CameraDump& dump,
                                                 sim::SimWorld& world) {
@@ -114,11 +115,19 @@ hardware::Slot<hardware::Camera> ReplayedCamera(const Config& config,
     return gphoto2::ReplayFile{.bytes = std::move(capture.bytes),
                                .extension = raw ? "dng" : "jpg"};
   };
+  gphoto2::FrameSource previews = [&world](const hardware::ExposureSettings& s)
+      -> absl::StatusOr<gphoto2::ReplayFile> {
+    ASSIGN_OR_RETURN(sim::SimCapture preview,
+                     world.Preview({.exposure_s = s.exposure_s,
+                                    .iso = s.iso > 0 ? double(s.iso) : 100}));
+    return gphoto2::ReplayFile{.bytes = std::move(preview.bytes),
+                               .extension = "jpg"};
+  };
   gphoto2::Gphoto2Options options;
   options.model = config.camera_model;
   spdlog::info("camera: replay of {} ({})", dump.source, dump.model);
-  gphoto2::Gphoto2Camera::ApiFactory new_api = [dump, frames] {
-    return std::make_unique<gphoto2::ReplayApi>(dump, frames);
+  gphoto2::Gphoto2Camera::ApiFactory new_api = [dump, frames, previews] {
+    return std::make_unique<gphoto2::ReplayApi>(dump, frames, previews);
   };
   absl::StatusOr<std::unique_ptr<gphoto2::Gphoto2Camera>> camera =
       gphoto2::Gphoto2Camera::OpenWithApi(options, new_api());
