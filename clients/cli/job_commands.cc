@@ -201,6 +201,8 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
     int iso = 0;
     int poses = 0;
     bool no_ambient = false;
+    bool probe_projector = false;
+    bool round_to_refresh = false;
     bool watch = false;
     int64_t job_id = 0;
     std::string filter_session;
@@ -266,6 +268,12 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
                  absl::StrCat("[default: ", v1::kDefaultBaselineMm, "]"));
   sl->add_option("--views", args->views,
                  absl::StrCat("[default: ", v1::kDefaultViews, "]"));
+  sl->add_flag("--probe-projector", args->probe_projector,
+               "Measure the projector's latency first (as `hw projector "
+               "probe`) and wait that long after each pattern");
+  sl->add_flag("--round-to-refresh", args->round_to_refresh,
+               "Round each exposure to whole refresh periods of the "
+               "projector's display");
   sl->callback([&options, exit_code, args, exposures] {
     Client client(options);
     v1::SubmitCaptureRequest request;
@@ -279,6 +287,8 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
     }
     plan->set_baseline_mm(args->baseline_mm);
     plan->set_views(args->views);
+    if (args->probe_projector) plan->mutable_projector_probe();
+    plan->set_round_exposures_to_refresh(args->round_to_refresh);
     *exit_code = Submit(client, request, args->watch);
   });
 
