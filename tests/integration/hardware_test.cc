@@ -293,9 +293,11 @@ TEST_F(HardwareTest, FrameContentMovesWithTheStageByTheTrueDisparity) {
   EXPECT_EQ(StopDaemon(), 0);
 }
 
+// A camera that times out at every attempt at the first frame (a single
+// timeout is taken again: CaptureTest).
 TEST_F(HardwareTest, CameraTimeoutFailsTheCaptureWithTheCamerasMessage) {
   nlohmann::json patch = SmallCamera();
-  patch["faults"] = {{"camera", {{"timeout", {{"calls", {1}}}}}}};
+  patch["faults"] = {{"camera", {{"timeout", {{"calls", {1, 2, 3}}}}}}};
   StartDaemon({"--sim-scene", WriteScene("lab-lamp", patch).string()});
   const int64_t job = SubmitStereo("timeout");
   ASSERT_TRUE(WaitForJobState(job, "failed")) << Job(job).dump(2);
