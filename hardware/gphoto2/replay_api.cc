@@ -8,6 +8,7 @@
 #include <cmath>
 #include <utility>
 
+#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -33,6 +34,12 @@ int ReplayApi::Fail(int code, std::string text) {
 int ReplayApi::Autodetect(std::vector<DetectedCamera>* cameras) {
   cameras->assign(1, {dump_.model, Port()});
   return GP_OK;
+}
+
+int ReplayApi::CheckModel(const std::string& model) {
+  if (absl::EqualsIgnoreCase(model, dump_.model)) return GP_OK;
+  return Fail(GP_ERROR_MODEL_NOT_FOUND,
+              absl::StrCat("the replay knows \"", dump_.model, "\" only"));
 }
 
 int ReplayApi::Open(const std::string& model, const std::string& port) {

@@ -14,7 +14,8 @@
 // GP_ERROR, or GP_ERROR_IO (a camera gone from USB) when it is ABORTED or
 // FAILED_PRECONDITION.
 //
-// Autodetect lists the dump's model on port "replay:<dump file>". Like the
+// Autodetect lists the dump's model on port "replay:<dump file>", and
+// libgphoto2 knows that model only (CheckModel). Like the
 // library, not thread-safe: the driver makes every call on one thread.
 #ifndef HDRSTEREO_HARDWARE_GPHOTO2_REPLAY_API_H_
 #define HDRSTEREO_HARDWARE_GPHOTO2_REPLAY_API_H_
@@ -47,6 +48,7 @@ class ReplayApi final : public Gphoto2Api {
   explicit ReplayApi(CameraDump dump, FrameSource frames = nullptr);
 
   int Autodetect(std::vector<DetectedCamera>* cameras) override;
+  int CheckModel(const std::string& model) override;
   int Open(const std::string& model, const std::string& port) override;
   int GetSummary(std::string* text) override;
   int GetConfig(std::vector<ConfigWidget>* widgets) override;
