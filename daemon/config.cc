@@ -278,6 +278,15 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
                  "--list-all-config` dump as the camera (frames, stage and "
                  "projector simulated from --sim-scene)")
       ->check(CLI::ExistingFile);
+  app.add_option("--camera-reconnect-first-s", config.camera_reconnect_first_s,
+                 "Wait before looking for a camera that dropped or is not "
+                 "there (doubles per failed attempt)")
+      ->check(CLI::Range(0.01, 3600.0))
+      ->capture_default_str();
+  app.add_option("--camera-reconnect-max-s", config.camera_reconnect_max_s,
+                 "Longest wait between two attempts at finding the camera")
+      ->check(CLI::Range(0.01, 3600.0))
+      ->capture_default_str();
   app.add_option("--stage-port", config.stage_port, "Zaber serial port")
       ->capture_default_str();
   app.add_option("--stage-device", config.stage_device, "Zaber device number")
@@ -345,6 +354,13 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
   }
   RETURN_IF_ERROR(ParseUsers(users, config.users));
   RETURN_IF_ERROR(ValidateMetricsAddress(config.metrics_listen));
+  if (config.camera_reconnect_first_s > config.camera_reconnect_max_s) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--camera-reconnect-first-s ", config.camera_reconnect_first_s,
+        " is longer than --camera-reconnect-max-s ",
+        config.camera_reconnect_max_s,
+        ", the longest wait between two attempts at finding the camera"));
+  }
   if (!config.camera_dump.empty() && config.hardware != "real") {
     return absl::InvalidArgumentError(
         "--camera-dump replays a real camera for the real camera driver: "

@@ -79,6 +79,12 @@ struct Config {
   // simulator (scene sim_scene), and the stage and projector are the
   // simulated ones. Needs hardware "real"; empty = a real camera.
   std::filesystem::path camera_dump;
+  // A camera that dropped, or that was not there at the start, is looked
+  // for after this many seconds, then twice as long after each failed
+  // attempt, at most camera_reconnect_max_s apart (any camera: also the
+  // simulated and the replayed one).
+  double camera_reconnect_first_s = 0.5;
+  double camera_reconnect_max_s = 30;
   std::string stage_port = "/dev/ttyUSB0";
   int stage_device = 1;
   int stage_axis = 1;

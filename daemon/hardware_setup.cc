@@ -4,11 +4,15 @@
 #include <spdlog/spdlog.h>
 
 #include <functional>
+#include <memory>
+#include <string>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "hardware/display/x11_projector.h"
 #include "hardware/gphoto2/config_dump.h"
 #include "hardware/gphoto2/gphoto2_camera.h"
+#include "hardware/gphoto2/gphoto2_opener.h"
 #include "hardware/gphoto2/libgphoto2_api.h"
 #include "hardware/gphoto2/replay_api.h"
 #include "hardware/reconnecting_camera.h"
@@ -43,66 +47,90 @@ hardware::RigConfig RigConfigOf(const Config& config) {
 
 // The camera of a simulated rig, made once the world exists.
 using CameraFactory =
-    std::function<hardware::Slot<hardware::Camera>(sim::SimWorld&)>;
+    std::function<absl::StatusOr<hardware::Slot<hardware::Camera>>(
+        sim::SimWorld&)>;
 
-// An opened camera that is reopened with backoff when it drops; a camera
-// that could not be opened at all stays absent (and says why).
+// The camera `first` is (as `open` first opened it, or why it could not
+// be), reopened by `open` with the configured backoff whenever it is away:
+// after a drop, and from the start when it was not there.
 hardware::Slot<hardware::Camera> Reconnecting(
-    absl::StatusOr<std::unique_ptr<hardware::Camera>> camera,
-    hardware::CameraOpener reopen) {
-  if (!camera.ok()) return Slot<hardware::Camera>(camera.status(), "camera");
+    const Config& config,
+    absl::StatusOr<std::unique_ptr<hardware::Camera>> first,
+    hardware::CameraOpener open) {
+  if (!first.ok()) {
+    spdlog::warn("camera: not there at the start ({}); looking for it",
+                 std::string(first.status().message()));
+  }
   hardware::ReconnectOptions options;
+  options.initial_backoff = absl::Seconds(config.camera_reconnect_first_s);
+  options.max_backoff = absl::Seconds(config.camera_reconnect_max_s);
   options.on_change = [](const hardware::ConnectionState& state) {
-    if (state.connected) {
-      spdlog::info("camera: reconnected (drop {})", state.drops);
-    } else {
+    if (!state.connected) {
       spdlog::warn("camera: {}", hardware::DescribeConnection(state));
+    } else if (state.drops == 0) {
+      spdlog::info("camera: found");
+    } else {
+      spdlog::info("camera: reconnected (drop {})", state.drops);
     }
   };
   return {.device = std::make_unique<hardware::ReconnectingCamera>(
-              *std::move(camera), std::move(reopen), std::move(options)),
+              std::move(first), std::move(open), std::move(options)),
           .error = {}};
 }
 
-// Reopens the gphoto2 camera `opened` is by its serial number (else its
-// model), over apis from `new_api`.
-hardware::CameraOpener Gphoto2Reopener(
-    gphoto2::Gphoto2Options options, gphoto2::Gphoto2Camera& opened,
-    gphoto2::Gphoto2Camera::ApiFactory new_api,
-    std::function<absl::Status()> before = nullptr) {
-  absl::StatusOr<hardware::CameraInfo> info = opened.Info();
-  const std::string serial = info.ok() ? info->serial : "";
-  options.model = opened.model();
-  spdlog::info("camera: {} {}, reopened by {} if it drops", opened.model(),
-               serial, serial.empty() ? "model" : "serial number");
-  return [options, serial, new_api = std::move(new_api),
-          before = std::move(
-              before)]() -> absl::StatusOr<std::unique_ptr<hardware::Camera>> {
-    if (before) {
-      RETURN_IF_ERROR(before());
+// The gphoto2 camera `options` name, over apis from `new_api`. A first open
+// that fails with NOT_FOUND (libgphoto2, or the replay, knows no such model;
+// no such port) fails the start: that configuration never finds a camera.
+// Any other failure (none found, another model on the bus, USB claimed,
+// no answer) is a camera that is not there yet: the daemon starts and
+// looks for it.
+absl::StatusOr<hardware::Slot<hardware::Camera>> Gphoto2Slot(
+    const Config& config, const gphoto2::Gphoto2Options& options,
+    gphoto2::Gphoto2Camera::ApiFactory new_api) {
+  auto opener =
+      std::make_shared<gphoto2::Gphoto2Opener>(options, std::move(new_api));
+  hardware::CameraOpener open = gphoto2::CameraOpenerOf(opener);
+  absl::StatusOr<std::unique_ptr<hardware::Camera>> first = open();
+  if (absl::IsNotFound(first.status())) {
+    std::string configured;
+    if (!options.model.empty()) {
+      absl::StrAppend(&configured, " --camera-model \"", options.model, "\"");
     }
-    ASSIGN_OR_RETURN(std::unique_ptr<gphoto2::Gphoto2Camera> camera,
-                     gphoto2::Gphoto2Camera::Reopen(options, serial, new_api));
-    return std::unique_ptr<hardware::Camera>(std::move(camera));
-  };
+    if (!options.port.empty()) {
+      absl::StrAppend(&configured, " --camera-port \"", options.port, "\"");
+    }
+    return absl::InvalidArgumentError(absl::StrCat(
+        "no camera can match", configured, ": ", first.status().message()));
+  }
+  if (first.ok()) {
+    spdlog::info("camera: {} {}, reopened by {} if it drops", opener->model(),
+                 opener->serial(),
+                 opener->serial().empty() ? "model" : "serial number");
+  }
+  return Reconnecting(config, std::move(first), std::move(open));
 }
 
-hardware::Slot<hardware::Camera> SimulatedCamera(sim::SimWorld& world) {
-  return Reconnecting(
-      std::make_unique<sim::SimCamera>(world, sim::SimCameraOptions{}),
+absl::StatusOr<hardware::Slot<hardware::Camera>> SimulatedCamera(
+    const Config& config, sim::SimWorld& world) {
+  hardware::CameraOpener open =
       [&world]() -> absl::StatusOr<std::unique_ptr<hardware::Camera>> {
-        RETURN_IF_ERROR(world.ReopenCamera());
-        return std::make_unique<sim::SimCamera>(world, sim::SimCameraOptions{});
-      });
+    RETURN_IF_ERROR(world.ReopenCamera());
+    return std::make_unique<sim::SimCamera>(world, sim::SimCameraOptions{});
+  };
+  absl::StatusOr<std::unique_ptr<hardware::Camera>> first = open();
+  return Reconnecting(config, std::move(first), std::move(open));
 }
 
 // The real driver over a replay of `dump`; each capture is a frame the
 // simulator renders at the shutter speed (and ISO) the driver chose among
 // the replayed camera's choices, as JPEG or, for a RAW format, DNG; each
-// live-view frame the simulator's preview at those settings.
-hardware::Slot<hardware::Camera> ReplayedCamera(const Config& config,
-                                                const gphoto2::CameraDump& dump,
-                                                sim::SimWorld& world) {
+// live-view frame the simulator's preview at those settings. The replayed
+// camera is on its (replayed) USB link while the simulated one is
+// connected: the simulator's disconnect fault unplugs it mid-capture, and
+// it is found again when the simulator lets its camera be reopened.
+absl::StatusOr<hardware::Slot<hardware::Camera>> ReplayedCamera(
+    const Config& config, const gphoto2::CameraDump& dump,
+    sim::SimWorld& world) {
   gphoto2::FrameSource frames = [&world](const hardware::ExposureSettings& s)
       -> absl::StatusOr<gphoto2::ReplayFile> {
     const bool raw = s.format == hardware::ImageFormat::kRaw ||
@@ -115,6 +143,7 @@ hardware::Slot<hardware::Camera> ReplayedCamera(const Config& config,
     return gphoto2::ReplayFile{.bytes = std::move(capture.bytes),
                                .extension = raw ? "dng" : "jpg"};
   };
+  // Live view: the simulator's preview at the settings the driver chose.
   gphoto2::FrameSource previews = [&world](const hardware::ExposureSettings& s)
       -> absl::StatusOr<gphoto2::ReplayFile> {
     ASSIGN_OR_RETURN(sim::SimCapture preview,
@@ -123,19 +152,14 @@ hardware::Slot<hardware::Camera> ReplayedCamera(const Config& config,
     return gphoto2::ReplayFile{.bytes = std::move(preview.bytes),
                                .extension = "jpg"};
   };
+  auto link = std::make_shared<gphoto2::ReplayLink>(
+      [&world] { return world.ReopenCamera(); });
   gphoto2::Gphoto2Options options;
   options.model = config.camera_model;
   spdlog::info("camera: replay of {} ({})", dump.source, dump.model);
-  gphoto2::Gphoto2Camera::ApiFactory new_api = [dump, frames, previews] {
-    return std::make_unique<gphoto2::ReplayApi>(dump, frames, previews);
-  };
-  absl::StatusOr<std::unique_ptr<gphoto2::Gphoto2Camera>> camera =
-      gphoto2::Gphoto2Camera::OpenWithApi(options, new_api());
-  if (!camera.ok()) return Slot<hardware::Camera>(camera.status(), "camera");
-  // The replayed camera comes back when the simulated one does.
-  hardware::CameraOpener reopen = Gphoto2Reopener(
-      options, **camera, new_api, [&world] { return world.ReopenCamera(); });
-  return Reconnecting(std::move(*camera), std::move(reopen));
+  return Gphoto2Slot(config, options, [dump, frames, link, previews] {
+    return std::make_unique<gphoto2::ReplayApi>(dump, frames, link, previews);
+  });
 }
 
 absl::StatusOr<std::unique_ptr<Hardware>> SetUpSimulation(
@@ -163,7 +187,8 @@ absl::StatusOr<std::unique_ptr<Hardware>> SetUpSimulation(
   zaber.travel_mm = stage_options.travel_mm;
   hardware::Slot<hardware::Stage> stage =
       Slot<hardware::Stage>(zaber::ZaberStage::Open(zaber), "stage");
-  hardware::Slot<hardware::Camera> camera = make_camera(*hw->world);
+  ASSIGN_OR_RETURN(hardware::Slot<hardware::Camera> camera,
+                   make_camera(*hw->world));
   hardware::Slot<hardware::Projector> projector = Slot<hardware::Projector>(
       sim::SimProjector::Create(*hw->world), "projector");
   hw->rig =
@@ -172,7 +197,7 @@ absl::StatusOr<std::unique_ptr<Hardware>> SetUpSimulation(
   return hw;
 }
 
-std::unique_ptr<Hardware> SetUpReal(const Config& config) {
+absl::StatusOr<std::unique_ptr<Hardware>> SetUpReal(const Config& config) {
   auto hw = std::make_unique<Hardware>();
   gphoto2::Gphoto2Options camera_options;
   camera_options.model = config.camera_model;
@@ -190,16 +215,9 @@ std::unique_ptr<Hardware> SetUpReal(const Config& config) {
       .width_px = config.projector_width,
       .height_px = config.projector_height,
       .settle_time = absl::Seconds(config.projector_settle_s)};
-  absl::StatusOr<std::unique_ptr<gphoto2::Gphoto2Camera>> camera =
-      gphoto2::Gphoto2Camera::Open(camera_options);
-  hardware::Slot<hardware::Camera> camera_slot;
-  if (camera.ok()) {
-    hardware::CameraOpener reopen = Gphoto2Reopener(
-        camera_options, **camera, [] { return gphoto2::NewLibgphoto2Api(); });
-    camera_slot = Reconnecting(std::move(*camera), std::move(reopen));
-  } else {
-    camera_slot = Slot<hardware::Camera>(camera.status(), "camera");
-  }
+  ASSIGN_OR_RETURN(hardware::Slot<hardware::Camera> camera_slot,
+                   Gphoto2Slot(config, camera_options,
+                               [] { return gphoto2::NewLibgphoto2Api(); }));
   hw->rig = std::make_unique<hardware::Rig>(
       RigConfigOf(config), std::move(camera_slot),
       Slot<hardware::Stage>(zaber::ZaberStage::Open(zaber), "stage"),
@@ -212,7 +230,9 @@ std::unique_ptr<Hardware> SetUpReal(const Config& config) {
 
 absl::StatusOr<std::unique_ptr<Hardware>> SetUpHardware(const Config& config) {
   if (ModeOf(config) == hardware::HardwareMode::kSim) {
-    return SetUpSimulation(config, &SimulatedCamera);
+    return SetUpSimulation(config, [&config](sim::SimWorld& world) {
+      return SimulatedCamera(config, world);
+    });
   }
   if (!config.camera_dump.empty()) {
     // A dump that cannot be read is a configuration error, like a bad scene.

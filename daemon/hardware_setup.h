@@ -26,9 +26,14 @@ struct Hardware {
   std::unique_ptr<hardware::Rig> rig;
 };
 
-// Real devices that cannot be opened are left out of the rig (with the
-// reason) so that the daemon still serves and reports them. In simulation a
-// bad scene is an error: there is nothing to serve without it.
+// A stage or projector that cannot be opened is left out of the rig (with
+// the reason) so that the daemon still serves and reports it. The camera is
+// always in the rig: one that is not there at the start is looked for with
+// backoff, like one that dropped (hardware::ReconnectingCamera), unless the
+// configuration can never match a camera (a --camera-model that libgphoto2
+// or the --camera-dump replay does not know, a --camera-port that does not
+// exist): that is an error, as is a bad scene in simulation (there is
+// nothing to serve without it) and a dump that cannot be read.
 absl::StatusOr<std::unique_ptr<Hardware>> SetUpHardware(const Config& config);
 
 }  // namespace hdrstereo::daemon

@@ -12,6 +12,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/strings/cord.h"
 #include "absl/time/time.h"
 
 namespace hdrstereo::hardware {
@@ -94,16 +95,32 @@ struct Frame {
 struct ConnectionState {
   bool connected = true;
   // While not connected: the reopen attempt under way or waited for (1 =
-  // the first after the drop).
+  // the first after the drop, or after a first open that failed).
   int attempt = 0;
   // How often the camera dropped since it was first opened; a caller that
   // reads it before and after a failed call knows whether the call failed
   // because the camera went away.
   int64_t drops = 0;
-  // Why it dropped, then why the last reopen attempt failed; OK when
-  // connected.
+  // Why it dropped (or could not be opened at first), then why the last
+  // reopen attempt failed; OK when connected.
   absl::Status last_error;
 };
+
+// A call that timed out and that the driver could not get back (e.g.
+// libgphoto2 did not return when asked to cancel) holds the camera's
+// connection until it returns, which may be never: drivers mark its error,
+// and those of calls refused meanwhile, with CameraStuckError.
+// ReconnectingCamera (hardware/reconnecting_camera.h) treats such an error
+// as a drop. The status keeps its code (DEADLINE_EXCEEDED, UNAVAILABLE).
+inline constexpr char kCameraStuckPayloadUrl[] =
+    "type.hdrstereo.org/hdrstereo.hardware.CameraStuck";
+inline absl::Status CameraStuckError(absl::Status status) {
+  status.SetPayload(kCameraStuckPayloadUrl, absl::Cord());
+  return status;
+}
+inline bool IsCameraStuck(const absl::Status& status) {
+  return status.GetPayload(kCameraStuckPayloadUrl).has_value();
+}
 
 // Every call blocks until done or its timeout; none throws. Errors:
 // UNAVAILABLE (no camera, disconnected, busy beyond the retries),

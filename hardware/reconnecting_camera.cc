@@ -24,6 +24,7 @@ absl::Duration BackoffBefore(const ReconnectOptions& options, int attempt) {
 }
 
 bool IsCameraGone(const absl::Status& status) {
+  if (IsCameraStuck(status)) return true;
   if (!absl::IsUnavailable(status) && !absl::IsFailedPrecondition(status) &&
       !absl::IsAborted(status)) {
     return false;
@@ -39,12 +40,31 @@ std::string DescribeConnection(const ConnectionState& state) {
                       state.last_error.message());
 }
 
-ReconnectingCamera::ReconnectingCamera(std::unique_ptr<Camera> camera,
-                                       CameraOpener reopen,
-                                       ReconnectOptions options)
-    : reopen_(std::move(reopen)),
-      options_(std::move(options)),
-      camera_(std::move(camera)) {
+namespace {
+
+// An opened camera, or why there is none (an opener's null is an error).
+absl::StatusOr<std::unique_ptr<Camera>> NotNull(
+    absl::StatusOr<std::unique_ptr<Camera>> opened) {
+  if (opened.ok() && *opened == nullptr) {
+    return absl::InternalError("the camera opener returned no camera");
+  }
+  return opened;
+}
+
+}  // namespace
+
+ReconnectingCamera::ReconnectingCamera(
+    absl::StatusOr<std::unique_ptr<Camera>> opened, CameraOpener reopen,
+    ReconnectOptions options)
+    : reopen_(std::move(reopen)), options_(std::move(options)) {
+  opened = NotNull(std::move(opened));
+  if (opened.ok()) {
+    camera_ = std::shared_ptr<Camera>(*std::move(opened));
+  } else {
+    state_.connected = false;
+    state_.attempt = 1;
+    state_.last_error = opened.status();
+  }
   thread_ = std::thread(&ReconnectingCamera::Loop, this);
 }
 
@@ -138,12 +158,9 @@ void ReconnectingCamera::Loop() {
       return;
     }
     lock.unlock();
-    absl::StatusOr<std::unique_ptr<Camera>> opened =
+    absl::StatusOr<std::unique_ptr<Camera>> opened = NotNull(
         reopen_ ? reopen_()
-                : absl::UnimplementedError("this camera cannot be reopened");
-    if (opened.ok() && *opened == nullptr) {
-      opened = absl::InternalError("the camera opener returned no camera");
-    }
+                : absl::UnimplementedError("this camera cannot be reopened"));
     lock.lock();
     if (opened.ok()) {
       camera_ = std::shared_ptr<Camera>(*std::move(opened));

@@ -15,11 +15,13 @@
 //   ... 0.5 s later the first reopen; 1 s after a failed one the next ...
 //   camera.Connection();  // {connected = true, drops = 1}
 //
-// A call whose error says the camera is gone (IsCameraGone) drops the
-// camera: the call's own error is returned, the camera object is let go,
-// and the reconnect thread opens a new one, waiting
-// BackoffBefore(attempt) before each attempt. Every call made while the
-// camera is away fails at once with UNAVAILABLE "camera disconnected;
+// A call whose error says the camera is gone (IsCameraGone: disconnected,
+// or stuck in a call that timed out) drops the camera: the call's own error
+// is returned, the camera object is let go, and the reconnect thread opens
+// a new one, waiting BackoffBefore(attempt) before each attempt. A camera
+// that could not be opened in the first place starts away, as if it had
+// dropped (no drop is counted), and is opened the same way. Every call made
+// while the camera is away fails at once with UNAVAILABLE "camera disconnected;
 // reconnecting (attempt N): <last error>" and does not count as another
 // drop. Each reopen is the opener's own calls with their own timeouts; the
 // decorator adds none and never retries a call itself: what to do with a
@@ -72,7 +74,9 @@ absl::Duration BackoffBefore(const ReconnectOptions& options, int attempt);
 // camera (disconnected?)", the whole GP_ERROR_IO range, and "not on the USB
 // bus (disconnected: ...)", GP_ERROR_IO_USB_FIND; the simulator:
 // "camera disconnected during transfer", "camera disconnected
-// (simulated)"). "Busy", timeouts and bad settings are not.
+// (simulated)"), or any error marked CameraStuckError (hardware/camera.h:
+// the connection is held by a call that timed out and has not returned).
+// "Busy", timeouts that the driver got back from and bad settings are not.
 bool IsCameraGone(const absl::Status& status);
 
 // "connected", or "reconnecting (attempt 3): <last error>".
@@ -83,10 +87,11 @@ using CameraOpener = std::function<absl::StatusOr<std::unique_ptr<Camera>>()>;
 
 class ReconnectingCamera final : public Camera {
  public:
-  // `camera` is open (not null); `reopen` is called from the reconnect
-  // thread only.
-  ReconnectingCamera(std::unique_ptr<Camera> camera, CameraOpener reopen,
-                     ReconnectOptions options = {});
+  // `opened`: the camera as first opened, or why it could not be opened
+  // (then it starts away: not connected, attempt 1, that error, no drop).
+  // `reopen` is called from the reconnect thread only.
+  ReconnectingCamera(absl::StatusOr<std::unique_ptr<Camera>> opened,
+                     CameraOpener reopen, ReconnectOptions options = {});
   // Stops the reconnect thread (waits for an attempt in progress).
   ~ReconnectingCamera() override;
   ReconnectingCamera(const ReconnectingCamera&) = delete;

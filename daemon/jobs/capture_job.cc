@@ -10,8 +10,11 @@
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
 #include <set>
+#include <string>
+#include <vector>
 
 #include "absl/cleanup/cleanup.h"
+#include "absl/strings/cord.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
@@ -35,6 +38,10 @@ namespace sl = structured_light;
 // this while it is taken fails the job (a device that drops at every frame
 // is broken, not unplugged).
 constexpr int kMaxDropsPerFrame = 3;
+// A frame (or the parking of the rig after the last one) whose device calls
+// fail with transient faults this often fails the job: a fault that
+// returns at every try is not passing.
+constexpr int kMaxAttemptsPerFrame = 3;
 // A frame whose write finds the disk full this often in a row, each time
 // without a suspension (the disk condition said the rest fits), fails the
 // job: the estimate or the margin does not suit this filesystem, and the
@@ -209,6 +216,79 @@ absl::Status PersistFrame(JobContext& context, store::FrameRepository& frames,
   return recorded;
 }
 
+// `status` with `step` (what the call was doing) before its message; the
+// code and payloads (the device error kind, a stalled move) are kept.
+absl::Status InStep(absl::string_view step, const absl::Status& status) {
+  if (status.ok()) return status;
+  absl::Status in_step(status.code(),
+                       absl::StrCat(step, ": ", status.message()));
+  status.ForEachPayload([&](absl::string_view url, const absl::Cord& payload) {
+    in_step.SetPayload(url, payload);
+  });
+  return in_step;
+}
+
+// The failed attempts at one frame (or at parking the rig): a transient
+// device fault (IsTransientDeviceError) is warned about, counted as the
+// device error it is, and the frame taken again from its start, until the
+// frame has failed kMaxAttemptsPerFrame times; then, or at once for a
+// permanent fault, the job fails with every attempt named.
+class Attempts {
+ public:
+  // `what` begins each message ("frame left view, ..."), `again` says what
+  // is done after a transient fault ("the frame is taken again from its
+  // start"), `outcome` what a failure leaves ("nothing was recorded for
+  // it").
+  Attempts(JobContext& context, std::string what, std::string again,
+           std::string outcome)
+      : context_(context),
+        what_(std::move(what)),
+        again_(std::move(again)),
+        outcome_(std::move(outcome)) {}
+
+  // `failed`: the error of a device call, marked with its kind by DeviceLog
+  // and named by its step (InStep). OK when it is to be tried again, else
+  // the job's error.
+  absl::Status Retry(const absl::Status& failed) {
+    const store::EventKind kind = store::EventKindOf(failed);
+    failures_.emplace_back(failed.message());
+    const int tried = static_cast<int>(failures_.size());
+    const bool transient = IsTransientDeviceError(failed);
+    if (transient && tried < kMaxAttemptsPerFrame) {
+      context_.Warn(absl::StrCat(what_, ": ", failed.message(), "; ",
+                                 store::DeviceOf(kind) == store::Device::kStage
+                                     ? "the stage is homed again and "
+                                     : "",
+                                 again_, " (attempt ", tried + 1,
+                                 " of at most ", kMaxAttemptsPerFrame, ")"),
+                    store::EventTag(kind));
+      return absl::OkStatus();
+    }
+    std::string message = absl::StrCat(what_, ": ", failures_.front());
+    if (tried > 1) {
+      message = absl::StrCat(what_, " failed ", tried, " times:");
+      for (int i = 0; i < tried; ++i) {
+        absl::StrAppend(&message, i > 0 ? ";" : "", " ", i + 1, ") ",
+                        failures_[i]);
+      }
+    }
+    if (!transient) {
+      absl::StrAppend(&message,
+                      "; not tried again: this fault does not pass by itself");
+    }
+    return store::WithEventKind(
+        absl::Status(failed.code(), absl::StrCat(message, "; ", outcome_)),
+        kind);
+  }
+
+ private:
+  JobContext& context_;
+  const std::string what_;
+  const std::string again_;
+  const std::string outcome_;
+  std::vector<std::string> failures_;  // each attempt's error
+};
+
 // What the disk condition asks at a frame boundary.
 struct DiskNeed {
   int64_t frames = 0;  // not written yet; a frame being written counts
@@ -358,13 +438,6 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
 
   // Every device call is timed, and its error marked with its kind.
   DeviceLog devices(context.store(), job.id);
-  ASSIGN_OR_RETURN(
-      hardware::StageState state,
-      devices.Time(store::Device::kStage, [&] { return stage.State(); }));
-  if (!state.homed) {
-    RETURN_IF_ERROR(
-        devices.Sample(store::Device::kStage, [&] { return stage.Home(); }));
-  }
   // Structured light: the projector's refresh rate and (probed if the plan
   // asks) latency, recorded with the capture; each pattern is waited for.
   absl::Duration pattern_wait;
@@ -375,7 +448,34 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
                                context, frames, capture.id));
   }
   const BaseSettings base = SettingsOf(plan);
+  // The stage is homed before it is next placed when it is not homed (or
+  // does not say), after a suspension and after a fault of its own (its
+  // position may be off): at a frame, after that boundary's checks, so that
+  // a fault of the homing is one of that frame's, taken again with it.
+  const absl::StatusOr<hardware::StageState> state =
+      devices.Time(store::Device::kStage, [&] { return stage.State(); });
+  bool home_first = !state.ok() || !state->homed;
   double position = std::nan("");
+  // Puts the stage at `target_mm`, homing it first where it must be.
+  auto place_stage = [&](double target_mm) -> absl::Status {
+    if (home_first) {
+      moved = true;
+      RETURN_IF_ERROR(InStep(
+          "homing the stage",
+          devices.Sample(store::Device::kStage, [&] { return stage.Home(); })));
+      home_first = false;
+      position = std::nan("");
+    }
+    if (std::abs(position - target_mm) < 1e-6) return absl::OkStatus();
+    moved = true;
+    RETURN_IF_ERROR(
+        InStep(absl::StrFormat("moving the stage to %.3f mm", target_mm),
+               devices.Sample(store::Device::kStage,
+                              [&] { return stage.MoveTo(target_mm); })));
+    position = target_mm;
+    if (base.settle_s > 0) devices.Wait(absl::Seconds(base.settle_s));
+    return absl::OkStatus();
+  };
   double exposure = std::nan("");
   hardware::ExposureSettings in_effect;  // as Configure last returned them
   // Every frame is checked against the camera's own report; frames
@@ -398,6 +498,22 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   const int views = ViewsOf(plan);
   // Done before the first frame, and again after the camera came back.
   bool camera_prepared = false;
+  // After a transient device fault (`attempts` says whether there is to be
+  // another try), everything is done again: the stage homed (after a fault
+  // of its own) and moved, the pattern shown, the exposure set, the camera
+  // prepared (after a fault of its own).
+  auto take_again = [&](Attempts& attempts,
+                        const absl::Status& fault) -> absl::Status {
+    RETURN_IF_ERROR(attempts.Retry(fault));
+    const std::optional<store::Device> device =
+        store::DeviceOf(store::EventKindOf(fault));
+    home_first = home_first || device == store::Device::kStage;
+    camera_prepared = camera_prepared && device != store::Device::kCamera;
+    position = std::nan("");
+    showing.reset();
+    exposure = std::nan("");
+    return absl::OkStatus();
+  };
 
   // Time inside device calls versus the whole loop: the rest is the daemon's
   // own overhead (pattern rendering, hashing, writing, recording).
@@ -479,6 +595,13 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
     // counts one more drop) is taken again once the camera is back: the
     // job suspends at this frame boundary until it is.
     // The same for a projector that was lost while its pattern was set.
+    // A frame that met a transient device fault is taken again from its
+    // start (take_again) at this boundary too, after its checks: a stage
+    // that still does not answer, or shows a fault flag, suspends the job
+    // there until it does.
+    Attempts attempts(context, absl::StrCat("frame ", Describe(spec, views)),
+                      "the frame is taken again from its start",
+                      "nothing was recorded for it");
     for (int drops = 0, projector_losses = 0;;) {
       RETURN_IF_ERROR(context.Checkpoint());
       bool was_suspended = false;
@@ -496,21 +619,13 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
       if (was_suspended) {
         disk_full_in_a_row = 0;
         // The stage may have been touched meanwhile: home it again.
-        RETURN_IF_ERROR(devices.Sample(store::Device::kStage,
-                                       [&] { return stage.Home(); }));
-        position = std::nan("");
+        home_first = true;
         showing.reset();
       }
-      if (!(std::abs(position - spec.stage_position_mm) < 1e-6)) {
-        moved = true;
-        if (absl::Status s = devices.Sample(
-                store::Device::kStage,
-                [&] { return stage.MoveTo(spec.stage_position_mm); });
-            !s.ok()) {
-          return s;
-        }
-        position = spec.stage_position_mm;
-        if (base.settle_s > 0) devices.Wait(absl::Seconds(base.settle_s));
+      if (absl::Status placed = place_stage(spec.stage_position_mm);
+          !placed.ok()) {
+        RETURN_IF_ERROR(take_again(attempts, placed));
+        continue;
       }
       if (projector != nullptr) {
         const std::string wanted =
@@ -530,12 +645,19 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
                                                 : projector->Blank();
               });
           if (!shown.ok()) {
-            // Lost (the condition says so): waited for at this boundary,
-            // then the pattern is shown again.
+            // Not lost (the condition says so): a fault of this pattern.
             if (watched_projector == nullptr ||
                 watched_projector->Check().ok()) {
-              return shown;
+              RETURN_IF_ERROR(take_again(
+                  attempts,
+                  InStep(wanted.empty()
+                             ? std::string("blanking the projector")
+                             : absl::StrCat("showing pattern ", wanted),
+                         shown)));
+              continue;
             }
+            // Lost: waited for at this boundary, then the pattern is shown
+            // again.
             if (++projector_losses > kMaxDropsPerFrame) {
               return absl::Status(
                   shown.code(),
@@ -556,12 +678,16 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
         }
       }
       const int64_t drops_before = camera.Connection().drops;
+      std::string camera_step;  // what the camera was doing when it failed
       absl::Status took = [&]() -> absl::Status {
         if (!camera_prepared) {
+          camera_step = "preparing the camera";
           RETURN_IF_ERROR(prepare_camera());
           camera_prepared = true;
         }
         if (exposure != spec.exposure_s) {
+          camera_step = absl::StrCat("setting the exposure to ",
+                                     io::ExposureTag(spec.exposure_s));
           ASSIGN_OR_RETURN(
               hardware::ExposureSettings applied,
               devices.Time(store::Device::kCamera, [&] {
@@ -578,6 +704,7 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
         // before the job fails.
         std::optional<Mismatch> first_mismatch;
         for (int attempt = 0;; ++attempt) {
+          camera_step = "capturing";
           frame = devices.Sample(store::Device::kCamera,
                                  [&] { return camera.Capture(); });
           if (!frame.ok()) return frame.status();
@@ -597,14 +724,21 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
                                     mismatch->message, "; taking it again"),
                        store::EventTag(mismatch->kind));
           first_mismatch = std::move(mismatch);
+          camera_step = "preparing the camera";
           RETURN_IF_ERROR(prepare_camera());
         }
       }();
       if (took.ok()) break;
-      // Failed because the camera went away (or was away already).
+      // Failed because the camera went away (or was away already)?
       if (const hardware::ConnectionState link = camera.Connection();
           link.drops == drops_before && link.connected) {
-        return took;
+        // A frame that failed its verification twice ends the job as it is.
+        if (store::FamilyOf(store::EventKindOf(took)) !=
+            store::EventFamily::kDeviceError) {
+          return took;
+        }
+        RETURN_IF_ERROR(take_again(attempts, InStep(camera_step, took)));
+        continue;
       }
       if (drops >= kMaxDropsPerFrame) {
         return store::WithEventKind(
@@ -677,14 +811,23 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
         absl::ToDoubleSeconds(device_time), absl::ToDoubleSeconds(own),
         100.0 * absl::ToDoubleSeconds(own) / absl::ToDoubleSeconds(loop_time)));
   }
-  if (projector != nullptr) {
-    RETURN_IF_ERROR(devices.Sample(store::Device::kProjector,
-                                   [&] { return projector->Blank(); }));
-  }
-  if (plan.has_bracketed_stereo() || plan.has_structured_light()) {
-    RETURN_IF_ERROR(devices.Sample(store::Device::kStage, [&] {
-      return stage.MoveTo(limits.home_position_mm);
-    }));
+  // The rig left as a capture finds it: the projector blank, the stage at
+  // its home position. A transient fault is tried again here, in place.
+  Attempts parking(context, "parking the rig after the last frame",
+                   "it is parked again", "every frame was recorded");
+  for (;;) {
+    absl::Status parked =
+        projector == nullptr
+            ? absl::OkStatus()
+            : InStep("blanking the projector",
+                     devices.Sample(store::Device::kProjector,
+                                    [&] { return projector->Blank(); }));
+    if (parked.ok() &&
+        (plan.has_bracketed_stereo() || plan.has_structured_light())) {
+      parked = place_stage(limits.home_position_mm);
+    }
+    if (parked.ok()) break;
+    RETURN_IF_ERROR(take_again(parking, parked));
   }
   std::move(safe).Cancel();
   if (write_truth && plan.has_bracketed_stereo()) {

@@ -32,6 +32,22 @@ EventKind DeviceErrorKind(Device device, const absl::Status& status) {
   return EventKind::kNone;
 }
 
+bool IsTransientDeviceError(const absl::Status& status) {
+  switch (store::EventKindOf(status)) {
+    case EventKind::kCameraTimeout:
+    case EventKind::kCameraBusy:
+    case EventKind::kStageSilent:
+    case EventKind::kStageGarbled:
+    case EventKind::kStageStalled:
+    case EventKind::kStageFlag:
+      return true;
+    case EventKind::kProjectorError:
+      return absl::IsUnavailable(status) || absl::IsDeadlineExceeded(status);
+    default:
+      return false;
+  }
+}
+
 DeviceLog::~DeviceLog() { Flush(); }
 
 void DeviceLog::Wait(absl::Duration wait) {

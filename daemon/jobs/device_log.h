@@ -34,6 +34,17 @@ namespace hdrstereo::jobs {
 store::EventKind DeviceErrorKind(store::Device device,
                                  const absl::Status& status);
 
+// Whether `status`, the error of a device call that DeviceLog marked with
+// its kind, may pass when the call is made again: a camera that timed out
+// or stayed busy past the driver's own retries; a stage whose replies were
+// garbled or missing past the driver's resends, whose move stalled, or
+// which raised a fault flag; a projector whose pattern did not get on
+// screen (UNAVAILABLE, DEADLINE_EXCEEDED). Not a camera that dropped (its
+// reconnect is waited for), nor anything else: a setting the camera does
+// not offer, a command the stage rejects, a serial port that is gone, an
+// error not from a device call (unmarked) are permanent.
+bool IsTransientDeviceError(const absl::Status& status);
+
 class DeviceLog {
  public:
   static constexpr absl::Duration kFlushInterval = absl::Seconds(5);

@@ -59,6 +59,10 @@ class Gphoto2Api {
 
   // gp_camera_autodetect: the cameras on USB (and other probed ports).
   virtual int Autodetect(std::vector<DetectedCamera>* cameras) = 0;
+  // GP_OK when libgphoto2 has a driver for `model` (as its abilities list
+  // names it, case-insensitively), whether or not such a camera is
+  // connected; GP_ERROR_MODEL_NOT_FOUND otherwise.
+  virtual int CheckModel(const std::string& model) = 0;
   // Selects `model` (as libgphoto2's abilities list names it) on `port`
   // ("usb:001,004", "disk:/some/folder", ...) and runs gp_camera_init.
   virtual int Open(const std::string& model, const std::string& port) = 0;

@@ -15,6 +15,7 @@
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "absl/time/clock.h"
+#include "hardware/camera.h"
 #include "hardware/gphoto2/libgphoto2_api.h"
 #include "hardware/gphoto2/widgets.h"
 #include "processing/base/status_macros.h"
@@ -151,8 +152,12 @@ class Gphoto2Camera::Worker {
     std::string error_text;
   };
 
-  explicit Worker(std::unique_ptr<Gphoto2Api> api)
-      : state_(std::make_shared<State>()) {
+  // `cancel_grace`: how long a call that timed out is given to return once
+  // asked to cancel.
+  Worker(std::unique_ptr<Gphoto2Api> api, absl::Duration cancel_grace)
+      // InfiniteDuration would overflow the condition variable's clock.
+      : cancel_grace_(std::min(cancel_grace, absl::Hours(24 * 365))),
+        state_(std::make_shared<State>()) {
     state_->api = std::move(api);
     thread_ = std::thread(&Worker::Loop, state_);
   }
@@ -185,12 +190,12 @@ class Gphoto2Camera::Worker {
     auto abandoned = std::make_shared<bool>(false);
     std::unique_lock<std::mutex> lock(state_->mutex);
     if (state_->stuck) {
-      return absl::UnavailableError(absl::StrCat(
+      return hardware::CameraStuckError(absl::UnavailableError(absl::StrCat(
           "cannot ", what, ": the camera is still stuck in \"",
           state_->stuck_call, "\", which timed out ",
           absl::FormatDuration(absl::Now() - state_->stuck_since),
           " ago; libgphoto2 has not returned yet (unplug the camera or "
-          "switch it off and on if this lasts)"));
+          "switch it off and on if this lasts)")));
     }
     // The previous call may still be winding up on the worker.
     state_->cv.wait(lock, [&] { return !state_->running && !state_->task; });
@@ -201,7 +206,11 @@ class Gphoto2Camera::Worker {
         // gave up before the call began (skip it), or BeginCall() comes
         // before the caller's Cancel() (which then reaches the call).
         std::lock_guard<std::mutex> start_lock(state->mutex);
-        if (*abandoned) return;
+        if (*abandoned) {
+          *finished = true;  // skipped: over, with no outcome
+          state->cv.notify_all();
+          return;
+        }
         state->api->BeginCall();
       }
       int code = fn(*state->api);
@@ -216,17 +225,36 @@ class Gphoto2Camera::Worker {
     if (!state_->cv.wait_for(lock, absl::ToChronoNanoseconds(timeout),
                              [&] { return *finished; })) {
       *abandoned = true;
+      state_->api->Cancel();
+      const std::string late =
+          absl::StrCat(what, ": no answer from the camera within ",
+                       absl::FormatDuration(timeout));
+      if (state_->cv.wait_for(lock, absl::ToChronoNanoseconds(cancel_grace_),
+                              [&] { return *finished; })) {
+        return absl::DeadlineExceededError(
+            absl::StrCat(late, "; the call was cancelled"));
+      }
       state_->stuck = true;
       state_->stuck_call = std::string(what);
       state_->stuck_since = absl::Now();
-      state_->api->Cancel();
-      return absl::DeadlineExceededError(absl::StrCat(
-          what, ": no answer from the camera within ",
-          absl::FormatDuration(timeout),
-          "; the call was asked to cancel and the camera is unusable until "
-          "libgphoto2 returns"));
+      return hardware::CameraStuckError(absl::DeadlineExceededError(
+          absl::StrCat(late,
+                       "; it was asked to cancel, but libgphoto2 has "
+                       "not returned within ",
+                       absl::FormatDuration(cancel_grace_),
+                       ": the camera is unusable until it does")));
     }
     return *outcome;
+  }
+
+  HandleWatch Watch() const {
+    return [state = state_]() -> std::optional<HandleUse> {
+      std::lock_guard<std::mutex> lock(state->mutex);
+      if (state->closed) return std::nullopt;
+      if (!state->stuck) return HandleUse{};
+      return HandleUse{.stuck_call = state->stuck_call,
+                       .stuck_since = state->stuck_since};
+    };
   }
 
  private:
@@ -240,6 +268,7 @@ class Gphoto2Camera::Worker {
     bool stuck = false;      // the running call timed out
     std::string stuck_call;  // which one
     absl::Time stuck_since;
+    bool closed = false;  // the api is destroyed (the camera closed)
   };
 
   static void Loop(std::shared_ptr<State> state) {
@@ -258,17 +287,29 @@ class Gphoto2Camera::Worker {
       state->stuck = false;
       state->cv.notify_all();
     }
+    // Stopping, so no caller is left to use the api: close the camera
+    // here, also on a detached thread, and say so (WatchHandle).
+    lock.unlock();
+    state->api.reset();
+    lock.lock();
+    state->closed = true;
   }
 
+  const absl::Duration cancel_grace_;
   std::shared_ptr<State> state_;
   std::thread thread_;
 };
 
 Gphoto2Camera::Gphoto2Camera(const Gphoto2Options& options,
-                             std::unique_ptr<Worker> worker)
-    : options_(options), worker_(std::move(worker)) {}
+                             std::unique_ptr<Gphoto2Api> api)
+    : options_(options),
+      worker_(std::make_unique<Worker>(std::move(api), options.cancel_grace)) {}
 
 Gphoto2Camera::~Gphoto2Camera() = default;
+
+Gphoto2Camera::HandleWatch Gphoto2Camera::WatchHandle() const {
+  return worker_->Watch();
+}
 
 absl::StatusOr<std::unique_ptr<Gphoto2Camera>> Gphoto2Camera::Open(
     const Gphoto2Options& options) {
@@ -279,9 +320,16 @@ absl::StatusOr<std::unique_ptr<Gphoto2Camera>> Gphoto2Camera::OpenWithApi(
     const Gphoto2Options& options, std::unique_ptr<Gphoto2Api> api) {
   if (api == nullptr) return absl::InvalidArgumentError("gphoto2: no api");
   std::unique_ptr<Gphoto2Camera> camera(
-      new Gphoto2Camera(options, std::make_unique<Worker>(std::move(api))));
+      new Gphoto2Camera(options, std::move(api)));
   std::string model = options.model;
   std::string port = options.port;
+  if (!model.empty()) {
+    // A model libgphoto2 has no driver for is never found: say so now.
+    RETURN_IF_ERROR(camera->Call(
+        absl::StrCat("look up camera model \"", model, "\""),
+        options.call_timeout,
+        [model](Gphoto2Api& api) { return api.CheckModel(model); }));
+  }
   if (model.empty() || port.empty()) {
     auto detected = std::make_shared<std::vector<DetectedCamera>>();
     RETURN_IF_ERROR(camera->Call("autodetect cameras", options.call_timeout,
@@ -345,8 +393,7 @@ absl::StatusOr<std::unique_ptr<Gphoto2Camera>> Gphoto2Camera::Reopen(
   if (serial.empty()) return OpenWithApi(search, new_api());
   std::vector<DetectedCamera> detected;
   {
-    std::unique_ptr<Gphoto2Camera> probe(
-        new Gphoto2Camera(search, std::make_unique<Worker>(new_api())));
+    std::unique_ptr<Gphoto2Camera> probe(new Gphoto2Camera(search, new_api()));
     auto found = std::make_shared<std::vector<DetectedCamera>>();
     RETURN_IF_ERROR(probe->Call(
         "autodetect cameras", search.call_timeout,

@@ -43,16 +43,20 @@
 // plus the sleeps.
 //
 // Timeouts: every libgphoto2 call runs on this camera's own worker thread;
-// the caller waits at most the call's deadline, then gets DEADLINE_EXCEEDED.
-// The stuck call is asked to cancel (the GPContext cancel callback starts
-// answering "cancel", which libgphoto2 checks between transfer chunks) but
-// cannot be killed: it keeps the worker thread until libgphoto2 returns
-// (over USB usually when a transfer timeout fires; libgphoto2 gives no hard
-// bound). A call whose deadline passed before it began is skipped. Until the
-// stuck call returns, every call fails fast with UNAVAILABLE naming it;
-// afterwards the camera is usable again. Destroying the camera while a call
-// is stuck does not wait: the worker thread is detached and closes the
-// camera (gp_camera_exit) if and when the call returns.
+// the caller waits at most the call's deadline, then the call is asked to
+// cancel (the GPContext cancel callback starts answering "cancel", which
+// libgphoto2 checks between transfer chunks) and given `cancel_grace` to
+// return; either way the caller gets DEADLINE_EXCEEDED. A call whose
+// deadline passed before it began is skipped. A call that did not return
+// within the grace cannot be killed: it keeps the worker thread until
+// libgphoto2 returns (over USB usually when a transfer timeout fires;
+// libgphoto2 gives no hard bound), and the camera is stuck: its error, and
+// that of every call until the stuck one returns (UNAVAILABLE naming it,
+// failing fast), are marked hardware::CameraStuckError, which
+// ReconnectingCamera takes for a drop. Once the stuck call returns the
+// camera is usable again. Destroying the camera while a call is stuck does
+// not wait: the worker thread is detached and closes the camera
+// (gp_camera_exit) if and when the call returns; WatchHandle() tells when.
 //
 // Thread-safe: calls from several threads are serialized.
 #ifndef HDRSTEREO_HARDWARE_GPHOTO2_GPHOTO2_CAMERA_H_
@@ -95,6 +99,12 @@ struct Gphoto2Options {
   absl::Duration download_timeout = absl::Seconds(60);
   // Deadline of one live-view frame (the first also starts live view).
   absl::Duration preview_timeout = absl::Seconds(10);
+  // How long a call that timed out is given to return once asked to
+  // cancel before the camera counts as stuck (see above).
+  absl::Duration cancel_grace = absl::Seconds(1);
+  // Gphoto2Opener: how long after a stuck call timed out a new handle is
+  // still not opened while libgphoto2 holds the old one.
+  absl::Duration stuck_handle_wait = absl::Seconds(60);
   // How long PrepareCaptureGroup waits for each pending event.
   absl::Duration drain_event_wait = absl::Milliseconds(100);
   // How long to wait for the second file of a RAW+JPEG capture.
@@ -107,14 +117,24 @@ struct Gphoto2Options {
   bool delete_after_download = true;
 };
 
+// What holds a camera's libgphoto2 handle (Gphoto2Camera::WatchHandle).
+struct HandleUse {
+  // The call stuck in libgphoto2 and when it timed out; "" and
+  // InfiniteFuture when no call is stuck (the camera is still in use).
+  std::string stuck_call;
+  absl::Time stuck_since = absl::InfiniteFuture();
+};
+
 class Gphoto2Camera final : public hardware::Camera {
  public:
   // Opens a camera over the real libgphoto2. Errors: UNAVAILABLE "no camera
   // found" (autodetect listed none) or "no camera matching ..." (listing those
   // found), UNAVAILABLE "could not claim the USB device" (another process
   // holds it; the message says which one usually does and how to stop it),
-  // NOT_FOUND for a model libgphoto2 does not know or a port that does not
-  // exist, DEADLINE_EXCEEDED.
+  // NOT_FOUND for a model libgphoto2 does not know (checked before any
+  // camera is looked for) or a port that does not exist, DEADLINE_EXCEEDED.
+  // So NOT_FOUND is a configuration that no camera satisfies; the others may
+  // pass once the camera is there.
   static absl::StatusOr<std::unique_ptr<Gphoto2Camera>> Open(
       const Gphoto2Options& options);
   // The same over any Gphoto2Api (tests pass a fake).
@@ -180,13 +200,18 @@ class Gphoto2Camera final : public hardware::Camera {
 
   // "folder/name" of captured files that could not be deleted.
   std::vector<std::string> undeleted_files() const;
+  // What holds this camera's libgphoto2 handle, nullopt once it is closed.
+  // Stays valid after the camera is destroyed, when only a stuck call can
+  // hold the handle (until libgphoto2 returns). Thread-safe.
+  using HandleWatch = std::function<std::optional<HandleUse>()>;
+  HandleWatch WatchHandle() const;
   const std::string& model() const { return model_; }
   const std::string& port() const { return port_; }
 
  private:
   class Worker;
 
-  Gphoto2Camera(const Gphoto2Options& options, std::unique_ptr<Worker> worker);
+  Gphoto2Camera(const Gphoto2Options& options, std::unique_ptr<Gphoto2Api> api);
 
   // Runs fn on the worker with `timeout`, retrying GP_ERROR_CAMERA_BUSY;
   // maps a failure to a Status whose message starts with `what`.

@@ -63,24 +63,17 @@ class Libgphoto2Api final : public Gphoto2Api {
     return result;
   }
 
+  int CheckModel(const std::string& model) override {
+    if (int result = LoadLists(); result < GP_OK) return result;
+    return gp_abilities_list_lookup_model(abilities_, model.c_str()) < GP_OK
+               ? GP_ERROR_MODEL_NOT_FOUND
+               : GP_OK;
+  }
+
   int Open(const std::string& model, const std::string& port) override {
     if (camera_ != nullptr) return GP_ERROR_BAD_PARAMETERS;
-    int result = GP_OK;
-    {
-      std::lock_guard<std::mutex> lock(LoadMutex());
-      if (abilities_ == nullptr) {
-        if ((result = gp_abilities_list_new(&abilities_)) < GP_OK) {
-          return result;
-        }
-        if ((result = gp_abilities_list_load(abilities_, context_)) < GP_OK) {
-          return result;
-        }
-      }
-      if (ports_ == nullptr) {
-        if ((result = gp_port_info_list_new(&ports_)) < GP_OK) return result;
-        if ((result = gp_port_info_list_load(ports_)) < GP_OK) return result;
-      }
-    }
+    int result = LoadLists();
+    if (result < GP_OK) return result;
     Camera* camera = nullptr;
     if ((result = gp_camera_new(&camera)) < GP_OK) return result;
     if (!model.empty()) {
@@ -305,6 +298,23 @@ class Libgphoto2Api final : public Gphoto2Api {
     if (text == nullptr) return;
     if (!self->last_error_.empty()) self->last_error_ += "; ";
     self->last_error_ += text;
+  }
+
+  // Loads the camera drivers' abilities and the port drivers' ports, once.
+  int LoadLists() {
+    std::lock_guard<std::mutex> lock(LoadMutex());
+    int result = GP_OK;
+    if (abilities_ == nullptr) {
+      if ((result = gp_abilities_list_new(&abilities_)) < GP_OK) return result;
+      if ((result = gp_abilities_list_load(abilities_, context_)) < GP_OK) {
+        return result;
+      }
+    }
+    if (ports_ == nullptr) {
+      if ((result = gp_port_info_list_new(&ports_)) < GP_OK) return result;
+      if ((result = gp_port_info_list_load(ports_)) < GP_OK) return result;
+    }
+    return GP_OK;
   }
 
   static GPContextFeedback OnCancel(GPContext* /*context*/, void* data) {

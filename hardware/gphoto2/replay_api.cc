@@ -8,6 +8,7 @@
 #include <cmath>
 #include <utility>
 
+#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -16,9 +17,36 @@
 
 namespace hdrstereo::gphoto2 {
 
-ReplayApi::ReplayApi(CameraDump dump, FrameSource frames, FrameSource previews)
+ReplayLink::ReplayLink(std::function<absl::Status()> plug_in)
+    : plug_in_(std::move(plug_in)) {}
+
+absl::StatusOr<int64_t> ReplayLink::Find() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!plugged_) {
+    if (plug_in_) {
+      if (absl::Status back = plug_in_(); !back.ok()) return back;
+    }
+    plugged_ = true;
+    ++connection_;
+  }
+  return connection_;
+}
+
+bool ReplayLink::Up(int64_t connection) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return plugged_ && connection == connection_;
+}
+
+void ReplayLink::Unplug() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  plugged_ = false;
+}
+
+ReplayApi::ReplayApi(CameraDump dump, FrameSource frames,
+                     std::shared_ptr<ReplayLink> link, FrameSource previews)
     : dump_(std::move(dump)),
       frames_(std::move(frames)),
+      link_(link != nullptr ? std::move(link) : std::make_shared<ReplayLink>()),
       previews_(std::move(previews)) {
   widgets_ = dump_.widgets;
 }
@@ -32,32 +60,57 @@ int ReplayApi::Fail(int code, std::string text) {
   return code;
 }
 
+int ReplayApi::CheckLink() {
+  if (link_->Up(connection_)) return GP_OK;
+  return Fail(GP_ERROR_IO,
+              connection_ == 0
+                  ? "the replay camera is not open"
+                  : absl::StrCat("the replayed camera was unplugged (",
+                                 dump_.source, ")"));
+}
+
 int ReplayApi::Autodetect(std::vector<DetectedCamera>* cameras) {
-  cameras->assign(1, {dump_.model, Port()});
+  cameras->clear();
+  if (link_->Find().ok()) cameras->push_back({dump_.model, Port()});
   return GP_OK;
 }
 
+int ReplayApi::CheckModel(const std::string& model) {
+  if (absl::EqualsIgnoreCase(model, dump_.model)) return GP_OK;
+  return Fail(GP_ERROR_MODEL_NOT_FOUND,
+              absl::StrCat("the replay knows \"", dump_.model, "\" only"));
+}
+
 int ReplayApi::Open(const std::string& model, const std::string& port) {
+  absl::StatusOr<int64_t> connection = link_->Find();
+  if (!connection.ok()) {
+    return Fail(GP_ERROR_IO_USB_FIND,
+                std::string(connection.status().message()));
+  }
   if (model != dump_.model || port != Port()) {
     return Fail(
         GP_ERROR_MODEL_NOT_FOUND,
         absl::StrCat("the replay holds \"", dump_.model, "\" on ", Port()));
   }
+  connection_ = *connection;
   return GP_OK;
 }
 
 int ReplayApi::GetSummary(std::string* text) {
+  if (int code = CheckLink(); code != GP_OK) return code;
   *text = dump_.summary;
   return GP_OK;
 }
 
 int ReplayApi::GetConfig(std::vector<ConfigWidget>* widgets) {
+  if (int code = CheckLink(); code != GP_OK) return code;
   *widgets = widgets_;
   return GP_OK;
 }
 
 int ReplayApi::SetConfigValue(const std::string& name,
                               const std::string& value) {
+  if (int code = CheckLink(); code != GP_OK) return code;
   auto it = std::find_if(widgets_.begin(), widgets_.end(),
                          [&](const ConfigWidget& w) { return w.name == name; });
   if (it == widgets_.end()) {
@@ -125,6 +178,7 @@ int ReplayApi::FromSource(const FrameSource& source, ReplayFile* file) {
     // libgphoto2 reports for a camera gone from USB: an I/O error.
     const bool gone = absl::IsAborted(made.status()) ||
                       absl::IsFailedPrecondition(made.status());
+    if (gone) link_->Unplug();
     return Fail(gone ? GP_ERROR_IO : GP_ERROR,
                 std::string(made.status().message()));
   }
@@ -133,6 +187,7 @@ int ReplayApi::FromSource(const FrameSource& source, ReplayFile* file) {
 }
 
 int ReplayApi::Capture(std::string* folder, std::string* name) {
+  if (int code = CheckLink(); code != GP_OK) return code;
   if (!frames_) {
     return Fail(GP_ERROR_NOT_SUPPORTED,
                 "this replay camera has no frame source");
@@ -149,6 +204,7 @@ int ReplayApi::Capture(std::string* folder, std::string* name) {
 }
 
 int ReplayApi::CapturePreview(FileData* file) {
+  if (int code = CheckLink(); code != GP_OK) return code;
   if (!previews_) {
     return Fail(GP_ERROR_NOT_SUPPORTED, "this replay camera has no live view");
   }
@@ -168,12 +224,14 @@ int ReplayApi::CapturePreview(FileData* file) {
 }
 
 int ReplayApi::WaitForEvent(absl::Duration /*timeout*/, CameraEvent* event) {
+  if (int code = CheckLink(); code != GP_OK) return code;
   *event = CameraEvent();  // one file per capture: nothing else happens
   return GP_OK;
 }
 
 int ReplayApi::ListFiles(const std::string& folder,
                          std::vector<std::string>* names) {
+  if (int code = CheckLink(); code != GP_OK) return code;
   names->clear();
   for (const auto& [where, bytes] : files_) {
     if (where.first == folder) names->push_back(where.second);
@@ -183,6 +241,7 @@ int ReplayApi::ListFiles(const std::string& folder,
 
 int ReplayApi::GetFile(const std::string& folder, const std::string& name,
                        FileData* file) {
+  if (int code = CheckLink(); code != GP_OK) return code;
   auto it = files_.find({folder, name});
   if (it == files_.end()) {
     return Fail(GP_ERROR_FILE_NOT_FOUND,
@@ -194,6 +253,7 @@ int ReplayApi::GetFile(const std::string& folder, const std::string& name,
 }
 
 int ReplayApi::DeleteFile(const std::string& folder, const std::string& name) {
+  if (int code = CheckLink(); code != GP_OK) return code;
   if (files_.erase({folder, name}) == 0) {
     return Fail(GP_ERROR_FILE_NOT_FOUND,
                 absl::StrCat(folder, "/", name, " is not on the camera"));

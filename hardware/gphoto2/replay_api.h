@@ -17,13 +17,29 @@
 // (kViewfinderWidgets) to 1 as a camera in live view reports it; without
 // that source it is GP_ERROR_NOT_SUPPORTED.
 //
-// Autodetect lists the dump's model on port "replay:<dump file>". Like the
-// library, not thread-safe: the driver makes every call on one thread.
+// Autodetect lists the dump's model on port "replay:<dump file>", and
+// libgphoto2 knows that model only (CheckModel).
+//
+// The camera's USB link is a ReplayLink, which the apis of one replayed
+// camera share (the driver makes an api per handle, and a reopen makes new
+// ones): it can drop mid-capture and come back. While it is unplugged,
+// Autodetect lists no camera and Open fails with GP_ERROR_IO_USB_FIND; an
+// api opened before the unplug answers every call with GP_ERROR_IO from
+// then on, also after the camera is back, as libgphoto2 does for a handle
+// whose USB device went away. A frame source error that says the camera
+// went away unplugs the link.
+//
+// Like the library, a ReplayApi is not thread-safe: the driver makes every
+// call on one thread. The link is thread-safe.
+
 #ifndef HDRSTEREO_HARDWARE_GPHOTO2_REPLAY_API_H_
 #define HDRSTEREO_HARDWARE_GPHOTO2_REPLAY_API_H_
 
+#include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
@@ -45,12 +61,44 @@ struct ReplayFile {
 using FrameSource = std::function<absl::StatusOr<ReplayFile>(
     const hardware::ExposureSettings& settings)>;
 
+// The replayed camera's USB link.
+//
+//   auto link = std::make_shared<ReplayLink>(
+//       [&world] { return world.ReopenCamera(); });  // is it back?
+//   ReplayApi api(dump, frames, link);
+class ReplayLink {
+ public:
+  // `plug_in` is asked, under the link's lock, each time the camera is
+  // looked for (Autodetect, Open) while it is unplugged: OK plugs it in,
+  // an error is why it is not there. The link starts unplugged, so the
+  // first look asks too. Without `plug_in` the camera is there whenever it
+  // is looked for.
+  explicit ReplayLink(std::function<absl::Status()> plug_in = nullptr);
+
+  // Looks for the camera: its connection (1 at the first plug-in, one more
+  // at each after an unplug), or why it is not there.
+  absl::StatusOr<int64_t> Find();
+  // Whether `connection` is still the link's (no unplug since).
+  bool Up(int64_t connection) const;
+  // The camera drops off the bus.
+  void Unplug();
+
+ private:
+  const std::function<absl::Status()> plug_in_;
+  mutable std::mutex mutex_;
+  bool plugged_ = false;
+  int64_t connection_ = 0;
+};
+
 class ReplayApi final : public Gphoto2Api {
  public:
+  // `link` defaults to a link of its own that is always there.
   explicit ReplayApi(CameraDump dump, FrameSource frames = nullptr,
+                     std::shared_ptr<ReplayLink> link = nullptr,
                      FrameSource previews = nullptr);
 
   int Autodetect(std::vector<DetectedCamera>* cameras) override;
+  int CheckModel(const std::string& model) override;
   int Open(const std::string& model, const std::string& port) override;
   int GetSummary(std::string* text) override;
   int GetConfig(std::vector<ConfigWidget>* widgets) override;
@@ -82,10 +130,14 @@ class ReplayApi final : public Gphoto2Api {
   // The file `source` makes with the settings now in effect, or the code
   // to fail with.
   int FromSource(const FrameSource& source, ReplayFile* file);
+  // GP_OK while the connection this api opened is up, else GP_ERROR_IO.
+  int CheckLink();
 
   const CameraDump dump_;
   const FrameSource frames_;
+  const std::shared_ptr<ReplayLink> link_;
   const FrameSource previews_;
+  int64_t connection_ = 0;  // the link's, as Open found it; 0: not open
   std::vector<ConfigWidget> widgets_;
   // (folder, name) -> bytes.
   std::map<std::pair<std::string, std::string>, std::string> files_;

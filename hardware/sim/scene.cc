@@ -481,15 +481,17 @@ Scene ParseSceneJson(const Json& root) {
       const std::string p = "faults.camera";
       CheckKeys(c, p,
                 {"busy_first_calls", "timeout", "disconnect",
-                 "disconnect_failed_reopens", "corrupt", "previous_file",
-                 "wrong_exposure", "card_target", "hold", "hold_fifo",
-                 "low_battery"});
+                 "disconnect_failed_reopens", "absent_until_file", "corrupt",
+                 "previous_file", "wrong_exposure", "card_target", "hold",
+                 "hold_fifo", "low_battery"});
       s.camera_faults.busy_first_calls =
           GetInt(c, p, "busy_first_calls", 0, 0, 1000000);
       s.camera_faults.timeout = ParseTrigger(c, p, "timeout");
       s.camera_faults.disconnect = ParseTrigger(c, p, "disconnect");
       s.camera_faults.disconnect_failed_reopens =
           GetInt(c, p, "disconnect_failed_reopens", -1, -1, 1000000);
+      s.camera_faults.absent_until_file =
+          GetString(c, p, "absent_until_file", "");
       s.camera_faults.corrupt = ParseTrigger(c, p, "corrupt");
       s.camera_faults.previous_file = ParseTrigger(c, p, "previous_file");
       s.camera_faults.wrong_exposure = ParseTrigger(c, p, "wrong_exposure");

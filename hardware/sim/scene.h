@@ -203,6 +203,11 @@ struct CameraFaults {
   // fail before one succeeds; -1: none succeeds (the camera never comes
   // back; SimWorld::ReconnectCamera() still plugs it in).
   int disconnect_failed_reopens = -1;
+  // The camera is not plugged in when the world starts: every camera call
+  // fails as after a disconnect, and a reopen finds it only once the file
+  // at this path exists (the test creates it). "" = plugged in from the
+  // start.
+  std::string absent_until_file;
   FaultTrigger corrupt;  // the delivered file has flipped bytes
   // Faults that corrupt a dataset without an error (the camera "works"):
   FaultTrigger previous_file;   // delivers the previous file again and keeps

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <thread>
 
 #include "absl/strings/ascii.h"
@@ -70,7 +71,10 @@ SimWorld::SimWorld(Scene scene)
       faults_(renderer_.scene().camera_faults),
       low_battery_(faults_.low_battery, renderer_.scene().seed, 7),
       projector_lost_(renderer_.scene().projector_faults.lost,
-                      renderer_.scene().seed, 8) {}
+                      renderer_.scene().seed, 8) {
+  absent_since_start_ = !faults_.absent_until_file.empty();
+  disconnected_ = absent_since_start_;
+}
 
 void SimWorld::SetStagePosition(double mm) {
   std::lock_guard<std::mutex> lock(mu_);
@@ -404,11 +408,23 @@ void SimWorld::ReconnectCamera() {
   std::lock_guard<std::mutex> lock(mu_);
   disconnected_ = false;
   failed_reopens_ = 0;
+  absent_since_start_ = false;
 }
 
 absl::Status SimWorld::ReopenCamera() {
   std::lock_guard<std::mutex> lock(mu_);
   if (!disconnected_) return absl::OkStatus();
+  if (absent_since_start_) {
+    std::error_code ec;
+    if (!std::filesystem::exists(faults_.absent_until_file, ec)) {
+      return absl::UnavailableError(
+          absl::StrCat("no camera found (simulated: not plugged in until ",
+                       faults_.absent_until_file, " exists)"));
+    }
+    absent_since_start_ = false;
+    disconnected_ = false;
+    return absl::OkStatus();
+  }
   const int fails = faults_.disconnect_failed_reopens;
   if (fails < 0 || failed_reopens_ < fails) {
     ++failed_reopens_;

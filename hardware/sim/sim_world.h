@@ -150,7 +150,8 @@ class SimWorld {
   // What a driver's reopen finds: OK when the camera is connected or comes
   // back now; after a disconnect the first
   // faults.disconnect_failed_reopens attempts fail with UNAVAILABLE "no
-  // camera found", all of them when that is -1.
+  // camera found", all of them when that is -1. A camera absent from the
+  // start (faults.absent_until_file) is found once that file exists.
   absl::Status ReopenCamera();
   bool camera_connected() const;
   // What a capture group starts with: the capture target back to RAM, and
@@ -192,6 +193,7 @@ class SimWorld {
   int64_t capture_calls_ = 0;
   bool disconnected_ = false;
   int failed_reopens_ = 0;  // reopen attempts failed since the disconnect
+  bool absent_since_start_ = false;  // faults.absent_until_file, not found
   CameraFaults faults_;
   bool target_on_card_ = false;
   absl::Time last_camera_time_ = absl::UnixEpoch();

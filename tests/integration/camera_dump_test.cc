@@ -51,6 +51,20 @@ class CameraDumpTest : public ::hdrstereo::testing::DaemonFixture {
     ADD_FAILURE() << "no " << key << " line in\n" << out;
     return "";
   }
+
+  // A stereo capture at `exposures` (left at 0 mm, right at 50 mm) into a
+  // new `session`, which must succeed.
+  void CaptureStereo(const std::string& session, const std::string& exposures) {
+    ASSERT_EQ(Cli({"session", "create", session}).exit_code, 0);
+    nlohmann::json job =
+        CliJson({"capture", "stereo", session, "--exposures", exposures,
+                 "--baseline-mm", "50", "--no-ambient"});
+    ASSERT_TRUE(job.contains("id")) << job.dump();
+    const int64_t id = ::hdrstereo::testing::JsonInt(job["id"]);
+    ASSERT_TRUE(WaitForJobState(id, "succeeded"))
+        << CliJson({"jobs", "show", std::to_string(id)}).dump(2)
+        << daemon_log();
+  }
 };
 
 TEST_F(CameraDumpTest, TheDaemonDrivesAReplayedNikonD750) {
@@ -89,14 +103,7 @@ TEST_F(CameraDumpTest, TheDaemonDrivesAReplayedNikonD750) {
 
   // A capture: the frames are simulated, at the D750's choices nearest
   // 1/90 and 1/210 s: "0,0100s" and "0,0050s".
-  ASSERT_EQ(Cli({"session", "create", "d750"}).exit_code, 0);
-  nlohmann::json job =
-      CliJson({"capture", "stereo", "d750", "--exposures", "1/90,1/210",
-               "--baseline-mm", "50", "--no-ambient"});
-  ASSERT_TRUE(job.contains("id")) << job.dump();
-  const int64_t id = ::hdrstereo::testing::JsonInt(job["id"]);
-  ASSERT_TRUE(WaitForJobState(id, "succeeded"))
-      << CliJson({"jobs", "show", std::to_string(id)}).dump(2) << daemon_log();
+  ASSERT_NO_FATAL_FAILURE(CaptureStereo("d750", "1/90,1/210"));
   EXPECT_EQ(Sql("SELECT COUNT(*) FROM frames"), "4");
   EXPECT_EQ(Sql("SELECT COUNT(DISTINCT exposure_s) FROM frames"), "2");
   EXPECT_EQ(Sql("SELECT MAX(exposure_s) FROM frames"), "0.01");
@@ -106,6 +113,45 @@ TEST_F(CameraDumpTest, TheDaemonDrivesAReplayedNikonD750) {
   EXPECT_EQ(Sql("SELECT COUNT(*) FROM frames WHERE format = 'raw' AND path "
                 "LIKE '%.dng'"),
             "4");
+  EXPECT_EQ(StopDaemon(), 0);
+}
+
+// The replayed D750 drops off its (replayed) USB link mid-capture: the
+// simulator's disconnect fault on the third frame makes the replay unplug
+// the camera, so that the driver's capture fails with libgphoto2's I/O
+// error; two reopen attempts find no camera, the third finds it again by
+// its serial number, and the capture goes on with every frame once.
+TEST_F(CameraDumpTest, TheReplayedCameraDropsMidCaptureAndComesBack) {
+  nlohmann::json scene = ::hdrstereo::testing::SmallLabLamp();
+  scene["faults"] = {
+      {"camera",
+       {{"disconnect", {{"calls", {3}}}}, {"disconnect_failed_reopens", 2}}}};
+  StartDaemon({"--hardware", "real", "--camera-dump", NikonD750().string(),
+               "--sim-scene", WriteScene("lab-lamp", scene).string(),
+               "--camera-reconnect-first-s", "0.05", "--camera-reconnect-max-s",
+               "0.2"});
+  ASSERT_NO_FATAL_FAILURE(CaptureStereo("drop", "1/90,1/210,1/500"));
+
+  // Every planned frame exactly once (3 exposures x 2 views), files and
+  // rows in agreement.
+  ExpectConsistentStore("drop", 6);
+  EXPECT_EQ(Sql("SELECT count(DISTINCT exposure_s || '/' || view_index) FROM "
+                "frames"),
+            "6");
+  // One drop, seen as gphoto2 sees a camera gone from USB; one suspension
+  // and one resumption.
+  EXPECT_EQ(EventsLike("the camera dropped (capture: I/O error talking to "
+                       "the camera (disconnected?)"),
+            1);
+  EXPECT_EQ(EventsLike("suspended: camera disconnected, reconnecting"), 1);
+  EXPECT_EQ(EventsLike("resumed: "), 1);
+  // While it was away, the reopen looked for the D750 by its serial number.
+  EXPECT_THAT(daemon_log(), HasSubstr("no camera with serial number "
+                                      "\"0000000000000000000000000nnnnnnn\""));
+  EXPECT_THAT(daemon_log(), HasSubstr("camera: reconnected (drop 1)"));
+  nlohmann::json status = CliJson({"hw", "status"});
+  EXPECT_EQ(status["camera"]["state"], "DEVICE_STATE_CONNECTED");
+  EXPECT_EQ(::hdrstereo::testing::JsonInt(status["camera"]["disconnects"]), 1);
   EXPECT_EQ(StopDaemon(), 0);
 }
 
@@ -127,6 +173,20 @@ TEST_F(CameraDumpTest, BadDumpsAndModesAreRefusedAtStart) {
            NikonD750().string(), "--data-root", (dir_ / "d2").string()}));
   EXPECT_NE(sim.exit_code, 0);
   EXPECT_THAT(sim.err, HasSubstr("use it with --hardware real"));
+
+  // A model the replay does not hold can never be found: a configuration
+  // error, not a camera to wait for.
+  ASSERT_OK_AND_ASSIGN(
+      CommandResult other_model,
+      ::hdrstereo::testing::RunCommand(
+          {HDRSTEREOD, "--hardware", "real", "--camera-dump",
+           NikonD750().string(), "--camera-model", "Canon EOS R5", "--listen",
+           "127.0.0.1:0", "--data-root", (dir_ / "d3").string()}));
+  EXPECT_NE(other_model.exit_code, 0);
+  EXPECT_THAT(other_model.err,
+              HasSubstr("no camera can match --camera-model \"Canon EOS R5\": "
+                        "look up camera model \"Canon EOS R5\": libgphoto2 "
+                        "knows no such camera model"));
 }
 
 }  // namespace

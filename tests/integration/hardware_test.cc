@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
@@ -293,9 +294,11 @@ TEST_F(HardwareTest, FrameContentMovesWithTheStageByTheTrueDisparity) {
   EXPECT_EQ(StopDaemon(), 0);
 }
 
+// A camera that times out at every attempt at the first frame (a single
+// timeout is taken again: CaptureTest).
 TEST_F(HardwareTest, CameraTimeoutFailsTheCaptureWithTheCamerasMessage) {
   nlohmann::json patch = SmallCamera();
-  patch["faults"] = {{"camera", {{"timeout", {{"calls", {1}}}}}}};
+  patch["faults"] = {{"camera", {{"timeout", {{"calls", {1, 2, 3}}}}}}};
   StartDaemon({"--sim-scene", WriteScene("lab-lamp", patch).string()});
   const int64_t job = SubmitStereo("timeout");
   ASSERT_TRUE(WaitForJobState(job, "failed")) << Job(job).dump(2);
@@ -363,6 +366,48 @@ TEST_F(HardwareTest, ACameraThatNeverComesBackSuspendsTheCaptureCancelWorks) {
   nlohmann::json status = Status();
   EXPECT_EQ(status["stage"]["state"], "DEVICE_STATE_CONNECTED");
   EXPECT_EQ(status["camera"]["state"], "DEVICE_STATE_RECONNECTING");
+  EXPECT_EQ(StopDaemon(), 0);
+}
+
+// A camera that is not there when the daemon starts is looked for like one
+// that dropped: the daemon serves and says so, a capture submitted
+// meanwhile is suspended before its first frame, and it goes on once the
+// camera is plugged in.
+TEST_F(HardwareTest, ACameraAbsentAtTheStartIsFoundAndTheCaptureProceeds) {
+  const fs::path plug = dir_ / "plug";
+  nlohmann::json patch = SmallCamera();
+  patch["faults"] = {{"camera", {{"absent_until_file", plug.string()}}}};
+  StartDaemon({"--sim-scene", WriteScene("lab-lamp", patch).string(),
+               "--camera-reconnect-first-s", "0.05", "--camera-reconnect-max-s",
+               "0.2"});
+  const std::string line = StatusLine("camera");
+  EXPECT_THAT(line, StartsWith("reconnecting (attempt "));
+  EXPECT_THAT(line, HasSubstr("no camera found (simulated: not plugged in "
+                              "until " +
+                              plug.string() + " exists)"));
+  nlohmann::json camera = Status()["camera"];
+  EXPECT_EQ(camera["state"], "DEVICE_STATE_RECONNECTING") << camera.dump();
+  EXPECT_EQ(::hdrstereo::testing::JsonInt(camera.value("disconnects", "0")), 0)
+      << "never there: no drop";
+
+  const int64_t job = SubmitStereo("late");
+  ASSERT_TRUE(WaitForJobState(job, "paused")) << Job(job).dump(2);
+  EXPECT_EQ(Sql("SELECT count(*) FROM frames"), "0");
+  EXPECT_EQ(EventsLike("suspended: camera disconnected, reconnecting "
+                       "(attempt %): no camera found (simulated: not plugged "
+                       "in until"),
+            1);
+  EXPECT_THAT(Job(job).value("suspension_reason", ""),
+              HasSubstr("no camera found"));
+
+  { std::ofstream(plug) << "plugged in\n"; }
+  ASSERT_TRUE(WaitForJobState(job, "succeeded")) << Job(job).dump(2);
+  ExpectConsistentStore("late", 2);
+  EXPECT_EQ(EventsLike("resumed: the condition cleared (was: camera "
+                       "disconnected, reconnecting"),
+            1);
+  EXPECT_EQ(EventsLike("dropped"), 0);
+  EXPECT_THAT(StatusLine("camera"), StartsWith("connected"));
   EXPECT_EQ(StopDaemon(), 0);
 }
 

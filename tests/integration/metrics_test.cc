@@ -182,19 +182,19 @@ TEST_F(MetricsTest, SeededFaultsAreCountedByKindAndDeviceCallsAreTimed) {
   // The small bracketed stereo capture: frame 0 (ambient) and 1-8 (left)
   // at 0 mm, 9-16 (right) at 150 mm. The simulated camera counts capture
   // calls from 1 per daemon run; a frame that fails its check is taken
-  // once more (one more call).
+  // once more (one more call), one that times out up to three times.
   nlohmann::json patch = testing::SmallLabLamp();
   patch["faults"] = {
       {"camera",
        {{"previous_file", {{"calls", {3}}}},   // frame 2, retaken by call 4
         {"wrong_exposure", {{"calls", {7}}}},  // frame 5, retaken by call 8
         {"card_target", {{"calls", {11}}}},    // frame 8, retaken by call 12
-        {"timeout", {{"calls", {15}}}}}}};     // frame 11: the job fails
+        {"timeout", {{"calls", {15, 16, 17}}}}}}};  // frame 11: it fails
   const int port = StartWithMetrics(patch);
   ASSERT_EQ(Cli({"session", "create", "lab"}).exit_code, 0);
   EXPECT_EQ(Cli({"capture", "stereo", "lab", "--watch"}).exit_code, 1);
   ASSERT_EQ(Sql("SELECT count(*) FROM frames"), "11");  // frames 0-10
-  // The same plan again takes frames 11-16 (calls 16-21).
+  // The same plan again takes frames 11-16 (calls 18-23).
   CommandResult again = Cli({"capture", "stereo", "lab", "--watch"});
   ASSERT_EQ(again.exit_code, 0) << again.out << again.err;
   ASSERT_EQ(Sql("SELECT count(*) FROM frames"), "17");
@@ -202,15 +202,17 @@ TEST_F(MetricsTest, SeededFaultsAreCountedByKindAndDeviceCallsAreTimed) {
 
   // A new daemon (the stage controller's commands count from 1 again):
   // with the simulated time at 0, a capture's stage commands are 1 "get
-  // maxspeed" at the start, the job's State() (2-3) and Home() (4-5), the
-  // first frame's conditions (6-7), then its MoveTo: State() (8-9) and
-  // "move abs" (10), whose three tries are all garbled: the job fails.
+  // maxspeed" at the start, the job's State() (2-3), the first frame's
+  // conditions (4-5) and Home() (6-7), then its MoveTo: State() (8-9) and
+  // "move abs" (10), whose three tries are all garbled: the frame is taken
+  // again after homing, and the job goes on.
   EXPECT_EQ(StopDaemon(), 0);
   patch["faults"] = {{"stage", {{"garbled", {{"calls", {10, 11, 12}}}}}}};
   const int restarted = StartWithMetrics(patch);
   ASSERT_EQ(Cli({"session", "create", "garbled"}).exit_code, 0);
-  EXPECT_EQ(Cli({"capture", "stereo", "garbled", "--watch"}).exit_code, 1);
-  EXPECT_THAT(Sql("SELECT error FROM jobs WHERE id = 3"),
+  EXPECT_EQ(Cli({"capture", "stereo", "garbled", "--watch"}).exit_code, 0);
+  EXPECT_THAT(Sql("SELECT message FROM job_events WHERE job_id = 3 AND kind "
+                  "= 'stage_garbled' AND level = 'warning'"),
               HasSubstr("answered \"move abs 0\" with garbage"));
 
   const std::map<std::string, double> m = ParseSamples(Scrape(restarted));
@@ -241,7 +243,7 @@ TEST_F(MetricsTest, SeededFaultsAreCountedByKindAndDeviceCallsAreTimed) {
   }
   EXPECT_EQ(Series(m, "hdrstereo_device_errors_total"),
             (std::map<std::string, double>{
-                {R"(device="camera",kind="timeout")", 1},
+                {R"(device="camera",kind="timeout")", 3},
                 {R"(device="camera",kind="busy")", 0},
                 {R"(device="camera",kind="disconnected")", 0},
                 {R"(device="camera",kind="error")", 0},
@@ -251,25 +253,30 @@ TEST_F(MetricsTest, SeededFaultsAreCountedByKindAndDeviceCallsAreTimed) {
                 {R"(device="stage",kind="flag")", 0},
                 {R"(device="stage",kind="error")", 0},
                 {R"(device="projector",kind="error")", 0}}));
-  // Each device error is the event that failed its job.
-  EXPECT_EQ(Sql("SELECT message FROM job_events WHERE kind = 'camera_timeout' "
-                "AND state = 'failed'"),
-            "failed: camera timed out (simulated fault, call 15)");
+  // Each device error is an event the job saw: the warnings that took the
+  // frame again, and the failure after its third attempt.
   EXPECT_EQ(SqlCount("SELECT count(*) FROM job_events WHERE kind = "
-                     "'stage_garbled' AND state = 'failed' AND job_id = 3"),
-            1);
+                     "'camera_timeout' AND level = 'warning' AND job_id = 1"),
+            2);
+  EXPECT_THAT(Sql("SELECT message FROM job_events WHERE kind = "
+                  "'camera_timeout' AND state = 'failed'"),
+              HasSubstr("failed 3 times: 1) capturing: camera timed out "
+                        "(simulated fault, call 15); 2) "));
   // Nothing else was counted.
-  EXPECT_EQ(SqlCount("SELECT count(*) FROM job_events WHERE kind != ''"), 5);
+  EXPECT_EQ(SqlCount("SELECT count(*) FROM job_events WHERE kind != ''"), 7);
 
-  // Camera: 15 + 6 captures. Stage: job 1 homes and moves to 0 and 150 mm;
-  // job 2 moves to 150 mm and home at the end; job 3 homes and its move
-  // fails. Projector: blank at the start of each job and the end of job 2.
+  // Camera: 17 + 6 + 17 captures. Stage: job 1 homes, moves to 0 and 150
+  // mm and to 150 mm again for the second and third attempt at frame 11;
+  // job 2 moves to 150 mm and home at the end; job 3 homes, fails its move
+  // to 0 mm, homes and moves to 0 mm again, then to 150 mm and home.
+  // Projector: blank at the first frame of each job and at the second and
+  // third attempts at frame 11 of job 1, and at the end of jobs 2 and 3.
   const std::map<std::string, double> calls =
       Series(m, "hdrstereo_device_seconds_count");
   EXPECT_EQ(calls,
-            (std::map<std::string, double>{{R"(device="camera")", 21},
-                                           {R"(device="stage")", 7},
-                                           {R"(device="projector")", 4}}));
+            (std::map<std::string, double>{{R"(device="camera")", 40},
+                                           {R"(device="stage")", 13},
+                                           {R"(device="projector")", 7}}));
   for (const char* device : {"camera", "stage", "projector"}) {
     const std::string labels = absl::StrCat("device=\"", device, "\"");
     EXPECT_EQ(

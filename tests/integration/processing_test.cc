@@ -219,8 +219,8 @@ TEST_F(ProcessingTest, BadRequestsNameWhatIsMissingAndDeleteNothing) {
       "artifacts ORDER BY id)";
   nlohmann::json patch = SmallLabLamp();
   // The stereo capture takes 17 frames; the structured-light one fails at
-  // its 8th.
-  patch["faults"] = {{"camera", {{"timeout", {{"calls", {25}}}}}}};
+  // its 8th, which times out at each of its three attempts.
+  patch["faults"] = {{"camera", {{"timeout", {{"calls", {25, 26, 27}}}}}}};
   StartSim(patch);
   ASSERT_EQ(Cli({"session", "create", "empty"}).exit_code, 0);
   CommandResult nothing = Cli({"process", "empty"});

@@ -257,6 +257,11 @@ int64_t DaemonFixture::EventsLike(const std::string& pattern) {
       "SELECT count(*) FROM job_events WHERE message LIKE '%", pattern, "%'")));
 }
 
+int64_t DaemonFixture::EventsOfKind(const std::string& kind) {
+  return std::stoll(Sql(absl::StrCat(
+      "SELECT count(*) FROM job_events WHERE kind = '", kind, "'")));
+}
+
 void DaemonFixture::ExpectNoTempFiles() {
   for (const auto& entry : fs::recursive_directory_iterator(data_root())) {
     EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos)

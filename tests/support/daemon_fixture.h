@@ -75,6 +75,9 @@ class DaemonFixture : public ::testing::Test {
   // How many job events (of any job) have a message containing `pattern`
   // (an SQL LIKE pattern without the surrounding %).
   int64_t EventsLike(const std::string& pattern);
+  // How many job events (of any job) carry the kind named `kind`
+  // (job_events.kind, e.g. "camera_timeout"), as the metrics count them.
+  int64_t EventsOfKind(const std::string& kind);
 
   // The session's capture store is consistent: every recorded frame's file
   // exists and matches its sha256; no file under captures/ lacks a row;

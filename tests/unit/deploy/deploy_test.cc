@@ -219,6 +219,41 @@ TEST(DeployTest, MinBatteryPercentIsAPercentageFromFlagOrConfig) {
               HasSubstr("min-battery-percent"));
 }
 
+TEST(DeployTest, CameraReconnectBackoffFromFlagOrConfig) {
+  absl::StatusOr<daemon::ParsedArgs> defaults = Parse({});
+  ASSERT_TRUE(defaults.ok()) << defaults.status();
+  EXPECT_EQ(std::get<daemon::Config>(*defaults).camera_reconnect_first_s, 0.5);
+  EXPECT_EQ(std::get<daemon::Config>(*defaults).camera_reconnect_max_s, 30);
+  absl::StatusOr<daemon::ParsedArgs> ok = Parse(
+      {"--camera-reconnect-first-s", "0.2", "--camera-reconnect-max-s", "5"});
+  ASSERT_TRUE(ok.ok()) << ok.status();
+  EXPECT_EQ(std::get<daemon::Config>(*ok).camera_reconnect_first_s, 0.2);
+  EXPECT_EQ(std::get<daemon::Config>(*ok).camera_reconnect_max_s, 5);
+  for (const char* option :
+       {"--camera-reconnect-first-s", "--camera-reconnect-max-s"}) {
+    for (const char* bad : {"0", "-1", "7200", "soon"}) {
+      absl::StatusOr<daemon::ParsedArgs> refused = Parse({option, bad});
+      ASSERT_FALSE(refused.ok()) << option << " " << bad;
+      EXPECT_THAT(std::string(refused.status().message()), HasSubstr(option))
+          << bad;
+    }
+  }
+  EXPECT_THAT(Parse({"--camera-reconnect-first-s", "10",
+                     "--camera-reconnect-max-s", "2"})
+                  .status(),
+              testing::StatusIs(
+                  absl::StatusCode::kInvalidArgument,
+                  HasSubstr("--camera-reconnect-first-s 10 is longer than "
+                            "--camera-reconnect-max-s 2")));
+  testing::TempDir dir;
+  const std::string path = (dir / "reconnect.toml").string();
+  std::ofstream(path) << "camera-reconnect-max-s = 0\n";
+  absl::StatusOr<daemon::ParsedArgs> from_file = Parse({"--config", path});
+  ASSERT_FALSE(from_file.ok());
+  EXPECT_THAT(std::string(from_file.status().message()),
+              HasSubstr("camera-reconnect-max-s"));
+}
+
 TEST(DeployTest, UnknownConfigKeyIsRefusedByName) {
   testing::TempDir dir;
   const std::string path = (dir / "bad.toml").string();

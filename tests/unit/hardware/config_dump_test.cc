@@ -7,9 +7,11 @@
 #include "hardware/gphoto2/config_dump.h"
 
 #include <gmock/gmock.h>
+#include <gphoto2/gphoto2-port-result.h>
 #include <gphoto2/gphoto2-result.h>
 #include <gtest/gtest.h>
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -17,6 +19,7 @@
 #include "hardware/gphoto2/gphoto2_camera.h"
 #include "hardware/gphoto2/replay_api.h"
 #include "hardware/gphoto2/widgets.h"
+#include "hardware/reconnecting_camera.h"
 #include "tests/support/status_matchers.h"
 
 namespace hdrstereo::gphoto2 {
@@ -263,6 +266,9 @@ TEST(ReplayApiTest, SetsValuesAsTheCameraWouldAndRefusesOthers) {
   EXPECT_EQ(found[0].port, "replay:nikon-d750.txt");
   EXPECT_EQ(api.Open(found[0].model, found[0].port), GP_OK);
   EXPECT_EQ(api.Open("Canon EOS R5", found[0].port), GP_ERROR_MODEL_NOT_FOUND);
+  // The replay's libgphoto2 knows its own model only.
+  EXPECT_EQ(api.CheckModel("nikon corporation d750"), GP_OK);
+  EXPECT_EQ(api.CheckModel("Canon EOS R5"), GP_ERROR_MODEL_NOT_FOUND);
 
   EXPECT_EQ(api.SetConfigValue("shutterspeed", "0,0080s"), GP_OK);
   EXPECT_EQ(api.SetConfigValue("shutterspeed", "1/125"),
@@ -330,6 +336,83 @@ TEST(ReplayApiTest, TheDriverConfiguresAndCapturesThroughTheReplay) {
   std::vector<std::string> left;
   ASSERT_EQ(replay->ListFiles("/", &left), GP_OK);
   EXPECT_TRUE(left.empty()) << "the driver deletes what it downloaded";
+}
+
+// The replay's USB link: unplugged, the camera is gone from the bus and
+// its old handle answers with I/O errors, as libgphoto2's would; plugged in
+// again (when `plug_in` lets it), a new handle opens and the old one stays
+// dead. Through the driver, the I/O error is a camera gone.
+TEST(ReplayApiTest, TheLinkDropsTheCameraUntilItIsPluggedInAgain) {
+  ASSERT_OK_AND_ASSIGN(CameraDump dump,
+                       ParseCameraDump(kGermanNikon, "nikon-d750.txt"));
+  absl::Status present = absl::OkStatus();
+  int looks = 0;
+  auto link = std::make_shared<ReplayLink>([&] {
+    ++looks;
+    return present;
+  });
+  auto first = std::make_unique<ReplayApi>(dump, nullptr, link);
+  ReplayApi* old_handle = first.get();
+  ASSERT_OK_AND_ASSIGN(std::unique_ptr<Gphoto2Camera> camera,
+                       Gphoto2Camera::OpenWithApi({}, std::move(first)));
+  EXPECT_EQ(looks, 1) << "asked once, at the first look";
+  ASSERT_THAT(camera->Settings(), IsOk());
+
+  link->Unplug();
+  present = absl::UnavailableError("still re-enumerating");
+  std::vector<ConfigWidget> widgets;
+  EXPECT_EQ(old_handle->GetConfig(&widgets), GP_ERROR_IO);
+  EXPECT_THAT(old_handle->ErrorText(GP_ERROR_IO),
+              HasSubstr("the replayed camera was unplugged (nikon-d750.txt)"));
+  absl::Status gone = camera->Settings().status();
+  EXPECT_THAT(gone, StatusIs(absl::StatusCode::kUnavailable,
+                             HasSubstr("I/O error talking to the camera "
+                                       "(disconnected?)")));
+  EXPECT_TRUE(hardware::IsCameraGone(gone));
+
+  ReplayApi second(dump, nullptr, link);
+  std::vector<DetectedCamera> found;
+  ASSERT_EQ(second.Autodetect(&found), GP_OK);
+  EXPECT_TRUE(found.empty());
+  EXPECT_EQ(second.Open("Nikon Corporation D750", "replay:nikon-d750.txt"),
+            GP_ERROR_IO_USB_FIND);
+  EXPECT_THAT(second.ErrorText(GP_ERROR_IO_USB_FIND),
+              HasSubstr("still re-enumerating"));
+
+  present = absl::OkStatus();
+  ASSERT_EQ(second.Autodetect(&found), GP_OK);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(second.Open(found[0].model, found[0].port), GP_OK);
+  EXPECT_EQ(second.GetConfig(&widgets), GP_OK);
+  EXPECT_EQ(old_handle->GetConfig(&widgets), GP_ERROR_IO)
+      << "an old handle stays dead";
+}
+
+// A frame source that says the camera went away unplugs the link.
+TEST(ReplayApiTest, ASourceThatLostTheCameraUnplugsTheLink) {
+  ASSERT_OK_AND_ASSIGN(CameraDump dump,
+                       ParseCameraDump(kGermanNikon, "nikon-d750.txt"));
+  auto link = std::make_shared<ReplayLink>();
+  ReplayApi api(
+      dump,
+      [](const hardware::ExposureSettings&) -> absl::StatusOr<ReplayFile> {
+        return absl::AbortedError("camera disconnected during transfer");
+      },
+      link);
+  std::vector<DetectedCamera> found;
+  ASSERT_EQ(api.Autodetect(&found), GP_OK);
+  ASSERT_EQ(api.Open(found[0].model, found[0].port), GP_OK);
+  std::string folder, name;
+  EXPECT_EQ(api.Capture(&folder, &name), GP_ERROR_IO);
+  EXPECT_THAT(api.ErrorText(GP_ERROR_IO),
+              HasSubstr("camera disconnected during transfer"));
+  std::vector<ConfigWidget> widgets;
+  EXPECT_EQ(api.GetConfig(&widgets), GP_ERROR_IO);
+  // Without a plug-in check, the camera is back at the next look.
+  ASSERT_OK_AND_ASSIGN(const int64_t connection, link->Find());
+  EXPECT_EQ(connection, 2);
+  EXPECT_TRUE(link->Up(2));
+  EXPECT_FALSE(link->Up(1));
 }
 
 TEST(ReplayApiTest, RangeAperturesTakeANumberAndTextOnesAreRefused) {

@@ -9,11 +9,15 @@
 #include <gphoto2/gphoto2-result.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <chrono>
 #include <condition_variable>
 #include <deque>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <string>
 #include <utility>
@@ -21,6 +25,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
+#include "hardware/gphoto2/gphoto2_opener.h"
 #include "hardware/reconnecting_camera.h"
 #include "tests/support/status_matchers.h"
 
@@ -28,6 +33,7 @@ namespace hdrstereo::gphoto2 {
 namespace {
 
 using hardware::ImageFormat;
+using ::hdrstereo::testing::IsOk;
 using ::hdrstereo::testing::StatusIs;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
@@ -41,7 +47,11 @@ struct FakeState {
 
   std::vector<DetectedCamera> detected = {
       {"Canon EOS 5D Mark III", "usb:001,004"}};
+  std::set<std::string> unknown_models;  // libgphoto2 has no driver for
   int open_result = GP_OK;
+  // Apis with an open camera handle, now and at most at once.
+  int open_handles = 0;
+  int max_open_handles = 0;
   std::string error_text;  // what ErrorText() adds to libgphoto2's text
   std::string opened_model, opened_port;
   // Several cameras on one bus: the serial number each api reads, by the
@@ -138,6 +148,7 @@ class FakeApi final : public Gphoto2Api {
   ~FakeApi() override {
     std::lock_guard<std::mutex> lock(state_->mutex);
     state_->api_destroyed = true;
+    if (!port_.empty()) --state_->open_handles;
     state_->cv.notify_all();
   }
 
@@ -147,13 +158,22 @@ class FakeApi final : public Gphoto2Api {
     *cameras = state_->detected;
     return GP_OK;
   }
+  int CheckModel(const std::string& model) override {
+    std::unique_lock<std::mutex> lock(state_->mutex);
+    if (int code = Enter("check_model", lock); code != GP_OK) return code;
+    return state_->unknown_models.count(model) ? GP_ERROR_MODEL_NOT_FOUND
+                                               : GP_OK;
+  }
   int Open(const std::string& model, const std::string& port) override {
     std::unique_lock<std::mutex> lock(state_->mutex);
     if (int code = Enter("open", lock); code != GP_OK) return code;
+    if (state_->open_result != GP_OK) return state_->open_result;
     state_->opened_model = model;
     state_->opened_port = port;
     port_ = port;
-    return state_->open_result;
+    state_->max_open_handles =
+        std::max(state_->max_open_handles, ++state_->open_handles);
+    return GP_OK;
   }
   int GetSummary(std::string* text) override {
     std::unique_lock<std::mutex> lock(state_->mutex);
@@ -302,7 +322,7 @@ class FakeApi final : public Gphoto2Api {
   }
 
   std::shared_ptr<FakeState> state_;
-  std::string port_;  // what this api opened
+  std::string port_;  // what this api opened; "" while none
 };
 
 class Gphoto2CameraTest : public ::testing::Test {
@@ -311,6 +331,7 @@ class Gphoto2CameraTest : public ::testing::Test {
     state_->widgets = CanonWidgets();
     options_.busy_backoff = absl::Milliseconds(1);
     options_.busy_backoff_max = absl::Milliseconds(4);
+    options_.cancel_grace = absl::Milliseconds(50);
     options_.second_file_timeout = absl::Seconds(5);
   }
 
@@ -401,6 +422,26 @@ TEST_F(Gphoto2CameraTest, NoMatchingCameraListsThoseFound) {
               HasSubstr("\"Canon EOS 5D Mark III\" on usb:001,004"));
   EXPECT_THAT(std::string(camera.status().message()),
               HasSubstr("Sony ILCE-7M3"));
+}
+
+// A model libgphoto2 has no driver for is a configuration that no camera
+// can satisfy: NOT_FOUND, before any camera is looked for.
+TEST_F(Gphoto2CameraTest, AModelLibgphoto2DoesNotKnowIsNotFoundAtOnce) {
+  state_->unknown_models = {"Canon EOS 5D Mk III"};
+  options_.model = "Canon EOS 5D Mk III";
+  EXPECT_THAT(
+      Open(),
+      StatusIs(absl::StatusCode::kNotFound,
+               HasSubstr("look up camera model \"Canon EOS 5D Mk III\": "
+                         "libgphoto2 knows no such camera model")));
+  EXPECT_EQ(state_->calls["autodetect"], 0);
+  EXPECT_EQ(state_->calls["open"], 0);
+
+  // A known model that is not connected is a camera not there (yet).
+  options_.model = "Nikon DSC D800";
+  EXPECT_THAT(Open(), StatusIs(absl::StatusCode::kUnavailable,
+                               HasSubstr("no camera matching model \"Nikon "
+                                         "DSC D800\"")));
 }
 
 TEST_F(Gphoto2CameraTest, ClaimFailureNamesTheUsualCulpritAndTheFix) {
@@ -644,6 +685,8 @@ TEST_F(Gphoto2CameraTest, OtherErrorsAreNotRetried) {
   EXPECT_EQ(state_->calls["get_config"], 1);
 }
 
+// A call that returns once asked to cancel (within the grace) leaves the
+// camera usable at once: a timeout, not a stuck camera.
 TEST_F(Gphoto2CameraTest, AHungCallTimesOutIsCancelledAndTheCameraRecovers) {
   options_.capture_timeout = absl::Milliseconds(200);
   state_->capture_produces = {{"/ram", "capt0000.jpg"}};
@@ -653,9 +696,15 @@ TEST_F(Gphoto2CameraTest, AHungCallTimesOutIsCancelledAndTheCameraRecovers) {
   state_->hang_op = "capture";
   state_->hang_honours_cancel = true;
   absl::StatusOr<hardware::Frame> frame = camera->Capture();
-  EXPECT_EQ(frame.status().code(), absl::StatusCode::kDeadlineExceeded);
-  EXPECT_THAT(std::string(frame.status().message()), HasSubstr("capture"));
-  EXPECT_TRUE(WaitUntilUsable(*camera));
+  // 200 ms plus the exposure, 1/60 s.
+  EXPECT_THAT(frame, StatusIs(absl::StatusCode::kDeadlineExceeded,
+                              HasSubstr("capture: no answer from the camera "
+                                        "within 216.6")));
+  EXPECT_THAT(std::string(frame.status().message()),
+              HasSubstr("the call was cancelled"));
+  EXPECT_FALSE(hardware::IsCameraStuck(frame.status()));
+  EXPECT_FALSE(hardware::IsCameraGone(frame.status()));
+  EXPECT_THAT(camera->Info(), IsOk());
   {
     std::lock_guard<std::mutex> lock(state_->mutex);
     EXPECT_GE(state_->cancels, 1);
@@ -671,12 +720,18 @@ TEST_F(Gphoto2CameraTest, WhileACallIsStuckOthersFailFastUntilItReturns) {
   std::unique_ptr<Gphoto2Camera> camera = OpenOrDie();
   ASSERT_NE(camera, nullptr);
   state_->hang_op = "get_config";  // ignores cancellation
-  EXPECT_EQ(camera->Settings().status().code(),
-            absl::StatusCode::kDeadlineExceeded);
+  absl::Status timed_out = camera->Settings().status();
+  EXPECT_THAT(timed_out,
+              StatusIs(absl::StatusCode::kDeadlineExceeded,
+                       HasSubstr("libgphoto2 has not returned within 50ms")));
+  // Stuck: the camera's connection is held; a reconnecting camera drops it.
+  EXPECT_TRUE(hardware::IsCameraStuck(timed_out));
+  EXPECT_TRUE(hardware::IsCameraGone(timed_out));
   absl::StatusOr<hardware::CameraInfo> info = camera->Info();
-  EXPECT_EQ(info.status().code(), absl::StatusCode::kUnavailable);
-  EXPECT_THAT(std::string(info.status().message()),
-              HasSubstr("still stuck in \"read the camera configuration\""));
+  EXPECT_THAT(info, StatusIs(absl::StatusCode::kUnavailable,
+                             HasSubstr("still stuck in \"read the camera "
+                                       "configuration\"")));
+  EXPECT_TRUE(hardware::IsCameraStuck(info.status()));
   state_->Release();
   EXPECT_TRUE(WaitUntilUsable(*camera));
   EXPECT_TRUE(camera->Info().ok());
@@ -690,12 +745,18 @@ TEST_F(Gphoto2CameraTest, DestroyingACameraWithAStuckCallDoesNotWait) {
   EXPECT_EQ(camera->Settings().status().code(),
             absl::StatusCode::kDeadlineExceeded);
   WaitUntilHanging();
+  const Gphoto2Camera::HandleWatch watch = camera->WatchHandle();
   camera.reset();  // returns although the fake call still hangs
   {
     std::lock_guard<std::mutex> lock(state_->mutex);
     EXPECT_TRUE(state_->hanging);
     EXPECT_FALSE(state_->api_destroyed);
   }
+  // The handle is held by the stuck call, as the watch says.
+  std::optional<HandleUse> use = watch();
+  ASSERT_TRUE(use.has_value());
+  EXPECT_EQ(use->stuck_call, "read the camera configuration");
+  EXPECT_LE(use->stuck_since, absl::Now());
   state_->Release();
   // The detached worker closes the camera once the call returns.
   std::unique_lock<std::mutex> lock(state_->mutex);
@@ -1027,6 +1088,172 @@ TEST_F(Gphoto2CameraTest, AnIoErrorDropsTheCameraAndItIsReopenedBySerial) {
   ASSERT_TRUE(frame.ok()) << frame.status();
   EXPECT_EQ(frame->bytes, "jpeg bytes");
   EXPECT_EQ(camera.Connection().drops, 1);
+}
+
+// The states a ReconnectingCamera reported (ReconnectOptions::on_change),
+// so that a test waits for one instead of polling.
+class ConnectionLog {
+ public:
+  std::function<void(const hardware::ConnectionState&)> Callback() {
+    return [this](const hardware::ConnectionState& state) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      states_.push_back(state);
+      cv_.notify_all();
+    };
+  }
+  // The first reported state that `done` accepts, waited for at most 10 s.
+  std::optional<hardware::ConnectionState> WaitFor(
+      const std::function<bool(const hardware::ConnectionState&)>& done) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    std::optional<hardware::ConnectionState> found;
+    cv_.wait_for(lock, std::chrono::seconds(10), [&] {
+      auto it = std::find_if(states_.begin(), states_.end(), done);
+      if (it != states_.end()) found = *it;
+      return found.has_value();
+    });
+    return found;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::vector<hardware::ConnectionState> states_;
+};
+
+bool Connected(const hardware::ConnectionState& state) {
+  return state.connected;
+}
+
+class Gphoto2OpenerTest : public Gphoto2CameraTest {
+ protected:
+  // ReconnectingCamera's opener: a Gphoto2Opener over fake apis.
+  hardware::CameraOpener Opener() {
+    return CameraOpenerOf(std::make_shared<Gphoto2Opener>(
+        options_,
+        [state = state_] { return std::make_unique<FakeApi>(state); }));
+  }
+  hardware::ReconnectOptions Backoff() {
+    hardware::ReconnectOptions backoff;
+    backoff.initial_backoff = absl::Milliseconds(5);
+    backoff.max_backoff = absl::Milliseconds(20);
+    backoff.on_change = log_.Callback();
+    return backoff;
+  }
+
+  ConnectionLog log_;  // outlives the cameras of a test
+};
+
+// Not there when the daemon starts: the camera is looked for as configured
+// (here: on its port) until it is there, as one that dropped would be.
+TEST_F(Gphoto2OpenerTest, ACameraAbsentAtTheStartIsOpenedAsConfigured) {
+  state_->detected.clear();
+  state_->capture_produces = {{"/ram", "capt0000.jpg"}};
+  state_->files["/ram/capt0000.jpg"] = "jpeg bytes";
+  options_.port = "usb:001,007";
+  hardware::CameraOpener open = Opener();
+  absl::StatusOr<std::unique_ptr<hardware::Camera>> first = open();
+  EXPECT_THAT(first, StatusIs(absl::StatusCode::kUnavailable,
+                              HasSubstr("no camera found")));
+  hardware::ReconnectingCamera camera(std::move(first), open, Backoff());
+  hardware::ConnectionState state = camera.Connection();
+  EXPECT_FALSE(state.connected);
+  EXPECT_EQ(state.attempt, 1);
+  EXPECT_EQ(state.drops, 0);
+  EXPECT_THAT(hardware::DescribeConnection(state),
+              HasSubstr("reconnecting (attempt 1): no camera found"));
+  EXPECT_THAT(camera.Capture(),
+              StatusIs(absl::StatusCode::kUnavailable,
+                       HasSubstr("camera disconnected; reconnecting")));
+  ASSERT_TRUE(log_.WaitFor(
+      [](const hardware::ConnectionState& s) { return s.attempt >= 3; }));
+
+  {
+    std::lock_guard<std::mutex> lock(state_->mutex);
+    state_->detected = {{"Nikon DSC D800", "usb:001,006"},
+                        {"Canon EOS 5D Mark III", "usb:001,007"}};
+  }
+  ASSERT_TRUE(log_.WaitFor(Connected))
+      << hardware::DescribeConnection(camera.Connection());
+  EXPECT_EQ(state_->opened_port, "usb:001,007");
+  EXPECT_EQ(camera.Connection().drops, 0);
+  EXPECT_THAT(camera.Capture(), IsOk());
+}
+
+// A call stuck in libgphoto2 drops the camera; no second handle is opened
+// on it until the stuck call returns and its handle is closed, then the
+// camera is reopened by its serial number.
+TEST_F(Gphoto2OpenerTest, AStuckCallDropsTheCameraReopenedOnceItReturns) {
+  options_.capture_timeout = absl::Milliseconds(100);
+  state_->capture_produces = {{"/ram", "capt0000.jpg"}};
+  state_->files["/ram/capt0000.jpg"] = "jpeg bytes";
+  hardware::CameraOpener open = Opener();
+  hardware::ReconnectingCamera camera(open(), open, Backoff());
+  ASSERT_TRUE(camera.Connection().connected);
+
+  state_->hang_op = "capture";  // ignores cancellation
+  absl::Status stuck = camera.Capture().status();
+  EXPECT_THAT(stuck, StatusIs(absl::StatusCode::kDeadlineExceeded,
+                              HasSubstr("libgphoto2 has not returned")));
+  EXPECT_TRUE(hardware::IsCameraStuck(stuck));
+  EXPECT_FALSE(camera.Connection().connected);
+  EXPECT_EQ(camera.Connection().drops, 1);
+
+  std::optional<hardware::ConnectionState> waiting = log_.WaitFor(
+      [](const hardware::ConnectionState& s) { return s.attempt >= 3; });
+  ASSERT_TRUE(waiting.has_value());
+  EXPECT_THAT(std::string(waiting->last_error.message()),
+              HasSubstr("the camera's previous connection is still stuck in "
+                        "\"capture\", which timed out "));
+  {
+    std::lock_guard<std::mutex> lock(state_->mutex);
+    EXPECT_TRUE(state_->hanging);
+    EXPECT_EQ(state_->calls["autodetect"], 1) << "no reopen while stuck";
+    EXPECT_EQ(state_->open_handles, 1);
+  }
+
+  state_->Release();
+  ASSERT_TRUE(log_.WaitFor(Connected))
+      << hardware::DescribeConnection(camera.Connection());
+  {
+    std::lock_guard<std::mutex> lock(state_->mutex);
+    EXPECT_EQ(state_->max_open_handles, 1) << "never two handles at once";
+    EXPECT_EQ(state_->open_handles, 1);
+  }
+  absl::StatusOr<hardware::Frame> frame = camera.Capture();
+  ASSERT_THAT(frame, IsOk());
+  EXPECT_EQ(frame->bytes, "jpeg bytes");
+  EXPECT_EQ(camera.Connection().drops, 1);
+}
+
+// libgphoto2 may never return: after stuck_handle_wait the old handle is
+// abandoned to its thread and the camera is reopened beside it.
+TEST_F(Gphoto2OpenerTest, AHandleThatIsNeverLetGoOfIsAbandonedAfterTheWait) {
+  options_.capture_timeout = absl::Milliseconds(100);
+  options_.stuck_handle_wait = absl::Milliseconds(300);
+  state_->capture_produces = {{"/ram", "capt0000.jpg"}};
+  hardware::CameraOpener open = Opener();
+  hardware::ReconnectingCamera camera(open(), open, Backoff());
+
+  state_->hang_op = "capture";
+  EXPECT_TRUE(hardware::IsCameraStuck(camera.Capture().status()));
+  const absl::Time dropped = absl::Now();
+  ASSERT_TRUE(log_.WaitFor(Connected))
+      << hardware::DescribeConnection(camera.Connection());
+  EXPECT_GE(absl::Now() - dropped, absl::Milliseconds(300));
+  {
+    std::lock_guard<std::mutex> lock(state_->mutex);
+    EXPECT_TRUE(state_->hanging) << "the old call still runs";
+    EXPECT_EQ(state_->open_handles, 2);
+  }
+  absl::StatusOr<hardware::CameraInfo> info = camera.Info();
+  ASSERT_THAT(info, IsOk());
+  EXPECT_EQ(info->serial, "0123456789");
+
+  // When it returns at last, the abandoned handle is closed.
+  state_->Release();
+  std::unique_lock<std::mutex> lock(state_->mutex);
+  EXPECT_TRUE(state_->cv.wait_for(lock, std::chrono::seconds(10),
+                                  [&] { return state_->open_handles == 1; }));
 }
 
 }  // namespace

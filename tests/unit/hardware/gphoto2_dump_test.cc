@@ -357,7 +357,7 @@ TEST(CameraDumpLiveViewTest, ACaptureLeavesLiveViewByTheBodysOwnWidget) {
               !widget.empty());
     absl::StatusOr<std::unique_ptr<Gphoto2Camera>> camera =
         Gphoto2Camera::OpenWithApi(
-            {}, std::make_unique<ReplayApi>(*dump, file, file));
+            {}, std::make_unique<ReplayApi>(*dump, file, nullptr, file));
     ASSERT_THAT(camera, testing::IsOk());
     ASSERT_THAT((*camera)->Configure(Exposure(1.0 / 125)).status(),
                 testing::IsOk());

@@ -64,6 +64,15 @@ TEST(Libgphoto2Test, AnUnknownModelIsNotFound) {
   EXPECT_EQ(camera.status().code(), absl::StatusCode::kNotFound);
   EXPECT_THAT(std::string(camera.status().message()),
               HasSubstr("no such camera model"));
+
+  // Without a port too, whether or not a camera is connected: the model is
+  // looked up in libgphoto2's abilities list before any autodetect.
+  options.port.clear();
+  camera = Gphoto2Camera::Open(options);
+  EXPECT_EQ(camera.status().code(), absl::StatusCode::kNotFound);
+  EXPECT_THAT(std::string(camera.status().message()),
+              HasSubstr("look up camera model \"Hdrstereo Imaginary Camera "
+                        "9000\": libgphoto2 knows no such camera model"));
 }
 
 TEST(Libgphoto2Test, DirectoryBrowseListsDownloadsAndDeletesFiles) {

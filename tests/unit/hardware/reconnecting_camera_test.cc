@@ -90,7 +90,10 @@ class FakeCamera final : public Camera {
 
 class ReconnectingCameraTest : public ::testing::Test {
  protected:
-  std::unique_ptr<ReconnectingCamera> Make(ReconnectOptions options) {
+  // A camera opened at once, or, when `first_open` is an error, one that
+  // could not be opened at first.
+  std::unique_ptr<ReconnectingCamera> Make(
+      ReconnectOptions options, absl::Status first_open = absl::OkStatus()) {
     auto opener = [world =
                        world_]() -> absl::StatusOr<std::unique_ptr<Camera>> {
       std::lock_guard<std::mutex> lock(world->mutex);
@@ -102,17 +105,19 @@ class ReconnectingCameraTest : public ::testing::Test {
       }
       return std::make_unique<FakeCamera>(world, ++world->opened);
     };
-    int id = 0;
-    {
+    absl::StatusOr<std::unique_ptr<Camera>> first;
+    if (first_open.ok()) {
       std::lock_guard<std::mutex> lock(world_->mutex);
-      id = ++world_->opened;
+      first = std::make_unique<FakeCamera>(world_, ++world_->opened);
+    } else {
+      first = first_open;
     }
     options.on_change = [this](const ConnectionState& state) {
       std::lock_guard<std::mutex> lock(changes_mutex_);
       changes_.push_back(state);
     };
-    return std::make_unique<ReconnectingCamera>(
-        std::make_unique<FakeCamera>(world_, id), opener, std::move(options));
+    return std::make_unique<ReconnectingCamera>(std::move(first), opener,
+                                                std::move(options));
   }
 
   void FailNextCall(absl::Status status) {
@@ -192,6 +197,13 @@ TEST(IsCameraGoneTest, DisconnectsAreGoneOtherFailuresAreNot) {
       absl::InvalidArgumentError("exposure is disconnected from reality")));
   EXPECT_FALSE(IsCameraGone(absl::FailedPreconditionError(
       "the camera did not take the setting (mode dial not on M?)")));
+  // A call the driver could not get back holds the connection: gone,
+  // whatever its code; the mark is what says so, not the words.
+  EXPECT_TRUE(IsCameraGone(CameraStuckError(absl::DeadlineExceededError(
+      "capture: no answer from the camera within 30s"))));
+  EXPECT_TRUE(IsCameraGone(CameraStuckError(absl::UnavailableError(
+      "cannot read the camera configuration: the camera is still stuck"))));
+  EXPECT_FALSE(IsCameraStuck(absl::DeadlineExceededError("camera stuck")));
 }
 
 TEST_F(ReconnectingCameraTest, ForwardsCallsWhileConnected) {
@@ -285,6 +297,39 @@ TEST_F(ReconnectingCameraTest, ADropIsReopenedAfterFailedAttempts) {
                 HasSubstr(absl::StrCat("reopen ", i, ")")));
   }
   EXPECT_TRUE(changes[4].connected);
+}
+
+// A camera that could not be opened at first starts away and is opened
+// like one that dropped; no drop is counted.
+TEST_F(ReconnectingCameraTest, ACameraNotThereAtTheStartIsOpenedLater) {
+  world_->failing_reopens = 2;
+  std::unique_ptr<ReconnectingCamera> camera =
+      Make(Fast(), absl::UnavailableError("no camera found (at the start)"));
+  ConnectionState state = camera->Connection();
+  EXPECT_FALSE(state.connected);
+  EXPECT_EQ(state.attempt, 1);
+  EXPECT_EQ(state.drops, 0);
+  EXPECT_EQ(DescribeConnection(state),
+            "reconnecting (attempt 1): no camera found (at the start)");
+  absl::Status away = camera->Capture().status();
+  EXPECT_TRUE(absl::IsUnavailable(away)) << away;
+  EXPECT_TRUE(IsCameraGone(away));
+  EXPECT_EQ(world_->calls, 0);
+
+  ASSERT_TRUE(WaitFor(*camera, [](const ConnectionState& s) {
+    return s.connected;
+  })) << DescribeConnection(camera->Connection());
+  EXPECT_EQ(camera->Connection().drops, 0);
+  EXPECT_EQ(world_->reopen_calls, 3);
+  absl::StatusOr<Frame> frame = camera->Capture();
+  ASSERT_TRUE(frame.ok()) << frame.status();
+  EXPECT_EQ(frame->bytes, "frame of camera 1") << "the first one opened";
+  // Reported: attempts 2 and 3 pending, then connected.
+  const std::vector<ConnectionState> changes = Changes();
+  ASSERT_EQ(changes.size(), 3u);
+  EXPECT_EQ(changes[0].attempt, 2);
+  EXPECT_EQ(changes[1].attempt, 3);
+  EXPECT_TRUE(changes[2].connected);
 }
 
 TEST_F(ReconnectingCameraTest, EveryCameraCallCanSeeTheDrop) {

@@ -4,6 +4,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <future>
 #include <opencv2/imgcodecs.hpp>
 
@@ -130,6 +131,37 @@ TEST(SimWorldTest, DisconnectWithoutFailedReopensIsPermanentUntilPlugged) {
   world.ReconnectCamera();
   EXPECT_TRUE(world.camera_connected());
   EXPECT_TRUE(world.Capture(s, ImageFormat::kPng).ok());
+}
+
+// A camera absent from the start is found once the file says it is
+// plugged in; until then every camera call fails as after a disconnect.
+TEST(SimWorldTest, ACameraAbsentAtTheStartIsFoundOnceItsFileExists) {
+  hdrstereo::testing::TempDir dir;
+  const std::string plug = (dir / "plug").string();
+  absl::StatusOr<Scene> scene = ParseScene(testing::SmallSceneJson(
+      "", absl::StrCat(R"("faults": {"camera": {"absent_until_file": ")", plug,
+                       R"("}})")));
+  ASSERT_THAT(scene, hdrstereo::testing::IsOk());
+  EXPECT_EQ(scene->camera_faults.absent_until_file, plug);
+  SimWorld world(*scene);
+  EXPECT_FALSE(world.camera_connected());
+  const ExposureSettings s{1.0 / 60, 100};
+  EXPECT_THAT(world.Capture(s, ImageFormat::kPng),
+              hdrstereo::testing::StatusIs(
+                  absl::StatusCode::kFailedPrecondition,
+                  ::testing::HasSubstr("camera disconnected")));
+  for (int attempt = 1; attempt <= 3; ++attempt) {
+    EXPECT_THAT(world.ReopenCamera(),
+                hdrstereo::testing::StatusIs(
+                    absl::StatusCode::kUnavailable,
+                    ::testing::HasSubstr(absl::StrCat(
+                        "no camera found (simulated: not plugged in until ",
+                        plug, " exists)"))));
+  }
+  { std::ofstream(plug) << "1"; }
+  EXPECT_THAT(world.ReopenCamera(), hdrstereo::testing::IsOk());
+  EXPECT_TRUE(world.camera_connected());
+  EXPECT_THAT(world.Capture(s, ImageFormat::kPng), hdrstereo::testing::IsOk());
 }
 
 TEST(SimWorldTest, DisconnectFailedReopensIsReadFromTheScene) {
