@@ -345,10 +345,10 @@ Object ParseObject(const Json& j, const std::string& p) {
 }
 
 Scene ParseSceneJson(const Json& root) {
-  CheckKeys(
-      root, "",
-      {"name", "description", "seed", "camera", "rig", "sensor", "ambient_lux",
-       "objects", "lights", "projector", "timing", "faults"});
+  CheckKeys(root, "",
+            {"name", "description", "seed", "camera", "rig", "sensor",
+             "ambient_lux", "objects", "lights", "projector", "timing",
+             "faults", "calibration_board"});
   Scene s;
   s.name = GetString(root, "", "name", "");
   s.description = GetString(root, "", "description", "");
@@ -416,6 +416,48 @@ Scene ParseSceneJson(const Json& root) {
     }
   }
   if (s.objects.size() > 65000) Fail("objects", "too many objects");
+  if (root.contains("calibration_board")) {
+    const Json& j = root.at("calibration_board");
+    const std::string p = "calibration_board";
+    CheckKeys(j, p, {"objects", "poses"});
+    if (!j.contains("objects") || !j.at("objects").is_array() ||
+        j.at("objects").empty()) {
+      Fail(p + ".objects", "expected a non-empty array of object names");
+    }
+    const Json& names = j.at("objects");
+    for (size_t i = 0; i < names.size(); ++i) {
+      const std::string np = absl::StrCat(p, ".objects[", i, "]");
+      if (!names[i].is_string()) Fail(np, "expected an object name");
+      const int index = s.FindObject(names[i].get<std::string>());
+      if (index < 0) {
+        Fail(np, "no object is called \"" + names[i].get<std::string>() + "\"");
+      }
+      if (s.objects[index].shape != ShapeKind::kPlane) {
+        Fail(np, "only planes can be board objects");
+      }
+      s.calibration_board.objects.push_back(index);
+    }
+    if (!j.contains("poses") || !j.at("poses").is_array() ||
+        j.at("poses").empty()) {
+      Fail(p + ".poses", "expected a non-empty array of poses");
+    }
+    const Json& poses = j.at("poses");
+    if (poses.size() > 64) Fail(p + ".poses", "at most 64 poses");
+    for (size_t i = 0; i < poses.size(); ++i) {
+      const std::string pp = absl::StrCat(p, ".poses[", i, "]");
+      CheckKeys(poses[i], pp, {"offset_mm", "rotation_deg"});
+      BoardPose pose;
+      pose.offset = GetVec3(poses[i], pp, "offset_mm", Vec3());
+      const Vec3 deg = GetVec3(poses[i], pp, "rotation_deg", Vec3());
+      for (int k = 0; k < 3; ++k) {
+        if (std::abs(deg[k]) > 80) {
+          Fail(pp + ".rotation_deg", "angles must be in [-80, 80]");
+        }
+      }
+      pose.rotation = RotationFromEulerDeg(deg);
+      s.calibration_board.poses.push_back(pose);
+    }
+  }
   if (root.contains("lights")) {
     const Json& lights = root.at("lights");
     if (!lights.is_array()) Fail("lights", "expected an array");
@@ -539,6 +581,29 @@ Scene ParseSceneJson(const Json& root) {
 }
 
 }  // namespace
+
+absl::StatusOr<Scene> WithBoardPose(const Scene& scene, int pose) {
+  const CalibrationBoard& board = scene.calibration_board;
+  if (board.poses.empty() || board.objects.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "scene \"", scene.name, "\" has no calibration_board poses"));
+  }
+  if (pose < 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("board pose ", pose, " is negative"));
+  }
+  const BoardPose& p = board.poses[pose % board.poses.size()];
+  Scene out = scene;
+  const Vec3 pivot = scene.objects[board.objects.front()].center;
+  for (int index : board.objects) {
+    const Object& from = scene.objects[index];
+    Object& to = out.objects[index];
+    to.center = pivot + p.offset + p.rotation * (from.center - pivot);
+    to.normal = p.rotation * from.normal;
+    to.u_axis = p.rotation * from.u_axis;
+  }
+  return out;
+}
 
 double ProjectorModel::focal_px() const {
   return (width / 2.0) / std::tan(fov_deg * kPi / 360.0);

@@ -253,6 +253,22 @@ struct ProjectorFaults {
   FaultWindow lost;
 };
 
+// Where the operator holds the calibration board for one pose: the board's
+// objects rotated by `rotation` about the first one's centre (as placed in
+// the scene file), then moved by `offset`.
+struct BoardPose {
+  Vec3 offset{0, 0, 0};
+  Mat3 rotation = Mat3::eye();
+};
+
+// A calibration board the simulated operator moves between poses: the
+// objects (planes, e.g. the chessboard and its white border) that move
+// together, and the poses in the order a calibration capture asks for them.
+struct CalibrationBoard {
+  std::vector<int> objects;  // indices into Scene::objects
+  std::vector<BoardPose> poses;
+};
+
 struct Scene {
   std::string name;
   std::string description;
@@ -268,6 +284,7 @@ struct Scene {
   CameraFaults camera_faults;
   StageFaults stage_faults;
   ProjectorFaults projector_faults;
+  CalibrationBoard calibration_board;  // no poses: the board never moves
 
   // Index of the object called `name`, or -1.
   int FindObject(absl::string_view name) const;
@@ -284,6 +301,11 @@ std::vector<std::string> BundledSceneNames();
 absl::StatusOr<Scene> LoadBundledScene(absl::string_view name);
 // A bundled scene name, or else a path to a JSON file.
 absl::StatusOr<Scene> LoadScene(absl::string_view name_or_path);
+
+// The scene with its calibration board in pose `pose` (0-based, taken
+// modulo the number of poses). INVALID_ARGUMENT for a scene without board
+// poses or a negative pose.
+absl::StatusOr<Scene> WithBoardPose(const Scene& scene, int pose);
 
 // The same camera at another resolution: `width` pixels wide, the height
 // keeping the aspect ratio (rounded), the focal lengths scaled alike and the

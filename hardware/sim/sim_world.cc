@@ -64,16 +64,55 @@ absl::Status WaitForRelease(const std::string& path, int64_t call) {
   return absl::OkStatus();
 }
 
+// One renderer for the scene as loaded, then one per board pose.
+std::vector<std::unique_ptr<const Renderer>> RenderersFor(Scene scene) {
+  std::vector<std::unique_ptr<const Renderer>> renderers;
+  for (size_t k = 0; k < scene.calibration_board.poses.size(); ++k) {
+    // ParseScene checked the board, so the pose exists.
+    renderers.push_back(std::make_unique<const Renderer>(
+        WithBoardPose(scene, static_cast<int>(k)).value()));
+  }
+  renderers.insert(renderers.begin(),
+                   std::make_unique<const Renderer>(std::move(scene)));
+  return renderers;
+}
+
 }  // namespace
 
 SimWorld::SimWorld(Scene scene)
-    : renderer_(std::move(scene)),
-      faults_(renderer_.scene().camera_faults),
-      low_battery_(faults_.low_battery, renderer_.scene().seed, 7),
-      projector_lost_(renderer_.scene().projector_faults.lost,
-                      renderer_.scene().seed, 8) {
+    : renderers_(RenderersFor(std::move(scene))),
+      faults_(this->scene().camera_faults),
+      low_battery_(faults_.low_battery, this->scene().seed, 7),
+      projector_lost_(this->scene().projector_faults.lost, this->scene().seed,
+                      8) {
   absent_since_start_ = !faults_.absent_until_file.empty();
   disconnected_ = absent_since_start_;
+}
+
+const Renderer& SimWorld::renderer() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return *renderers_[board_pose_ + 1];
+}
+
+absl::Status SimWorld::PlaceBoard(int pose) {
+  const size_t poses = renderers_.size() - 1;
+  if (poses == 0) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "scene \"", scene().name,
+        "\" has no calibration_board poses: the board cannot move"));
+  }
+  if (pose < 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("board pose ", pose, " is negative"));
+  }
+  std::lock_guard<std::mutex> lock(mu_);
+  board_pose_ = static_cast<int>(pose % poses);
+  return absl::OkStatus();
+}
+
+int SimWorld::board_pose() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return board_pose_;
 }
 
 void SimWorld::SetStagePosition(double mm) {
@@ -175,7 +214,7 @@ RadianceFrame SimWorld::RenderRadiance() const {
     stage = stage_mm_;
     pattern = ShowingLocked();
   }
-  return renderer_.Render(CameraView(scene(), stage), pattern);
+  return renderer().Render(CameraView(scene(), stage), pattern);
 }
 
 cv::Mat SimWorld::RenderExposure(const ExposureSettings& settings, int bits) {
@@ -188,7 +227,7 @@ cv::Mat SimWorld::RenderExposure(const ExposureSettings& settings, int bits) {
     stage = stage_mm_;
     pattern = ShowingLocked();
   }
-  return RenderFrame(renderer_, CameraView(scene(), stage), pattern, settings,
+  return RenderFrame(renderer(), CameraView(scene(), stage), pattern, settings,
                      HashCombine(scene().seed, static_cast<uint64_t>(index)),
                      bits);
 }
@@ -246,7 +285,7 @@ absl::StatusOr<SimCapture> SimWorld::Preview(const ExposureSettings& settings) {
   preview.format = ImageFormat::kJpeg;
   preview.settings = settings;
   preview.image =
-      RenderFrame(renderer_, PreviewView(scene(), preview.stage_mm), pattern,
+      RenderFrame(renderer(), PreviewView(scene(), preview.stage_mm), pattern,
                   settings, PreviewNoiseSeed(scene(), preview.frame_index));
   ASSIGN_OR_RETURN(preview.bytes, EncodeImage(preview.image, preview.format));
   return preview;
@@ -271,7 +310,7 @@ absl::StatusOr<SimCapture> SimWorld::Render(const ExposureSettings& settings,
   capture.stage_mm = stage;
   capture.frame_index = index;
   capture.camera_time = camera_time;
-  RadianceFrame frame = renderer_.Render(CameraView(scene(), stage), pattern);
+  RadianceFrame frame = renderer().Render(CameraView(scene(), stage), pattern);
   cv::Mat electrons =
       ExposeSensor(frame.radiance, scene().sensor, settings,
                    HashCombine(scene().seed, static_cast<uint64_t>(index)));
@@ -452,7 +491,7 @@ int64_t SimWorld::capture_calls() const {
 
 absl::StatusOr<StereoTruth> SimWorld::Truth(double left_mm,
                                             double baseline_mm) const {
-  return ComputeStereoTruth(renderer_, left_mm, baseline_mm,
+  return ComputeStereoTruth(renderer(), left_mm, baseline_mm,
                             ProjectorPattern());
 }
 

@@ -24,6 +24,7 @@
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
@@ -87,9 +88,22 @@ class SimWorld {
   SimWorld(const SimWorld&) = delete;
   SimWorld& operator=(const SimWorld&) = delete;
 
-  const Scene& scene() const { return renderer_.scene(); }
-  const Renderer& renderer() const { return renderer_; }
-  const TimingModel& timing() const { return renderer_.scene().timing; }
+  // The scene as loaded (the calibration board where the file puts it).
+  const Scene& scene() const { return renderers_.front()->scene(); }
+  // The renderer of the world as it is now: the board in the pose
+  // PlaceBoard last placed it in. The reference stays valid for the
+  // world's life.
+  const Renderer& renderer() const;
+  const TimingModel& timing() const { return scene().timing; }
+
+  // The simulated operator places the calibration board in pose `pose`
+  // (0-based; scene.calibration_board.poses, taken modulo their number):
+  // renders, captures, previews and the truth see it there from now on.
+  // FAILED_PRECONDITION when the scene has no board poses, INVALID_ARGUMENT
+  // for a negative pose.
+  absl::Status PlaceBoard(int pose);
+  // The pose the board is in (-1: where the scene file puts it).
+  int board_pose() const;
 
   // Stage position in mm along the stage axis (not range-checked here: the
   // stage emulator enforces travel limits).
@@ -178,8 +192,11 @@ class SimWorld {
   // pattern_. mu_ held.
   const cv::Mat& ShowingLocked() const;
 
-  Renderer renderer_;
+  // [0]: the scene as loaded; [1 + k]: the board in pose k. Built once,
+  // so a reference to any of them stays valid.
+  std::vector<std::unique_ptr<const Renderer>> renderers_;
   mutable std::mutex mu_;
+  int board_pose_ = -1;  // renderers_[board_pose_ + 1] is current
   double stage_mm_ = 0;
   mutable cv::Mat pattern_;  // showing (as of the last ShowingLocked)
   // Patterns given but not showing yet (projector latency), by time.

@@ -11,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "hardware/sim/sim_devices.h"
+#include "processing/calib/stereo_calibration.h"
 #include "tests/support/camera_hold.h"
 #include "tests/support/status_matchers.h"
 #include "tests/support/temp_dir.h"
@@ -424,6 +425,100 @@ TEST(SimWorldTest, ProjectorPatternValidation) {
   SimWorld textured(SmallBundledScene("textured"));  // has no projector
   EXPECT_EQ(textured.SetProjectorPattern(cv::Mat(8, 8, CV_8UC1)).code(),
             absl::StatusCode::kFailedPrecondition);
+}
+
+// The calibration board takes each pose of the scene file when the
+// simulated operator places it there: every pose renders differently, and
+// the chessboard is found in each, from both ends of the baseline.
+TEST(SimWorldTest, BoardTakesEachPoseAndIsDetectedInIt) {
+  absl::StatusOr<Scene> scene = LoadBundledScene("checkerboard");
+  ASSERT_THAT(scene.status(), IsOk());
+  ScaleCamera(*scene, 600);
+  ASSERT_EQ(scene->calibration_board.poses.size(), 8u);
+  SimWorld world(*scene);
+  EXPECT_EQ(world.board_pose(), -1);
+  const ExposureSettings settings{1.0 / 60, 100};
+  std::vector<cv::Point2f> previous_corners;
+  for (int pose = 0; pose < 8; ++pose) {
+    SCOPED_TRACE(absl::StrCat("pose ", pose));
+    ASSERT_THAT(world.PlaceBoard(pose), IsOk());
+    EXPECT_EQ(world.board_pose(), pose);
+    std::vector<cv::Point2f> left_corners;
+    for (double stage_mm : {0.0, 150.0}) {
+      world.SetStagePosition(stage_mm);
+      const cv::Mat image = world.RenderExposure(settings);
+      absl::StatusOr<std::vector<cv::Point2f>> corners = calib::FindChessboard(
+          image, cv::Size(9, 6), absl::StrCat("pose ", pose));
+      ASSERT_THAT(corners.status(), IsOk());
+      ASSERT_EQ(corners->size(), 54u);
+      if (stage_mm == 0) left_corners = *corners;
+    }
+    if (!previous_corners.empty()) {
+      double moved = 0;
+      for (size_t i = 0; i < left_corners.size(); ++i) {
+        moved = std::max<double>(
+            moved, cv::norm(left_corners[i] - previous_corners[i]));
+      }
+      // Each pose moves some corner by more than 10 px (at 600 px wide).
+      EXPECT_GT(moved, 10.0);
+    }
+    previous_corners = left_corners;
+  }
+  // Poses wrap around: pose 8 is pose 0 again.
+  ASSERT_THAT(world.PlaceBoard(8), IsOk());
+  EXPECT_EQ(world.board_pose(), 0);
+  EXPECT_THAT(world.PlaceBoard(-1),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("board pose -1 is negative")));
+}
+
+TEST(SimWorldTest, BoardWithoutPosesCannotBePlaced) {
+  SimWorld world(SmallBundledScene("textured"));
+  EXPECT_THAT(world.PlaceBoard(0),
+              StatusIs(absl::StatusCode::kFailedPrecondition,
+                       HasSubstr("has no calibration_board poses")));
+}
+
+TEST(SceneTest, CalibrationBoardErrorsNameTheField) {
+  const std::string board =
+      R"({"name": "board", "type": "plane", "center_mm": [0, 0, 500]},
+         {"name": "ball", "type": "sphere", "center_mm": [0, 0, 900],
+          "radius_mm": 50})";
+  EXPECT_THAT(
+      ParseScene(testing::SmallSceneJson(
+          board, R"("calibration_board": {"objects": ["nope"],
+                    "poses": [{}]})")),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("calibration_board.objects[0]: no object is called "
+                         "\"nope\"")));
+  EXPECT_THAT(ParseScene(testing::SmallSceneJson(
+                  board, R"("calibration_board": {"objects": ["ball"],
+                    "poses": [{}]})")),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("only planes can be board objects")));
+  EXPECT_THAT(
+      ParseScene(testing::SmallSceneJson(
+          board, R"("calibration_board": {"objects": ["board"],
+                    "poses": []})")),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("calibration_board.poses: expected a non-empty")));
+  EXPECT_THAT(ParseScene(testing::SmallSceneJson(
+                  board, R"("calibration_board": {"objects": ["board"],
+                    "poses": [{"rotation_deg": [90, 0, 0]}]})")),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("calibration_board.poses[0].rotation_deg")));
+  // A pose rotates the board about its centre and moves it.
+  absl::StatusOr<Scene> scene = ParseScene(testing::SmallSceneJson(
+      board, R"("calibration_board": {"objects": ["board"],
+                "poses": [{"offset_mm": [10, 0, 0],
+                           "rotation_deg": [0, 30, 0]}]})"));
+  ASSERT_THAT(scene.status(), IsOk());
+  absl::StatusOr<Scene> posed = WithBoardPose(*scene, 0);
+  ASSERT_THAT(posed.status(), IsOk());
+  EXPECT_NEAR(posed->objects[0].center[0], 10, 1e-9);
+  EXPECT_NEAR(posed->objects[0].center[2], 500, 1e-9);
+  EXPECT_NEAR(posed->objects[0].normal[0], -std::sin(CV_PI / 6), 1e-9);
+  EXPECT_NEAR(posed->objects[1].center[2], 900, 1e-9);  // not a board object
 }
 
 }  // namespace
