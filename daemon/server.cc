@@ -56,6 +56,16 @@ jobs::TruthWriter TruthWriterFor(const sim::SimWorld* world) {
   };
 }
 
+// In simulation the operator continuing a calibration capture to a pose
+// places the world's board there (a scene without board poses keeps it
+// where it is).
+jobs::BoardPlacer BoardPlacerFor(sim::SimWorld* world) {
+  if (world == nullptr || world->scene().calibration_board.poses.empty()) {
+    return nullptr;
+  }
+  return [world](int pose) { return world->PlaceBoard(pose); };
+}
+
 rpc::RoleMap UsersOf(const Config& config) {
   rpc::RoleMap users;
   for (const auto& [name, role] : config.users) {
@@ -125,12 +135,14 @@ Server::Server(std::unique_ptr<store::Store> store,
           *store_,
           [rig = hardware_->rig.get(),
            truth = TruthWriterFor(hardware_->world.get()),
+           place_board = BoardPlacerFor(hardware_->world.get()),
            conditions =
                jobs::CaptureConditions{
                    .disk = &disk_guard_,
                    .min_battery_percent = config.min_battery_percent}](
               jobs::JobContext& context) {
-            return jobs::RunCaptureJob(*rig, context, truth, conditions);
+            return jobs::RunCaptureJob(*rig, context, truth, conditions,
+                                       place_board);
           },
           [rig = hardware_->rig.get(), environment = ProcessingEnvironmentFor(
                                            config)](jobs::JobContext& context) {

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
 // `hdrstereo capture stereo|sl|calibration` and
-// `hdrstereo jobs list|show|watch|pause|resume|cancel`.
+// `hdrstereo jobs list|show|watch|pause|resume|continue|cancel`.
 #include <signal.h>
 #include <unistd.h>
 
@@ -61,6 +61,11 @@ void PrintJob(const v1::Job& job) {
                            : absl::StrCat("Slurm ", job.cluster_job_id())},
        {"suspended",
         job.suspension_reason().empty() ? "-" : job.suspension_reason()},
+       {"waiting for",
+        job.instruction().empty()
+            ? "-"
+            : absl::StrCat(job.instruction(), " (hdrstereo jobs continue ",
+                           job.id(), ")")},
        {"error", job.error().empty() ? "-" : job.error()}});
 }
 
@@ -343,7 +348,9 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
                  absl::StrCat(j.progress().done(), "/", j.progress().total()),
                  FormatTime(j.create_time()),
                  j.submitted_by().empty() ? "-" : j.submitted_by(),
-                 j.suspension_reason().empty()
+                 !j.instruction().empty()
+                     ? absl::StrCat("waiting: ", j.instruction())
+                 : j.suspension_reason().empty()
                      ? j.error()
                      : absl::StrCat("suspended: ", j.suspension_reason())});
           }
@@ -389,6 +396,17 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
                 grpc::Status status =
                     v1::Jobs::NewStub(client.channel())
                         ->Resume(client.NewContext().get(), request, &job);
+                return Finish(client, status, job, PrintJob);
+              });
+  job_command("continue",
+              "Let a waiting job go on (e.g. the calibration board is placed)",
+              [](const Client& client, int64_t id) {
+                v1::ContinueJobRequest request;
+                request.set_job_id(id);
+                v1::Job job;
+                grpc::Status status =
+                    v1::Jobs::NewStub(client.channel())
+                        ->Continue(client.NewContext().get(), request, &job);
                 return Finish(client, status, job, PrintJob);
               });
   job_command("cancel", "Cancel a job (hardware is left safe)",

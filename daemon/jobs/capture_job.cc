@@ -24,6 +24,7 @@
 #include "daemon/store/frame_repository.h"
 #include "hardware/reconnecting_camera.h"
 #include "processing/base/status_macros.h"
+#include "processing/calib/stereo_calibration.h"
 #include "processing/io/atomic_file.h"
 #include "processing/io/capture_layout.h"
 #include "processing/io/sha256.h"
@@ -174,6 +175,35 @@ int ViewsOf(const v1::CapturePlan& plan) {
     default:
       return 2;
   }
+}
+
+// Why a calibration frame does not show the chessboard ("" when it does, or
+// when the frame is RAW and cannot be checked here).
+std::string BoardMissing(const hardware::Frame& frame) {
+  if (frame.format == hardware::ImageFormat::kRaw) return "";
+  const cv::Mat image =
+      cv::imdecode(cv::Mat(1, static_cast<int>(frame.bytes.size()), CV_8UC1,
+                           const_cast<char*>(frame.bytes.data())),
+                   cv::IMREAD_GRAYSCALE);
+  if (image.empty()) return "";  // PersistFrame says it is corrupt
+  absl::StatusOr<std::vector<cv::Point2f>> corners = calib::FindChessboard(
+      image, calib::BoardSpec().inner_corners, "the frame");
+  return corners.ok() ? "" : std::string(corners.status().message());
+}
+
+// Drops a recorded frame (row and file), e.g. the left view of a
+// calibration pose whose right view did not show the board.
+absl::Status DropFrame(store::FrameRepository& frames, int64_t capture_id,
+                       int sequence, const std::filesystem::path& session_dir) {
+  ASSIGN_OR_RETURN(std::vector<store::FrameRecord> recorded,
+                   frames.FramesOfCapture(capture_id));
+  for (const store::FrameRecord& frame : recorded) {
+    if (frame.sequence != sequence) continue;
+    RETURN_IF_ERROR(frames.Delete(frame.id));
+    std::error_code ec;
+    std::filesystem::remove(session_dir / frame.path, ec);
+  }
+  return absl::OkStatus();
 }
 
 absl::Status FinishPending(std::future<absl::Status>& pending) {
@@ -393,7 +423,8 @@ absl::Status CheckDevicesFor(const v1::CapturePlan& plan,
 
 absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
                            const TruthWriter& write_truth,
-                           const CaptureConditions& conditions) {
+                           const CaptureConditions& conditions,
+                           const BoardPlacer& place_board) {
   const DiskGuard* disk = conditions.disk;
   const store::JobRecord& job = context.job();
   v1::CapturePlan plan;
@@ -422,6 +453,22 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
       VerifiedFrames(frames, capture.id, session_dir, context);
   if (!done.ok()) return done.status();
   RETURN_IF_ERROR(RemoveUnrecordedFiles(session_dir, capture.id, *done));
+  const bool calibration = plan.has_calibration();
+  const int poses = calibration ? plan.calibration().poses() : 0;
+  if (calibration) {
+    // A pose left half taken (the daemon stopped between its views) is
+    // taken again whole: the board may have moved meanwhile.
+    for (int pose = 0; pose < poses; ++pose) {
+      const int left = specs[2 * pose].sequence;
+      const int right = specs[2 * pose + 1].sequence;
+      if (done->contains(left) && !done->contains(right)) {
+        RETURN_IF_ERROR(DropFrame(frames, capture.id, left, session_dir));
+        done->erase(left);
+        context.Info(absl::StrCat("pose ", pose + 1, " of ", poses,
+                                  " was half taken; it is taken again"));
+      }
+    }
+  }
   const int64_t total = static_cast<int64_t>(specs.size());
   int64_t count = static_cast<int64_t>(done->size());
   RETURN_IF_ERROR(context.Progress(
@@ -571,6 +618,11 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
         absl::StrCat(write_failure, "; it is taken again once there is room"));
     return pending_index;
   };
+  // Calibration: the pose the operator was last asked for and continued
+  // to (-1: none yet, or it must be asked for again), and what the next
+  // instruction says first (why the pose is asked for again).
+  int placed_pose = -1;
+  std::string retry_note;
   for (size_t next = 0;;) {
     if (next == specs.size()) {
       ASSIGN_OR_RETURN(next, finish_pending(next));  // the last frame's write
@@ -580,6 +632,25 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
     if (done->contains(spec.sequence)) {
       ++next;
       continue;
+    }
+    const int pose = static_cast<int>(next / 2);
+    if (calibration && placed_pose != pose) {
+      // Before a pose: the previous one is recorded, then the operator
+      // places the board and continues.
+      ASSIGN_OR_RETURN(const size_t go_on, finish_pending(next));
+      if (go_on != next) {
+        next = go_on;
+        continue;
+      }
+      RETURN_IF_ERROR(context.WaitForOperator(
+          absl::StrCat(retry_note, "place the board in pose ", pose + 1, " of ",
+                       poses, " and continue")));
+      retry_note.clear();
+      if (place_board != nullptr) {
+        RETURN_IF_ERROR(InStep("placing the simulated calibration board",
+                               place_board(pose)));
+      }
+      placed_pose = pose;
     }
     // A frame still being written while the rest does not fit is finished
     // first: its write may have found the disk full, and then the
@@ -758,6 +829,35 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
       camera_prepared = false;
       exposure = std::nan("");
       ++drops;
+    }
+    if (calibration) {
+      if (const std::string missing = BoardMissing(*frame); !missing.empty()) {
+        const std::string view = spec.view_index == 0 ? "left" : "right";
+        context.Warn(absl::StrCat("pose ", pose + 1, " of ", poses,
+                                  ": the board was not found in the ", view,
+                                  " view (", missing,
+                                  "); the pose is not kept"));
+        if (spec.view_index == 1) {
+          // Its left view is recorded (or being written): dropped.
+          ASSIGN_OR_RETURN(const size_t go_on, finish_pending(next));
+          if (go_on != next) {
+            next = go_on;
+            continue;
+          }
+          RETURN_IF_ERROR(DropFrame(frames, capture.id,
+                                    specs[next - 1].sequence, session_dir));
+          done->erase(specs[next - 1].sequence);
+          --count;
+          RETURN_IF_ERROR(context.Progress(
+              count, total,
+              absl::StrCat("pose ", pose + 1, " not kept: no board")));
+          --next;
+        }
+        retry_note = absl::StrCat("the board was not found in the ", view,
+                                  " view of pose ", pose + 1, "; ");
+        placed_pose = -1;
+        continue;
+      }
     }
     checker.Remember(report);
     frame_size.Delivered(static_cast<int64_t>(frame->bytes.size()));

@@ -44,6 +44,11 @@ absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
 using TruthWriter = std::function<absl::Status(
     double left_mm, double baseline_mm, const std::filesystem::path& dir)>;
 
+// Puts the calibration board in pose `pose` (0-based) when the operator
+// continues a calibration capture to it (simulation only: the simulated
+// operator places the board; at a real rig the person does).
+using BoardPlacer = std::function<absl::Status(int pose)>;
+
 // What must hold at every frame boundary of a capture; while one does not,
 // the job is suspended (JobContext::SuspendWhile) and resumes by itself.
 struct CaptureConditions {
@@ -63,9 +68,17 @@ struct CaptureConditions {
 // Before each frame, `conditions` are checked (and the camera, stage and
 // projector asked whether they still answer); a frame is taken only into
 // conditions that hold.
+// A calibration capture waits for the operator before each pose
+// (JobContext::WaitForOperator, "place the board in pose 3 of 8 and
+// continue"), then calls `place_board` (simulation); a pose whose frames
+// do not show the chessboard (calib::BoardSpec's inner corners; RAW frames
+// are not checked) is not kept: its frames are dropped and the pose is
+// waited for again, the event and the instruction saying so. A pose left
+// half taken by a restart is taken again whole.
 absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
                            const TruthWriter& write_truth = nullptr,
-                           const CaptureConditions& conditions = {});
+                           const CaptureConditions& conditions = {},
+                           const BoardPlacer& place_board = nullptr);
 
 }  // namespace hdrstereo::jobs
 

@@ -22,6 +22,10 @@ absl::Status JobContext::SuspendWhile(
   return engine_.SuspendWhileFor(job_.id, condition, poll);
 }
 
+absl::Status JobContext::WaitForOperator(absl::string_view instruction) {
+  return engine_.WaitForOperatorFor(job_.id, instruction);
+}
+
 absl::Status JobContext::Progress(int64_t done, int64_t total,
                                   absl::string_view step,
                                   const std::function<absl::Status()>& also) {
@@ -248,6 +252,43 @@ absl::Status JobEngine::CheckpointFor(int64_t id) {
   return absl::OkStatus();
 }
 
+absl::Status JobEngine::WaitForOperatorFor(int64_t id,
+                                           absl::string_view instruction) {
+  absl::MutexLock lock(&mutex_);
+  Control& control = running_[id];
+  control.waiting = true;
+  control.continued = false;
+  spdlog::info("job {}: waiting: {}", id, std::string(instruction));
+  absl::Status recorded = jobs_.Wait(id, instruction).status();
+  NotifyEventLocked();
+  absl::Status result = absl::OkStatus();
+  if (!recorded.ok()) {
+    result = recorded;
+  } else {
+    while (true) {
+      if (stopping_) {
+        result = absl::AbortedError("the daemon is stopping");
+        break;
+      }
+      if (control.cancel) {
+        result = absl::CancelledError("cancelled");
+        break;
+      }
+      if (control.continued) break;
+      control_cv_.Wait(&mutex_);
+    }
+  }
+  control.waiting = false;
+  control.continued = false;
+  if (result.ok()) {
+    RETURN_IF_ERROR(
+        jobs_.SetState(id, JobState::kRunning, "continued by the operator")
+            .status());
+    NotifyEventLocked();
+  }
+  return result;
+}
+
 absl::Status JobEngine::SuspendWhileFor(
     int64_t id, const std::function<std::string()>& condition,
     absl::Duration poll) {
@@ -382,6 +423,22 @@ absl::StatusOr<JobRecord> JobEngine::Cancel(int64_t id) {
     NotifyEvent();
   }
   return jobs_.Get(id);
+}
+
+absl::StatusOr<JobRecord> JobEngine::Continue(int64_t id) {
+  ASSIGN_OR_RETURN(JobRecord job, jobs_.Get(id));
+  {
+    absl::MutexLock lock(&mutex_);
+    auto it = running_.find(id);
+    if (it == running_.end() || !it->second.waiting) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("job ", id, " is ", store::JobStateName(job.state),
+                       "; only a waiting job can be continued"));
+    }
+    it->second.continued = true;
+  }
+  control_cv_.SignalAll();
+  return job;
 }
 
 void JobEngine::NotifyEvent() {

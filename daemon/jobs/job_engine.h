@@ -48,6 +48,13 @@ class JobContext {
   absl::Status SuspendWhile(const std::function<std::string()>& condition,
                             absl::Duration poll);
 
+  // Waits for the operator (a calibration capture before each board pose):
+  // the job is waiting with `instruction` (event "waiting: <instruction>")
+  // until JobEngine::Continue, then running again (event "continued").
+  // CANCELLED and ABORTED as for Checkpoint(); a daemon stopping meanwhile
+  // leaves the job interrupted, and the resumed job waits again.
+  absl::Status WaitForOperator(absl::string_view instruction);
+
   // Records progress (and its event). `also` runs first inside the same
   // transaction, e.g. to insert the frame row that this progress counts.
   absl::Status Progress(int64_t done, int64_t total, absl::string_view step,
@@ -101,6 +108,9 @@ class JobEngine {
   absl::StatusOr<store::JobRecord> Pause(int64_t id);
   absl::StatusOr<store::JobRecord> Resume(int64_t id);
   absl::StatusOr<store::JobRecord> Cancel(int64_t id);
+  // Lets a waiting job go on (JobContext::WaitForOperator);
+  // FAILED_PRECONDITION naming the state of a job that is not waiting.
+  absl::StatusOr<store::JobRecord> Continue(int64_t id);
 
   // Blocks until any job records a new event or `deadline` passes; watchers
   // then read the new events from the store.
@@ -122,6 +132,8 @@ class JobEngine {
     bool cancel = false;
     // Suspended by a condition (its reason: the job's suspension_reason).
     bool suspended = false;
+    bool waiting = false;    // for the operator (WaitForOperator)
+    bool continued = false;  // the operator said to go on
   };
   struct Lane {
     std::deque<int64_t> queue;
@@ -134,6 +146,8 @@ class JobEngine {
   void NotifyEvent() ABSL_LOCKS_EXCLUDED(mutex_);
   void NotifyEventLocked() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
   absl::Status CheckpointFor(int64_t id) ABSL_LOCKS_EXCLUDED(mutex_);
+  absl::Status WaitForOperatorFor(int64_t id, absl::string_view instruction)
+      ABSL_LOCKS_EXCLUDED(mutex_);
   absl::Status SuspendWhileFor(int64_t id,
                                const std::function<std::string()>& condition,
                                absl::Duration poll) ABSL_LOCKS_EXCLUDED(mutex_);

@@ -69,6 +69,13 @@ absl::Status ValidateSchedulePlan(const v1::SchedulePlan& plan,
         "plan.captures is empty: a schedule needs at least one capture");
   }
   for (int i = 0; i < plan.captures_size(); ++i) {
+    if (plan.captures(i).has_calibration()) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "plan.captures[", i,
+          "] is a calibration: a schedule never runs one (it waits for an "
+          "operator to place the board before each pose); run it with "
+          "`hdrstereo capture calibration`"));
+    }
     absl::StatusOr<v1::CapturePlan> normal =
         NormalizePlan(plan.captures(i), limits);
     if (!normal.ok()) {

@@ -35,6 +35,8 @@ v1::JobState ToProto(JobState state) {
       return v1::JOB_STATE_CANCELLED;
     case JobState::kInterrupted:
       return v1::JOB_STATE_INTERRUPTED;
+    case JobState::kWaiting:
+      return v1::JOB_STATE_WAITING;
   }
   return v1::JOB_STATE_UNSPECIFIED;
 }
@@ -55,6 +57,8 @@ absl::StatusOr<JobState> FromProto(v1::JobState state) {
       return JobState::kCancelled;
     case v1::JOB_STATE_INTERRUPTED:
       return JobState::kInterrupted;
+    case v1::JOB_STATE_WAITING:
+      return JobState::kWaiting;
     default:
       return absl::InvalidArgumentError(absl::StrCat(
           "states contains ", static_cast<int>(state), ", not a job state"));
@@ -79,6 +83,7 @@ void ToProto(const store::JobRecord& job, v1::Job* out) {
   out->set_submitted_by(job.submitted_by);
   out->set_cluster_job_id(job.cluster_job_id.value_or(0));
   out->set_suspension_reason(job.suspension_reason);
+  out->set_instruction(job.instruction);
   *out->mutable_create_time() =
       TimeUtil::MillisecondsToTimestamp(job.create_time_ms);
   if (job.start_time_ms) {
@@ -304,6 +309,13 @@ grpc::Status JobsService::Cancel(grpc::ServerContext*,
                                  v1::Job* response) {
   if (grpc::Status s = CheckJobId(request->job_id()); !s.ok()) return s;
   return Reply(engine_.Cancel(request->job_id()), response);
+}
+
+grpc::Status JobsService::Continue(grpc::ServerContext*,
+                                   const v1::ContinueJobRequest* request,
+                                   v1::Job* response) {
+  if (grpc::Status s = CheckJobId(request->job_id()); !s.ok()) return s;
+  return Reply(engine_.Continue(request->job_id()), response);
 }
 
 }  // namespace hdrstereo::rpc

@@ -49,6 +49,9 @@ class JobsService final : public v1::Jobs::Service {
   grpc::Status Cancel(grpc::ServerContext* context,
                       const v1::CancelJobRequest* request,
                       v1::Job* response) override;
+  grpc::Status Continue(grpc::ServerContext* context,
+                        const v1::ContinueJobRequest* request,
+                        v1::Job* response) override;
 
  private:
   jobs::JobEngine& engine_;

@@ -71,6 +71,8 @@ const std::map<std::string, MethodRule, std::less<>>& MethodRules() {
           {"/hdrstereo.v1.Jobs/Pause", kOperate},
           {"/hdrstereo.v1.Jobs/Resume", kOperate},
           {"/hdrstereo.v1.Jobs/Cancel", kOperate},
+          // The operator at the rig has placed the calibration board.
+          {"/hdrstereo.v1.Jobs/Continue", kOperate},
 
           {"/hdrstereo.v1.Schedules/List", kRead},
           {"/hdrstereo.v1.Schedules/ListRuns", kRead},

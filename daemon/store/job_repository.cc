@@ -21,7 +21,13 @@ constexpr struct {
     {JobState::kFailed, "failed"},
     {JobState::kCancelled, "cancelled"},
     {JobState::kInterrupted, "interrupted"},
+    {JobState::kWaiting, "waiting"},
 };
+
+// The jobs.state a state is stored as (see JobState::kWaiting).
+const char* StoredStateName(JobState state) {
+  return state == JobState::kWaiting ? "paused" : JobStateName(state);
+}
 
 const char* LevelName(EventLevel level) {
   switch (level) {
@@ -57,7 +63,7 @@ constexpr absl::string_view kSelectJob = R"sql(
 SELECT j.id, j.kind, j.session_id, s.name, j.state, j.request,
        j.progress_done, j.progress_total, j.step, j.error, j.create_time_ms,
        j.start_time_ms, j.end_time_ms, j.submitted_by, j.cluster_job_id,
-       j.suspension_reason
+       j.suspension_reason, j.instruction
 FROM jobs j JOIN sessions s ON s.id = j.session_id
 )sql";
 
@@ -81,6 +87,10 @@ absl::StatusOr<JobRecord> ReadJob(const Statement& stmt) {
   job.submitted_by = stmt.ColumnText(13);
   if (!stmt.ColumnIsNull(14)) job.cluster_job_id = stmt.ColumnInt(14);
   job.suspension_reason = stmt.ColumnText(15);
+  job.instruction = stmt.ColumnText(16);
+  if (job.state == JobState::kPaused && !job.instruction.empty()) {
+    job.state = JobState::kWaiting;
+  }
   return job;
 }
 
@@ -239,10 +249,15 @@ absl::StatusOr<std::vector<JobRecord>> JobRepository::List(
   if (!filter.states.empty()) {
     std::vector<std::string> names;
     for (JobState state : filter.states) {
-      names.push_back(absl::StrCat("'", JobStateName(state), "'"));
+      if (state == JobState::kWaiting) {
+        names.push_back("(j.state = 'paused' AND j.instruction != '')");
+      } else if (state == JobState::kPaused) {
+        names.push_back("(j.state = 'paused' AND j.instruction = '')");
+      } else {
+        names.push_back(absl::StrCat("j.state = '", JobStateName(state), "'"));
+      }
     }
-    where.push_back(
-        absl::StrCat("j.state IN (", absl::StrJoin(names, ", "), ")"));
+    where.push_back(absl::StrCat("(", absl::StrJoin(names, " OR "), ")"));
   }
   absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(Statement stmt,
@@ -289,6 +304,13 @@ absl::StatusOr<JobEventRecord> JobRepository::Suspend(
                      "", reason, {});
 }
 
+absl::StatusOr<JobEventRecord> JobRepository::Wait(
+    int64_t id, absl::string_view instruction) {
+  return ChangeState(id, JobState::kWaiting,
+                     absl::StrCat("waiting: ", instruction), "", "", {},
+                     instruction);
+}
+
 absl::Status JobRepository::UpdateSuspensionReason(int64_t id,
                                                    absl::string_view reason) {
   Database& db = store_.db();
@@ -309,22 +331,24 @@ absl::StatusOr<JobEventRecord> JobRepository::EndSuspension(
 absl::StatusOr<JobEventRecord> JobRepository::ChangeState(
     int64_t id, JobState state, absl::string_view message,
     absl::string_view error, absl::string_view suspension_reason,
-    const EventTag& tag) {
+    const EventTag& tag, absl::string_view instruction) {
   Database& db = store_.db();
   Transaction tx(db);
   RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(Statement update, db.Prepare(R"sql(
 UPDATE jobs SET state = ?2, error = ?3, suspension_reason = ?5,
+  instruction = ?6,
   start_time_ms = CASE WHEN ?2 = 'running' AND start_time_ms IS NULL
                        THEN ?4 ELSE start_time_ms END,
   end_time_ms = CASE WHEN ?2 IN ('succeeded', 'failed', 'cancelled')
                      THEN ?4 ELSE NULL END
 WHERE id = ?1)sql"));
   RETURN_IF_ERROR(update.Bind(1, id)
-                      .Bind(2, JobStateName(state))
+                      .Bind(2, StoredStateName(state))
                       .Bind(3, error)
                       .Bind(4, NowMs())
                       .Bind(5, suspension_reason)
+                      .Bind(6, instruction)
                       .Run());
   if (db.Changes() == 0)
     return absl::NotFoundError(absl::StrCat("no job ", id));

@@ -27,6 +27,9 @@ enum class JobState {
   kFailed,
   kCancelled,
   kInterrupted,
+  // A calibration capture waits for the operator (JobRecord::instruction):
+  // stored as 'paused' with the instruction (schema migration 11).
+  kWaiting,
 };
 const char* JobStateName(JobState state);  // as stored: "queued", ...
 absl::StatusOr<JobState> ParseJobState(absl::string_view name);
@@ -55,6 +58,10 @@ struct JobRecord {
   // While a condition suspends the job (state paused): why, e.g. "the
   // camera battery is at 12%, below --min-battery-percent 20%"; "" otherwise.
   std::string suspension_reason;
+  // While the job waits for the operator (state waiting): what to do before
+  // continuing it, e.g. "place the board in pose 3 of 8 and continue";
+  // "" otherwise.
+  std::string instruction;
 };
 
 enum class EventLevel { kInfo, kWarning, kError };
@@ -125,6 +132,10 @@ class JobRepository {
   // A condition suspends the job: state paused, `reason` kept as its
   // suspension_reason, event "suspended: <reason>".
   absl::StatusOr<JobEventRecord> Suspend(int64_t id, absl::string_view reason);
+  // The job waits for the operator: state waiting, `instruction` kept,
+  // event "waiting: <instruction>".
+  absl::StatusOr<JobEventRecord> Wait(int64_t id,
+                                      absl::string_view instruction);
   // The condition of a suspended job says something new (e.g. the next
   // reconnect attempt): only the reason changes; no event.
   absl::Status UpdateSuspensionReason(int64_t id, absl::string_view reason);
@@ -163,11 +174,12 @@ class JobRepository {
                                                    absl::string_view step);
 
  private:
-  // SetState, keeping `suspension_reason` with the new state.
+  // SetState, keeping `suspension_reason` and `instruction` with the new
+  // state.
   absl::StatusOr<JobEventRecord> ChangeState(
       int64_t id, JobState state, absl::string_view message,
       absl::string_view error, absl::string_view suspension_reason,
-      const EventTag& tag);
+      const EventTag& tag, absl::string_view instruction = "");
   // In one transaction: `update` (?1: the job's id, ?2: `value`) and the
   // info event `message`.
   template <typename T>

@@ -15,7 +15,7 @@ namespace {
 
 // Append only: a released migration is never edited. Times are Unix
 // milliseconds (UTC); lengths in millimetres; exposures in seconds.
-constexpr std::array<absl::string_view, 10> kMigrations = {
+constexpr std::array<absl::string_view, 11> kMigrations = {
     // 1: the tables of DESIGN.md.
     R"sql(
 CREATE TABLE rigs (
@@ -288,6 +288,14 @@ CREATE INDEX device_time_by_job ON device_time(job_id);
     R"sql(
 ALTER TABLE captures ADD COLUMN projector_latency_s REAL;
 ALTER TABLE captures ADD COLUMN projector_refresh_hz REAL;
+)sql",
+    // 11: calibration captures wait for the operator. The instruction a
+    // waiting job shows ('' otherwise). A waiting job is stored with state
+    // 'paused' and a non-empty instruction (JobRepository reads it as
+    // waiting): migration 1's CHECK on jobs.state cannot be widened without
+    // rebuilding the table, which its foreign keys make risky.
+    R"sql(
+ALTER TABLE jobs ADD COLUMN instruction TEXT NOT NULL DEFAULT '';
 )sql",
 };
 

@@ -48,6 +48,12 @@ class Job:
         '' when none does. As last read: refresh() reads it again."""
         return self.message.suspension_reason
 
+    @property
+    def instruction(self) -> str:
+        """What a waiting job (state 'waiting') waits for, e.g. 'place the
+        board in pose 3 of 8 and continue'; '' otherwise. As last read."""
+        return self.message.instruction
+
     def __repr__(self) -> str:
         p = self.message.progress
         suspended = (f", suspended={self.suspension_reason!r}"
@@ -71,6 +77,15 @@ class Job:
         self.message = self._client._call(
             self._client._stubs.Jobs.Resume,
             jobs_pb2.ResumeJobRequest(job_id=self.id))
+        return self
+
+    def continue_(self) -> "Job":
+        """Lets a waiting job go on (Jobs.Continue), e.g. once the
+        calibration board is in the pose its instruction names; a job that
+        is not waiting is refused (FAILED_PRECONDITION naming its state)."""
+        self.message = self._client._call(
+            self._client._stubs.Jobs.Continue,
+            jobs_pb2.ContinueJobRequest(job_id=self.id))
         return self
 
     def cancel(self) -> "Job":

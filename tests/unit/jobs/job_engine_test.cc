@@ -10,6 +10,7 @@
 #include <atomic>
 #include <functional>
 
+#include "absl/strings/str_cat.h"
 #include "daemon/store/session_repository.h"
 #include "tests/support/status_matchers.h"
 #include "tests/support/temp_dir.h"
@@ -358,6 +359,111 @@ TEST_F(JobEngineTest, ShutdownInterruptsAndTheNextStartResumes) {
     saw_interrupted |= e.state == JobState::kInterrupted;
   }
   EXPECT_TRUE(saw_interrupted);
+}
+
+// A runner that waits for the operator before each of `poses` steps, as a
+// calibration capture does before each board pose.
+JobRunner PoseRunner(int poses) {
+  return [poses](JobContext& context) -> absl::Status {
+    for (int i = context.job().progress_done; i < poses; ++i) {
+      if (absl::Status s = context.WaitForOperator(
+              absl::StrCat("place the board in pose ", i + 1, " of ", poses,
+                           " and continue"));
+          !s.ok()) {
+        return s;
+      }
+      if (absl::Status s = context.Progress(i + 1, poses, "pose"); !s.ok()) {
+        return s;
+      }
+    }
+    return absl::OkStatus();
+  };
+}
+
+TEST_F(JobEngineTest, AWaitingJobGoesOnWhenContinued) {
+  JobEngine engine(*store_, PoseRunner(2), StepRunner(1), {});
+  ASSERT_TRUE(engine.Start().ok());
+  absl::StatusOr<store::JobRecord> job =
+      engine.Submit(JobKind::kCapture, "s", "", 2, "calibration", "tester");
+  ASSERT_TRUE(job.ok());
+  // Not waiting yet (queued): refused, naming the state.
+  ASSERT_TRUE(WaitForState(engine, job->id, JobState::kWaiting));
+  absl::StatusOr<store::JobRecord> waiting = engine.repository().Get(job->id);
+  ASSERT_TRUE(waiting.ok());
+  EXPECT_EQ(waiting->instruction,
+            "place the board in pose 1 of 2 and continue");
+  // Listed as waiting, not as paused.
+  absl::StatusOr<std::vector<store::JobRecord>> listed =
+      engine.repository().List({.session = "", .states = {JobState::kWaiting}});
+  ASSERT_TRUE(listed.ok());
+  EXPECT_EQ(listed->size(), 1u);
+  listed =
+      engine.repository().List({.session = "", .states = {JobState::kPaused}});
+  ASSERT_TRUE(listed.ok());
+  EXPECT_TRUE(listed->empty());
+  // A waiting job is not paused or resumed.
+  EXPECT_THAT(
+      engine.Pause(job->id).status(),
+      StatusIs(absl::StatusCode::kFailedPrecondition, HasSubstr("is waiting")));
+  ASSERT_TRUE(engine.Continue(job->id).ok());
+  ASSERT_TRUE(WaitUntil(engine, [&] {
+    absl::StatusOr<store::JobRecord> j = engine.repository().Get(job->id);
+    return j.ok() && j->state == JobState::kWaiting && j->progress_done == 1;
+  }));
+  EXPECT_EQ(engine.repository().Get(job->id)->instruction,
+            "place the board in pose 2 of 2 and continue");
+  ASSERT_TRUE(engine.Continue(job->id).ok());
+  ASSERT_TRUE(WaitForState(engine, job->id, JobState::kSucceeded));
+  EXPECT_EQ(engine.repository().Get(job->id)->instruction, "");
+  EXPECT_THAT(engine.Continue(job->id).status(),
+              StatusIs(absl::StatusCode::kFailedPrecondition,
+                       HasSubstr("job " + std::to_string(job->id) +
+                                 " is succeeded; only a waiting job can be "
+                                 "continued")));
+  EXPECT_EQ(EventsWith(engine, job->id, "waiting: place the board in pose"), 2);
+  EXPECT_EQ(EventsWith(engine, job->id, "continued by the operator"), 2);
+}
+
+TEST_F(JobEngineTest, ARunningJobCannotBeContinued) {
+  JobEngine engine(*store_, StepRunner(3), StepRunner(1), {});
+  ASSERT_TRUE(engine.Start().ok());
+  hold_ = true;
+  absl::StatusOr<store::JobRecord> job =
+      engine.Submit(JobKind::kCapture, "s", "", 0, "test", "tester");
+  ASSERT_TRUE(job.ok());
+  ASSERT_TRUE(WaitUntil(engine, [&] { return !Log().empty(); }));
+  EXPECT_THAT(engine.Continue(job->id).status(),
+              StatusIs(absl::StatusCode::kFailedPrecondition,
+                       HasSubstr("is running; only a waiting job")));
+  hold_ = false;
+  ASSERT_TRUE(WaitForState(engine, job->id, JobState::kSucceeded));
+}
+
+TEST_F(JobEngineTest, AWaitingJobWaitsAgainAfterARestartAndCanBeCancelled) {
+  int64_t id;
+  {
+    JobEngine engine(*store_, PoseRunner(3), StepRunner(1), {});
+    ASSERT_TRUE(engine.Start().ok());
+    absl::StatusOr<store::JobRecord> job =
+        engine.Submit(JobKind::kCapture, "s", "", 3, "calibration", "tester");
+    ASSERT_TRUE(job.ok());
+    id = job->id;
+    ASSERT_TRUE(WaitForState(engine, id, JobState::kWaiting));
+    ASSERT_TRUE(engine.Continue(id).ok());
+    ASSERT_TRUE(WaitUntil(engine, [&] {
+      absl::StatusOr<store::JobRecord> j = engine.repository().Get(id);
+      return j.ok() && j->state == JobState::kWaiting && j->progress_done == 1;
+    }));
+    engine.Shutdown();
+    EXPECT_EQ(engine.repository().Get(id)->state, JobState::kInterrupted);
+  }
+  JobEngine engine(*store_, PoseRunner(3), StepRunner(1), {});
+  ASSERT_TRUE(engine.Start().ok());
+  ASSERT_TRUE(WaitForState(engine, id, JobState::kWaiting));
+  EXPECT_EQ(engine.repository().Get(id)->instruction,
+            "place the board in pose 2 of 3 and continue");
+  ASSERT_TRUE(engine.Cancel(id).ok());
+  ASSERT_TRUE(WaitForState(engine, id, JobState::kCancelled));
 }
 
 TEST_F(JobEngineTest, WaitForEventsWakesOnProgress) {

@@ -78,6 +78,7 @@ TEST(MethodRolesTest, RolesAreTheOnesTheIssueGives) {
       {"/hdrstereo.v1.Jobs/SubmitCapture", Role::kOperator, true, true},
       {"/hdrstereo.v1.Jobs/SubmitProcessing", Role::kOperator, true, false},
       {"/hdrstereo.v1.Jobs/Cancel", Role::kOperator, true, false},
+      {"/hdrstereo.v1.Jobs/Continue", Role::kOperator, true, false},
       {"/hdrstereo.v1.Hardware/MoveStage", Role::kOperator, true, true},
       {"/hdrstereo.v1.Hardware/ShowPattern", Role::kOperator, true, true},
       {"/hdrstereo.v1.Hardware/SetCameraSettings", Role::kOperator, true, true},
