@@ -17,6 +17,7 @@
 #include "daemon/jobs/capture_plan.h"
 #include "daemon/jobs/slurm_processing.h"
 #include "daemon/store/artifact_repository.h"
+#include "daemon/store/calibration_repository.h"
 #include "daemon/store/frame_repository.h"
 #include "daemon/store/job_repository.h"
 #include "daemon/store/names.h"
@@ -491,6 +492,23 @@ absl::Status RunProcessingJob(const hardware::Rig& rig,
         .IgnoreError();
   }
   input.capture_summary = environment.summary;
+  // Without a calibration capture of its own, the session is rectified with
+  // the rig's latest calibration (the report says which).
+  ASSIGN_OR_RETURN(
+      const std::optional<store::CalibrationRecord> rig_calibration,
+      store::CalibrationRepository(store).Latest());
+  if (rig_calibration.has_value()) {
+    input.rig_calibration =
+        store.files().root() / rig_calibration->dir / "calibration.yml";
+    input.rig_calibration_label = absl::StrFormat(
+        "rig calibration %d (capture %d of session %s, %d poses)",
+        rig_calibration->id, rig_calibration->capture_id,
+        rig_calibration->session, rig_calibration->poses);
+    input.capture_summary.emplace_back(
+        "rectification",
+        absl::StrFormat("%s, stereo rms %.3f px", input.rig_calibration_label,
+                        rig_calibration->rms_stereo));
+  }
   input.capture_summary.emplace_back(
       "stereo capture",
       absl::StrFormat("capture %d (job %d): %d frames, %d views, baseline "

@@ -15,7 +15,7 @@ namespace {
 
 // Append only: a released migration is never edited. Times are Unix
 // milliseconds (UTC); lengths in millimetres; exposures in seconds.
-constexpr std::array<absl::string_view, 11> kMigrations = {
+constexpr std::array<absl::string_view, 12> kMigrations = {
     // 1: the tables of DESIGN.md.
     R"sql(
 CREATE TABLE rigs (
@@ -296,6 +296,25 @@ ALTER TABLE captures ADD COLUMN projector_refresh_hz REAL;
     // rebuilding the table, which its foreign keys make risky.
     R"sql(
 ALTER TABLE jobs ADD COLUMN instruction TEXT NOT NULL DEFAULT '';
+)sql",
+    // 12: the rig's calibrations. One row per calibration capture that was
+    // calibrated: its files' folder (relative to the data root), the
+    // stereo reprojection RMS, the per-pose RMS of each view (px, comma
+    // separated) and the fraction of each view the boards covered.
+    R"sql(
+CREATE TABLE rig_calibrations (
+  id INTEGER PRIMARY KEY,
+  capture_id INTEGER NOT NULL REFERENCES captures(id) ON DELETE CASCADE,
+  job_id INTEGER,
+  dir TEXT NOT NULL,
+  poses INTEGER NOT NULL,
+  rms_stereo REAL NOT NULL,
+  rms_left TEXT NOT NULL DEFAULT '',
+  rms_right TEXT NOT NULL DEFAULT '',
+  coverage_left REAL NOT NULL,
+  coverage_right REAL NOT NULL,
+  create_time_ms INTEGER NOT NULL
+);
 )sql",
 };
 

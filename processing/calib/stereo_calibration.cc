@@ -291,4 +291,73 @@ absl::StatusOr<StereoCalibration> LoadCalibration(
   return c;
 }
 
+cv::Mat CoverageMask(const std::vector<std::vector<cv::Point2f>>& corners,
+                     cv::Size image_size) {
+  cv::Mat mask = cv::Mat::zeros(image_size, CV_8UC1);
+  for (const std::vector<cv::Point2f>& pose : corners) {
+    if (pose.size() < 3) continue;
+    std::vector<cv::Point> hull;
+    std::vector<cv::Point> points;
+    for (const cv::Point2f& p : pose) {
+      points.emplace_back(cvRound(p.x), cvRound(p.y));
+    }
+    cv::convexHull(points, hull);
+    cv::fillConvexPoly(mask, hull, cv::Scalar(255));
+  }
+  return mask;
+}
+
+absl::StatusOr<CalibrationQuality> AssessCalibration(
+    const StereoCalibration& calibration,
+    const std::vector<std::vector<cv::Point2f>>& left,
+    const std::vector<std::vector<cv::Point2f>>& right,
+    const BoardSpec& board) {
+  if (left.size() != right.size() || left.empty()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("need as many left as right poses, at least one (have ",
+                     left.size(), " and ", right.size(), ")"));
+  }
+  const std::vector<cv::Point3f> object = BoardPoints(board);
+  CalibrationQuality quality;
+  try {
+    for (int v = 0; v < 2; ++v) {
+      const auto& views = v == 0 ? left : right;
+      std::vector<double>& rms = v == 0 ? quality.rms_left : quality.rms_right;
+      for (const std::vector<cv::Point2f>& corners : views) {
+        if (corners.size() != object.size()) {
+          return absl::InvalidArgumentError(absl::StrCat(
+              "a pose has ", corners.size(), " corners, not ", object.size()));
+        }
+        cv::Mat rvec, tvec;
+        cv::solvePnP(object, corners, calibration.camera_matrix,
+                     calibration.dist_coeffs, rvec, tvec);
+        std::vector<cv::Point2f> projected;
+        cv::projectPoints(object, rvec, tvec, calibration.camera_matrix,
+                          calibration.dist_coeffs, projected);
+        double sum = 0;
+        for (size_t i = 0; i < corners.size(); ++i) {
+          const cv::Point2f d = projected[i] - corners[i];
+          sum += d.dot(d);
+        }
+        rms.push_back(std::sqrt(sum / static_cast<double>(corners.size())));
+      }
+      cv::Mat mask = CoverageMask(views, calibration.image_size);
+      const double fraction =
+          static_cast<double>(cv::countNonZero(mask)) /
+          static_cast<double>(calibration.image_size.area());
+      if (v == 0) {
+        quality.coverage_left = mask;
+        quality.coverage_fraction_left = fraction;
+      } else {
+        quality.coverage_right = mask;
+        quality.coverage_fraction_right = fraction;
+      }
+    }
+  } catch (const cv::Exception& e) {
+    return absl::InternalError(
+        absl::StrCat("assessing the calibration: ", e.what()));
+  }
+  return quality;
+}
+
 }  // namespace hdrstereo::calib

@@ -70,6 +70,28 @@ absl::StatusOr<StereoCalibration> CalibrateStereoFromImages(
     const std::vector<std::string>& right_names,
     const CalibrationOptions& options = {});
 
+// How good a calibration is, from the corner lists it was made from.
+struct CalibrationQuality {
+  // Reprojection RMS (px) of each pose's corners, per view: the board's
+  // pose fitted (solvePnP) with the calibration's intrinsics.
+  std::vector<double> rms_left, rms_right;
+  // 255 where some pose's board (the hull of its corners) covered the
+  // image, per view, and the covered fraction of the image.
+  cv::Mat coverage_left, coverage_right;  // CV_8UC1, image_size
+  double coverage_fraction_left = 0, coverage_fraction_right = 0;
+};
+
+absl::StatusOr<CalibrationQuality> AssessCalibration(
+    const StereoCalibration& calibration,
+    const std::vector<std::vector<cv::Point2f>>& left,
+    const std::vector<std::vector<cv::Point2f>>& right,
+    const BoardSpec& board = {});
+
+// The area (a fraction of the image) the boards' corner hulls cover so far:
+// what live view shows while the operator places poses.
+cv::Mat CoverageMask(const std::vector<std::vector<cv::Point2f>>& corners,
+                     cv::Size image_size);
+
 enum class View { kLeft, kRight };
 
 // Per-view remap tables (CV_32FC1): rectified(x, y) = image(map_x, map_y).

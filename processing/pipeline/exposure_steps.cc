@@ -46,9 +46,20 @@ absl::Status Decode(StepContext& c) {
   return absl::OkStatus();
 }
 
-// The calibration capture's chessboard poses, when the session has one.
+// Whether rectification uses the rig's latest calibration: the session has
+// no calibration capture of its own and the rig has one.
+bool UsesRigCalibration(const StepContext& c) {
+  return c.frames().calibration[0].empty() &&
+         !c.input().rig_calibration.empty();
+}
+
+// The calibration capture's chessboard poses, when the session has one;
+// else the rig's latest calibration, when there is one.
 absl::StatusOr<std::optional<calib::StereoCalibration>> Calibrate(
     const StepContext& c) {
+  if (UsesRigCalibration(c)) {
+    return calib::LoadCalibration(c.input().rig_calibration);
+  }
   if (c.frames().calibration[0].empty()) return std::nullopt;
   std::vector<cv::Mat> images[2];
   std::vector<std::string> names[2];
@@ -80,9 +91,14 @@ absl::Status Rectify(StepContext& c) {
                           [&](const fs::path& path) {
                             return calib::SaveCalibration(path, *calibration);
                           }));
-    note = absl::StrFormat("calibrated: %d board pairs, rms %.3f px\n",
-                           static_cast<int>(c.frames().calibration[0].size()),
-                           calibration->rms_stereo);
+    note = UsesRigCalibration(c)
+               ? absl::StrFormat("calibrated: %s, rms %.3f px\n",
+                                 c.input().rig_calibration_label,
+                                 calibration->rms_stereo)
+               : absl::StrFormat(
+                     "calibrated: %d board pairs, rms %.3f px\n",
+                     static_cast<int>(c.frames().calibration[0].size()),
+                     calibration->rms_stereo);
   }
   for (int v = 0; v < 2; ++v) {
     const std::string folder = absl::StrCat("exposures/", io::ViewName(v), "/");
@@ -111,8 +127,13 @@ absl::StatusOr<ConfiguredStep> ConfigureDecode(const StepContext&) {
   return ConfiguredStep{nlohmann::json::object(), &Decode};
 }
 
-absl::StatusOr<ConfiguredStep> ConfigureRectify(const StepContext&) {
-  return ConfiguredStep{nlohmann::json::object(), &Rectify};
+absl::StatusOr<ConfiguredStep> ConfigureRectify(const StepContext& c) {
+  nlohmann::json params = nlohmann::json::object();
+  // A new rig calibration rectifies again.
+  if (UsesRigCalibration(c)) {
+    params["rig_calibration"] = c.input().rig_calibration_label;
+  }
+  return ConfiguredStep{params, &Rectify};
 }
 
 }  // namespace hdrstereo::pipeline

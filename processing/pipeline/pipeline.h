@@ -86,6 +86,11 @@ struct SessionInput {
     double fx = 0, fy = 0, cx = 0, cy = 0;
   };
   std::optional<Intrinsics> intrinsics;
+  // The rig's latest calibration (calib::SaveCalibration YAML, absolute
+  // path; empty = none) and how the report names it: rectification uses it
+  // when the session has no calibration capture of its own.
+  std::filesystem::path rig_calibration;
+  std::string rig_calibration_label;
 };
 
 struct Artifact {

@@ -131,6 +131,47 @@ TEST(CalibTest, IdealRigGivesNearIdentityMaps) {
       << "px";
 }
 
+TEST(CalibTest, AssessmentGivesPerPoseErrorsAndCoverage) {
+  const Rig rig{Rotation(0.012, -0.02, 0.015), cv::Vec3d(-0.08, 0.004, 0.002)};
+  Views v = RenderViews(rig);
+  std::vector<std::vector<cv::Point2f>> left, right;
+  for (size_t i = 0; i < v.left.size(); ++i) {
+    absl::StatusOr<std::vector<cv::Point2f>> l =
+        FindChessboard(v.left[i], kCorners, v.left_names[i]);
+    absl::StatusOr<std::vector<cv::Point2f>> r =
+        FindChessboard(v.right[i], kCorners, v.right_names[i]);
+    ASSERT_TRUE(l.ok() && r.ok());
+    left.push_back(*l);
+    right.push_back(*r);
+  }
+  absl::StatusOr<StereoCalibration> c =
+      CalibrateStereo(left, right, v.left[0].size(), Options());
+  ASSERT_TRUE(c.ok()) << c.status();
+  absl::StatusOr<CalibrationQuality> q =
+      AssessCalibration(*c, left, right, Options().board);
+  ASSERT_TRUE(q.ok()) << q.status();
+  ASSERT_EQ(q->rms_left.size(), left.size());
+  ASSERT_EQ(q->rms_right.size(), right.size());
+  for (size_t i = 0; i < left.size(); ++i) {
+    EXPECT_LT(q->rms_left[i], 0.5) << "pose " << i;
+    EXPECT_LT(q->rms_right[i], 0.5) << "pose " << i;
+  }
+  EXPECT_GT(q->coverage_fraction_left, 0.05);
+  EXPECT_LE(q->coverage_fraction_left, 1.0);
+  EXPECT_EQ(q->coverage_left.size(), v.left[0].size());
+  // The fraction is the mask's.
+  EXPECT_NEAR(q->coverage_fraction_left,
+              cv::countNonZero(q->coverage_left) /
+                  static_cast<double>(q->coverage_left.total()),
+              1e-12);
+  // One pose covers less than all of them together.
+  const cv::Mat one = CoverageMask({left[0]}, v.left[0].size());
+  EXPECT_LT(cv::countNonZero(one), cv::countNonZero(q->coverage_left));
+  EXPECT_THAT(AssessCalibration(*c, left, {}, Options().board).status(),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("as many left as right poses")));
+}
+
 TEST(CalibTest, SaveAndLoadKeepTheRectification) {
   const Rig rig{Rotation(0.01, 0.0, 0.01), cv::Vec3d(-0.08, 0.003, 0)};
   Views v = RenderViews(rig);
