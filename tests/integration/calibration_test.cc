@@ -205,6 +205,37 @@ TEST_F(CalibrationTest, APoseWithoutTheBoardIsNotKeptAndIsAskedForAgain) {
   ExpectConsistentStore("cal", 2);
 }
 
+// The board in the left view but out of the right one: the pose's left
+// frame, already recorded, is dropped with it.
+TEST_F(CalibrationTest, APoseSeenOnlyFromTheLeftIsDroppedWhole) {
+  nlohmann::json patch = SmallCheckerboard();
+  patch["calibration_board"] = {{"objects", {"board", "border"}},
+                                {"poses",
+                                 {{{"offset_mm", {0, 0, 0}}},
+                                  {{"offset_mm", {-280, 0, 0}}},
+                                  {{"offset_mm", {0, 50, 0}}}}}};
+  StartSim(patch);
+  ASSERT_EQ(Cli({"session", "create", "cal"}).exit_code, 0);
+  const int64_t id = Submit({"capture", "calibration", "cal", "--poses", "3"});
+  ASSERT_GT(id, 0);
+  ASSERT_TRUE(
+      WaitForInstruction(id, "place the board in pose 1 of 3 and continue"));
+  Continue(id);
+  ASSERT_TRUE(
+      WaitForInstruction(id, "place the board in pose 2 of 3 and continue"));
+  Continue(id);
+  ASSERT_TRUE(WaitForInstruction(
+      id,
+      "the board was not found in the right view of pose 2; place the board "
+      "in pose 2 of 3 and continue"))
+      << Job(id).dump() << daemon_log();
+  EXPECT_EQ(FramesDone(id), 2);
+  ASSERT_EQ(Cli({"jobs", "cancel", std::to_string(id)}).exit_code, 0);
+  ASSERT_TRUE(WaitForJobState(id, "cancelled"));
+  ExpectConsistentStore("cal", 2);
+  ExpectNoTempFiles();
+}
+
 // Issue 24's end-to-end check: a rig whose stage axis is tilted and whose
 // camera is rolled is calibrated through the CLI; a session captured after
 // it is rectified with the rig's calibration by processing, and its
