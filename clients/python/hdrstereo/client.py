@@ -206,7 +206,9 @@ class Capture:
                     exposure_s: Optional[float] = None,
                     baseline_mm: Optional[float] = None, wait: bool = False,
                     progress: bool = False) -> Job:
-        """Queues a checkerboard calibration capture of `poses` poses."""
+        """Queues a checkerboard calibration capture of `poses` poses. Before
+        each pose it waits (state 'waiting', `job.instruction` says which
+        pose) until `job.continue_()`; `wait=True` would wait forever."""
         plan = jobs_pb2.CapturePlan()
         _set(plan.calibration, poses=poses, exposure_s=exposure_s,
              baseline_mm=baseline_mm)
@@ -683,6 +685,7 @@ VERBS: dict[str, str] = {
     "Jobs.Pause": "jobs.get",  # Job.pause
     "Jobs.Resume": "jobs.get",  # Job.resume
     "Jobs.Cancel": "jobs.get",  # Job.cancel
+    "Jobs.Continue": "jobs.get",  # Job.continue_
     "Hardware.GetStatus": "hardware.status",
     "Hardware.GetCameraSettings": "hardware.camera_settings",
     "Hardware.SetCameraSettings": "hardware.set_camera_settings",

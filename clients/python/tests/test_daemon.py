@@ -21,7 +21,7 @@ import pytest
 import hdrstereo
 from hdrstereo.v1 import jobs_pb2, sessions_pb2
 
-from conftest import Daemon, free_port
+from conftest import SOURCE_DIR, Daemon, free_port
 from tcp_proxy import TcpProxy
 
 EXPOSURES = [0.25, 0.06, 0.015]
@@ -388,3 +388,40 @@ def test_watch_survives_a_dropped_stream(slow_daemon) -> None:
             assert proxy.accepted >= 2  # the watch did reconnect
     finally:
         proxy.close()
+
+
+@pytest.fixture(scope="module")
+def board_daemon(tmp_path_factory):
+    """The bundled checkerboard scene's board (eight poses) and light in
+    place of the small lab-lamp's objects and lights."""
+    board = json.loads((SOURCE_DIR / "hardware/sim/scenes/checkerboard.json")
+                       .read_text())
+    scene = {key: board[key] for key in
+             ("objects", "lights", "ambient_lux", "calibration_board")}
+    scene["camera"] = {"width": 600, "height": 450, "fx": 800, "fy": 800,
+                       "cx": 299.5, "cy": 224.5}
+    d = Daemon(tmp_path_factory.mktemp("board"), [], scene=scene)
+    yield d
+    assert d.stop() == 0, d.log.read_text(errors="replace")
+
+
+def test_a_calibration_waits_for_continue(board_daemon) -> None:
+    with hdrstereo.Client(board_daemon.address, timeout=30) as c:
+        c.sessions.create("cal")
+        job = c.capture.calibration("cal", poses=3)
+        for pose in range(1, 4):
+            want = f"place the board in pose {pose} of 3 and continue"
+            deadline = time.monotonic() + 60
+            while job.refresh().instruction != want:
+                assert time.monotonic() < deadline, repr(job)
+                time.sleep(0.05)
+            assert job.state == "waiting"
+            job.continue_()
+        deadline = time.monotonic() + 60
+        while not job.refresh().done:
+            assert time.monotonic() < deadline, repr(job)
+            time.sleep(0.05)
+        assert job.state == "succeeded"
+        with pytest.raises(hdrstereo.FailedPrecondition,
+                           match="is succeeded; only a waiting job"):
+            job.continue_()
