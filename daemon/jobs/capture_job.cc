@@ -729,9 +729,14 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
         next = go_on;
         continue;
       }
-      RETURN_IF_ERROR(context.WaitForOperator(
+      // The rig is let go meanwhile, for live view (Hardware.StreamPreview
+      // allows a waiting job's rig; other direct calls still refuse it).
+      lane.unlock();
+      const absl::Status continued = context.WaitForOperator(
           absl::StrCat(retry_note, "place the board in pose ", pose + 1, " of ",
-                       poses, " and continue")));
+                       poses, " and continue"));
+      lane.lock();
+      RETURN_IF_ERROR(continued);
       retry_note.clear();
       if (place_board != nullptr) {
         RETURN_IF_ERROR(InStep("placing the simulated calibration board",

@@ -201,8 +201,16 @@ std::string HardwareService::DescribeJob(int64_t job_id) {
                   : absl::StrCat("capture job ", job_id);
 }
 
-absl::Status HardwareService::CheckNoCapture() {
+int64_t HardwareService::CaptureHoldingRigForPreview() {
   const int64_t job = engine_.running_capture();
+  if (job == 0) return 0;
+  absl::StatusOr<store::JobRecord> record = engine_.repository().Get(job);
+  return record.ok() && record->state == store::JobState::kWaiting ? 0 : job;
+}
+
+absl::Status HardwareService::CheckNoCapture(bool allow_waiting) {
+  const int64_t job =
+      allow_waiting ? CaptureHoldingRigForPreview() : engine_.running_capture();
   if (job == 0) return absl::OkStatus();
   return absl::FailedPreconditionError(absl::StrCat(
       "the hardware is in use by a capture job: ", DescribeJob(job),
@@ -210,10 +218,10 @@ absl::Status HardwareService::CheckNoCapture() {
 }
 
 absl::StatusOr<std::unique_lock<std::mutex>> HardwareService::TakeLane(
-    absl::Duration wait) {
+    bool allow_waiting, absl::Duration wait) {
   const absl::Time deadline = absl::Now() + wait;
   while (true) {
-    RETURN_IF_ERROR(CheckNoCapture());
+    RETURN_IF_ERROR(CheckNoCapture(allow_waiting));
     std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
     if (lane.owns_lock()) return lane;
     // Another direct call or a live-view frame: each holds it briefly.
@@ -294,7 +302,7 @@ grpc::Status HardwareService::GetStatus(grpc::ServerContext*,
   // Never long: a live-view frame is waited for, a capture or a probe is
   // reported instead of querying the devices.
   absl::StatusOr<std::unique_lock<std::mutex>> lane =
-      TakeLane(absl::Seconds(1));
+      TakeLane(false, absl::Seconds(1));
   if (!lane.ok()) {
     const int64_t job = engine_.running_capture();
     for (auto* message : {response->mutable_camera()->mutable_message(),
@@ -324,7 +332,7 @@ grpc::Status HardwareService::GetCameraSettings(
     grpc::ServerContext*, const v1::GetCameraSettingsRequest*,
     v1::CameraSettings* response) {
   if (rig_.camera() == nullptr) return Missing("camera", rig_.camera_error());
-  absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane();
+  absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane(false);
   if (!lane.ok()) return ToGrpcStatus(lane.status());
   absl::StatusOr<hardware::ExposureSettings> settings =
       rig_.camera()->Settings();
@@ -360,7 +368,7 @@ grpc::Status HardwareService::SetCameraSettings(
         absl::StrCat("settings.format ", s.format(), " is not a known format"));
   }
   if (rig_.camera() == nullptr) return Missing("camera", rig_.camera_error());
-  absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane();
+  absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane(false);
   if (!lane.ok()) return ToGrpcStatus(lane.status());
 
   absl::StatusOr<hardware::CameraInfo> info = rig_.camera()->Info();
@@ -385,7 +393,7 @@ grpc::Status HardwareService::HomeStage(grpc::ServerContext*,
                                         const v1::HomeStageRequest*,
                                         v1::StageStatus* response) {
   if (rig_.stage() == nullptr) return Missing("stage", rig_.stage_error());
-  absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane();
+  absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane(false);
   if (!lane.ok()) return ToGrpcStatus(lane.status());
   if (absl::Status s = rig_.stage()->Home(); !s.ok()) return DeviceError(s);
   FillStage(response);
@@ -403,7 +411,7 @@ grpc::Status HardwareService::MoveStage(grpc::ServerContext*,
         absl::StrFormat("position_mm %g is outside the stage travel [0, %g] mm",
                         request->position_mm(), travel));
   }
-  absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane();
+  absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane(false);
   if (!lane.ok()) return ToGrpcStatus(lane.status());
   if (absl::Status s = rig_.stage()->MoveTo(request->position_mm()); !s.ok()) {
     return DeviceError(s);
@@ -421,7 +429,7 @@ grpc::Status HardwareService::ShowPattern(grpc::ServerContext*,
   absl::StatusOr<std::pair<cv::Mat, std::string>> pattern =
       PatternFor(*request, rig_.projector()->resolution());
   if (!pattern.ok()) return ToGrpcStatus(pattern.status());
-  absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane();
+  absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane(false);
   if (!lane.ok()) return ToGrpcStatus(lane.status());
   if (absl::Status s = rig_.projector()->Show(pattern->first); !s.ok()) {
     return DeviceError(s);
@@ -440,7 +448,7 @@ grpc::Status HardwareService::BlankProjector(grpc::ServerContext*,
   if (rig_.projector() == nullptr) {
     return Missing("projector", rig_.projector_error());
   }
-  absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane();
+  absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane(false);
   if (!lane.ok()) return ToGrpcStatus(lane.status());
   if (absl::Status s = rig_.projector()->Blank(); !s.ok()) {
     return DeviceError(s);
@@ -456,7 +464,8 @@ grpc::Status HardwareService::BlankProjector(grpc::ServerContext*,
 absl::StatusOr<v1::PreviewFrame> HardwareService::TakePreviewFrame() {
   absl::StatusOr<hardware::Frame> frame;
   {
-    ASSIGN_OR_RETURN(std::unique_lock<std::mutex> lane, TakeLane());
+    ASSIGN_OR_RETURN(std::unique_lock<std::mutex> lane,
+                     TakeLane(/*allow_waiting=*/true));
     frame = rig_.camera()->Preview();
   }
   RETURN_IF_ERROR(frame.status());
@@ -484,7 +493,7 @@ grpc::Status HardwareService::StreamPreview(
                                         "; use 0 (until cancelled) or more"));
   }
   if (rig_.camera() == nullptr) return Missing("camera", rig_.camera_error());
-  if (absl::Status busy = CheckNoCapture(); !busy.ok()) {
+  if (absl::Status busy = CheckNoCapture(/*allow_waiting=*/true); !busy.ok()) {
     return ToGrpcStatus(busy);
   }
   const double fps =
@@ -511,7 +520,7 @@ grpc::Status HardwareService::StreamPreview(
     // starts) and look whether the client is still there.
     for (absl::Time now = absl::Now(); now < next; now = absl::Now()) {
       const int64_t generation = engine_.event_generation();
-      if (context->IsCancelled() || engine_.running_capture() != 0 ||
+      if (context->IsCancelled() || CaptureHoldingRigForPreview() != 0 ||
           engine_.stopping()) {
         break;
       }
@@ -520,13 +529,13 @@ grpc::Status HardwareService::StreamPreview(
     }
     if (context->IsCancelled()) return client_left;
     if (engine_.stopping()) return end("the daemon is stopping", 0);
-    if (const int64_t job = engine_.running_capture(); job != 0) {
+    if (const int64_t job = CaptureHoldingRigForPreview(); job != 0) {
       return end(absl::StrCat(DescribeJob(job), " started"), job);
     }
     absl::StatusOr<v1::PreviewFrame> frame = TakePreviewFrame();
     if (!frame.ok()) {
       // A capture took the rig meanwhile: that ends live view cleanly.
-      if (const int64_t job = engine_.running_capture(); job != 0) {
+      if (const int64_t job = CaptureHoldingRigForPreview(); job != 0) {
         return end(absl::StrCat(DescribeJob(job), " started"), job);
       }
       return DeviceError(frame.status());
@@ -554,7 +563,7 @@ grpc::Status HardwareService::ProbeProjector(
   }
   absl::StatusOr<jobs::ProbeResult> probe;
   {
-    absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane();
+    absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane(false);
     if (!lane.ok()) return ToGrpcStatus(lane.status());
     absl::StatusOr<hardware::CameraInfo> info = rig_.camera()->Info();
     if (!info.ok()) return DeviceError(info.status());

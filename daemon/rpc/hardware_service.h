@@ -83,11 +83,17 @@ class HardwareService final : public v1::Hardware::Service {
   // "capture job 12 (session lab)".
   std::string DescribeJob(int64_t job_id);
   // FAILED_PRECONDITION naming the capture job on the hardware lane, or OK.
-  absl::Status CheckNoCapture();
+  // With `allow_waiting`, a capture job that waits for the operator (a
+  // calibration between board poses, which lets go of the rig meanwhile)
+  // does not count: live view shows the board while it is placed.
+  absl::Status CheckNoCapture(bool allow_waiting = false);
+  // The capture job that holds the rig for live view: the running one,
+  // unless it waits for the operator; 0 for none.
+  int64_t CaptureHoldingRigForPreview();
   // The hardware lane for one call: waits (up to `wait`) while another
   // call holds it; FAILED_PRECONDITION while a capture job runs.
   absl::StatusOr<std::unique_lock<std::mutex>> TakeLane(
-      absl::Duration wait = kLaneWait);
+      bool allow_waiting, absl::Duration wait = kLaneWait);
   // One live-view frame with its statistics (under the lane).
   absl::StatusOr<v1::PreviewFrame> TakePreviewFrame();
 

@@ -205,6 +205,32 @@ TEST_F(CalibrationTest, APoseWithoutTheBoardIsNotKeptAndIsAskedForAgain) {
   ExpectConsistentStore("cal", 2);
 }
 
+// While a calibration waits the rig is free for live view (to place the
+// board); other direct calls are still refused, naming the job.
+TEST_F(CalibrationTest, LiveViewWorksWhileACalibrationWaits) {
+  StartSim();
+  ASSERT_EQ(Cli({"session", "create", "cal"}).exit_code, 0);
+  const int64_t id = Submit({"capture", "calibration", "cal", "--poses", "3"});
+  ASSERT_GT(id, 0);
+  ASSERT_TRUE(
+      WaitForInstruction(id, "place the board in pose 1 of 3 and continue"));
+  const fs::path jpeg = dir_ / "preview.jpg";
+  CommandResult preview = Cli({"hw", "preview", "--out", jpeg.string()});
+  ASSERT_EQ(preview.exit_code, 0) << preview.err;
+  EXPECT_FALSE(cv::imread(jpeg.string()).empty());
+  CommandResult move = Cli({"hw", "stage", "move", "10"});
+  EXPECT_EQ(move.exit_code, 1);
+  EXPECT_THAT(move.err,
+              HasSubstr(absl::StrCat("in use by a capture job: capture job ",
+                                     id, " (session cal)")));
+  Continue(id);
+  ASSERT_TRUE(
+      WaitForInstruction(id, "place the board in pose 2 of 3 and continue"));
+  EXPECT_EQ(FramesDone(id), 2);
+  ASSERT_EQ(Cli({"jobs", "cancel", std::to_string(id)}).exit_code, 0);
+  ASSERT_TRUE(WaitForJobState(id, "cancelled"));
+}
+
 // The board in the left view but out of the right one: the pose's left
 // frame, already recorded, is dropped with it.
 TEST_F(CalibrationTest, APoseSeenOnlyFromTheLeftIsDroppedWhole) {
