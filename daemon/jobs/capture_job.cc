@@ -5,8 +5,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <future>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
 #include <set>
@@ -23,8 +25,10 @@
 #include "daemon/store/frame_repository.h"
 #include "hardware/reconnecting_camera.h"
 #include "processing/base/status_macros.h"
+#include "processing/hdr/merge.h"
 #include "processing/io/atomic_file.h"
 #include "processing/io/capture_layout.h"
+#include "processing/io/image.h"
 #include "processing/io/sha256.h"
 
 namespace hdrstereo::jobs {
@@ -226,6 +230,11 @@ absl::Status InStep(absl::string_view step, const absl::Status& status) {
   });
   return in_step;
 }
+template <typename T>
+absl::StatusOr<T> InStep(absl::string_view step, absl::StatusOr<T> result) {
+  if (result.ok()) return result;
+  return InStep(step, result.status());
+}
 
 // The failed attempts at one frame (or at parking the rig): a transient
 // device fault (IsTransientDeviceError) is warned about, counted as the
@@ -355,6 +364,190 @@ std::string BlockingCondition(const CaptureConditions& conditions,
   return "";
 }
 
+// One linear probe of automatic bracketing at `exposure_s`, the stage at
+// the view's position: in 16-bit TIFF where the camera offers it (the
+// simulator), else RAW (LibRaw decodes it linear); written to the job's
+// folder (jobs/<job>/probes/, kept for people, never a frame of the
+// dataset) and returned as float, full scale 1.
+class ProbeCamera {
+ public:
+  ProbeCamera(JobContext& context, hardware::Camera& camera, DeviceLog& devices,
+              const BaseSettings& base)
+      : context_(context), camera_(camera), devices_(devices), base_(base) {}
+
+  absl::StatusOr<cv::Mat> Take(absl::string_view view, double exposure_s) {
+    ASSIGN_OR_RETURN(const hardware::ExposureSettings applied,
+                     Configure(exposure_s));
+    ASSIGN_OR_RETURN(
+        const hardware::Frame frame,
+        InStep("capturing", devices_.Sample(store::Device::kCamera, [&] {
+          return camera_.Capture();
+        })));
+    const std::string relative = absl::StrFormat(
+        "jobs/%d/probes/%s/%02d_%s.%s", context_.job().id, view, ++taken_,
+        io::ExposureTag(applied.exposure_s), frame.extension);
+    RETURN_IF_ERROR(context_.store().files().WriteSessionFile(
+        context_.job().session, relative, frame.bytes));
+    ASSIGN_OR_RETURN(const io::DecodedImage decoded,
+                     io::DecodeImageFile(context_.store().files().SessionDir(
+                                             context_.job().session) /
+                                         relative));
+    if (decoded.pixels.depth() != CV_16U) {
+      return absl::DataLossError(absl::StrCat(
+          "probe ", relative, " is not 16-bit: it cannot be read as linear"));
+    }
+    return io::ToFloat(decoded.pixels);
+  }
+
+ private:
+  absl::StatusOr<hardware::ExposureSettings> Configure(double exposure_s) {
+    auto configure = [&](hardware::ImageFormat format) {
+      return InStep(
+          absl::StrCat("setting the exposure to ", io::ExposureTag(exposure_s)),
+          devices_.Time(store::Device::kCamera, [&] {
+            return camera_.Configure({.exposure_s = exposure_s,
+                                      .iso = base_.iso,
+                                      .aperture_f = base_.aperture_f,
+                                      .format = format});
+          }));
+    };
+    if (format_.has_value()) return configure(*format_);
+    absl::StatusOr<hardware::ExposureSettings> tiff =
+        configure(hardware::ImageFormat::kTiff16);
+    if (!absl::IsInvalidArgument(tiff.status())) {
+      format_ = hardware::ImageFormat::kTiff16;
+      return tiff;
+    }
+    absl::StatusOr<hardware::ExposureSettings> raw =
+        configure(hardware::ImageFormat::kRaw);
+    if (absl::IsInvalidArgument(raw.status())) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "automatic bracketing meters with linear probes, 16-bit TIFF or "
+          "RAW, and the camera offers neither: ",
+          tiff.status().message(), "; ", raw.status().message()));
+    }
+    format_ = hardware::ImageFormat::kRaw;
+    return raw;
+  }
+
+  JobContext& context_;
+  hardware::Camera& camera_;
+  DeviceLog& devices_;
+  const BaseSettings& base_;
+  std::optional<hardware::ImageFormat> format_;  // decided by the first
+  int taken_ = 0;
+};
+
+// The exposures of a plan with auto_bracket: those its capture chose
+// before (a resumed or resubmitted capture takes the same frames), else
+// the scene is metered now (hdr::MeterAndChoose; probes at most
+// kMaxAttemptsPerFrame times after transient faults), the choice refused
+// when it leaves too much uncovered (hdr::AcceptCoverage: the job fails
+// before any frame) and recorded with the capture.
+absl::StatusOr<v1::CapturePlan> ChooseExposures(
+    JobContext& context, store::FrameRepository& frames,
+    const store::CaptureRecord& capture, hardware::Camera& camera,
+    hardware::Projector* projector, DeviceLog& devices,
+    const std::function<absl::Status(double)>& place_stage,
+    const v1::CapturePlan& plan, const RigLimits& limits,
+    const BaseSettings& base) {
+  if (!capture.auto_bracket.empty()) {
+    absl::StatusOr<hdr::AutoBracketResult> chosen =
+        hdr::AutoBracketFromJson(capture.auto_bracket);
+    if (!chosen.ok()) {
+      return absl::DataLossError(absl::StrCat("capture ", capture.id, ": ",
+                                              chosen.status().message()));
+    }
+    context.Info(
+        absl::StrCat("automatic bracket chosen before: ", chosen->Reason()));
+    return WithChosenExposures(plan, *chosen);
+  }
+  const v1::BracketedStereoPlan& stereo = plan.bracketed_stereo();
+  const hdr::AutoBracketOptions options =
+      AutoBracketOptionsOf(stereo.auto_bracket());
+  ASSIGN_OR_RETURN(const hardware::CameraInfo info,
+                   InStep("asking the camera for its shutter speeds",
+                          devices.Time(store::Device::kCamera,
+                                       [&] { return camera.Info(); })));
+  std::vector<double> choices =
+      info.shutter_speeds_s.empty()
+          ? hdr::ThirdStopShutterSpeeds(info.min_exposure_s,
+                                        info.max_exposure_s)
+          : info.shutter_speeds_s;
+  if (options.max_exposure_s > 0) {
+    std::erase_if(choices, [&](double t) {
+      return t > options.max_exposure_s * (1 + 1e-9);
+    });
+  }
+  if (choices.empty()) {
+    return absl::FailedPreconditionError(absl::StrFormat(
+        "automatic bracketing has no shutter speed to choose from: the "
+        "camera offers %g .. %g s%s",
+        info.min_exposure_s, info.max_exposure_s,
+        options.max_exposure_s > 0
+            ? absl::StrFormat(", auto_bracket.max_exposure_s is %g s",
+                              options.max_exposure_s)
+            : ""));
+  }
+  // The frames come in the camera's own format again afterwards.
+  ASSIGN_OR_RETURN(
+      const hardware::ExposureSettings before,
+      devices.Time(store::Device::kCamera, [&] { return camera.Settings(); }));
+  absl::Cleanup restore = [&] {
+    devices
+        .Time(store::Device::kCamera,
+              [&] {
+                return camera.Configure(
+                    {.exposure_s = before.exposure_s, .format = before.format});
+              })
+        .IgnoreError();
+  };
+  if (projector != nullptr) {
+    RETURN_IF_ERROR(InStep("blanking the projector",
+                           devices.Sample(store::Device::kProjector,
+                                          [&] { return projector->Blank(); })));
+  }
+  RETURN_IF_ERROR(InStep("preparing the camera",
+                         devices
+                             .Time(store::Device::kCamera,
+                                   [&] { return camera.PrepareCaptureGroup(); })
+                             .status()));
+  ProbeCamera probes(context, camera, devices, base);
+  auto take = [&](int view, double exposure_s) -> absl::StatusOr<cv::Mat> {
+    const std::string name = io::ViewName(view, stereo.views());
+    const std::string what = absl::StrCat(
+        "metering the ", name, " view: probe at ", io::ExposureTag(exposure_s));
+    for (int attempt = 1;; ++attempt) {
+      RETURN_IF_ERROR(context.Checkpoint());
+      RETURN_IF_ERROR(context.Progress(0, 0, what));
+      absl::Status placed =
+          place_stage(limits.home_position_mm + view * stereo.baseline_mm());
+      absl::StatusOr<cv::Mat> probe = placed.ok()
+                                          ? probes.Take(name, exposure_s)
+                                          : absl::StatusOr<cv::Mat>(placed);
+      if (probe.ok() || !IsTransientDeviceError(probe.status()) ||
+          attempt >= kMaxAttemptsPerFrame) {
+        return probe;
+      }
+      context.Warn(absl::StrCat(what, ": ", probe.status().message(),
+                                "; taking it again (attempt ", attempt + 1,
+                                " of at most ", kMaxAttemptsPerFrame, ")"),
+                   store::EventTag(store::EventKindOf(probe.status())));
+    }
+  };
+  absl::StatusOr<hdr::AutoBracketResult> chosen =
+      hdr::MeterAndChoose(stereo.views(), take, choices,
+                          hdr::MergeOptions().linear_saturation, options);
+  if (!chosen.ok()) return InStep("automatic bracketing", chosen.status());
+  RETURN_IF_ERROR(hdr::AcceptCoverage(*chosen, options));
+  RETURN_IF_ERROR(
+      frames.SetAutoBracket(capture.id, nlohmann::json(*chosen).dump()));
+  context.Info(absl::StrCat("automatic bracket: ", chosen->Reason(), " (",
+                            chosen->probes, " probe frames in jobs/",
+                            context.job().id, "/probes/)"));
+  return WithChosenExposures(plan, *chosen);
+}
+
 }  // namespace
 
 absl::StatusOr<RigLimits> LimitsOf(const hardware::Rig& rig) {
@@ -415,17 +608,6 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   ASSIGN_OR_RETURN(store::CaptureRecord capture,
                    frames.CaptureForJob(job.id, kind, job.request));
   const fs::path session_dir = context.store().files().SessionDir(job.session);
-  const std::vector<FrameSpec> specs = ExpandPlan(plan, limits, capture.id);
-  absl::StatusOr<std::map<int, store::FrameRecord>> done =
-      VerifiedFrames(frames, capture.id, session_dir, context);
-  if (!done.ok()) return done.status();
-  RETURN_IF_ERROR(RemoveUnrecordedFiles(session_dir, capture.id, *done));
-  const int64_t total = static_cast<int64_t>(specs.size());
-  int64_t count = static_cast<int64_t>(done->size());
-  RETURN_IF_ERROR(context.Progress(
-      count, total,
-      count > 0 ? absl::StrCat("resuming: ", count, " frames already recorded")
-                : "preparing the rig"));
 
   // Whatever happens, leave the hardware safe.
   bool moved = false;
@@ -465,6 +647,22 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
     if (base.settle_s > 0) devices.Wait(absl::Seconds(base.settle_s));
     return absl::OkStatus();
   };
+  if (ChoosesExposuresAtTheRig(plan)) {
+    ASSIGN_OR_RETURN(
+        plan, ChooseExposures(context, frames, capture, camera, projector,
+                              devices, place_stage, plan, limits, base));
+  }
+  const std::vector<FrameSpec> specs = ExpandPlan(plan, limits, capture.id);
+  absl::StatusOr<std::map<int, store::FrameRecord>> done =
+      VerifiedFrames(frames, capture.id, session_dir, context);
+  if (!done.ok()) return done.status();
+  RETURN_IF_ERROR(RemoveUnrecordedFiles(session_dir, capture.id, *done));
+  const int64_t total = static_cast<int64_t>(specs.size());
+  int64_t count = static_cast<int64_t>(done->size());
+  RETURN_IF_ERROR(context.Progress(
+      count, total,
+      count > 0 ? absl::StrCat("resuming: ", count, " frames already recorded")
+                : "preparing the rig"));
   double exposure = std::nan("");
   hardware::ExposureSettings in_effect;  // as Configure last returned them
   // Every frame is checked against the camera's own report; frames
@@ -845,14 +1043,28 @@ absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
   RETURN_IF_ERROR(CheckDevicesFor(normal, rig));
   const size_t frames = ExpandPlan(normal, limits, 0).size();
   const io::CaptureKind kind = *PlanKind(normal);
+  const bool metered = ChoosesExposuresAtTheRig(normal);
   if (disk != nullptr) {
-    RETURN_IF_ERROR(disk->CheckRoomFor(kind, static_cast<int64_t>(frames)));
+    // A metered plan's frames are known at the rig: until then the room is
+    // that of the default bracket (and the rest is checked at every frame).
+    v1::CapturePlan typical = normal;
+    if (metered) {
+      for (double e : v1::kDefaultStereoExposuresS) {
+        typical.mutable_bracketed_stereo()->add_exposures_s(e);
+      }
+    }
+    RETURN_IF_ERROR(disk->CheckRoomFor(
+        kind, static_cast<int64_t>(ExpandPlan(typical, limits, 0).size())));
   }
-  return engine.Submit(store::JobKind::kCapture, session,
-                       normal.SerializeAsString(), static_cast<int64_t>(frames),
-                       absl::StrCat("queued ", io::CaptureKindName(kind),
-                                    " capture of ", frames, " frames"),
-                       submitted_by);
+  return engine.Submit(
+      store::JobKind::kCapture, session, normal.SerializeAsString(),
+      static_cast<int64_t>(frames),
+      metered ? absl::StrCat("queued ", io::CaptureKindName(kind),
+                             " capture; its exposures are chosen by metering "
+                             "the scene at the rig")
+              : absl::StrCat("queued ", io::CaptureKindName(kind),
+                             " capture of ", frames, " frames"),
+      submitted_by);
 }
 
 }  // namespace hdrstereo::jobs

@@ -15,7 +15,7 @@ namespace {
 
 // Append only: a released migration is never edited. Times are Unix
 // milliseconds (UTC); lengths in millimetres; exposures in seconds.
-constexpr std::array<absl::string_view, 9> kMigrations = {
+constexpr std::array<absl::string_view, 10> kMigrations = {
     // 1: the tables of DESIGN.md.
     R"sql(
 CREATE TABLE rigs (
@@ -281,6 +281,13 @@ CREATE TABLE device_time (
   time_ms INTEGER NOT NULL
 );
 CREATE INDEX device_time_by_job ON device_time(job_id);
+)sql",
+    // 10: automatic bracketing. What a bracketed-stereo capture that chose
+    // its exposures at the rig chose and why (hdr::AutoBracketResult's
+    // canonical JSON; '' otherwise), kept so that a resumed capture takes
+    // the same frames.
+    R"sql(
+ALTER TABLE captures ADD COLUMN auto_bracket TEXT NOT NULL DEFAULT '';
 )sql",
 };
 

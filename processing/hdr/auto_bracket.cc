@@ -715,8 +715,9 @@ absl::Status AcceptCoverage(const AutoBracketResult& result,
   };
   return absl::FailedPreconditionError(absl::StrFormat(
       "the scene's range exceeds what the camera offers: the scene spans "
-      "%.1f stops where measured (its brightest channel saturates at %s, its "
-      "darkest reaches SNR %g at %s) and the camera covers %.1f stops (%s .. "
+      "at least %.1f stops (where measured its brightest channel saturates "
+      "at %s, its darkest reaches SNR %g at %s) and the camera covers %.1f "
+      "stops (%s .. "
       "%s, samples at SNR >= %g below %.2f of full scale); %.2f %% of the "
       "non-emitter pixels (%d of %d) stay uncovered, at most %.2f %% may: "
       "%d too bright even at %s, %d too dark even at %s. Exclude the "

@@ -300,7 +300,7 @@ TEST(ChooseBracketTest, BestCoverageWhenTheSceneExceedsTheCamera) {
       StatusIs(absl::StatusCode::kFailedPrecondition,
                AllOf(HasSubstr("the scene's range exceeds what the camera "
                                "offers"),
-                     HasSubstr("the scene spans 26.6 stops"),
+                     HasSubstr("the scene spans at least 26.6 stops"),
                      HasSubstr("the camera covers 9.0 stops (1/64 s .. 1 s"),
                      HasSubstr("75.00 % of the non-emitter pixels (3 of 4)"),
                      HasSubstr("1 too bright even at 1/64 s, 2 too dark even "
