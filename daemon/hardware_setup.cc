@@ -123,8 +123,9 @@ absl::StatusOr<hardware::Slot<hardware::Camera>> SimulatedCamera(
 
 // The real driver over a replay of `dump`; each capture is a frame the
 // simulator renders at the shutter speed (and ISO) the driver chose among
-// the replayed camera's choices, as JPEG or, for a RAW format, DNG. The
-// replayed camera is on its (replayed) USB link while the simulated one is
+// the replayed camera's choices, as JPEG or, for a RAW format, DNG; each
+// live-view frame the simulator's preview at those settings. The replayed
+// camera is on its (replayed) USB link while the simulated one is
 // connected: the simulator's disconnect fault unplugs it mid-capture, and
 // it is found again when the simulator lets its camera be reopened.
 absl::StatusOr<hardware::Slot<hardware::Camera>> ReplayedCamera(
@@ -142,13 +143,22 @@ absl::StatusOr<hardware::Slot<hardware::Camera>> ReplayedCamera(
     return gphoto2::ReplayFile{.bytes = std::move(capture.bytes),
                                .extension = raw ? "dng" : "jpg"};
   };
+  // Live view: the simulator's preview at the settings the driver chose.
+  gphoto2::FrameSource previews = [&world](const hardware::ExposureSettings& s)
+      -> absl::StatusOr<gphoto2::ReplayFile> {
+    ASSIGN_OR_RETURN(sim::SimCapture preview,
+                     world.Preview({.exposure_s = s.exposure_s,
+                                    .iso = s.iso > 0 ? double(s.iso) : 100}));
+    return gphoto2::ReplayFile{.bytes = std::move(preview.bytes),
+                               .extension = "jpg"};
+  };
   auto link = std::make_shared<gphoto2::ReplayLink>(
       [&world] { return world.ReopenCamera(); });
   gphoto2::Gphoto2Options options;
   options.model = config.camera_model;
   spdlog::info("camera: replay of {} ({})", dump.source, dump.model);
-  return Gphoto2Slot(config, options, [dump, frames, link] {
-    return std::make_unique<gphoto2::ReplayApi>(dump, frames, link);
+  return Gphoto2Slot(config, options, [dump, frames, link, previews] {
+    return std::make_unique<gphoto2::ReplayApi>(dump, frames, link, previews);
   });
 }
 

@@ -149,7 +149,7 @@ Server::Server(std::unique_ptr<store::Store> store,
       server_service_(*store_, disk_guard_, authenticator_, config.hardware,
                       absl::Now()),
       sessions_service_(*store_),
-      hardware_service_(*hardware_->rig, *rig_lock_, authenticator_),
+      hardware_service_(*hardware_->rig, *rig_lock_, authenticator_, engine_),
       jobs_service_(engine_, *hardware_->rig, disk_guard_, authenticator_),
       scheduler_(
           *store_,

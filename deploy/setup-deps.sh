@@ -14,7 +14,7 @@ packages=(
   # certificates for remote operation (deploy/make-certs.sh, its tests)
   openssl
   # hardware
-  libgphoto2-dev libserialport-dev libx11-dev
+  libgphoto2-dev libserialport-dev libx11-dev libxrandr-dev
   # processing
   libopencv-dev libopencv-contrib-dev libraw-dev libtiff-dev libopenexr-dev
   libmaxflow-dev zlib1g-dev

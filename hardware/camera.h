@@ -149,6 +149,14 @@ class Camera {
   // returns the next image, not an old one. Returns how many files it
   // discarded.
   virtual absl::StatusOr<int> PrepareCaptureGroup() = 0;
+  // One live-view frame: what the sensor sees now at the current settings,
+  // reduced (a few hundred pixels wide), as JPEG bytes; nothing is stored
+  // on the camera. Live view may change the camera's state (a DSLR's mirror
+  // stays up): the next Capture() leaves it first. UNIMPLEMENTED for a
+  // camera without live view (the default).
+  virtual absl::StatusOr<Frame> Preview() {
+    return absl::UnimplementedError("this camera has no live view");
+  }
   // Thread-safe and cheap (never talks to the camera), so it may be asked
   // while another thread holds the camera in a capture.
   virtual ConnectionState Connection() const { return {}; }

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "absl/status/status.h"
+#include "absl/status/statusor.h"
 
 namespace hdrstereo::hardware {
 
@@ -42,6 +43,11 @@ class Projector {
   // Cheap enough to ask before every frame; returns within the driver's
   // own timeout.
   virtual absl::Status Check() = 0;
+  // The refresh rate of the display the projector is, in Hz: a pattern
+  // changes on a refresh, so a structured-light exposure should last whole
+  // refresh periods. UNAVAILABLE (or UNIMPLEMENTED) saying why when the
+  // display does not tell.
+  virtual absl::StatusOr<double> RefreshHz() = 0;
 };
 
 }  // namespace hdrstereo::hardware

@@ -138,6 +138,10 @@ absl::StatusOr<int> ReconnectingCamera::PrepareCaptureGroup() {
   return Forward<int>([](Camera& c) { return c.PrepareCaptureGroup(); });
 }
 
+absl::StatusOr<Frame> ReconnectingCamera::Preview() {
+  return Forward<Frame>([](Camera& c) { return c.Preview(); });
+}
+
 void ReconnectingCamera::Changed(const ConnectionState& state) const {
   if (options_.on_change) options_.on_change(state);
 }

@@ -103,6 +103,7 @@ class ReconnectingCamera final : public Camera {
   absl::StatusOr<ExposureSettings> Settings() override;
   absl::StatusOr<Frame> Capture() override;
   absl::StatusOr<int> PrepareCaptureGroup() override;
+  absl::StatusOr<Frame> Preview() override;
   ConnectionState Connection() const override;
 
  private:

@@ -17,6 +17,9 @@ void AddServerCommands(CLI::App& app, const GlobalOptions& options,
                        int* exit_code);
 void AddHardwareCommands(CLI::App& app, const GlobalOptions& options,
                          int* exit_code);
+// `hw preview` on `hw`, `probe` on `hw projector` (rig_commands.cc).
+void AddRigCommands(CLI::App& hw, CLI::App& projector,
+                    const GlobalOptions& options, int* exit_code);
 void AddJobCommands(CLI::App& app, const GlobalOptions& options,
                     int* exit_code);
 void AddScheduleCommands(CLI::App& app, const GlobalOptions& options,

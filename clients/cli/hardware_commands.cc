@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
 // `hdrstereo hw status|camera|stage|projector|lock|unlock`: direct control
-// of the rig and its lock.
+// of the rig and its lock (`hw preview` and `hw projector probe` are in
+// rig_commands.cc).
 #include <fstream>
 #include <iostream>
 #include <map>
@@ -272,6 +273,8 @@ void AddHardwareCommands(CLI::App& app, const GlobalOptions& options,
                 ->BlankProjector(client.NewContext().get(), {}, &status);
         *exit_code = Finish(client, rpc, status, PrintProjector);
       });
+
+  AddRigCommands(*hw, *projector, options, exit_code);
 
   CLI::App* lock = hw->add_subcommand(
       "lock",

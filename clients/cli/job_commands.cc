@@ -239,6 +239,8 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
     double exclude_emitters_above = 0;
     double max_uncovered = 0;
     std::string max_exposure;
+    bool probe_projector = false;
+    bool round_to_refresh = false;
     bool watch = false;
     int64_t job_id = 0;
     std::string filter_session;
@@ -347,6 +349,12 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
                  absl::StrCat("[default: ", v1::kDefaultBaselineMm, "]"));
   sl->add_option("--views", args->views,
                  absl::StrCat("[default: ", v1::kDefaultViews, "]"));
+  sl->add_flag("--probe-projector", args->probe_projector,
+               "Measure the projector's latency first (as `hw projector "
+               "probe`) and wait that long after each pattern");
+  sl->add_flag("--round-to-refresh", args->round_to_refresh,
+               "Round each exposure to whole refresh periods of the "
+               "projector's display");
   sl->callback([&options, exit_code, args, exposures] {
     Client client(options);
     v1::SubmitCaptureRequest request;
@@ -360,6 +368,8 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
     }
     plan->set_baseline_mm(args->baseline_mm);
     plan->set_views(args->views);
+    if (args->probe_projector) plan->mutable_projector_probe();
+    plan->set_round_exposures_to_refresh(args->round_to_refresh);
     *exit_code = Submit(client, request, args->watch);
   });
 

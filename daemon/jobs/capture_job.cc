@@ -22,6 +22,7 @@
 #include "absl/strings/str_join.h"
 #include "daemon/jobs/device_log.h"
 #include "daemon/jobs/frame_check.h"
+#include "daemon/jobs/projector_probe.h"
 #include "daemon/store/frame_repository.h"
 #include "hardware/reconnecting_camera.h"
 #include "processing/base/status_macros.h"
@@ -560,6 +561,7 @@ absl::StatusOr<RigLimits> LimitsOf(const hardware::Rig& rig) {
   limits.home_position_mm = rig.config().home_position_mm;
   if (rig.projector() != nullptr) {
     limits.projector_size = rig.projector()->resolution();
+    limits.projector_refresh_hz = rig.projector()->RefreshHz().value_or(0);
   }
   return limits;
 }
@@ -618,6 +620,15 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
 
   // Every device call is timed, and its error marked with its kind.
   DeviceLog devices(context.store(), job.id);
+  // Structured light: the projector's refresh rate and (probed if the plan
+  // asks) latency, recorded with the capture; each pattern is waited for.
+  absl::Duration pattern_wait;
+  if (plan.has_structured_light()) {
+    ASSIGN_OR_RETURN(
+        pattern_wait,
+        PrepareProjectorTiming(plan.structured_light(), camera, *projector,
+                               context, frames, capture.id));
+  }
   const BaseSettings base = SettingsOf(plan);
   // The stage is homed before it is next placed when it is not homed (or
   // does not say), after a suspension and after a fault of its own (its
@@ -861,6 +872,7 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
             continue;
           }
           showing = wanted;
+          if (pattern_wait > absl::ZeroDuration()) devices.Wait(pattern_wait);
         }
       }
       const int64_t drops_before = camera.Connection().drops;

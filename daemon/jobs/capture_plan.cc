@@ -6,6 +6,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_replace.h"
+#include "daemon/jobs/projector_probe.h"
 #include "processing/base/options.h"
 #include "processing/base/status_macros.h"
 
@@ -182,6 +183,22 @@ absl::StatusOr<v1::CapturePlan> NormalizePlan(const v1::CapturePlan& plan,
                                     rig, "structured_light"));
       RETURN_IF_ERROR(
           CheckCamera(p->iso(), p->aperture_f(), "structured_light"));
+      if (p->has_projector_probe()) {
+        ASSIGN_OR_RETURN(const ProbeOptions probe,
+                         ProbeOptionsFrom(p->projector_probe(),
+                                          "structured_light.projector_probe"));
+        *p->mutable_projector_probe() = ToProto(probe);
+      }
+      if (p->round_exposures_to_refresh()) {
+        if (!(rig.projector_refresh_hz > 0)) {
+          return absl::FailedPreconditionError(
+              "structured_light.round_exposures_to_refresh: the projector "
+              "does not report its display's refresh rate");
+        }
+        for (double& e : *p->mutable_exposures_s()) {
+          e = RoundToRefreshPeriods(e, rig.projector_refresh_hz);
+        }
+      }
       return out;
     }
     case v1::CapturePlan::kCalibration: {

@@ -29,6 +29,7 @@ struct RigLimits {
   double travel_mm = 150;
   double home_position_mm = 0;
   cv::Size projector_size{1024, 768};
+  double projector_refresh_hz = 0;  // 0: unknown
 };
 
 // One frame of a capture.

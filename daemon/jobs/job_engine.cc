@@ -157,11 +157,13 @@ void JobEngine::WorkerLoop(JobKind kind) {
       id = queue.front();
       queue.pop_front();
       running_[id] = Control{};
+      if (kind == JobKind::kCapture) running_capture_ = id;
     }
     RunJob(id);
     {
       absl::MutexLock lock(&mutex_);
       running_.erase(id);
+      if (kind == JobKind::kCapture) running_capture_ = 0;
     }
   }
 }
@@ -400,6 +402,11 @@ int64_t JobEngine::event_generation() {
 bool JobEngine::stopping() {
   absl::MutexLock lock(&mutex_);
   return stopping_;
+}
+
+int64_t JobEngine::running_capture() {
+  absl::MutexLock lock(&mutex_);
+  return running_capture_;
 }
 
 void JobEngine::WaitForEvents(int64_t seen_generation, absl::Time deadline) {

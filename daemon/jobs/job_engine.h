@@ -108,6 +108,9 @@ class JobEngine {
       ABSL_LOCKS_EXCLUDED(mutex_);
   int64_t event_generation() ABSL_LOCKS_EXCLUDED(mutex_);
   bool stopping() ABSL_LOCKS_EXCLUDED(mutex_);
+  // The id of the capture job the hardware lane runs now (from when it
+  // takes the job from the queue until the job has ended), or 0.
+  int64_t running_capture() ABSL_LOCKS_EXCLUDED(mutex_);
 
   store::JobRepository& repository() { return jobs_; }
   store::Store& store() { return store_; }
@@ -149,6 +152,7 @@ class JobEngine {
   Lane processing_lane_ ABSL_GUARDED_BY(mutex_);
   // Controls of running jobs.
   std::map<int64_t, Control> running_ ABSL_GUARDED_BY(mutex_);
+  int64_t running_capture_ ABSL_GUARDED_BY(mutex_) = 0;
   int64_t event_generation_ ABSL_GUARDED_BY(mutex_) = 0;
   bool stopping_ ABSL_GUARDED_BY(mutex_) = false;
   bool started_ ABSL_GUARDED_BY(mutex_) = false;

@@ -4,14 +4,18 @@
 #include <google/protobuf/util/time_util.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 #include <opencv2/imgcodecs.hpp>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
+#include "absl/time/clock.h"
+#include "daemon/jobs/projector_probe.h"
 #include "daemon/rpc/status.h"
 #include "processing/base/status_macros.h"
+#include "processing/exposure/frame_statistics.h"
 #include "processing/structured_light/gray_code.h"
 
 namespace hdrstereo::rpc {
@@ -22,16 +26,12 @@ namespace sl = structured_light;
 constexpr int kMaxIso = 409600;
 constexpr double kMaxApertureF = 64;
 
-grpc::Status LaneBusy() {
-  return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION,
-                      "the hardware is in use by a capture job; wait for it "
-                      "or cancel it");
-}
-
 // A device that is unreachable is a precondition of the call, not the
-// daemon being unavailable: clients treat UNAVAILABLE as "no daemon".
+// daemon being unavailable: clients treat UNAVAILABLE as "no daemon". So
+// is a device that cannot do what is asked (UNIMPLEMENTED would read as a
+// method the daemon does not serve).
 grpc::Status DeviceError(const absl::Status& status) {
-  if (absl::IsUnavailable(status)) {
+  if (absl::IsUnavailable(status) || absl::IsUnimplemented(status)) {
     return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION,
                         std::string(status.message()));
   }
@@ -171,7 +171,61 @@ bool FillCameraConnection(const hardware::Camera& camera,
   return true;
 }
 
+void ToProto(const exposure::FrameStatistics& stats, v1::PreviewFrame* out) {
+  out->set_width_px(stats.width);
+  out->set_height_px(stats.height);
+  for (const exposure::ChannelStatistics& c : stats.channels) {
+    v1::ChannelStatistics* channel = out->add_channels();
+    channel->set_channel(c.name);
+    channel->mutable_histogram()->Add(c.histogram.begin(), c.histogram.end());
+    channel->set_clipped_low(c.clipped_low);
+    channel->set_clipped_high(c.clipped_high);
+    channel->set_mean(c.mean);
+    channel->set_p1(c.p1);
+    channel->set_p50(c.p50);
+    channel->set_p99(c.p99);
+  }
+}
+
+google::protobuf::Timestamp TimestampOf(absl::Time time) {
+  return google::protobuf::util::TimeUtil::MillisecondsToTimestamp(
+      absl::ToUnixMillis(time));
+}
+
 }  // namespace
+
+std::string HardwareService::DescribeJob(int64_t job_id) {
+  absl::StatusOr<store::JobRecord> job = engine_.repository().Get(job_id);
+  return job.ok() ? absl::StrCat("capture job ", job_id, " (session ",
+                                 job->session, ")")
+                  : absl::StrCat("capture job ", job_id);
+}
+
+absl::Status HardwareService::CheckNoCapture() {
+  const int64_t job = engine_.running_capture();
+  if (job == 0) return absl::OkStatus();
+  return absl::FailedPreconditionError(absl::StrCat(
+      "the hardware is in use by a capture job: ", DescribeJob(job),
+      "; wait for it or cancel it"));
+}
+
+absl::StatusOr<std::unique_lock<std::mutex>> HardwareService::TakeLane(
+    absl::Duration wait) {
+  const absl::Time deadline = absl::Now() + wait;
+  while (true) {
+    RETURN_IF_ERROR(CheckNoCapture());
+    std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
+    if (lane.owns_lock()) return lane;
+    // Another direct call or a live-view frame: each holds it briefly.
+    if (absl::Now() > deadline) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "the hardware stayed busy with other calls (live view, a projector "
+          "probe, direct control) for ",
+          absl::FormatDuration(wait), "; try again"));
+    }
+    absl::SleepFor(absl::Milliseconds(2));
+  }
+}
 
 void HardwareService::FillCamera(v1::CameraStatus* out) {
   hardware::Camera* camera = rig_.camera();
@@ -237,13 +291,18 @@ grpc::Status HardwareService::GetStatus(grpc::ServerContext*,
                                         const v1::GetHardwareStatusRequest*,
                                         v1::HardwareStatus* response) {
   response->set_hardware_mode(hardware::HardwareModeName(rig_.config().mode));
-  std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
-  if (!lane.owns_lock()) {
-    // A capture owns the devices; report that instead of querying them.
+  // Never long: a live-view frame is waited for, a capture or a probe is
+  // reported instead of querying the devices.
+  absl::StatusOr<std::unique_lock<std::mutex>> lane =
+      TakeLane(absl::Seconds(1));
+  if (!lane.ok()) {
+    const int64_t job = engine_.running_capture();
     for (auto* message : {response->mutable_camera()->mutable_message(),
                           response->mutable_stage()->mutable_message(),
                           response->mutable_projector()->mutable_message()}) {
-      *message = "in use by a capture job";
+      *message = job != 0 ? absl::StrCat("in use by ", DescribeJob(job))
+                          : "busy with another call (a projector probe, a "
+                            "stage move)";
     }
     response->mutable_camera()->set_state(v1::DEVICE_STATE_BUSY);
     response->mutable_stage()->set_state(v1::DEVICE_STATE_BUSY);
@@ -265,8 +324,8 @@ grpc::Status HardwareService::GetCameraSettings(
     grpc::ServerContext*, const v1::GetCameraSettingsRequest*,
     v1::CameraSettings* response) {
   if (rig_.camera() == nullptr) return Missing("camera", rig_.camera_error());
-  std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
-  if (!lane.owns_lock()) return LaneBusy();
+  absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane();
+  if (!lane.ok()) return ToGrpcStatus(lane.status());
   absl::StatusOr<hardware::ExposureSettings> settings =
       rig_.camera()->Settings();
   if (!settings.ok()) return DeviceError(settings.status());
@@ -301,8 +360,8 @@ grpc::Status HardwareService::SetCameraSettings(
         absl::StrCat("settings.format ", s.format(), " is not a known format"));
   }
   if (rig_.camera() == nullptr) return Missing("camera", rig_.camera_error());
-  std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
-  if (!lane.owns_lock()) return LaneBusy();
+  absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane();
+  if (!lane.ok()) return ToGrpcStatus(lane.status());
 
   absl::StatusOr<hardware::CameraInfo> info = rig_.camera()->Info();
   if (!info.ok()) return DeviceError(info.status());
@@ -326,8 +385,8 @@ grpc::Status HardwareService::HomeStage(grpc::ServerContext*,
                                         const v1::HomeStageRequest*,
                                         v1::StageStatus* response) {
   if (rig_.stage() == nullptr) return Missing("stage", rig_.stage_error());
-  std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
-  if (!lane.owns_lock()) return LaneBusy();
+  absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane();
+  if (!lane.ok()) return ToGrpcStatus(lane.status());
   if (absl::Status s = rig_.stage()->Home(); !s.ok()) return DeviceError(s);
   FillStage(response);
   return grpc::Status::OK;
@@ -344,8 +403,8 @@ grpc::Status HardwareService::MoveStage(grpc::ServerContext*,
         absl::StrFormat("position_mm %g is outside the stage travel [0, %g] mm",
                         request->position_mm(), travel));
   }
-  std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
-  if (!lane.owns_lock()) return LaneBusy();
+  absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane();
+  if (!lane.ok()) return ToGrpcStatus(lane.status());
   if (absl::Status s = rig_.stage()->MoveTo(request->position_mm()); !s.ok()) {
     return DeviceError(s);
   }
@@ -362,8 +421,8 @@ grpc::Status HardwareService::ShowPattern(grpc::ServerContext*,
   absl::StatusOr<std::pair<cv::Mat, std::string>> pattern =
       PatternFor(*request, rig_.projector()->resolution());
   if (!pattern.ok()) return ToGrpcStatus(pattern.status());
-  std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
-  if (!lane.owns_lock()) return LaneBusy();
+  absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane();
+  if (!lane.ok()) return ToGrpcStatus(lane.status());
   if (absl::Status s = rig_.projector()->Show(pattern->first); !s.ok()) {
     return DeviceError(s);
   }
@@ -381,8 +440,8 @@ grpc::Status HardwareService::BlankProjector(grpc::ServerContext*,
   if (rig_.projector() == nullptr) {
     return Missing("projector", rig_.projector_error());
   }
-  std::unique_lock<std::mutex> lane(rig_.lane(), std::try_to_lock);
-  if (!lane.owns_lock()) return LaneBusy();
+  absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane();
+  if (!lane.ok()) return ToGrpcStatus(lane.status());
   if (absl::Status s = rig_.projector()->Blank(); !s.ok()) {
     return DeviceError(s);
   }
@@ -391,6 +450,152 @@ grpc::Status HardwareService::BlankProjector(grpc::ServerContext*,
     showing_ = "blank";
   }
   FillProjector(response);
+  return grpc::Status::OK;
+}
+
+absl::StatusOr<v1::PreviewFrame> HardwareService::TakePreviewFrame() {
+  absl::StatusOr<hardware::Frame> frame;
+  {
+    ASSIGN_OR_RETURN(std::unique_lock<std::mutex> lane, TakeLane());
+    frame = rig_.camera()->Preview();
+  }
+  RETURN_IF_ERROR(frame.status());
+  ASSIGN_OR_RETURN(const exposure::FrameStatistics stats,
+                   exposure::ComputeEncodedFrameStatistics(frame->bytes));
+  v1::PreviewFrame out;
+  ToProto(stats, &out);
+  out.set_jpeg(std::move(frame->bytes));
+  out.set_exposure_s(frame->exposure_s);
+  return out;
+}
+
+grpc::Status HardwareService::StreamPreview(
+    grpc::ServerContext* context, const v1::StreamPreviewRequest* request,
+    grpc::ServerWriter<v1::PreviewMessage>* writer) {
+  const double max_fps = request->max_fps();
+  if (!std::isfinite(max_fps) || max_fps < 0) {
+    return InvalidArgument(absl::StrFormat(
+        "max_fps is %g; use 0 (%g frames/s) or a positive rate (at most %g "
+        "frames/s are sent)",
+        max_fps, kDefaultPreviewFps, kMaxPreviewFps));
+  }
+  if (request->max_frames() < 0) {
+    return InvalidArgument(absl::StrCat("max_frames is ", request->max_frames(),
+                                        "; use 0 (until cancelled) or more"));
+  }
+  if (rig_.camera() == nullptr) return Missing("camera", rig_.camera_error());
+  if (absl::Status busy = CheckNoCapture(); !busy.ok()) {
+    return ToGrpcStatus(busy);
+  }
+  const double fps =
+      max_fps == 0 ? kDefaultPreviewFps : std::min(max_fps, kMaxPreviewFps);
+  const absl::Duration period = absl::Seconds(1 / fps);
+  const grpc::Status client_left(grpc::StatusCode::CANCELLED,
+                                 "live view: the client went away");
+  int64_t sent = 0;
+  // The last message: why the stream ends.
+  auto end = [&](std::string reason, int64_t job) {
+    v1::PreviewMessage message;
+    v1::PreviewEnded* ended = message.mutable_ended();
+    ended->set_reason(std::move(reason));
+    ended->set_capture_job_id(job);
+    ended->set_frames(sent);
+    writer->Write(message);
+    return grpc::Status::OK;
+  };
+  for (absl::Time next = absl::InfinitePast();;) {
+    if (request->max_frames() > 0 && sent >= request->max_frames()) {
+      return end(absl::StrCat("sent the ", sent, " frames asked for"), 0);
+    }
+    // Until the next frame is due, wake for job events (a capture that
+    // starts) and look whether the client is still there.
+    for (absl::Time now = absl::Now(); now < next; now = absl::Now()) {
+      const int64_t generation = engine_.event_generation();
+      if (context->IsCancelled() || engine_.running_capture() != 0 ||
+          engine_.stopping()) {
+        break;
+      }
+      engine_.WaitForEvents(generation,
+                            std::min(next, now + absl::Milliseconds(100)));
+    }
+    if (context->IsCancelled()) return client_left;
+    if (engine_.stopping()) return end("the daemon is stopping", 0);
+    if (const int64_t job = engine_.running_capture(); job != 0) {
+      return end(absl::StrCat(DescribeJob(job), " started"), job);
+    }
+    absl::StatusOr<v1::PreviewFrame> frame = TakePreviewFrame();
+    if (!frame.ok()) {
+      // A capture took the rig meanwhile: that ends live view cleanly.
+      if (const int64_t job = engine_.running_capture(); job != 0) {
+        return end(absl::StrCat(DescribeJob(job), " started"), job);
+      }
+      return DeviceError(frame.status());
+    }
+    const absl::Time now = absl::Now();
+    frame->set_sequence(++sent);
+    *frame->mutable_time() = TimestampOf(now);
+    frame->set_fps_cap(fps);
+    next = now + period;
+    v1::PreviewMessage message;
+    *message.mutable_frame() = *std::move(frame);
+    if (!writer->Write(message)) return client_left;
+  }
+}
+
+grpc::Status HardwareService::ProbeProjector(
+    grpc::ServerContext* context, const v1::ProbeProjectorRequest* request,
+    v1::ProjectorProbe* response) {
+  absl::StatusOr<jobs::ProbeOptions> options =
+      jobs::ProbeOptionsFrom(request->options(), "options");
+  if (!options.ok()) return ToGrpcStatus(options.status());
+  if (rig_.camera() == nullptr) return Missing("camera", rig_.camera_error());
+  if (rig_.projector() == nullptr) {
+    return Missing("projector", rig_.projector_error());
+  }
+  absl::StatusOr<jobs::ProbeResult> probe;
+  {
+    absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane();
+    if (!lane.ok()) return ToGrpcStatus(lane.status());
+    absl::StatusOr<hardware::CameraInfo> info = rig_.camera()->Info();
+    if (!info.ok()) return DeviceError(info.status());
+    if (info->max_exposure_s > 0 &&
+        (options->exposure_s < info->min_exposure_s ||
+         options->exposure_s > info->max_exposure_s)) {
+      return InvalidArgument(absl::StrFormat(
+          "options.exposure_s %g s is outside the camera's range [%g, %g] s",
+          options->exposure_s, info->min_exposure_s, info->max_exposure_s));
+    }
+    probe = jobs::ProbeProjectorLatency(
+        *rig_.camera(), *rig_.projector(), *options, [context] {
+          return context->IsCancelled()
+                     ? absl::CancelledError("the probe was cancelled")
+                     : absl::OkStatus();
+        });
+    absl::MutexLock lock(&showing_mutex_);
+    showing_ = "blank";
+  }
+  if (!probe.ok()) return DeviceError(probe.status());
+  response->set_latency_s(absl::ToDoubleSeconds(probe->latency));
+  response->set_step_s(absl::ToDoubleSeconds(probe->step));
+  response->set_black_level(probe->black_level);
+  response->set_white_level(probe->white_level);
+  response->set_white_from(probe->white_from);
+  for (const jobs::ProbeStep& step : probe->steps) {
+    v1::ProjectorProbe::Frame* frame = response->add_frames();
+    frame->set_delay_s(absl::ToDoubleSeconds(step.delay));
+    frame->set_level(step.level);
+    frame->set_white(step.white);
+  }
+  absl::StatusOr<double> refresh = rig_.projector()->RefreshHz();
+  if (refresh.ok()) {
+    response->set_refresh_hz(*refresh);
+  } else {
+    response->set_refresh_error(std::string(refresh.status().message()));
+  }
+  spdlog::info("projector probe: latency {} s in steps of {} s, refresh {}",
+               response->latency_s(), response->step_s(),
+               refresh.ok() ? absl::StrCat(*refresh, " Hz")
+                            : std::string(refresh.status().message()));
   return grpc::Status::OK;
 }
 

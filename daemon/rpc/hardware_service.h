@@ -2,10 +2,13 @@
 #ifndef HDRSTEREO_DAEMON_RPC_HARDWARE_SERVICE_H_
 #define HDRSTEREO_DAEMON_RPC_HARDWARE_SERVICE_H_
 
+#include <mutex>
 #include <string>
 
 #include "absl/base/thread_annotations.h"
+#include "absl/status/statusor.h"
 #include "absl/synchronization/mutex.h"
+#include "daemon/jobs/job_engine.h"
 #include "daemon/jobs/rig_lock.h"
 #include "daemon/rpc/authenticator.h"
 #include "hardware/rig.h"
@@ -13,15 +16,28 @@
 
 namespace hdrstereo::rpc {
 
-// Direct control of the rig, and its lock. Every request is validated
-// before any device is touched; calls that act on a device are refused
-// while a capture holds the hardware lane (and, by CallGuard, while another
-// principal holds the rig lock).
+// Direct control of the rig, live view and its lock. Every request is
+// validated before any device is touched; calls that act on a device are
+// refused, naming the job, while a capture job runs on the hardware lane
+// (and, by CallGuard, while another principal holds the rig lock). They
+// take the lane for each device call only, so they wait for one another
+// (and for a live-view frame) rather than fail.
 class HardwareService final : public v1::Hardware::Service {
  public:
+  // Live view frames at most this often (and kDefaultPreviewFps when the
+  // request does not say).
+  static constexpr double kMaxPreviewFps = 10;
+  static constexpr double kDefaultPreviewFps = 5;
+  // How long a call waits for another direct call or live-view frame that
+  // holds the lane.
+  static constexpr absl::Duration kLaneWait = absl::Seconds(15);
+
   HardwareService(hardware::Rig& rig, jobs::RigLock& lock,
-                  Authenticator& authenticator)
-      : rig_(rig), lock_(lock), authenticator_(authenticator) {}
+                  Authenticator& authenticator, jobs::JobEngine& engine)
+      : rig_(rig),
+        lock_(lock),
+        authenticator_(authenticator),
+        engine_(engine) {}
 
   grpc::Status GetStatus(grpc::ServerContext* context,
                          const v1::GetHardwareStatusRequest* request,
@@ -44,6 +60,12 @@ class HardwareService final : public v1::Hardware::Service {
   grpc::Status BlankProjector(grpc::ServerContext* context,
                               const v1::BlankProjectorRequest* request,
                               v1::ProjectorStatus* response) override;
+  grpc::Status StreamPreview(
+      grpc::ServerContext* context, const v1::StreamPreviewRequest* request,
+      grpc::ServerWriter<v1::PreviewMessage>* writer) override;
+  grpc::Status ProbeProjector(grpc::ServerContext* context,
+                              const v1::ProbeProjectorRequest* request,
+                              v1::ProjectorProbe* response) override;
   grpc::Status Lock(grpc::ServerContext* context,
                     const v1::LockRequest* request,
                     v1::RigLock* response) override;
@@ -58,10 +80,21 @@ class HardwareService final : public v1::Hardware::Service {
   void FillCamera(v1::CameraStatus* out);
   void FillStage(v1::StageStatus* out);
   void FillProjector(v1::ProjectorStatus* out);
+  // "capture job 12 (session lab)".
+  std::string DescribeJob(int64_t job_id);
+  // FAILED_PRECONDITION naming the capture job on the hardware lane, or OK.
+  absl::Status CheckNoCapture();
+  // The hardware lane for one call: waits (up to `wait`) while another
+  // call holds it; FAILED_PRECONDITION while a capture job runs.
+  absl::StatusOr<std::unique_lock<std::mutex>> TakeLane(
+      absl::Duration wait = kLaneWait);
+  // One live-view frame with its statistics (under the lane).
+  absl::StatusOr<v1::PreviewFrame> TakePreviewFrame();
 
   hardware::Rig& rig_;
   jobs::RigLock& lock_;
   Authenticator& authenticator_;
+  jobs::JobEngine& engine_;
   absl::Mutex showing_mutex_;
   // What this service last showed.
   std::string showing_ ABSL_GUARDED_BY(showing_mutex_) = "blank";

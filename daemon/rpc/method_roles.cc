@@ -12,6 +12,8 @@ constexpr MethodRule kRead{.min_role = Role::kViewer};
 constexpr MethodRule kOperate{.min_role = Role::kOperator, .mutating = true};
 constexpr MethodRule kMoveRig{
     .min_role = Role::kOperator, .mutating = true, .uses_rig = true};
+// Uses the rig without changing anything recorded: live view.
+constexpr MethodRule kWatchRig{.min_role = Role::kOperator, .uses_rig = true};
 constexpr MethodRule kAdminister{.min_role = Role::kAdmin, .mutating = true};
 constexpr MethodRule kAdminRead{.min_role = Role::kAdmin};
 
@@ -37,6 +39,15 @@ const std::map<std::string, MethodRule, std::less<>>& MethodRules() {
           {"/hdrstereo.v1.Hardware/MoveStage", kMoveRig},
           {"/hdrstereo.v1.Hardware/ShowPattern", kMoveRig},
           {"/hdrstereo.v1.Hardware/BlankProjector", kMoveRig},
+          // Live view is not a viewer's reading: it drives the camera (a
+          // DSLR's mirror goes up, its sensor and battery run, its settings
+          // compete with the stream for the hardware lane) and a person
+          // holding the rig lock must be able to keep others off the camera
+          // while focusing. It records nothing, so a successful stream is
+          // not audited.
+          {"/hdrstereo.v1.Hardware/StreamPreview", kWatchRig},
+          // Shows patterns and fires the camera.
+          {"/hdrstereo.v1.Hardware/ProbeProjector", kMoveRig},
           // Unlocking another principal's lock (force) needs admin: the
           // handler checks that refinement.
           {"/hdrstereo.v1.Hardware/Lock", kOperate},

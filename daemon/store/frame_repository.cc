@@ -273,6 +273,48 @@ absl::StatusOr<std::string> FrameRepository::AutoBracketOfJob(int64_t job_id) {
   return find.ColumnText(0);
 }
 
+absl::Status FrameRepository::SetProjectorTiming(
+    int64_t capture_id, const ProjectorTiming& timing) {
+  absl::MutexLock lock(&store_.db().mutex());
+  ASSIGN_OR_RETURN(Statement update, store_.db().Prepare(R"sql(
+UPDATE captures SET projector_latency_s = ?2, projector_refresh_hz = ?3
+WHERE id = ?1 RETURNING id
+)sql"));
+  update.Bind(1, capture_id);
+  int column = 2;
+  for (const std::optional<double>& value :
+       {timing.latency_s, timing.refresh_hz}) {
+    if (value.has_value()) {
+      update.Bind(column, *value);
+    } else {
+      update.BindNull(column);
+    }
+    ++column;
+  }
+  ASSIGN_OR_RETURN(const bool found, update.Step());
+  if (!found) {
+    return absl::NotFoundError(absl::StrCat("no capture ", capture_id));
+  }
+  return update.Step().status();
+}
+
+absl::StatusOr<ProjectorTiming> FrameRepository::ProjectorTimingOf(
+    int64_t capture_id) {
+  absl::MutexLock lock(&store_.db().mutex());
+  ASSIGN_OR_RETURN(Statement select, store_.db().Prepare(R"sql(
+SELECT projector_latency_s, projector_refresh_hz FROM captures WHERE id = ?1
+)sql"));
+  select.Bind(1, capture_id);
+  ASSIGN_OR_RETURN(const bool found, select.Step());
+  if (!found) {
+    return absl::NotFoundError(absl::StrCat("no capture ", capture_id));
+  }
+  ProjectorTiming timing;
+  if (!select.ColumnIsNull(0)) timing.latency_s = select.ColumnDouble(0);
+  if (!select.ColumnIsNull(1)) timing.refresh_hz = select.ColumnDouble(1);
+  return timing;
+}
+
 absl::Status FrameRepository::Delete(int64_t frame_id) {
   Transaction tx(store_.db());
   RETURN_IF_ERROR(tx.status());

@@ -30,6 +30,14 @@ struct CaptureRecord {
   std::string auto_bracket;
 };
 
+// What a structured-light capture measured of its projector: the latency
+// its probe found (nullopt: not probed), the refresh rate of the display
+// (nullopt: unknown).
+struct ProjectorTiming {
+  std::optional<double> latency_s;
+  std::optional<double> refresh_hz;
+};
+
 struct FrameRecord {
   int64_t id = 0;
   int64_t capture_id = 0;
@@ -71,6 +79,11 @@ class FrameRepository {
   // The automatic bracket of the capture a job records into ("" when
   // none); NOT_FOUND when the job has no capture.
   absl::StatusOr<std::string> AutoBracketOfJob(int64_t job_id);
+  // The projector timing recorded with a capture; NOT_FOUND for an unknown
+  // capture.
+  absl::Status SetProjectorTiming(int64_t capture_id,
+                                  const ProjectorTiming& timing);
+  absl::StatusOr<ProjectorTiming> ProjectorTimingOf(int64_t capture_id);
   // The captures of a session ordered by id. NOT_FOUND for an unknown
   // session.
   absl::StatusOr<std::vector<CaptureRecord>> CapturesOfSession(

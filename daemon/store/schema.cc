@@ -15,7 +15,7 @@ namespace {
 
 // Append only: a released migration is never edited. Times are Unix
 // milliseconds (UTC); lengths in millimetres; exposures in seconds.
-constexpr std::array<absl::string_view, 10> kMigrations = {
+constexpr std::array<absl::string_view, 11> kMigrations = {
     // 1: the tables of DESIGN.md.
     R"sql(
 CREATE TABLE rigs (
@@ -282,7 +282,14 @@ CREATE TABLE device_time (
 );
 CREATE INDEX device_time_by_job ON device_time(job_id);
 )sql",
-    // 10: automatic bracketing. What a bracketed-stereo capture that chose
+    // 10: projector timing. What a structured-light capture measured of its
+    // projector: the latency its probe found (NULL: not probed) and the
+    // display's refresh rate (NULL: unknown).
+    R"sql(
+ALTER TABLE captures ADD COLUMN projector_latency_s REAL;
+ALTER TABLE captures ADD COLUMN projector_refresh_hz REAL;
+)sql",
+    // 11: automatic bracketing. What a bracketed-stereo capture that chose
     // its exposures at the rig chose and why (hdr::AutoBracketResult's
     // canonical JSON; '' otherwise), kept so that a resumed capture takes
     // the same frames.

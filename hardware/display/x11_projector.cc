@@ -4,6 +4,7 @@
 #include <X11/Xatom.h>
 #include <X11/Xlib.h>
 #include <X11/Xutil.h>
+#include <X11/extensions/Xrandr.h>
 // Xlib defines Status as a macro, which would break absl::Status.
 #undef Status
 
@@ -26,6 +27,15 @@ namespace {
 int ReportLostConnection(Display* display) {
   std::fprintf(stderr, "X connection to %s lost\n", DisplayString(display));
   return 0;
+}
+
+// Frames per second of a RandR mode; 0 when the mode does not say.
+double ModeRate(const XRRModeInfo& mode) {
+  double lines = mode.vTotal;
+  if (mode.modeFlags & RR_DoubleScan) lines *= 2;
+  if (mode.modeFlags & RR_Interlace) lines /= 2;
+  if (mode.hTotal == 0 || lines <= 0) return 0;
+  return static_cast<double>(mode.dotClock) / (mode.hTotal * lines);
 }
 
 }  // namespace
@@ -171,6 +181,51 @@ absl::Status X11Projector::Blank() {
 absl::Status X11Projector::Check() {
   std::lock_guard<std::mutex> lock(mutex_);
   return CheckLocked();
+}
+
+absl::StatusOr<double> X11Projector::RefreshHz() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  RETURN_IF_ERROR(CheckLocked());
+  Display* display = x_->display;
+  int event_base = 0;
+  int error_base = 0;
+  if (!XRRQueryExtension(display, &event_base, &error_base)) {
+    return absl::UnimplementedError(absl::StrCat(
+        "X display \"", DisplayString(display),
+        "\" has no RandR extension: the projector's refresh rate is unknown"));
+  }
+  XRRScreenResources* resources = XRRGetScreenResourcesCurrent(
+      display, RootWindow(display, DefaultScreen(display)));
+  if (resources == nullptr) {
+    return absl::UnavailableError(
+        "RandR gave no screen resources for the projector's screen");
+  }
+  double rate = 0;
+  bool shown = false;
+  for (int i = 0; i < resources->ncrtc && !shown; ++i) {
+    XRRCrtcInfo* crtc = XRRGetCrtcInfo(display, resources, resources->crtcs[i]);
+    if (crtc == nullptr) continue;
+    shown = crtc->mode != None && options_.x >= crtc->x &&
+            options_.y >= crtc->y &&
+            options_.x < crtc->x + static_cast<int>(crtc->width) &&
+            options_.y < crtc->y + static_cast<int>(crtc->height);
+    for (int m = 0; shown && m < resources->nmode; ++m) {
+      if (resources->modes[m].id == crtc->mode) {
+        rate = ModeRate(resources->modes[m]);
+      }
+    }
+    XRRFreeCrtcInfo(crtc);
+  }
+  XRRFreeScreenResources(resources);
+  if (!(rate > 0)) {
+    return absl::UnavailableError(absl::StrFormat(
+        "RandR on X display \"%s\" reports %s for the projector at +%d+%d: "
+        "its refresh rate is unknown",
+        DisplayString(display),
+        shown ? "a mode without timings" : "no active output", options_.x,
+        options_.y));
+  }
+  return rate;
 }
 
 absl::Status X11Projector::SyncAndCheckLocked() {

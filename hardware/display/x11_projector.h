@@ -48,6 +48,11 @@ class X11Projector final : public hardware::Projector {
   // Reads what the X server has sent (never waits for it): UNAVAILABLE when
   // the connection is lost or the window destroyed or unmapped.
   absl::Status Check() override;
+  // The refresh rate of the RandR CRTC that shows the projector's top-left
+  // pixel (its mode's dot clock / (htotal * vtotal)). UNIMPLEMENTED on a
+  // server without RandR; UNAVAILABLE when no CRTC with a mode shows that
+  // pixel (no output connected there) or the connection is lost.
+  absl::StatusOr<double> RefreshHz() override;
 
  private:
   struct Handles;

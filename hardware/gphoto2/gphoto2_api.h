@@ -76,6 +76,9 @@ class Gphoto2Api {
   // gp_camera_capture(GP_CAPTURE_IMAGE): where the new file lies on the
   // camera.
   virtual int Capture(std::string* folder, std::string* name) = 0;
+  // gp_camera_capture_preview: one live-view frame (JPEG on the cameras
+  // that have live view); the camera enters live view if it is not in it.
+  virtual int CapturePreview(FileData* file) = 0;
   // gp_camera_wait_for_event, up to `timeout`.
   virtual int WaitForEvent(absl::Duration timeout, CameraEvent* event) = 0;
   virtual int ListFiles(const std::string& folder,

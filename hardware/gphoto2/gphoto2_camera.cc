@@ -643,6 +643,7 @@ absl::StatusOr<hardware::ExposureSettings> Gphoto2Camera::Configure(
 
 absl::StatusOr<hardware::Frame> Gphoto2Camera::Capture() {
   std::lock_guard<std::mutex> lock(mutex_);
+  RETURN_IF_ERROR(LeaveLiveViewLocked());
   auto path = std::make_shared<std::pair<std::string, std::string>>();
   absl::Status status =
       Call("capture", options_.capture_timeout + absl::Seconds(exposure_s_),
@@ -701,6 +702,55 @@ absl::StatusOr<hardware::Frame> Gphoto2Camera::Capture() {
     }
   }
   return frame;
+}
+
+absl::StatusOr<hardware::Frame> Gphoto2Camera::Preview() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  // Even a preview that fails may have started live view.
+  live_view_ = true;
+  auto file = std::make_shared<FileData>();
+  RETURN_IF_ERROR(
+      Call("capture a live-view frame", options_.preview_timeout,
+           [file](Gphoto2Api& api) { return api.CapturePreview(file.get()); }));
+  // Every JPEG starts with the SOI marker FF D8.
+  if (file->bytes.size() < 2 || file->bytes[0] != '\xff' ||
+      file->bytes[1] != '\xd8') {
+    return absl::DataLossError(
+        absl::StrCat("the camera's live-view frame is not a JPEG (",
+                     file->bytes.size(), " bytes)"));
+  }
+  hardware::Frame frame;
+  frame.bytes = std::move(file->bytes);
+  frame.format = hardware::ImageFormat::kJpeg;
+  frame.extension = "jpg";
+  frame.exposure_s = exposure_s_;
+  return frame;
+}
+
+absl::Status Gphoto2Camera::LeaveLiveViewLocked() {
+  if (!live_view_) return absl::OkStatus();
+  absl::StatusOr<std::vector<ConfigWidget>> widgets = ConfigLocked();
+  if (absl::IsUnimplemented(widgets.status())) {  // no configuration at all
+    live_view_ = false;
+    return absl::OkStatus();
+  }
+  if (!widgets.ok()) {
+    return absl::Status(widgets.status().code(),
+                        absl::StrCat("leaving live view before the capture: ",
+                                     widgets.status().message()));
+  }
+  const ConfigWidget* viewfinder = FindWidget(*widgets, kViewfinderWidgets);
+  if (viewfinder != nullptr && viewfinder->value != "0") {
+    if (absl::Status s = SetLocked(viewfinder->name, "0"); !s.ok()) {
+      return absl::Status(
+          s.code(),
+          absl::StrCat("leaving live view before the capture (the mirror "
+                       "would stay up): ",
+                       s.message()));
+    }
+  }
+  live_view_ = false;
+  return absl::OkStatus();
 }
 
 absl::StatusOr<hardware::Frame> Gphoto2Camera::DownloadLocked(

@@ -26,6 +26,16 @@
 // file is returned. A failed delete does not fail the capture; the file is
 // remembered in undeleted_files().
 //
+// Live view: Preview() runs gp_camera_capture_preview, which puts the camera
+// in live view (a DSLR raises its mirror) and leaves it there. A second
+// preview answered "PTP Device Busy" (libgphoto2#66: the camera is still
+// starting live view) is the busy retry below. Before the next Capture()
+// the driver leaves live view by setting the camera's viewfinder toggle
+// (kViewfinderWidgets: "viewfinder", "eosviewfinder") to 0: with the mirror
+// still up a capture fails or is taken without autofocus (libgphoto2#247,
+// gphoto2#121, libgphoto2#168). A camera without the toggle ends live view
+// by itself.
+//
 // Retries: a call answered GP_ERROR_CAMERA_BUSY (-110, "I/O in progress") is
 // retried up to `busy_retries` times, sleeping busy_backoff, 2x, 4x ... (at
 // most busy_backoff_max) in between; then UNAVAILABLE. Other errors are not
@@ -87,6 +97,8 @@ struct Gphoto2Options {
   absl::Duration capture_timeout = absl::Seconds(30);
   // Deadline of one file download.
   absl::Duration download_timeout = absl::Seconds(60);
+  // Deadline of one live-view frame (the first also starts live view).
+  absl::Duration preview_timeout = absl::Seconds(10);
   // How long a call that timed out is given to return once asked to
   // cancel before the camera counts as stuck (see above).
   absl::Duration cancel_grace = absl::Seconds(1);
@@ -165,6 +177,9 @@ class Gphoto2Camera final : public hardware::Camera {
   // waits for camera events up to `drain_event_wait` each, deleting every
   // announced file, until one wait times out (at most 64 events).
   absl::StatusOr<int> PrepareCaptureGroup() override;
+  // A live-view frame (JPEG). DATA_LOSS when the camera sends no JPEG,
+  // UNIMPLEMENTED for a camera without live view.
+  absl::StatusOr<hardware::Frame> Preview() override;
 
   // The whole current configuration, flattened (e.g. for a status page).
   absl::StatusOr<std::vector<ConfigWidget>> Config();
@@ -208,6 +223,8 @@ class Gphoto2Camera final : public hardware::Camera {
   absl::StatusOr<hardware::Frame> DownloadLocked(const std::string& folder,
                                                  const std::string& name);
   absl::Status SetCaptureTargetLocked(CaptureTarget target);
+  // Ends live view if a preview started it (see above).
+  absl::Status LeaveLiveViewLocked();
 
   const Gphoto2Options options_;
   std::unique_ptr<Worker> worker_;
@@ -217,6 +234,7 @@ class Gphoto2Camera final : public hardware::Camera {
   double exposure_s_ = 0;     // the shutter speed last read or set
   std::optional<hardware::ImageFormat> format_;  // the format last read
   std::vector<std::string> undeleted_files_;
+  bool live_view_ = false;  // a preview may have started live view
 };
 
 // The status for a libgphoto2 result code: `what` failed because ... (for

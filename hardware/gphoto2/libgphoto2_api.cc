@@ -181,6 +181,17 @@ class Libgphoto2Api final : public Gphoto2Api {
     return result;
   }
 
+  int CapturePreview(FileData* file) override {
+    if (camera_ == nullptr) return GP_ERROR_BAD_PARAMETERS;
+    ::CameraFile* gp_file = nullptr;
+    int result = gp_file_new(&gp_file);
+    if (result < GP_OK) return result;
+    result = gp_camera_capture_preview(camera_, gp_file, context_);
+    if (result >= GP_OK) result = CopyData(gp_file, file);
+    gp_file_unref(gp_file);
+    return result;
+  }
+
   int WaitForEvent(absl::Duration timeout, CameraEvent* event) override {
     if (camera_ == nullptr) return GP_ERROR_BAD_PARAMETERS;
     CameraEventType type = GP_EVENT_UNKNOWN;
@@ -241,19 +252,7 @@ class Libgphoto2Api final : public Gphoto2Api {
     if (result < GP_OK) return result;
     result = gp_camera_file_get(camera_, folder.c_str(), name.c_str(),
                                 GP_FILE_TYPE_NORMAL, gp_file, context_);
-    if (result >= GP_OK) {
-      const char* data = nullptr;
-      unsigned long size = 0;
-      result = gp_file_get_data_and_size(gp_file, &data, &size);
-      if (result >= GP_OK) {
-        file->bytes.assign(data != nullptr ? data : "",
-                           data != nullptr ? size : 0);
-        time_t mtime = 0;
-        file->mtime = gp_file_get_mtime(gp_file, &mtime) >= GP_OK && mtime > 0
-                          ? absl::FromTimeT(mtime)
-                          : absl::InfinitePast();
-      }
-    }
+    if (result >= GP_OK) result = CopyData(gp_file, file);
     gp_file_unref(gp_file);
     return result;
   }
@@ -280,6 +279,20 @@ class Libgphoto2Api final : public Gphoto2Api {
   }
 
  private:
+  // The bytes and time of a file libgphoto2 filled.
+  static int CopyData(::CameraFile* gp_file, FileData* file) {
+    const char* data = nullptr;
+    unsigned long size = 0;
+    const int result = gp_file_get_data_and_size(gp_file, &data, &size);
+    if (result < GP_OK) return result;
+    file->bytes.assign(data != nullptr ? data : "", data != nullptr ? size : 0);
+    time_t mtime = 0;
+    file->mtime = gp_file_get_mtime(gp_file, &mtime) >= GP_OK && mtime > 0
+                      ? absl::FromTimeT(mtime)
+                      : absl::InfinitePast();
+    return GP_OK;
+  }
+
   static void OnError(GPContext* /*context*/, const char* text, void* data) {
     auto* self = static_cast<Libgphoto2Api*>(data);
     if (text == nullptr) return;

@@ -43,11 +43,11 @@ void ReplayLink::Unplug() {
 }
 
 ReplayApi::ReplayApi(CameraDump dump, FrameSource frames,
-                     std::shared_ptr<ReplayLink> link)
+                     std::shared_ptr<ReplayLink> link, FrameSource previews)
     : dump_(std::move(dump)),
       frames_(std::move(frames)),
-      link_(link != nullptr ? std::move(link)
-                            : std::make_shared<ReplayLink>()) {
+      link_(link != nullptr ? std::move(link) : std::make_shared<ReplayLink>()),
+      previews_(std::move(previews)) {
   widgets_ = dump_.widgets;
 }
 
@@ -166,33 +166,60 @@ int ReplayApi::SetConfigValue(const std::string& name,
   return GP_OK;
 }
 
+int ReplayApi::FromSource(const FrameSource& source, ReplayFile* file) {
+  const hardware::ExposureSettings settings = ReadExposureSettings(widgets_);
+  if (!(settings.exposure_s > 0)) {
+    return Fail(GP_ERROR_NOT_SUPPORTED,
+                "the shutter speed is not a timed exposure (bulb or unknown)");
+  }
+  absl::StatusOr<ReplayFile> made = source(settings);
+  if (!made.ok()) {
+    // A source that went away (the simulated camera was unplugged) is what
+    // libgphoto2 reports for a camera gone from USB: an I/O error.
+    const bool gone = absl::IsAborted(made.status()) ||
+                      absl::IsFailedPrecondition(made.status());
+    if (gone) link_->Unplug();
+    return Fail(gone ? GP_ERROR_IO : GP_ERROR,
+                std::string(made.status().message()));
+  }
+  *file = *std::move(made);
+  return GP_OK;
+}
+
 int ReplayApi::Capture(std::string* folder, std::string* name) {
   if (int code = CheckLink(); code != GP_OK) return code;
   if (!frames_) {
     return Fail(GP_ERROR_NOT_SUPPORTED,
                 "this replay camera has no frame source");
   }
-  const hardware::ExposureSettings settings = ReadExposureSettings(widgets_);
-  if (!(settings.exposure_s > 0)) {
-    return Fail(GP_ERROR_NOT_SUPPORTED,
-                "the shutter speed is not a timed exposure (bulb or unknown)");
-  }
-  absl::StatusOr<ReplayFile> file = frames_(settings);
-  if (!file.ok()) {
-    // A source that went away (the simulated camera was unplugged) is what
-    // libgphoto2 reports for a camera gone from USB: an I/O error.
-    const bool gone = absl::IsAborted(file.status()) ||
-                      absl::IsFailedPrecondition(file.status());
-    if (gone) link_->Unplug();
-    return Fail(gone ? GP_ERROR_IO : GP_ERROR,
-                std::string(file.status().message()));
-  }
+  ReplayFile file;
+  if (const int code = FromSource(frames_, &file); code != GP_OK) return code;
   const ConfigWidget* target = FindWidget(widgets_, "capturetarget");
   *folder = target != nullptr && CaptureTargetIsRam(target->value)
                 ? kRamFolder
                 : kCardFolder;
-  *name = absl::StrFormat("capt%04d.%s", captures_++, file->extension);
-  files_[{*folder, *name}] = std::move(file->bytes);
+  *name = absl::StrFormat("capt%04d.%s", captures_++, file.extension);
+  files_[{*folder, *name}] = std::move(file.bytes);
+  return GP_OK;
+}
+
+int ReplayApi::CapturePreview(FileData* file) {
+  if (int code = CheckLink(); code != GP_OK) return code;
+  if (!previews_) {
+    return Fail(GP_ERROR_NOT_SUPPORTED, "this replay camera has no live view");
+  }
+  ReplayFile frame;
+  if (const int code = FromSource(previews_, &frame); code != GP_OK) {
+    return code;
+  }
+  for (ConfigWidget& widget : widgets_) {
+    if (std::find(kViewfinderWidgets.begin(), kViewfinderWidgets.end(),
+                  widget.name) != kViewfinderWidgets.end()) {
+      widget.value = "1";
+    }
+  }
+  file->bytes = std::move(frame.bytes);
+  file->mtime = absl::InfinitePast();
   return GP_OK;
 }
 

@@ -12,7 +12,10 @@
 // camera would deliver with the settings now in effect (e.g. a simulated
 // frame); without one, Capture is GP_ERROR_NOT_SUPPORTED. A source error is
 // GP_ERROR, or GP_ERROR_IO (a camera gone from USB) when it is ABORTED or
-// FAILED_PRECONDITION.
+// FAILED_PRECONDITION. Live view (CapturePreview) asks a second source, the
+// same way, for a live-view frame, and sets the dump's viewfinder toggle
+// (kViewfinderWidgets) to 1 as a camera in live view reports it; without
+// that source it is GP_ERROR_NOT_SUPPORTED.
 //
 // Autodetect lists the dump's model on port "replay:<dump file>", and
 // libgphoto2 knows that model only (CheckModel).
@@ -91,7 +94,8 @@ class ReplayApi final : public Gphoto2Api {
  public:
   // `link` defaults to a link of its own that is always there.
   explicit ReplayApi(CameraDump dump, FrameSource frames = nullptr,
-                     std::shared_ptr<ReplayLink> link = nullptr);
+                     std::shared_ptr<ReplayLink> link = nullptr,
+                     FrameSource previews = nullptr);
 
   int Autodetect(std::vector<DetectedCamera>* cameras) override;
   int CheckModel(const std::string& model) override;
@@ -101,6 +105,7 @@ class ReplayApi final : public Gphoto2Api {
   int SetConfigValue(const std::string& name,
                      const std::string& value) override;
   int Capture(std::string* folder, std::string* name) override;
+  int CapturePreview(FileData* file) override;
   int WaitForEvent(absl::Duration timeout, CameraEvent* event) override;
   int ListFiles(const std::string& folder,
                 std::vector<std::string>* names) override;
@@ -122,12 +127,16 @@ class ReplayApi final : public Gphoto2Api {
 
   // Sets last_error_ and returns `code`.
   int Fail(int code, std::string text);
+  // The file `source` makes with the settings now in effect, or the code
+  // to fail with.
+  int FromSource(const FrameSource& source, ReplayFile* file);
   // GP_OK while the connection this api opened is up, else GP_ERROR_IO.
   int CheckLink();
 
   const CameraDump dump_;
   const FrameSource frames_;
   const std::shared_ptr<ReplayLink> link_;
+  const FrameSource previews_;
   int64_t connection_ = 0;  // the link's, as Open found it; 0: not open
   std::vector<ConfigWidget> widgets_;
   // (folder, name) -> bytes.

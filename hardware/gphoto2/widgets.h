@@ -25,6 +25,11 @@ inline constexpr std::initializer_list<absl::string_view> kApertureWidgets = {
     "aperture", "f-number", "fnumber"};
 inline constexpr std::initializer_list<absl::string_view> kFormatWidgets = {
     "imageformat", "imagequality"};
+// What holds a camera in live view (Nikon and newer Canon bodies
+// "viewfinder", older Canon EOS "eosviewfinder"): a toggle, 1 while live
+// view runs; setting it to 0 lowers the mirror and ends live view.
+inline constexpr std::initializer_list<absl::string_view> kViewfinderWidgets = {
+    "viewfinder", "eosviewfinder"};
 // The exposure program (mode dial): P, A, S, M, ...
 inline constexpr std::initializer_list<absl::string_view> kModeWidgets = {
     "autoexposuremode", "autoexposuremodedial", "expprogram"};

@@ -438,7 +438,8 @@ Scene ParseSceneJson(const Json& root) {
     const std::string p = "projector";
     CheckKeys(j, p,
               {"position_mm", "look_at_mm", "width", "height", "fov_deg",
-               "max_intensity_cd", "black_level", "gamma", "blur_px"});
+               "max_intensity_cd", "black_level", "gamma", "blur_px",
+               "latency_s", "refresh_hz"});
     ProjectorModel& pr = s.projector;
     pr.present = true;
     pr.position = GetVec3(j, p, "position_mm", pr.position);
@@ -452,6 +453,8 @@ Scene ParseSceneJson(const Json& root) {
     pr.black_level = GetNumber(j, p, "black_level", pr.black_level, 0, 1);
     pr.gamma = GetNumber(j, p, "gamma", pr.gamma, 0.1, 10);
     pr.blur_px = GetNumber(j, p, "blur_px", pr.blur_px, 0, 100);
+    pr.latency_s = GetNumber(j, p, "latency_s", pr.latency_s, 0, 10);
+    pr.refresh_hz = GetNumber(j, p, "refresh_hz", pr.refresh_hz, 1, 1000);
   }
   if (root.contains("timing")) {
     const Json& j = root.at("timing");

@@ -86,6 +86,13 @@ struct ProjectorModel {
   double black_level = 0.02;        // fraction of max emitted for value 0
   double gamma = 2.2;               // emitted = black + (1-black) * v^gamma
   double blur_px = 0.0;             // defocus: Gaussian sigma in pattern px
+  // Input latency: a pattern shows this long after the projector was given
+  // it, the previous one until then. Modelled time, like TimingModel's
+  // durations (it lasts latency_s * timing.scale).
+  double latency_s = 0.0;
+  // The display's refresh rate, as a projector on an X display reports it
+  // (XRandR).
+  double refresh_hz = 60.0;
 
   double focal_px() const;
   double cx() const { return (width - 1) / 2.0; }

@@ -133,6 +133,26 @@ absl::StatusOr<int> SimCamera::PrepareCaptureGroup() {
   return world_.PrepareCaptureGroup();
 }
 
+absl::StatusOr<hardware::Frame> SimCamera::Preview() {
+  hardware::ExposureSettings settings;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    settings = settings_;
+  }
+  ASSIGN_OR_RETURN(SimCapture preview,
+                   world_.Preview({.exposure_s = settings.exposure_s,
+                                   .iso = double(settings.iso),
+                                   .aperture_f = settings.aperture_f}));
+  hardware::Frame frame;
+  frame.bytes = std::move(preview.bytes);
+  frame.format = hardware::ImageFormat::kJpeg;
+  frame.extension = "jpg";
+  frame.exposure_s = settings.exposure_s;
+  frame.width_px = preview.image.cols;
+  frame.height_px = preview.image.rows;
+  return frame;
+}
+
 absl::StatusOr<std::unique_ptr<SimProjector>> SimProjector::Create(
     SimWorld& world) {
   const ProjectorModel& model = world.scene().projector;
@@ -161,6 +181,10 @@ absl::Status SimProjector::Blank() {
 
 absl::Status SimProjector::Check() {
   return world_.ProjectorCall(/*shows_pattern=*/false);
+}
+
+absl::StatusOr<double> SimProjector::RefreshHz() {
+  return world_.scene().projector.refresh_hz;
 }
 
 }  // namespace hdrstereo::sim

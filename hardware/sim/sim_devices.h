@@ -33,6 +33,8 @@ class SimCamera final : public hardware::Camera {
   absl::StatusOr<hardware::ExposureSettings> Settings() override;
   absl::StatusOr<hardware::Frame> Capture() override;
   absl::StatusOr<int> PrepareCaptureGroup() override;
+  // SimWorld::Preview at the current settings.
+  absl::StatusOr<hardware::Frame> Preview() override;
 
  private:
   SimWorld& world_;
@@ -51,6 +53,8 @@ class SimProjector final : public hardware::Projector {
   absl::Status Blank() override;
   // UNAVAILABLE while the scene's projector_faults.lost window holds.
   absl::Status Check() override;
+  // The scene's projector.refresh_hz.
+  absl::StatusOr<double> RefreshHz() override;
 
  private:
   SimProjector(SimWorld& world, cv::Size size) : world_(world), size_(size) {}

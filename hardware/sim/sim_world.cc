@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <thread>
@@ -99,26 +100,47 @@ absl::Status SimWorld::SetProjectorPattern(const cv::Mat& pattern) {
   }
   {
     std::lock_guard<std::mutex> lock(mu_);
-    pattern_ = pattern.clone();
+    GiveLocked(pattern.clone());
   }
   SleepModelled(timing().projector_settle_s);
   return absl::OkStatus();
 }
 
+void SimWorld::GiveLocked(cv::Mat pattern) {
+  const double delay_s = scene().projector.latency_s * timing().scale;
+  if (delay_s <= 0) {
+    scheduled_.clear();
+    pattern_ = std::move(pattern);
+    return;
+  }
+  scheduled_.push_back(
+      {absl::Now() + absl::Seconds(delay_s), std::move(pattern)});
+}
+
+const cv::Mat& SimWorld::ShowingLocked() const {
+  const absl::Time now = absl::Now();
+  while (!scheduled_.empty() && scheduled_.front().from <= now) {
+    pattern_ = std::move(scheduled_.front().pattern);
+    scheduled_.pop_front();
+  }
+  return pattern_;
+}
+
 void SimWorld::BlankProjector() {
   const ProjectorModel& p = scene().projector;
   std::lock_guard<std::mutex> lock(mu_);
-  pattern_ = cv::Mat::zeros(p.height, p.width, CV_8UC1);
+  GiveLocked(cv::Mat::zeros(p.height, p.width, CV_8UC1));
 }
 
 void SimWorld::ProjectorOff() {
   std::lock_guard<std::mutex> lock(mu_);
+  scheduled_.clear();
   pattern_.release();
 }
 
 cv::Mat SimWorld::ProjectorPattern() const {
   std::lock_guard<std::mutex> lock(mu_);
-  return pattern_;
+  return ShowingLocked();
 }
 
 absl::Status SimWorld::ProjectorCall(bool shows_pattern) {
@@ -126,6 +148,7 @@ absl::Status SimWorld::ProjectorCall(bool shows_pattern) {
   std::lock_guard<std::mutex> lock(mu_);
   const bool lost = projector_lost_.Call(shows_pattern);
   if (lost) {
+    scheduled_.clear();
     pattern_.release();
   } else if (projector_out_) {
     pattern_ = cv::Mat::zeros(p.height, p.width, CV_8UC1);
@@ -150,7 +173,7 @@ RadianceFrame SimWorld::RenderRadiance() const {
   {
     std::lock_guard<std::mutex> lock(mu_);
     stage = stage_mm_;
-    pattern = pattern_;
+    pattern = ShowingLocked();
   }
   return renderer_.Render(CameraView(scene(), stage), pattern);
 }
@@ -163,7 +186,7 @@ cv::Mat SimWorld::RenderExposure(const ExposureSettings& settings, int bits) {
     std::lock_guard<std::mutex> lock(mu_);
     index = frame_index_++;
     stage = stage_mm_;
-    pattern = pattern_;
+    pattern = ShowingLocked();
   }
   return RenderFrame(renderer_, CameraView(scene(), stage), pattern, settings,
                      HashCombine(scene().seed, static_cast<uint64_t>(index)),
@@ -178,6 +201,55 @@ cv::Mat RenderFrame(const Renderer& renderer, const View& view,
   const cv::Mat electrons = ExposeSensor(
       frame.radiance, renderer.scene().sensor, settings, noise_seed);
   return Digitize(electrons, renderer.scene().sensor, bits);
+}
+
+View PreviewView(const Scene& scene, double stage_mm) {
+  View view = CameraView(scene, stage_mm);
+  CameraIntrinsics& c = view.intrinsics;
+  if (c.width <= kPreviewMaxWidth) return view;
+  // Pixel centres scale about the image corner: (u + 0.5) * k - 0.5.
+  const double k = static_cast<double>(kPreviewMaxWidth) / c.width;
+  c.width = kPreviewMaxWidth;
+  c.height = std::max(1, static_cast<int>(std::lround(c.height * k)));
+  c.fx *= k;
+  c.fy *= k;
+  c.cx = (c.cx + 0.5) * k - 0.5;
+  c.cy = (c.cy + 0.5) * k - 0.5;
+  return view;
+}
+
+uint64_t PreviewNoiseSeed(const Scene& scene, int64_t preview_index) {
+  // A stream of its own: previews never repeat a capture's noise.
+  constexpr uint64_t kPreviewStream = 0x9e5f'11f3'a2c4'6b01;
+  return HashCombine(HashCombine(scene.seed, kPreviewStream),
+                     static_cast<uint64_t>(preview_index));
+}
+
+absl::StatusOr<SimCapture> SimWorld::Preview(const ExposureSettings& settings) {
+  if (!(settings.exposure_s > 0) || !(settings.iso > 0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("exposure (", settings.exposure_s, " s) and ISO (",
+                     settings.iso, ") must be > 0"));
+  }
+  SimCapture preview;
+  cv::Mat pattern;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (disconnected_) {
+      return absl::FailedPreconditionError(
+          "camera disconnected (simulated); reconnect first");
+    }
+    preview.frame_index = preview_index_++;
+    preview.stage_mm = stage_mm_;
+    pattern = ShowingLocked();
+  }
+  preview.format = ImageFormat::kJpeg;
+  preview.settings = settings;
+  preview.image =
+      RenderFrame(renderer_, PreviewView(scene(), preview.stage_mm), pattern,
+                  settings, PreviewNoiseSeed(scene(), preview.frame_index));
+  ASSIGN_OR_RETURN(preview.bytes, EncodeImage(preview.image, preview.format));
+  return preview;
 }
 
 absl::StatusOr<SimCapture> SimWorld::Render(const ExposureSettings& settings,
@@ -274,7 +346,7 @@ absl::StatusOr<SimCapture> SimWorld::Capture(const ExposureSettings& settings,
     call = ++capture_calls_;
     faults = faults_;
     stage = stage_mm_;
-    pattern = pattern_;
+    pattern = ShowingLocked();
   }
   const uint64_t seed = scene().seed;
   const double capture_s = timing().CaptureSeconds(settings.exposure_s);

@@ -7,6 +7,7 @@
 //
 // Adapters for the hardware interfaces map:
 //   Camera::Configure/Capture -> SimWorld::Capture(ExposureSettings, format)
+//   Camera::Preview           -> SimWorld::Preview(ExposureSettings)
 //   Camera::Info              -> ReadBattery()
 //   Stage                     -> StageEmulator (a Zaber device on a pty),
 //                                or SetStagePosition() directly
@@ -17,6 +18,7 @@
 #define HDRSTEREO_HARDWARE_SIM_SIM_WORLD_H_
 
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <mutex>
 #include <opencv2/core.hpp>
@@ -52,6 +54,17 @@ class FaultWindowState {
   int64_t holds_through_ = 0;  // the last call it holds on
 };
 
+// Live view renders the camera's field of view at most this many pixels
+// wide (the height keeps the aspect ratio).
+inline constexpr int kPreviewMaxWidth = 480;
+
+// The camera's view for live view: CameraView(scene, stage_mm) with the
+// intrinsics scaled to at most kPreviewMaxWidth pixels wide (rounded
+// height), the same field of view.
+View PreviewView(const Scene& scene, double stage_mm);
+// The noise realisation of the n-th live-view frame (from 0) of a world.
+uint64_t PreviewNoiseSeed(const Scene& scene, int64_t preview_index);
+
 struct SimCapture {
   std::string bytes;  // the encoded file, as a camera would deliver it
   ImageFormat format = ImageFormat::kPng;
@@ -83,13 +96,18 @@ class SimWorld {
   void SetStagePosition(double mm);
   double StagePosition() const;
 
-  // What the projector shows (see Renderer::Render for accepted types);
-  // then sleeps timing.projector_settle_s * timing.scale. INVALID_ARGUMENT
-  // for an unsupported type, FAILED_PRECONDITION for a scene without
-  // projector.
+  // What the projector is given (see Renderer::Render for accepted types);
+  // then sleeps timing.projector_settle_s * timing.scale. It shows from
+  // projector.latency_s * timing.scale after the call on; until then the
+  // pattern given before it shows (renders, captures and the truth all see
+  // the pattern showing at their time). INVALID_ARGUMENT for an
+  // unsupported type, FAILED_PRECONDITION for a scene without projector.
   absl::Status SetProjectorPattern(const cv::Mat& pattern);
-  void BlankProjector();  // all-black pattern: only the black level shines
-  void ProjectorOff();    // no light at all
+  // An all-black pattern (only the black level shines), with the same
+  // latency.
+  void BlankProjector();
+  void ProjectorOff();  // no light at all, at once
+  // The pattern showing now.
   cv::Mat ProjectorPattern() const;
   // Every call to the projector (SimProjector: Show and Blank with
   // `shows_pattern`, Check without) is counted here first: OK, or
@@ -120,6 +138,13 @@ class SimWorld {
   // A corrupt fault returns OK with damaged bytes (corrupted = true).
   absl::StatusOr<SimCapture> Capture(const ExposureSettings& settings,
                                      ImageFormat format);
+  // A live-view frame: the scene at the current stage position lit by the
+  // pattern showing now, seen through PreviewView, exposed with `settings`
+  // and noise PreviewNoiseSeed(scene, n) for the n-th preview (the world's
+  // previews counted from 0; captures do not count), 8-bit as
+  // RenderFrame, JPEG-encoded. Camera faults do not apply (they count
+  // captures), except that a disconnected camera gives FAILED_PRECONDITION.
+  absl::StatusOr<SimCapture> Preview(const ExposureSettings& settings);
   // Plugs the camera in again, whatever the fault says.
   void ReconnectCamera();
   // What a driver's reopen finds: OK when the camera is connected or comes
@@ -147,12 +172,24 @@ class SimWorld {
   absl::StatusOr<SimCapture> Render(const ExposureSettings& settings,
                                     ImageFormat format, double stage,
                                     const cv::Mat& pattern);
+  // Gives the projector `pattern` (see SetProjectorPattern); mu_ held.
+  void GiveLocked(cv::Mat pattern);
+  // The pattern showing now: scheduled patterns that are due replace
+  // pattern_. mu_ held.
+  const cv::Mat& ShowingLocked() const;
 
   Renderer renderer_;
   mutable std::mutex mu_;
   double stage_mm_ = 0;
-  cv::Mat pattern_;
+  mutable cv::Mat pattern_;  // showing (as of the last ShowingLocked)
+  // Patterns given but not showing yet (projector latency), by time.
+  struct Scheduled {
+    absl::Time from;
+    cv::Mat pattern;
+  };
+  mutable std::deque<Scheduled> scheduled_;
   int64_t frame_index_ = 0;
+  int64_t preview_index_ = 0;
   int64_t capture_calls_ = 0;
   bool disconnected_ = false;
   int failed_reopens_ = 0;  // reopen attempts failed since the disconnect

@@ -17,6 +17,8 @@
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
+#include "absl/time/time.h"
 #include "tests/support/daemon_fixture.h"
 #include "tests/support/test_certs.h"
 
@@ -91,11 +93,11 @@ class RemoteFixture : public DaemonFixture {
   // authorization metadata is set when given.
   static grpc::Status Call(const std::shared_ptr<grpc::Channel>& channel,
                            const std::string& method,
-                           const std::string* authorization = nullptr) {
+                           const std::string* authorization = nullptr,
+                           absl::Duration deadline = absl::Seconds(20)) {
     grpc::GenericStub stub(channel);
     grpc::ClientContext context;
-    context.set_deadline(std::chrono::system_clock::now() +
-                         std::chrono::seconds(20));
+    context.set_deadline(absl::ToChronoTime(absl::Now() + deadline));
     if (authorization != nullptr) {
       context.AddMetadata("authorization", *authorization);
     }

@@ -3,9 +3,12 @@
 
 from __future__ import annotations
 
+import os
 import re
+import tempfile
 import threading
-from typing import Any, Callable, Iterable, Iterator, Optional, Sequence
+from typing import (Any, Callable, Iterable, Iterator, Optional, Sequence,
+                    Union)
 
 import grpc
 from google.protobuf import descriptor_pb2
@@ -196,12 +199,20 @@ class Capture:
                          baseline_mm: Optional[float] = None,
                          views: Optional[int] = None,
                          settle_s: Optional[float] = None,
+                         probe_projector: bool = False,
+                         round_to_refresh: bool = False,
                          wait: bool = False, progress: bool = False) -> Job:
-        """Queues a Gray-code structured-light capture; see `stereo`."""
+        """Queues a Gray-code structured-light capture; see `stereo`.
+        `probe_projector=True` measures the projector's latency first and
+        waits that long after each pattern; `round_to_refresh=True` rounds
+        the exposures to whole refresh periods of its display."""
         plan = jobs_pb2.CapturePlan()
         _set(plan.structured_light, baseline_mm=baseline_mm, views=views,
-             settle_s=settle_s)
+             settle_s=settle_s,
+             round_exposures_to_refresh=round_to_refresh)
         plan.structured_light.exposures_s.extend(exposures_s or [])
+        if probe_projector:
+            plan.structured_light.projector_probe.SetInParent()
         return self._submit(session, plan, wait, progress)
 
     def calibration(self, session: str, poses: int,
@@ -247,8 +258,66 @@ class Jobs:
             "jobs")]
 
 
+def _write_atomically(path: Union[str, os.PathLike], data: bytes) -> None:
+    """Writes `data` to a temporary file beside `path`, fsyncs it and
+    renames it over `path`: a reader sees the old file or the new one."""
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, temp = tempfile.mkstemp(dir=folder,
+                                prefix=os.path.basename(path) + ".tmp-")
+    try:
+        with os.fdopen(fd, "wb") as out:
+            out.write(data)
+            out.flush()
+            os.fsync(out.fileno())
+        os.replace(temp, path)
+    except BaseException:
+        if os.path.exists(temp):
+            os.unlink(temp)
+        raise
+    dir_fd = os.open(folder, os.O_RDONLY)
+    try:
+        os.fsync(dir_fd)
+    finally:
+        os.close(dir_fd)
+
+
+class Preview:
+    """Live view (`client.hardware.preview(...)`): iterate for
+    `hardware_pb2.PreviewFrame`s (`jpeg`, `width_px`, `height_px`,
+    `exposure_s`, `fps_cap`, and per channel `histogram` (256 bins),
+    `clipped_low`, `clipped_high`, `mean`, `p1`, `p50`, `p99`). Stopping the
+    iteration ends the stream. When the daemon ends it (the frames asked
+    for were sent, or a capture job started: live view never holds up a
+    capture), iteration stops and `ended` says why (`reason`,
+    `capture_job_id`, `frames`); it is None while streaming or after you
+    stopped."""
+
+    def __init__(self, client: "Client",
+                 request: hardware_pb2.StreamPreviewRequest,
+                 out: Optional[Union[str, os.PathLike]]):
+        self._c = client
+        self._request = request
+        self._out = out
+        self.ended: Optional[hardware_pb2.PreviewEnded] = None
+
+    def __iter__(self) -> Iterator[hardware_pb2.PreviewFrame]:
+        for message in self._c._stream(self._c._stubs.Hardware.StreamPreview,
+                                       self._request):
+            if message.HasField("ended"):
+                self.ended = message.ended
+                return
+            if self._out is not None:
+                _write_atomically(self._out, message.frame.jpeg)
+            yield message.frame
+
+    def __repr__(self) -> str:
+        return (f"Preview(max_fps={self._request.max_fps}, "
+                f"max_frames={self._request.max_frames}, out={self._out!r})")
+
+
 class Hardware:
-    """`client.hardware`: status, stage, camera, projector, rig lock."""
+    """`client.hardware`: status, stage, camera, live view, projector and
+    its probe, rig lock."""
 
     def __init__(self, client: "Client"):
         self._c = client
@@ -297,6 +366,39 @@ class Hardware:
     def blank_projector(self) -> hardware_pb2.ProjectorStatus:
         return self._c._call(self._hw.BlankProjector,
                              hardware_pb2.BlankProjectorRequest())
+
+    def preview(self, max_fps: float = 0, max_frames: int = 0,
+                out: Optional[Union[str, os.PathLike]] = None) -> Preview:
+        """Live view: at most `max_fps` frames a second (0: the daemon's
+        default of 5; it sends at most 10), `max_frames` of them (0: until
+        you stop iterating or a capture starts); with `out`, each frame is
+        also written there (JPEG), replaced atomically. FailedPrecondition
+        (naming the job) while a capture holds the rig."""
+        if max_fps < 0 or max_frames < 0:
+            raise errors.InvalidArgument(
+                "max_fps and max_frames must not be negative")
+        return Preview(self._c, hardware_pb2.StreamPreviewRequest(
+            max_fps=max_fps, max_frames=max_frames), out)
+
+    def probe_projector(self, step_s: float = 0, max_delay_s: float = 0,
+                        exposure_s: float = 0,
+                        timeout: Optional[float] = None
+                        ) -> hardware_pb2.ProjectorProbe:
+        """Measures the projector's latency (frames at increasing delays
+        after black turns white; 0 takes the daemon's defaults: steps of
+        0.02 s up to 0.5 s at 1/125 s) and reads the display's refresh rate:
+        `latency_s`, `refresh_hz` (0: unknown, `refresh_error` says why),
+        `frames`. It takes a while: `timeout` defaults to the client's plus
+        what the frames need."""
+        options = hardware_pb2.ProjectorProbeOptions(
+            step_s=step_s, max_delay_s=max_delay_s, exposure_s=exposure_s)
+        if timeout is None:
+            # Every step waits up to the longest delay twice.
+            steps = (max_delay_s or 0.5) / (step_s or 0.02) + 3
+            timeout = self._c.timeout + steps * 2 * (max_delay_s or 0.5)
+        return self._c._call(self._hw.ProbeProjector,
+                             hardware_pb2.ProbeProjectorRequest(
+                                 options=options), timeout=timeout)
 
     def lock(self, note: str, ttl_s: int) -> hardware_pb2.RigLock:
         """Locks the rig for `ttl_s` seconds; others are refused."""
@@ -475,11 +577,17 @@ class Client:
             raise self._error(e, timeout) from None
 
     def _stream(self, rpc: Callable[..., Any], request: Any) -> Iterator[Any]:
+        stream = None
         try:
             stream = rpc(request, wait_for_ready=False)
             yield from stream
         except grpc.RpcError as e:
             raise self._error(e, None) from None
+        finally:
+            # A caller that stops iterating ends the call (a no-op once it
+            # is over).
+            if stream is not None:
+                stream.cancel()
 
     def _pages(self, rpc: Callable[..., Any],
                make: Callable[[common_pb2.PageRequest], Any],
@@ -595,6 +703,8 @@ VERBS: dict[str, str] = {
     "Hardware.MoveStage": "hardware.move_stage",
     "Hardware.ShowPattern": "hardware.show_pattern",
     "Hardware.BlankProjector": "hardware.blank_projector",
+    "Hardware.StreamPreview": "hardware.preview",
+    "Hardware.ProbeProjector": "hardware.probe_projector",
     "Hardware.Lock": "hardware.lock",
     "Hardware.Unlock": "hardware.unlock",
     "Hardware.GetLock": "hardware.get_lock",

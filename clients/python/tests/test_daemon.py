@@ -13,6 +13,7 @@ import threading
 import time
 from pathlib import Path
 
+import cv2
 import grpc
 import numpy as np
 import pytest
@@ -294,6 +295,32 @@ def test_hardware(client) -> None:
     lock = client.hardware.lock("python test", ttl_s=60)
     assert lock.locked and client.hardware.get_lock().note == "python test"
     assert not client.hardware.unlock().locked
+
+
+def test_live_view_writes_frames_and_says_why_it_ended(client,
+                                                     tmp_path) -> None:
+    out = tmp_path / "live.jpg"
+    preview = client.hardware.preview(max_fps=10, max_frames=2, out=out)
+    frames = list(preview)
+    assert [f.sequence for f in frames] == [1, 2]
+    assert preview.ended.reason == "sent the 2 frames asked for"
+    assert preview.ended.capture_job_id == 0
+    # The file is the last frame; the statistics are of its pixels.
+    assert out.read_bytes() == frames[-1].jpeg
+    image = cv2.imdecode(np.frombuffer(out.read_bytes(), np.uint8),
+                         cv2.IMREAD_COLOR)
+    assert image.shape[:2] == (frames[-1].height_px, frames[-1].width_px)
+    red = frames[-1].channels[0]
+    assert red.channel == "red" and len(red.histogram) == 256
+    assert sum(red.histogram) == image.shape[0] * image.shape[1]
+    assert red.p1 <= red.p50 <= red.p99
+    assert red.mean == pytest.approx(image[:, :, 2].mean(), abs=1e-6)
+    assert not list(tmp_path.glob("*.tmp-*"))
+    # Stopping early ends the stream; a bad rate never leaves the client.
+    for frame in client.hardware.preview(max_fps=10):
+        break
+    with pytest.raises(hdrstereo.InvalidArgument, match="negative"):
+        client.hardware.preview(max_fps=-1)
 
 
 def test_raw_calls_map_errors(client) -> None:

@@ -68,6 +68,10 @@ struct FakeState {
   std::vector<std::pair<std::string, std::string>> capture_produces;
   std::deque<CameraEvent> events;
   std::vector<std::string> deleted;
+  // Live view: what a preview delivers. A preview sets the viewfinder
+  // toggle (kViewfinderWidgets) to 1, as cameras report live view; while it
+  // is 1 a capture fails as with the mirror up (libgphoto2#247).
+  std::string preview_bytes = "\xff\xd8 live view";
 
   // Result codes to return, in order, before an operation behaves normally.
   std::map<std::string, std::deque<int>> scripted;
@@ -98,6 +102,15 @@ ConfigWidget Radio(const std::string& name, const std::string& value,
   widget.type = WidgetType::kRadio;
   widget.value = value;
   widget.choices = std::move(choices);
+  return widget;
+}
+
+ConfigWidget Toggle(const std::string& name, const std::string& value) {
+  ConfigWidget widget;
+  widget.name = name;
+  widget.path = "/main/actions/" + name;
+  widget.type = WidgetType::kToggle;
+  widget.value = value;
   return widget;
 }
 
@@ -196,6 +209,13 @@ class FakeApi final : public Gphoto2Api {
   int Capture(std::string* folder, std::string* name) override {
     std::unique_lock<std::mutex> lock(state_->mutex);
     if (int code = Enter("capture", lock); code != GP_OK) return code;
+    for (const ConfigWidget& widget : state_->widgets) {
+      if ((widget.name == "viewfinder" || widget.name == "eosviewfinder") &&
+          widget.value == "1") {
+        state_->error_text = "mirror up in live view";
+        return GP_ERROR;
+      }
+    }
     if (state_->capture_produces.empty()) return GP_ERROR;
     *folder = state_->capture_produces[0].first;
     *name = state_->capture_produces[0].second;
@@ -206,6 +226,17 @@ class FakeApi final : public Gphoto2Api {
       event.name = state_->capture_produces[i].second;
       state_->events.push_back(event);
     }
+    return GP_OK;
+  }
+  int CapturePreview(FileData* file) override {
+    std::unique_lock<std::mutex> lock(state_->mutex);
+    if (int code = Enter("preview", lock); code != GP_OK) return code;
+    for (ConfigWidget& widget : state_->widgets) {
+      if (widget.name == "viewfinder" || widget.name == "eosviewfinder") {
+        widget.value = "1";
+      }
+    }
+    file->bytes = state_->preview_bytes;
     return GP_OK;
   }
   int WaitForEvent(absl::Duration /*timeout*/, CameraEvent* event) override {
@@ -817,6 +848,137 @@ TEST(Gphoto2ErrorTest, MapsResultCodesToStatusCodes) {
     EXPECT_THAT(std::string(status.message()),
                 HasSubstr(absl::StrCat("[", c.code, "]")));
   }
+}
+
+TEST_F(Gphoto2CameraTest, PreviewReturnsTheCamerasLiveViewJpeg) {
+  std::unique_ptr<Gphoto2Camera> camera = OpenOrDie();
+  ASSERT_NE(camera, nullptr);
+  ASSERT_OK_AND_ASSIGN(hardware::Frame frame, camera->Preview());
+  EXPECT_EQ(frame.bytes, "\xff\xd8 live view");
+  EXPECT_EQ(frame.format, ImageFormat::kJpeg);
+  EXPECT_EQ(frame.extension, "jpg");
+  EXPECT_DOUBLE_EQ(frame.exposure_s, 1.0 / 60);  // the camera's setting
+  EXPECT_EQ(state_->calls["preview"], 1);
+  EXPECT_EQ(state_->calls["capture"], 0);  // nothing stored on the camera
+}
+
+// libgphoto2#66: the second preview is answered "PTP Device Busy" while
+// the camera is still starting live view; it is retried with backoff.
+TEST_F(Gphoto2CameraTest, ASecondPreviewAnsweredBusyIsRetried) {
+  std::unique_ptr<Gphoto2Camera> camera = OpenOrDie();
+  ASSERT_NE(camera, nullptr);
+  ASSERT_OK(camera->Preview().status());
+  state_->scripted["preview"] = {GP_ERROR_CAMERA_BUSY, GP_ERROR_CAMERA_BUSY};
+  ASSERT_OK_AND_ASSIGN(hardware::Frame frame, camera->Preview());
+  EXPECT_EQ(frame.bytes, "\xff\xd8 live view");
+  EXPECT_EQ(state_->calls["preview"], 4);
+
+  // Busy beyond the retries: UNAVAILABLE, saying how long it tried.
+  state_->scripted["preview"] = std::deque<int>(6, GP_ERROR_CAMERA_BUSY);
+  EXPECT_THAT(camera->Preview(),
+              StatusIs(absl::StatusCode::kUnavailable,
+                       HasSubstr("capture a live-view frame: the camera "
+                                 "stayed busy")));
+  EXPECT_EQ(state_->calls["preview"], 10);
+}
+
+// libgphoto2#247 and friends: after live view the mirror stays up and a
+// capture fails; the driver sets the viewfinder toggle to 0 first, once.
+TEST_F(Gphoto2CameraTest, ACaptureAfterPreviewLeavesLiveViewFirst) {
+  state_->widgets.push_back(Toggle("viewfinder", "0"));
+  state_->capture_produces = {{"/ram", "capt0000.jpg"}};
+  std::unique_ptr<Gphoto2Camera> camera = OpenOrDie();
+  ASSERT_NE(camera, nullptr);
+  // Without a preview nothing is released.
+  state_->files["/ram/capt0000.jpg"] = "first";
+  ASSERT_OK(camera->Capture().status());
+  EXPECT_THAT(state_->sets, ::testing::Not(::testing::Contains(std::make_pair(
+                                std::string("viewfinder"), std::string("0")))));
+
+  ASSERT_OK(camera->Preview().status());
+  EXPECT_EQ(Value("viewfinder"), "1");
+  state_->sets.clear();
+  state_->files["/ram/capt0000.jpg"] = "second";
+  ASSERT_OK_AND_ASSIGN(hardware::Frame frame, camera->Capture());
+  EXPECT_EQ(frame.bytes, "second");
+  EXPECT_EQ(Value("viewfinder"), "0");
+  EXPECT_THAT(state_->sets, ElementsAre(std::make_pair(
+                                std::string("viewfinder"), std::string("0"))));
+
+  // Out of live view: the next capture sets nothing.
+  state_->sets.clear();
+  state_->files["/ram/capt0000.jpg"] = "third";
+  ASSERT_OK(camera->Capture().status());
+  EXPECT_THAT(state_->sets, IsEmpty());
+}
+
+TEST_F(Gphoto2CameraTest, OlderCanonBodiesLeaveLiveViewByEosviewfinder) {
+  state_->widgets.push_back(Toggle("eosviewfinder", "0"));
+  state_->capture_produces = {{"/ram", "capt0000.jpg"}};
+  state_->files["/ram/capt0000.jpg"] = "jpeg";
+  std::unique_ptr<Gphoto2Camera> camera = OpenOrDie();
+  ASSERT_NE(camera, nullptr);
+  ASSERT_OK(camera->Preview().status());
+  ASSERT_OK(camera->Capture().status());
+  EXPECT_EQ(Value("eosviewfinder"), "0");
+}
+
+TEST_F(Gphoto2CameraTest, ACaptureThatCannotLeaveLiveViewFailsBeforeFiring) {
+  state_->widgets.push_back(Toggle("viewfinder", "0"));
+  state_->capture_produces = {{"/ram", "capt0000.jpg"}};
+  state_->files["/ram/capt0000.jpg"] = "jpeg";
+  std::unique_ptr<Gphoto2Camera> camera = OpenOrDie();
+  ASSERT_NE(camera, nullptr);
+  ASSERT_OK(camera->Preview().status());
+  state_->scripted["set_config"] = {GP_ERROR_NOT_SUPPORTED};
+  EXPECT_THAT(camera->Capture(),
+              StatusIs(absl::StatusCode::kUnimplemented,
+                       HasSubstr("leaving live view before the capture (the "
+                                 "mirror would stay up): set viewfinder")));
+  EXPECT_EQ(state_->calls["capture"], 0);
+  // The next capture tries again, and succeeds.
+  ASSERT_OK(camera->Capture().status());
+  EXPECT_EQ(Value("viewfinder"), "0");
+}
+
+TEST_F(Gphoto2CameraTest, APreviewThatIsNoJpegOrNotSupportedSaysSo) {
+  std::unique_ptr<Gphoto2Camera> camera = OpenOrDie();
+  ASSERT_NE(camera, nullptr);
+  state_->preview_bytes = "PNG?";
+  EXPECT_THAT(camera->Preview(),
+              StatusIs(absl::StatusCode::kDataLoss,
+                       HasSubstr("live-view frame is not a JPEG (4 bytes)")));
+  state_->scripted["preview"] = {GP_ERROR_NOT_SUPPORTED};
+  EXPECT_THAT(camera->Preview(),
+              StatusIs(absl::StatusCode::kUnimplemented,
+                       HasSubstr("capture a live-view frame: not supported")));
+}
+
+TEST_F(Gphoto2CameraTest, AHungPreviewTimesOut) {
+  options_.preview_timeout = absl::Milliseconds(200);
+  std::unique_ptr<Gphoto2Camera> camera = OpenOrDie();
+  ASSERT_NE(camera, nullptr);
+  state_->hang_op = "preview";
+  state_->hang_honours_cancel = true;
+  EXPECT_THAT(camera->Preview(),
+              StatusIs(absl::StatusCode::kDeadlineExceeded,
+                       HasSubstr("capture a live-view frame: no answer from "
+                                 "the camera within 200ms")));
+  EXPECT_TRUE(WaitUntilUsable(*camera));
+  ASSERT_OK(camera->Preview().status());
+}
+
+// A ReconnectingCamera passes live view through.
+TEST_F(Gphoto2CameraTest, PreviewGoesThroughTheReconnectingCamera) {
+  std::unique_ptr<Gphoto2Camera> opened = OpenOrDie();
+  ASSERT_NE(opened, nullptr);
+  hardware::ReconnectingCamera camera(
+      std::move(opened),
+      []() -> absl::StatusOr<std::unique_ptr<hardware::Camera>> {
+        return absl::UnavailableError("not reopened in this test");
+      });
+  ASSERT_OK_AND_ASSIGN(hardware::Frame frame, camera.Preview());
+  EXPECT_EQ(frame.bytes, "\xff\xd8 live view");
 }
 
 // After a USB reset the camera is back on another port, perhaps beside

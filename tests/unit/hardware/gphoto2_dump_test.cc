@@ -332,6 +332,55 @@ DumpReport Evaluate(const std::string& file) {
   return report;
 }
 
+// Live view on the trees of real bodies: a preview sets the body's own
+// viewfinder toggle (Canon 5D Mark III "eosviewfinder", Nikon D750
+// "viewfinder") as the camera reports live view, and the next capture
+// releases it (sets 0) first; a body without one captures as it is.
+TEST(CameraDumpLiveViewTest, ACaptureLeavesLiveViewByTheBodysOwnWidget) {
+  const std::string kJpeg = "\xff\xd8 frame";
+  FrameSource file =
+      [&](const hardware::ExposureSettings&) -> absl::StatusOr<ReplayFile> {
+    return ReplayFile{.bytes = kJpeg, .extension = "jpg"};
+  };
+  for (const auto& [name, widget] :
+       std::vector<std::pair<std::string, std::string>>{
+           {"canon-eos5dmark3.txt", "eosviewfinder"},
+           {"nikon-d750.txt", "viewfinder"},
+           {"sony-a6400.txt", ""}}) {
+    SCOPED_TRACE(name);
+    absl::StatusOr<CameraDump> dump = LoadCameraDump(DumpDir() / name);
+    if (!dump.ok() && !std::filesystem::exists(DumpDir())) {
+      GTEST_SKIP() << "no camera dumps under " << DumpDir();
+    }
+    ASSERT_THAT(dump, testing::IsOk());
+    EXPECT_EQ(FindWidget(dump->widgets, kViewfinderWidgets) != nullptr,
+              !widget.empty());
+    absl::StatusOr<std::unique_ptr<Gphoto2Camera>> camera =
+        Gphoto2Camera::OpenWithApi(
+            {}, std::make_unique<ReplayApi>(*dump, file, nullptr, file));
+    ASSERT_THAT(camera, testing::IsOk());
+    ASSERT_THAT((*camera)->Configure(Exposure(1.0 / 125)).status(),
+                testing::IsOk());
+    absl::StatusOr<hardware::Frame> preview = (*camera)->Preview();
+    ASSERT_THAT(preview, testing::IsOk());
+    EXPECT_EQ(preview->bytes, kJpeg);
+    auto value = [&]() -> std::string {
+      absl::StatusOr<std::vector<ConfigWidget>> widgets = (*camera)->Config();
+      const ConfigWidget* found =
+          widgets.ok() ? FindWidget(*widgets, widget) : nullptr;
+      return found != nullptr ? found->value : "(none)";
+    };
+    if (!widget.empty()) {
+      EXPECT_EQ(value(), "1");
+    }
+    absl::StatusOr<hardware::Frame> frame = (*camera)->Capture();
+    ASSERT_THAT(frame, testing::IsOk());
+    if (!widget.empty()) {
+      EXPECT_EQ(value(), "0");
+    }
+  }
+}
+
 class CameraDumpTest : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(CameraDumpTest, BracketIsoAndApertureMapOntoTheCamera) {

@@ -15,6 +15,7 @@
 
 // Last: Xlib's macros (Status, None, Bool) clash with C++ names.
 #include <X11/Xlib.h>
+#include <X11/extensions/Xrandr.h>
 #undef Status
 
 namespace hdrstereo::display {
@@ -65,6 +66,38 @@ class OtherClient {
   void Destroy(Window window) {
     XDestroyWindow(display_, window);
     XSync(display_, False);
+  }
+  // Gives the screen's output a mode with timings (VESA 800x600 at 60.32
+  // Hz: 40 MHz / (1056 x 628)); Xvfb's own has none. False if refused.
+  bool SetTimedMode() {
+    const Window root = DefaultRootWindow(display_);
+    XRRScreenResources* resources =
+        XRRGetScreenResourcesCurrent(display_, root);
+    if (resources == nullptr || resources->ncrtc < 1 ||
+        resources->noutput < 1) {
+      return false;
+    }
+    XRRModeInfo mode{};
+    char name[] = "800x600_60";
+    mode.width = 800;
+    mode.height = 600;
+    mode.dotClock = 40000000;
+    mode.hSyncStart = 840;
+    mode.hSyncEnd = 968;
+    mode.hTotal = 1056;
+    mode.vSyncStart = 601;
+    mode.vSyncEnd = 605;
+    mode.vTotal = 628;
+    mode.name = name;
+    mode.nameLength = sizeof name - 1;
+    const RRMode id = XRRCreateMode(display_, root, &mode);
+    XRRAddOutputMode(display_, resources->outputs[0], id);
+    const int set =
+        XRRSetCrtcConfig(display_, resources, resources->crtcs[0], CurrentTime,
+                         0, 0, id, RR_Rotate_0, resources->outputs, 1);
+    XRRFreeScreenResources(resources);
+    XSync(display_, False);
+    return set == RRSetConfigSuccess;
   }
 
  private:
@@ -201,6 +234,38 @@ TEST_F(X11ProjectorTest, ALostWindowOrDisplayIsReportedNotFatal) {
               StatusIs(absl::StatusCode::kUnavailable,
                        HasSubstr("lost the connection to X display")));
   projector->reset();  // closing a lost display does not end the process
+}
+
+// The refresh rate comes from the RandR mode of the CRTC that shows the
+// projector: Xvfb's own mode has no timings (unknown, said so); one with
+// timings gives dot clock / (htotal x vtotal); a projector where no output
+// shows anything has none.
+TEST_F(X11ProjectorTest, RefreshRateIsTheModeOfTheProjectorsCrtc) {
+  absl::StatusOr<std::unique_ptr<X11Projector>> projector = X11Projector::Open(
+      {.display = xvfb_->display(), .settle_time = absl::ZeroDuration()});
+  ASSERT_TRUE(projector.ok()) << projector.status();
+  EXPECT_THAT((*projector)->RefreshHz(),
+              StatusIs(absl::StatusCode::kUnavailable,
+                       HasSubstr("reports a mode without timings for the "
+                                 "projector at +0+0")));
+  OtherClient other(xvfb_->display());
+  ASSERT_TRUE(other.ok());
+  ASSERT_TRUE(other.SetTimedMode());
+  absl::StatusOr<double> hz = (*projector)->RefreshHz();
+  ASSERT_THAT(hz, IsOk());
+  EXPECT_DOUBLE_EQ(*hz, 40e6 / (1056.0 * 628.0));
+
+  absl::StatusOr<std::unique_ptr<X11Projector>> beside =
+      X11Projector::Open({.display = xvfb_->display(),
+                          .x = 900,
+                          .width_px = 64,
+                          .height_px = 48,
+                          .settle_time = absl::ZeroDuration()});
+  ASSERT_TRUE(beside.ok()) << beside.status();
+  EXPECT_THAT((*beside)->RefreshHz(),
+              StatusIs(absl::StatusCode::kUnavailable,
+                       HasSubstr("no active output for the projector at "
+                                 "+900+0")));
 }
 
 TEST(X11ProjectorOpenTest, MissingDisplayIsAClearError) {

@@ -91,6 +91,36 @@ TEST(SceneTest, ErrorsNameTheBadField) {
                    "sensor.response.kind");
 }
 
+// The projector's timing (issue 24): each field is read, has its default
+// when absent, and a bad value is refused naming the field.
+TEST(SceneTest, ProjectorLatencyAndRefreshRateAreReadAndChecked) {
+  const Scene scene = testing::ParseOrDie(SmallSceneJson(
+      "", R"("projector": {"latency_s": 0.125, "refresh_hz": 59.94})"));
+  EXPECT_DOUBLE_EQ(scene.projector.latency_s, 0.125);
+  EXPECT_DOUBLE_EQ(scene.projector.refresh_hz, 59.94);
+  const Scene defaults =
+      testing::ParseOrDie(SmallSceneJson("", R"("projector": {})"));
+  EXPECT_DOUBLE_EQ(defaults.projector.latency_s, 0.0);
+  EXPECT_DOUBLE_EQ(defaults.projector.refresh_hz, 60.0);
+
+  EXPECT_THAT(
+      ParseScene(SmallSceneJson("", R"("projector": {"latency_s": -0.1})")),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("projector.latency_s: must be in [0, 10], got -0.1")));
+  EXPECT_THAT(
+      ParseScene(SmallSceneJson("", R"("projector": {"latency_s": "slow"})")),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("projector.latency_s: expected a number")));
+  EXPECT_THAT(
+      ParseScene(SmallSceneJson("", R"("projector": {"refresh_hz": 0})")),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("projector.refresh_hz: must be in [1, 1000], got 0")));
+  EXPECT_THAT(
+      ParseScene(SmallSceneJson("", R"("projector": {"refresh_hz": [60]})")),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("projector.refresh_hz: expected a number")));
+}
+
 // The faults that come and go (FaultWindow): each field is read, and a bad
 // value is refused naming its field.
 TEST(SceneTest, FaultWindowsAreReadAndTheirErrorsNameTheField) {

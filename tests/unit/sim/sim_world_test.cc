@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
 #include "hardware/sim/sim_devices.h"
 #include "tests/support/camera_hold.h"
 #include "tests/support/status_matchers.h"
@@ -315,6 +316,104 @@ TEST(SimWorldTest, ProjectorLostOnAPatternComesBackByItself) {
   EXPECT_EQ(cv::countNonZero(shown), 0) << "back, it shows black";
   EXPECT_THAT((*projector)->Show(white), IsOk());
   EXPECT_EQ(cv::countNonZero(world.ProjectorPattern()), white.total());
+}
+
+// A pattern shows projector.latency_s * timing.scale after it was given;
+// until then renders see the pattern given before it.
+TEST(SimWorldTest, TheProjectorShowsAPatternAfterItsLatency) {
+  Scene scene = SmallBundledScene("lab-lamp");
+  scene.projector.latency_s = 0.25;
+  scene.timing.scale = 1;
+  scene.timing.projector_settle_s = 0;
+  SimWorld world(scene);
+  const cv::Mat white(scene.projector.height, scene.projector.width, CV_8UC1,
+                      cv::Scalar(255));
+  ASSERT_THAT(world.SetProjectorPattern(white), IsOk());
+  // Polls (bounded) until the pattern showing has `lit` pixels.
+  auto wait_for = [&](int lit) {
+    for (int i = 0; i < 2000; ++i) {
+      const cv::Mat showing = world.ProjectorPattern();
+      if (!showing.empty() && cv::countNonZero(showing) == lit) return true;
+      absl::SleepFor(absl::Milliseconds(5));
+    }
+    return false;
+  };
+  ASSERT_TRUE(wait_for(static_cast<int>(white.total())));
+  const ExposureSettings settings{1.0 / 30, 100};
+  const double lit_mean = cv::mean(world.RenderExposure(settings))[0];
+
+  // Black is given: for a quarter second white still shows, in renders and
+  // captures too.
+  world.BlankProjector();
+  EXPECT_EQ(cv::countNonZero(world.ProjectorPattern()), white.total());
+  ASSERT_OK_AND_ASSIGN(SimCapture during,
+                       world.Capture(settings, ImageFormat::kPng));
+  EXPECT_NEAR(cv::mean(during.image)[0], lit_mean, 1.0);
+  ASSERT_TRUE(wait_for(0));
+  ASSERT_OK_AND_ASSIGN(SimCapture after,
+                       world.Capture(settings, ImageFormat::kPng));
+  EXPECT_LT(cv::mean(after.image)[0], lit_mean - 5);
+
+  // At time scale 0 (as fast as possible) there is no latency.
+  scene.timing.scale = 0;
+  SimWorld instant(scene);
+  ASSERT_THAT(instant.SetProjectorPattern(white), IsOk());
+  EXPECT_EQ(cv::countNonZero(instant.ProjectorPattern()), white.total());
+}
+
+// Live view: the camera's field of view at most kPreviewMaxWidth wide,
+// exactly RenderFrame through PreviewView with the preview's own noise;
+// captures' faults do not count previews.
+TEST(SimWorldTest, PreviewIsAReducedRenderWithItsOwnNoise) {
+  absl::StatusOr<Scene> full = LoadBundledScene("lab-lamp");
+  ASSERT_THAT(full, IsOk());
+  Scene scene = *full;
+  scene.camera_faults.busy_first_calls = 1;
+  SimWorld world(scene);
+  world.SetStagePosition(20);
+  const ExposureSettings settings{1.0 / 60, 200};
+  const View view = PreviewView(scene, 20);
+  EXPECT_EQ(view.intrinsics.width, kPreviewMaxWidth);
+  EXPECT_EQ(view.intrinsics.height, 360);  // 900 * 480 / 1200
+  EXPECT_DOUBLE_EQ(view.intrinsics.fx, scene.camera.fx * 0.4);
+  EXPECT_DOUBLE_EQ(view.intrinsics.cx, (scene.camera.cx + 0.5) * 0.4 - 0.5);
+  for (int n = 0; n < 2; ++n) {
+    ASSERT_OK_AND_ASSIGN(SimCapture preview, world.Preview(settings));
+    EXPECT_EQ(preview.format, ImageFormat::kJpeg);
+    EXPECT_EQ(preview.frame_index, n);
+    const cv::Mat exact = RenderFrame(world.renderer(), view, cv::Mat(),
+                                      settings, PreviewNoiseSeed(scene, n));
+    EXPECT_EQ(Bytes(preview.image), Bytes(exact)) << "preview " << n;
+    const cv::Mat decoded =
+        cv::imdecode(cv::Mat(1, static_cast<int>(preview.bytes.size()), CV_8UC1,
+                             preview.bytes.data()),
+                     cv::IMREAD_COLOR);
+    ASSERT_EQ(decoded.size(), cv::Size(480, 360));
+  }
+  EXPECT_NE(PreviewNoiseSeed(scene, 0), PreviewNoiseSeed(scene, 1));
+  // The first capture is still the one the busy fault fires on.
+  EXPECT_THAT(world.Capture(settings, ImageFormat::kPng),
+              StatusIs(absl::StatusCode::kUnavailable, HasSubstr("busy")));
+
+  // Through the camera interface: a JPEG of the reduced size.
+  SimCamera camera(world, {});
+  ASSERT_OK_AND_ASSIGN(hardware::Frame frame, camera.Preview());
+  EXPECT_EQ(frame.format, hardware::ImageFormat::kJpeg);
+  EXPECT_EQ(frame.extension, "jpg");
+  EXPECT_EQ(frame.width_px, 480);
+  EXPECT_EQ(frame.height_px, 360);
+}
+
+TEST(SimWorldTest, PreviewOfADisconnectedCameraFails) {
+  Scene scene = SmallBundledScene("textured");
+  scene.camera_faults.disconnect = {.calls = {1}};
+  SimWorld world(scene);
+  const ExposureSettings settings{1.0 / 60, 100};
+  EXPECT_THAT(world.Capture(settings, ImageFormat::kPng),
+              StatusIs(absl::StatusCode::kAborted));
+  EXPECT_THAT(world.Preview(settings),
+              StatusIs(absl::StatusCode::kFailedPrecondition,
+                       HasSubstr("camera disconnected (simulated)")));
 }
 
 TEST(SimWorldTest, ProjectorPatternValidation) {

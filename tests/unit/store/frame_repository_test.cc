@@ -9,6 +9,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -64,6 +65,42 @@ TEST_F(FrameRepositoryTest, AJobFindsItsCaptureAgain) {
   EXPECT_EQ(again.kind, io::CaptureKind::kStructuredLight);
   EXPECT_THAT(frames.CaptureForJob(9999, io::CaptureKind::kCalibration, "p"),
               StatusIs(absl::StatusCode::kNotFound, HasSubstr("9999")));
+}
+
+// A structured-light capture records its projector's timing; a capture
+// that never did reads as unknown.
+TEST_F(FrameRepositoryTest, ProjectorTimingIsRecordedWithTheCapture) {
+  ASSERT_OK(Session("lab").status());
+  FrameRepository frames(*store_);
+  ASSERT_OK_AND_ASSIGN(const JobRecord sl_job, Job("lab"));
+  ASSERT_OK_AND_ASSIGN(const JobRecord stereo_job, Job("lab"));
+  ASSERT_OK_AND_ASSIGN(
+      const CaptureRecord sl,
+      frames.CaptureForJob(sl_job.id, io::CaptureKind::kStructuredLight, "a"));
+  ASSERT_OK_AND_ASSIGN(
+      const CaptureRecord stereo,
+      frames.CaptureForJob(stereo_job.id, io::CaptureKind::kBracketedStereo,
+                           "b"));
+  ASSERT_OK(frames.SetProjectorTiming(
+      sl.id, {.latency_s = 0.08, .refresh_hz = 59.94}));
+  ASSERT_OK_AND_ASSIGN(ProjectorTiming timing, frames.ProjectorTimingOf(sl.id));
+  EXPECT_EQ(timing.latency_s, 0.08);
+  EXPECT_EQ(timing.refresh_hz, 59.94);
+  ASSERT_OK_AND_ASSIGN(timing, frames.ProjectorTimingOf(stereo.id));
+  EXPECT_EQ(timing.latency_s, std::nullopt);
+  EXPECT_EQ(timing.refresh_hz, std::nullopt);
+
+  // Not probed, refresh unknown: both NULL again.
+  ASSERT_OK(frames.SetProjectorTiming(sl.id, {}));
+  ASSERT_OK_AND_ASSIGN(timing, frames.ProjectorTimingOf(sl.id));
+  EXPECT_EQ(timing.latency_s, std::nullopt);
+  EXPECT_EQ(timing.refresh_hz, std::nullopt);
+  EXPECT_THAT(
+      frames.SetProjectorTiming(9999, {}),
+      StatusIs(absl::StatusCode::kNotFound, HasSubstr("no capture 9999")));
+  EXPECT_THAT(
+      frames.ProjectorTimingOf(9999),
+      StatusIs(absl::StatusCode::kNotFound, HasSubstr("no capture 9999")));
 }
 
 TEST_F(FrameRepositoryTest, AResubmittedPlanContinuesTheEarlierCapture) {
