@@ -2,6 +2,7 @@
 #include "processing/hdr/auto_bracket.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -713,20 +714,46 @@ absl::Status AcceptCoverage(const AutoBracketResult& result,
   const auto at = [](double radiance, double signal) {
     return radiance > 0 ? ForPeople(signal / radiance) : std::string("-");
   };
+  // What the probes saw of the scene: nothing at all when every channel was
+  // too bright or too dark in every probe (then the scene's range is not
+  // known, only that it lies outside the camera's).
+  const std::string scene =
+      result.radiance_max > 0
+          ? absl::StrFormat(
+                "the scene spans at least %.1f stops (where measured its "
+                "brightest channel saturates at %s, its darkest reaches SNR "
+                "%g at %s)",
+                result.SceneStops(),
+                at(result.radiance_max, result.window.max_signal),
+                result.min_snr,
+                at(result.radiance_min, result.window.min_signal))
+          : std::string(
+                "no channel of the scene could be measured (every one was "
+                "too bright or too dark in every probe),");
+  // Only the remedies that apply.
+  std::vector<std::string> remedies;
+  if (result.uncovered_bright > 0 && result.emitter_ratio <= 0) {
+    remedies.push_back(
+        "exclude the emitters (exclude_emitters_above, e.g. 100: lamps are "
+        "then reported, not covered)");
+  }
+  if (result.uncovered_dark > 0 && options.max_exposure_s > 0) {
+    remedies.push_back("allow longer exposures (max_exposure_s)");
+  }
+  remedies.push_back("accept the uncovered fraction (max_uncovered_fraction)");
+  std::string advice = remedies.back();
+  if (remedies.size() > 1) {
+    remedies.pop_back();
+    advice = absl::StrCat(absl::StrJoin(remedies, ", "), " or ", advice);
+  }
+  advice[0] = static_cast<char>(std::toupper(advice[0]));
   return absl::FailedPreconditionError(absl::StrFormat(
-      "the scene's range exceeds what the camera offers: the scene spans "
-      "at least %.1f stops (where measured its brightest channel saturates "
-      "at %s, its darkest reaches SNR %g at %s) and the camera covers %.1f "
-      "stops (%s .. "
-      "%s, samples at SNR >= %g below %.2f of full scale); %.2f %% of the "
-      "non-emitter pixels (%d of %d) stay uncovered, at most %.2f %% may: "
-      "%d too bright even at %s, %d too dark even at %s. Exclude the "
-      "emitters (exclude_emitters_above, e.g. 100: lamps are then reported, "
-      "not covered), allow longer exposures (max_exposure_s) or accept the "
-      "uncovered fraction (max_uncovered_fraction)",
-      result.SceneStops(), at(result.radiance_max, result.window.max_signal),
-      result.min_snr, at(result.radiance_min, result.window.min_signal),
-      result.CameraStops(),
+      "the scene's range exceeds what the camera offers: %s and the camera "
+      "covers %.1f stops (%s .. %s, samples at SNR >= %g below %.2f of full "
+      "scale); %.2f %% of the non-emitter pixels (%d of %d) stay uncovered, "
+      "at most %.2f %% may: %d too bright even at %s, %d too dark even at "
+      "%s. %s",
+      scene, result.CameraStops(),
       at(result.camera_radiance_max, result.window.max_signal),
       at(result.camera_radiance_min, result.window.min_signal), result.min_snr,
       result.window.max_signal, 100 * result.UncoveredFraction(),
@@ -734,7 +761,7 @@ absl::Status AcceptCoverage(const AutoBracketResult& result,
       result.uncovered_bright,
       at(result.camera_radiance_max, result.window.max_signal),
       result.uncovered_dark,
-      at(result.camera_radiance_min, result.window.min_signal)));
+      at(result.camera_radiance_min, result.window.min_signal), advice));
 }
 
 }  // namespace hdrstereo::hdr

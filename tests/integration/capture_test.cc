@@ -47,8 +47,9 @@ using ::testing::HasSubstr;
 class CaptureTest : public ::hdrstereo::testing::DaemonFixture {
  protected:
   void StartSim(const nlohmann::json& patch = SmallLabLamp(),
-                double time_scale = 0) {
-    scene_path_ = WriteScene("lab-lamp", patch);
+                double time_scale = 0,
+                const std::string& bundled = "lab-lamp") {
+    scene_path_ = WriteScene(bundled, patch);
     StartDaemon({"--sim-scene", scene_path_.string(), "--sim-time-scale",
                  absl::StrCat(time_scale)});
   }
@@ -214,8 +215,10 @@ double ExactCoverage(const sim::Scene& scene,
     for (int y = 0; y < view->radiance.rows; ++y) {
       for (int x = 0; x < view->radiance.cols; ++x) {
         const int id = view->object_id.at<uint16_t>(y, x);
-        const sim::Rgb e = scene.objects[id - 1].material.emission;
-        if (e[0] + e[1] + e[2] > 0) continue;
+        if (id > 0) {
+          const sim::Rgb e = scene.objects[id - 1].material.emission;
+          if (e[0] + e[1] + e[2] > 0) continue;
+        }
         ++pixels;
         bool all = true;
         for (int c = 0; c < 3; ++c) {
@@ -242,12 +245,17 @@ std::vector<double> ChosenExposures(const nlohmann::json& job) {
   return out;
 }
 
+// `capture stereo --auto` on the bundled textured scene (a low range):
+// metered, fewer exposures than the thesis' eight, recorded with the
+// capture as chosen, shown by `jobs show` and in the processing report.
 TEST_F(CaptureTest, AutoBracketMetersChoosesRecordsAndReports) {
-  StartSim();
+  // The textured scene's own camera, at lab-lamp's small test size.
+  StartSim({{"camera", SmallLabLamp()["camera"]}}, 0, "textured");
   ASSERT_EQ(Cli({"session", "create", "auto"}).exit_code, 0);
   CommandResult capture =
       Cli({"capture", "stereo", "auto", "--auto", "--watch"});
   ASSERT_EQ(capture.exit_code, 0) << capture.out << capture.err;
+  EXPECT_THAT(capture.out, HasSubstr("its exposures are chosen by metering"));
   EXPECT_THAT(capture.out, HasSubstr("metering the left view: probe at"));
   EXPECT_THAT(capture.out, HasSubstr("automatic bracket: "));
 
@@ -255,8 +263,9 @@ TEST_F(CaptureTest, AutoBracketMetersChoosesRecordsAndReports) {
   const nlohmann::json job = Job(1);
   const std::vector<double> chosen = ChosenExposures(job);
   ASSERT_GE(chosen.size(), 2u) << job;
-  // lab-lamp spans more than the eight's 1/2000 .. 1/15 s and the window.
-  EXPECT_GT(chosen.size(), 8u);
+  // textured spans less than the eight's 1/2000 .. 1/15 s and the window.
+  EXPECT_LT(chosen.size(), 8u) << job;
+  EXPECT_EQ(job["state"], "JOB_STATE_SUCCEEDED") << job;
   EXPECT_EQ(job["auto_bracket"]["coverage"].get<double>(), 1.0);
   EXPECT_THAT(job["auto_bracket"]["reason"].get<std::string>(),
               HasSubstr("100.00 % of the non-emitter pixels covered"));
@@ -277,6 +286,14 @@ TEST_F(CaptureTest, AutoBracketMetersChoosesRecordsAndReports) {
   EXPECT_EQ(Sql("SELECT count(DISTINCT exposure_s) FROM frames WHERE path "
                 "LIKE '%/stereo/%'"),
             std::to_string(chosen.size()));
+  for (double e : chosen) {  // each at both views
+    EXPECT_EQ(Sql(absl::StrFormat("SELECT count(*) FROM frames WHERE path LIKE "
+                                  "'%%/stereo/%%' AND abs(exposure_s - %.17g) "
+                                  "<= 1e-9 * %.17g",
+                                  e, e)),
+              "2")
+        << e;
+  }
   EXPECT_EQ(Sql("SELECT count(*) FROM frames WHERE path NOT LIKE '%.png'"),
             "0");
   // The probes are kept in the job's folder and are no frames.
@@ -394,6 +411,22 @@ TEST_F(CaptureTest, AutoBracketRefusesASceneBeyondTheCameraUnlessLampsGo) {
   EXPECT_EQ(JsonInt(job["auto_bracket"]["emitter_pixels"]), lamp_pixels);
   EXPECT_EQ(job["auto_bracket"]["coverage"].get<double>(), 1.0);
   EXPECT_EQ(ExactCoverage(*scene, ChosenExposures(job)), 1.0);
+  const std::string frames = Sql("SELECT count(*) FROM frames");
+
+  // Too short a longest exposure for the dark walls: refused as well, with
+  // the remedy that applies (the lamp is excluded already).
+  CommandResult dark =
+      Cli({"capture", "stereo", "bright", "--auto", "--exclude-emitters-above",
+           "100", "--max-exposure", "1/4000", "--watch"});
+  EXPECT_EQ(dark.exit_code, 1) << dark.out;
+  const std::string too_dark = Job(3)["error"].get<std::string>();
+  EXPECT_THAT(too_dark, HasSubstr("the scene's range exceeds what the camera "
+                                  "offers"));
+  EXPECT_THAT(too_dark, HasSubstr("(1/8000 s .. 1/4000 s, samples at SNR"));
+  EXPECT_THAT(too_dark, HasSubstr("too dark even at 1/4000 s"));
+  EXPECT_THAT(too_dark, HasSubstr("llow longer exposures (max_exposure_s)"));
+  EXPECT_THAT(too_dark, ::testing::Not(HasSubstr("exclude_emitters_above")));
+  EXPECT_EQ(Sql("SELECT count(*) FROM frames"), frames);
 }
 
 TEST_F(CaptureTest, PauseResumeAndCancelLeaveTheRigSafe) {

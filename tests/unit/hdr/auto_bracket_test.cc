@@ -305,9 +305,38 @@ TEST(ChooseBracketTest, BestCoverageWhenTheSceneExceedsTheCamera) {
                      HasSubstr("75.00 % of the non-emitter pixels (3 of 4)"),
                      HasSubstr("1 too bright even at 1/64 s, 2 too dark even "
                                "at 1 s"),
-                     HasSubstr("exclude_emitters_above"))));
+                     HasSubstr("exclude_emitters_above"),
+                     HasSubstr("allow longer exposures (max_exposure_s)"))));
   options.max_uncovered_fraction = 0.75;
   EXPECT_OK(AcceptCoverage(r, options));
+}
+
+TEST(ChooseBracketTest, NothingMeasuredSaysSoAndOnlyTheRemediesThatApply) {
+  // Every channel below SNR 40 even at the longest allowed exposure: the
+  // scene's range is unknown, nothing is too bright, and the remedy is a
+  // longer exposure (or accepting the loss), not excluding emitters.
+  RadianceEstimate e = Exact({1, 1, 1, 1});
+  e.state.setTo(static_cast<uint8_t>(ChannelState::kTooDark));
+  AutoBracketOptions options;
+  options.max_exposure_s = 1.0 / 64;
+  ASSERT_OK_AND_ASSIGN(
+      const AutoBracketResult r,
+      ChooseBracket({e}, kWindow, kNoise, kPowersOfTwo, options));
+  EXPECT_EQ(r.uncovered_pixels, 4);
+  EXPECT_EQ(r.radiance_max, 0);
+  const absl::Status refused = AcceptCoverage(r, options);
+  EXPECT_THAT(
+      refused,
+      StatusIs(absl::StatusCode::kFailedPrecondition,
+               AllOf(HasSubstr("the scene's range exceeds what the camera "
+                               "offers: no channel of the scene could be "
+                               "measured"),
+                     HasSubstr("100.00 % of the non-emitter pixels (4 of 4)"),
+                     HasSubstr("0 too bright"),
+                     HasSubstr("Allow longer exposures (max_exposure_s) or "
+                               "accept the uncovered fraction"))));
+  EXPECT_THAT(refused.message(),
+              ::testing::Not(HasSubstr("exclude_emitters_above")));
 }
 
 TEST(ChooseBracketTest, RefusesWhatCannotBeChosenFrom) {
