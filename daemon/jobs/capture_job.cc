@@ -448,10 +448,11 @@ class ProbeCamera {
 absl::StatusOr<v1::CapturePlan> ChooseExposures(
     JobContext& context, store::FrameRepository& frames,
     const store::CaptureRecord& capture, hardware::Camera& camera,
-    hardware::Projector* projector, DeviceLog& devices,
+    hardware::Stage& stage, hardware::Projector* projector, DeviceLog& devices,
+    const CaptureConditions& conditions,
     const std::function<absl::Status(double)>& place_stage,
-    const v1::CapturePlan& plan, const RigLimits& limits,
-    const BaseSettings& base) {
+    const std::function<void()>& after_suspension, const v1::CapturePlan& plan,
+    const RigLimits& limits, const BaseSettings& base) {
   if (!capture.auto_bracket.empty()) {
     absl::StatusOr<hdr::AutoBracketResult> chosen =
         hdr::AutoBracketFromJson(capture.auto_bracket);
@@ -514,24 +515,74 @@ absl::StatusOr<v1::CapturePlan> ChooseExposures(
                                    [&] { return camera.PrepareCaptureGroup(); })
                              .status()));
   ProbeCamera probes(context, camera, devices, base);
+  bool prepare_again = false;  // after the camera dropped
   auto take = [&](int view, double exposure_s) -> absl::StatusOr<cv::Mat> {
     const std::string name = io::ViewName(view, stereo.views());
     const std::string what = absl::StrCat(
         "metering the ", name, " view: probe at ", io::ExposureTag(exposure_s));
-    for (int attempt = 1;; ++attempt) {
+    for (int attempt = 1, drops = 0;;) {
       RETURN_IF_ERROR(context.Checkpoint());
+      // The frames' suspenders hold for probes too: a rig unfit for a
+      // frame (camera gone or its battery low, stage flags, disk short) is
+      // waited for at this boundary, not probed.
+      bool was_suspended = false;
+      RETURN_IF_ERROR(context.SuspendWhile(
+          [&] {
+            std::string why =
+                BlockingCondition(conditions, camera, stage, nullptr, {});
+            was_suspended = was_suspended || !why.empty();
+            return why;
+          },
+          conditions.poll));
+      if (was_suspended) after_suspension();
       RETURN_IF_ERROR(context.Progress(0, 0, what));
+      if (prepare_again) {
+        // A camera that came back has its own settings, perhaps files.
+        RETURN_IF_ERROR(
+            InStep("preparing the camera",
+                   devices
+                       .Time(store::Device::kCamera,
+                             [&] { return camera.PrepareCaptureGroup(); })
+                       .status()));
+        prepare_again = false;
+      }
+      const int64_t drops_before = camera.Connection().drops;
       absl::Status placed =
           place_stage(limits.home_position_mm + view * stereo.baseline_mm());
       absl::StatusOr<cv::Mat> probe = placed.ok()
                                           ? probes.Take(name, exposure_s)
                                           : absl::StatusOr<cv::Mat>(placed);
-      if (probe.ok() || !IsTransientDeviceError(probe.status()) ||
+      if (probe.ok()) return probe;
+      // The camera went away: the probe is taken again once it is back
+      // (the boundary above waits), as a frame is.
+      if (const hardware::ConnectionState link = camera.Connection();
+          placed.ok() && (link.drops != drops_before || !link.connected)) {
+        if (drops >= kMaxDropsPerFrame) {
+          return store::WithEventKind(
+              absl::Status(
+                  probe.status().code(),
+                  absl::StrCat(what, ": the camera dropped ", drops + 1,
+                               " times while taking it; "
+                               "last: ",
+                               probe.status().message())),
+              store::EventKind::kCameraDisconnected);
+        }
+        context.Warn(
+            absl::StrCat(what, ": the camera dropped (",
+                         probe.status().message(),
+                         "); the probe is taken again once it is back"),
+            store::EventTag(store::EventKind::kCameraDisconnected));
+        ++drops;
+        prepare_again = true;
+        continue;
+      }
+      if (!IsTransientDeviceError(probe.status()) ||
           attempt >= kMaxAttemptsPerFrame) {
         return probe;
       }
+      ++attempt;
       context.Warn(absl::StrCat(what, ": ", probe.status().message(),
-                                "; taking it again (attempt ", attempt + 1,
+                                "; taking it again (attempt ", attempt,
                                 " of at most ", kMaxAttemptsPerFrame, ")"),
                    store::EventTag(store::EventKindOf(probe.status())));
     }
@@ -659,9 +710,15 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
     return absl::OkStatus();
   };
   if (ChoosesExposuresAtTheRig(plan)) {
+    // After a suspension the stage may have been touched: home it again.
+    auto after_suspension = [&] {
+      home_first = true;
+      position = std::nan("");
+    };
     ASSIGN_OR_RETURN(
-        plan, ChooseExposures(context, frames, capture, camera, projector,
-                              devices, place_stage, plan, limits, base));
+        plan, ChooseExposures(context, frames, capture, camera, stage,
+                              projector, devices, conditions, place_stage,
+                              after_suspension, plan, limits, base));
   }
   const std::vector<FrameSpec> specs = ExpandPlan(plan, limits, capture.id);
   absl::StatusOr<std::map<int, store::FrameRecord>> done =

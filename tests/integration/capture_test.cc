@@ -350,6 +350,37 @@ TEST_F(CaptureTest, AutoBracketKilledAfterMeteringResumesWithTheSameBracket) {
   ExpectConsistentStore("resume", 2 * static_cast<int>(before.size()) + 1);
 }
 
+// The camera drops while the scene is metered (its third capture call is
+// the second probe): the job suspends at that probe, the camera is
+// reopened, the probe is taken again and the capture finishes with the
+// bracket chosen from complete probes.
+TEST_F(CaptureTest, AutoBracketLosesTheCameraWhileMeteringAndWaitsForIt) {
+  nlohmann::json patch = SmallLabLamp();
+  patch["faults"] = {
+      {"camera",
+       {{"disconnect", {{"calls", {3}}}}, {"disconnect_failed_reopens", 1}}}};
+  StartSim(patch);
+  ASSERT_EQ(Cli({"session", "create", "drop"}).exit_code, 0);
+  CommandResult run = Cli({"capture", "stereo", "drop", "--auto", "--watch"});
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err << daemon_log();
+  EXPECT_THAT(run.out, HasSubstr("suspended: camera disconnected"));
+  const nlohmann::json job = Job(1);
+  EXPECT_EQ(job["state"], "JOB_STATE_SUCCEEDED");
+  EXPECT_EQ(
+      EventsLike("metering the left view: probe at %: the camera "
+                 "dropped (capturing: camera disconnected during transfer "
+                 "(simulated fault, call 3)); the probe is taken again "
+                 "once it is back"),
+      1)
+      << run.out;
+  EXPECT_EQ(EventsLike("suspended: camera disconnected"), 1);
+  EXPECT_EQ(EventsLike("resumed: the condition cleared"), 1);
+  const std::vector<double> chosen = ChosenExposures(job);
+  ASSERT_GE(chosen.size(), 2u) << job;
+  EXPECT_EQ(job["auto_bracket"]["coverage"].get<double>(), 1.0);
+  ExpectConsistentStore("drop", 2 * static_cast<int>(chosen.size()) + 1);
+}
+
 TEST_F(CaptureTest, AutoBracketRefusesASceneBeyondTheCameraUnlessLampsGo) {
   // A lamp at 2e6 cd/m^2 saturates even at 1/8000 s.
   nlohmann::json patch = SmallLabLamp();
