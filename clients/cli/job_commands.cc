@@ -285,7 +285,7 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
   auto_flag->excludes(stereo->get_option("--exposures"));
   stereo
       ->add_option("--min-snr", args->min_snr,
-                   "--auto: per-sample SNR [default: the daemon's, ISO "
+                   "--auto: per-sample SNR, 10 .. 1000 [default: 40, ISO "
                    "12232 \"excellent\"]")
       ->needs(auto_flag);
   stereo
