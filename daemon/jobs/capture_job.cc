@@ -1116,14 +1116,9 @@ absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
   if (disk != nullptr) {
     // A metered plan's frames are known at the rig: until then the room is
     // that of the default bracket (and the rest is checked at every frame).
-    v1::CapturePlan typical = normal;
-    if (metered) {
-      for (double e : v1::kDefaultStereoExposuresS) {
-        typical.mutable_bracketed_stereo()->add_exposures_s(e);
-      }
-    }
     RETURN_IF_ERROR(disk->CheckRoomFor(
-        kind, static_cast<int64_t>(ExpandPlan(typical, limits, 0).size())));
+        kind, static_cast<int64_t>(
+                  ExpandPlan(WithDefaultExposures(normal), limits, 0).size())));
   }
   return engine.Submit(
       store::JobKind::kCapture, session, normal.SerializeAsString(),

@@ -104,6 +104,14 @@ v1::CapturePlan WithChosenExposures(v1::CapturePlan plan,
   return plan;
 }
 
+v1::CapturePlan WithDefaultExposures(v1::CapturePlan plan) {
+  if (!ChoosesExposuresAtTheRig(plan)) return plan;
+  for (double e : v1::kDefaultStereoExposuresS) {
+    plan.mutable_bracketed_stereo()->add_exposures_s(e);
+  }
+  return plan;
+}
+
 void ToProto(const hdr::AutoBracketResult& chosen, v1::AutoBracketChoice* out) {
   for (double e : chosen.exposures_s) out->add_exposures_s(e);
   out->set_reason(chosen.Reason());

@@ -61,6 +61,10 @@ hdr::AutoBracketOptions AutoBracketOptionsOf(
 // The plan with the exposures automatic bracketing chose.
 v1::CapturePlan WithChosenExposures(v1::CapturePlan plan,
                                     const hdr::AutoBracketResult& chosen);
+// A plan that chooses its exposures at the rig with the thesis' default
+// bracket in their place (other plans as they are): the frames room on
+// disk is promised for until it has chosen.
+v1::CapturePlan WithDefaultExposures(v1::CapturePlan plan);
 // The choice as the wire shows it (Job.auto_bracket).
 void ToProto(const hdr::AutoBracketResult& chosen, v1::AutoBracketChoice* out);
 
