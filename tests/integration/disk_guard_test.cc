@@ -20,8 +20,6 @@ namespace {
 namespace fs = std::filesystem;
 using ::hdrstereo::testing::CommandResult;
 using ::hdrstereo::testing::JsonInt;
-using ::hdrstereo::testing::Process;
-using ::hdrstereo::testing::ReadFileOrDie;
 using ::hdrstereo::testing::SmallLabLamp;
 using ::testing::HasSubstr;
 
