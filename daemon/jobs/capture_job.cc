@@ -309,11 +309,12 @@ struct DiskNeed {
 
 // Why the next frame cannot be taken now ("" when it can): the suspenders,
 // asked at every frame boundary. `projector`: the one the plan needs
-// (structured light), else nullptr.
+// (structured light), else nullptr. The queries are device calls, timed in
+// `devices` like the others.
 std::string BlockingCondition(const CaptureConditions& conditions,
                               hardware::Camera& camera, hardware::Stage& stage,
                               hardware::Projector* projector,
-                              const DiskNeed& disk_need) {
+                              const DiskNeed& disk_need, DeviceLog& devices) {
   // A camera that dropped is being reopened (ReconnectingCamera): wait.
   if (const hardware::ConnectionState link = camera.Connection();
       !link.connected) {
@@ -323,7 +324,8 @@ std::string BlockingCondition(const CaptureConditions& conditions,
   // Info() reads the camera's whole configuration on gphoto2 (slow), so it
   // is asked only when the battery is watched.
   if (conditions.min_battery_percent > 0) {
-    absl::StatusOr<hardware::CameraInfo> info = camera.Info();
+    absl::StatusOr<hardware::CameraInfo> info =
+        devices.Time(store::Device::kCamera, [&] { return camera.Info(); });
     if (!info.ok()) {
       return absl::StrCat("the camera does not answer: ",
                           info.status().message());
@@ -335,7 +337,8 @@ std::string BlockingCondition(const CaptureConditions& conditions,
                           conditions.min_battery_percent, "%");
     }
   }
-  absl::StatusOr<hardware::StageState> state = stage.State();
+  absl::StatusOr<hardware::StageState> state =
+      devices.Time(store::Device::kStage, [&] { return stage.State(); });
   if (!state.ok()) {
     return absl::StrCat("the stage does not read back: ",
                         state.status().message());
@@ -349,7 +352,9 @@ std::string BlockingCondition(const CaptureConditions& conditions,
                         absl::StrJoin(warnings, " "));
   }
   if (projector != nullptr) {
-    if (absl::Status s = projector->Check(); !s.ok()) {
+    if (absl::Status s = devices.Time(store::Device::kProjector,
+                                      [&] { return projector->Check(); });
+        !s.ok()) {
       return absl::StrCat("the projector is lost: ", s.message());
     }
   }
@@ -866,7 +871,8 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
                 BlockingCondition(conditions, camera, stage, watched_projector,
                                   {.frames = frames_left(),
                                    .bytes_per_frame = frame_size.bytes(),
-                                   .write_failure = write_failure});
+                                   .write_failure = write_failure},
+                                  devices);
             was_suspended = was_suspended || !why.empty();
             return why;
           },

@@ -5,7 +5,7 @@
 // else the guess), what the rest of a running capture needs and the reason
 // that names both numbers, and the rule that a frame boundary does not count
 // the space promised to unfinished captures. The real filesystem cases are
-// DiskGuardTest in tests/integration/capture_test.cc.
+// DiskGuardTest in tests/integration/disk_guard_test.cc.
 #include "daemon/jobs/disk_guard.h"
 
 #include <gmock/gmock.h>
