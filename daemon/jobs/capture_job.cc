@@ -533,8 +533,8 @@ absl::StatusOr<v1::CapturePlan> ChooseExposures(
       bool was_suspended = false;
       RETURN_IF_ERROR(context.SuspendWhile(
           [&] {
-            std::string why =
-                BlockingCondition(conditions, camera, stage, nullptr, {});
+            std::string why = BlockingCondition(conditions, camera, stage,
+                                                nullptr, {}, devices);
             was_suspended = was_suspended || !why.empty();
             return why;
           },
