@@ -2,16 +2,38 @@
 #include "daemon/config.h"
 
 #include <CLI/CLI.hpp>
+#include <map>
+#include <vector>
 
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "daemon/rpc/roles.h"
 #include "hdrstereo_version.h"
 #include "processing/base/status_macros.h"
 
 namespace hdrstereo::daemon {
 namespace {
+
+// An option whose words name an enum's values. CLI11's CheckedTransformer
+// would do, but its error lists the enum's integers; this one names the words.
+template <typename Enum>
+CLI::Validator OneOf(const std::map<std::string, Enum>& words) {
+  std::vector<std::string> names;
+  for (const auto& [name, value] : words) names.push_back(name);
+  const std::string list = absl::StrJoin(names, ", ");
+  return CLI::Validator(
+      [words, list](std::string& input) -> std::string {
+        const auto it = words.find(input);
+        if (it == words.end()) {
+          return absl::StrCat("'", input, "' is not one of ", list);
+        }
+        input = std::to_string(static_cast<int>(it->second));
+        return "";
+      },
+      "{" + list + "}");
+}
 
 // CLI11's TOML reader maps sections to subcommands; hdrstereod has none, so
 // the [tls], [processing], [slurm] and [auth] sections are turned into the
@@ -104,6 +126,10 @@ absl::Status ValidateTls(const TlsConfig& tls) {
 
 }  // namespace
 
+const char* ProcessingBackendName(ProcessingBackend backend) {
+  return backend == ProcessingBackend::kSlurm ? "slurm" : "local";
+}
+
 bool IsLocalAddress(const std::string& address) {
   if (absl::StartsWith(address, "unix:")) return true;
   const std::string host = address.substr(0, address.rfind(':'));
@@ -179,8 +205,10 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
                  "Folder holding hdrstereo.db and the session folders")
       ->capture_default_str();
   app.add_option("--hardware", config.hardware, "Devices to drive")
-      ->check(CLI::IsMember({"sim", "real"}))
-      ->capture_default_str();
+      ->transform(OneOf(std::map<std::string, hardware::HardwareMode>{
+          {"sim", hardware::HardwareMode::kSim},
+          {"real", hardware::HardwareMode::kReal}}))
+      ->default_str(hardware::HardwareModeName(config.hardware));
   app.add_option("--log-file", config.log_file,
                  "Rotating log file [default: DATA_ROOT/logs/hdrstereod.log]");
   app.add_option("--log-level", config.log_level, "Console and file log level")
@@ -195,8 +223,10 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
   app.add_option("--processing-backend", config.processing_backend,
                  "Where processing jobs run: in this process, or as Slurm "
                  "batch jobs ([slurm] options)")
-      ->check(CLI::IsMember({"local", "slurm"}))
-      ->capture_default_str();
+      ->transform(OneOf(std::map<std::string, ProcessingBackend>{
+          {"local", ProcessingBackend::kLocal},
+          {"slurm", ProcessingBackend::kSlurm}}))
+      ->default_str(ProcessingBackendName(config.processing_backend));
   app.add_option("--max-cluster-jobs", config.max_cluster_jobs,
                  "Slurm backend: processing jobs on the cluster at once")
       ->check(CLI::Range(1, 10000))
@@ -361,7 +391,8 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
         config.camera_reconnect_max_s,
         ", the longest wait between two attempts at finding the camera"));
   }
-  if (!config.camera_dump.empty() && config.hardware != "real") {
+  if (!config.camera_dump.empty() &&
+      config.hardware != hardware::HardwareMode::kReal) {
     return absl::InvalidArgumentError(
         "--camera-dump replays a real camera for the real camera driver: "
         "use it with --hardware real");

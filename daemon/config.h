@@ -16,6 +16,7 @@
 
 #include "absl/status/statusor.h"
 #include "daemon/processing/slurm_cli.h"
+#include "hardware/rig.h"
 
 namespace hdrstereo::daemon {
 
@@ -31,23 +32,26 @@ struct TlsConfig {
   bool enabled() const { return !cert.empty(); }
 };
 
+// Where processing jobs run. kLocal: in this process, processing_threads at
+// once; kSlurm: each is a Slurm batch job (daemon/jobs/slurm_processing.h),
+// at most max_cluster_jobs at once. "local" / "slurm" in the configuration.
+enum class ProcessingBackend { kLocal, kSlurm };
+const char* ProcessingBackendName(ProcessingBackend backend);
+
 struct Config {
   // Each address is HOST:PORT or unix:PATH. Loopback addresses and unix
   // sockets are served without TLS to the principal "local"; any other
   // address only with TLS.
   std::vector<std::string> listen = {"127.0.0.1:50051"};
   std::filesystem::path data_root = "data";
-  std::string hardware = "sim";    // "sim" or "real"
+  hardware::HardwareMode hardware = hardware::HardwareMode::kSim;
   std::filesystem::path log_file;  // empty = <data_root>/logs/hdrstereod.log
   std::string log_level = "info";
   // Written (atomically) with the bound address once the server is serving;
   // lets scripts and tests use --listen 127.0.0.1:0.
   std::filesystem::path ready_file;
   int processing_threads = 2;
-  // "local": processing jobs run in this process, processing_threads at
-  // once; "slurm": each is a Slurm batch job (daemon/jobs/slurm_processing.h),
-  // at most max_cluster_jobs at once.
-  std::string processing_backend = "local";
+  ProcessingBackend processing_backend = ProcessingBackend::kLocal;
   int max_cluster_jobs = 16;
   slurm::SlurmOptions slurm;
   // The disk guard (daemon/jobs/disk_guard.h): free space kept in reserve,

@@ -33,14 +33,8 @@ hardware::Slot<Device> Slot(absl::StatusOr<std::unique_ptr<Device>> device,
   return {.device = nullptr, .error = device.status()};
 }
 
-// The configuration's names are checked when it is read (config.cc).
-hardware::HardwareMode ModeOf(const Config& config) {
-  return hardware::ParseHardwareMode(config.hardware)
-      .value_or(hardware::HardwareMode::kReal);
-}
-
 hardware::RigConfig RigConfigOf(const Config& config) {
-  return {.mode = ModeOf(config),
+  return {.mode = config.hardware,
           .home_position_mm = config.home_position_mm,
           .max_baseline_mm = config.stage_travel_mm};
 }
@@ -229,7 +223,7 @@ absl::StatusOr<std::unique_ptr<Hardware>> SetUpReal(const Config& config) {
 }  // namespace
 
 absl::StatusOr<std::unique_ptr<Hardware>> SetUpHardware(const Config& config) {
-  if (ModeOf(config) == hardware::HardwareMode::kSim) {
+  if (config.hardware == hardware::HardwareMode::kSim) {
     return SetUpSimulation(config, [&config](sim::SimWorld& world) {
       return SimulatedCamera(config, world);
     });

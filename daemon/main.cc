@@ -67,7 +67,7 @@ int main(int argc, char** argv) {
 
   if (!SetUpLogging(config)) return 1;
   spdlog::info("hdrstereod {} starting (hardware: {})", HDRSTEREO_VERSION,
-               config.hardware);
+               hdrstereo::hardware::HardwareModeName(config.hardware));
 
   absl::StatusOr<std::unique_ptr<hdrstereo::daemon::Server>> server =
       hdrstereo::daemon::Server::Start(config);

@@ -88,8 +88,10 @@ const std::vector<std::string>& ServedServices() {
 jobs::ProcessingEnvironment ProcessingEnvironmentFor(const Config& config) {
   jobs::ProcessingEnvironment environment;
   environment.threads = config.processing_threads;
-  if (config.processing_backend == "slurm") environment.slurm = config.slurm;
-  if (config.hardware == "sim") {
+  if (config.processing_backend == ProcessingBackend::kSlurm) {
+    environment.slurm = config.slurm;
+  }
+  if (config.hardware == hardware::HardwareMode::kSim) {
     environment.summary.emplace_back(
         "hardware", absl::StrCat("simulated (scene ", config.sim_scene,
                                  "), Zaber stage emulated on a pty"));
@@ -149,17 +151,18 @@ Server::Server(std::unique_ptr<store::Store> store,
             return jobs::RunProcessingJob(*rig, environment, context);
           },
           // On Slurm a pool thread only follows its batch job.
-          {.processing_threads = config.processing_backend == "slurm"
-                                     ? config.max_cluster_jobs
-                                     : config.processing_threads,
+          {.processing_threads =
+               config.processing_backend == ProcessingBackend::kSlurm
+                   ? config.max_cluster_jobs
+                   : config.processing_threads,
            .resume_interrupted = config.resume_interrupted}),
       webhooks_(*store_, webhook_signer_, engine_, WebhookOptionsFor(config)),
       disk_guard_(*store_,
                   {.margin_bytes = config.disk_margin_mb << 20,
                    .processing_headroom = 1.0,
                    .frame_bytes_guess = config.frame_bytes_guess_mb << 20}),
-      server_service_(*store_, disk_guard_, authenticator_, config.hardware,
-                      absl::Now()),
+      server_service_(*store_, disk_guard_, authenticator_,
+                      hardware::HardwareModeName(config.hardware), absl::Now()),
       sessions_service_(*store_),
       hardware_service_(*hardware_->rig, *rig_lock_, authenticator_, engine_),
       jobs_service_(engine_, *hardware_->rig, disk_guard_, authenticator_),

@@ -9,6 +9,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
@@ -66,6 +67,10 @@ struct CameraInfo {
   int battery_percent = -1;  // -1 when unknown
   double min_exposure_s = 0;
   double max_exposure_s = 0;
+  // The timed exposures the camera offers (gphoto2's `shutterspeed`
+  // choices), ascending; empty when it takes any exposure in [min, max]
+  // (the simulator).
+  std::vector<double> shutter_speeds_s;
 };
 
 // Where the camera put a file before it was downloaded.

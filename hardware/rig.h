@@ -9,9 +9,7 @@
 #include <memory>
 #include <mutex>
 #include <opencv2/core.hpp>
-#include <optional>
 #include <string>
-#include <string_view>
 
 #include "absl/status/status.h"
 #include "hardware/camera.h"
@@ -25,11 +23,6 @@ enum class HardwareMode { kSim, kReal };
 // "sim", "real" (as in the daemon's configuration).
 inline const char* HardwareModeName(HardwareMode mode) {
   return mode == HardwareMode::kSim ? "sim" : "real";
-}
-inline std::optional<HardwareMode> ParseHardwareMode(std::string_view name) {
-  if (name == "sim") return HardwareMode::kSim;
-  if (name == "real") return HardwareMode::kReal;
-  return std::nullopt;
 }
 
 struct RigConfig {

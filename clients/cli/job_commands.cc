@@ -67,6 +67,36 @@ void PrintJob(const v1::Job& job) {
             : absl::StrCat(job.instruction(), " (hdrstereo jobs continue ",
                            job.id(), ")")},
        {"error", job.error().empty() ? "-" : job.error()}});
+  if (!job.capture().bracketed_stereo().has_auto_bracket()) return;
+  const v1::AutoBracketChoice& chosen = job.auto_bracket();
+  if (chosen.exposures_s().empty()) {
+    std::cout << "auto bracket  not chosen yet (the scene is metered when the "
+                 "capture starts)\n";
+    return;
+  }
+  std::vector<std::string> exposures;
+  for (double e : chosen.exposures_s()) exposures.push_back(FormatExposure(e));
+  PrintFields(
+      std::cout,
+      {{"auto bracket",
+        absl::StrFormat("%d exposures (the thesis' fixed bracket has %d): %s",
+                        chosen.exposures_s_size(),
+                        v1::kDefaultStereoExposuresS.size(),
+                        absl::StrJoin(exposures, ", "))},
+       {"scene range", absl::StrFormat("%.1f stops (the camera covers %.1f)",
+                                       chosen.scene_range_stops(),
+                                       chosen.camera_range_stops())},
+       {"coverage",
+        absl::StrFormat("%.2f %% of the non-emitter pixels at SNR >= %g",
+                        100 * chosen.coverage(), chosen.min_snr())},
+       {"emitters",
+        absl::StrFormat("%d pixels (%.2f %%) excluded", chosen.emitter_pixels(),
+                        100 * chosen.emitter_fraction())},
+       {"sensor noise",
+        absl::StrFormat("full well %.0f e-, read noise %.1f e- (%d probes)",
+                        chosen.full_well_e(), chosen.read_noise_e(),
+                        chosen.probes())},
+       {"reason", chosen.reason()}});
 }
 
 // Ctrl-C while watching leaves the job running on the daemon.
@@ -179,6 +209,9 @@ int Submit(const Client& client, const v1::SubmitCaptureRequest& request,
   if (!status.ok()) return client.Fail(status);
   if (client.options().json) {
     PrintJson(std::cout, job);
+  } else if (request.plan().bracketed_stereo().has_auto_bracket()) {
+    std::cout << "job " << job.id() << " queued in session " << job.session()
+              << ": its exposures are chosen by metering the scene first\n";
   } else {
     std::cout << "job " << job.id() << " queued: " << job.progress().total()
               << " frames in session " << job.session() << "\n";
@@ -206,6 +239,11 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
     int iso = 0;
     int poses = 0;
     bool no_ambient = false;
+    bool auto_bracket = false;
+    double min_snr = 0;
+    double exclude_emitters_above = 0;
+    double max_uncovered = 0;
+    std::string max_exposure;
     bool probe_projector = false;
     bool round_to_refresh = false;
     bool watch = false;
@@ -244,6 +282,33 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
   stereo->add_option("--iso", args->iso, "ISO [default: camera's]");
   stereo->add_flag("--no-ambient", args->no_ambient,
                    "Skip the ambient frame taken first");
+  CLI::Option* auto_flag = stereo->add_flag(
+      "--auto", args->auto_bracket,
+      "Choose the exposures at the rig: meter each view with probe frames "
+      "and take the fewest shutter speeds that give every pixel a "
+      "well-exposed sample");
+  auto_flag->excludes(stereo->get_option("--exposures"));
+  stereo
+      ->add_option("--min-snr", args->min_snr,
+                   "--auto: per-sample SNR, 10 .. 1000 [default: 40, ISO "
+                   "12232 \"excellent\"]")
+      ->needs(auto_flag);
+  stereo
+      ->add_option("--exclude-emitters-above", args->exclude_emitters_above,
+                   "--auto: pixels brighter than this many times their "
+                   "view's median are emitters, excluded and reported "
+                   "[default: none excluded]")
+      ->needs(auto_flag);
+  stereo
+      ->add_option("--max-uncovered", args->max_uncovered,
+                   "--auto: fraction of the other pixels that may stay "
+                   "uncovered [default: 0]")
+      ->needs(auto_flag);
+  stereo
+      ->add_option("--max-exposure", args->max_exposure,
+                   "--auto: longest exposure, e.g. 1/4 [default: the "
+                   "camera's longest]")
+      ->needs(auto_flag);
   stereo->callback([&options, exit_code, args, exposures] {
     Client client(options);
     v1::SubmitCaptureRequest request;
@@ -259,6 +324,22 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
     plan->set_views(args->views);
     plan->set_iso(args->iso);
     plan->set_skip_ambient(args->no_ambient);
+    if (args->auto_bracket) {
+      v1::AutoBracket* a = plan->mutable_auto_bracket();
+      a->set_min_snr(args->min_snr);
+      a->set_exclude_emitters_above(args->exclude_emitters_above);
+      a->set_max_uncovered_fraction(args->max_uncovered);
+      if (!args->max_exposure.empty()) {
+        absl::StatusOr<double> longest = ParseExposure(args->max_exposure);
+        if (!longest.ok()) {
+          std::cerr << "hdrstereo: --max-exposure: "
+                    << longest.status().message() << "\n";
+          *exit_code = kExitUsage;
+          return;
+        }
+        a->set_max_exposure_s(*longest);
+      }
+    }
     *exit_code = Submit(client, request, args->watch);
   });
 

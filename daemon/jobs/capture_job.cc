@@ -5,8 +5,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <future>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
 #include <set>
@@ -26,8 +28,10 @@
 #include "hardware/reconnecting_camera.h"
 #include "processing/base/status_macros.h"
 #include "processing/calib/stereo_calibration.h"
+#include "processing/hdr/merge.h"
 #include "processing/io/atomic_file.h"
 #include "processing/io/capture_layout.h"
+#include "processing/io/image.h"
 #include "processing/io/sha256.h"
 
 namespace hdrstereo::jobs {
@@ -344,6 +348,11 @@ absl::Status InStep(absl::string_view step, const absl::Status& status) {
   });
   return in_step;
 }
+template <typename T>
+absl::StatusOr<T> InStep(absl::string_view step, absl::StatusOr<T> result) {
+  if (result.ok()) return result;
+  return InStep(step, result.status());
+}
 
 // The failed attempts at one frame (or at parking the rig): a transient
 // device fault (IsTransientDeviceError) is warned about, counted as the
@@ -417,11 +426,12 @@ struct DiskNeed {
 
 // Why the next frame cannot be taken now ("" when it can): the suspenders,
 // asked at every frame boundary. `projector`: the one the plan needs
-// (structured light), else nullptr.
+// (structured light), else nullptr. The queries are device calls, timed in
+// `devices` like the others.
 std::string BlockingCondition(const CaptureConditions& conditions,
                               hardware::Camera& camera, hardware::Stage& stage,
                               hardware::Projector* projector,
-                              const DiskNeed& disk_need) {
+                              const DiskNeed& disk_need, DeviceLog& devices) {
   // A camera that dropped is being reopened (ReconnectingCamera): wait.
   if (const hardware::ConnectionState link = camera.Connection();
       !link.connected) {
@@ -431,7 +441,8 @@ std::string BlockingCondition(const CaptureConditions& conditions,
   // Info() reads the camera's whole configuration on gphoto2 (slow), so it
   // is asked only when the battery is watched.
   if (conditions.min_battery_percent > 0) {
-    absl::StatusOr<hardware::CameraInfo> info = camera.Info();
+    absl::StatusOr<hardware::CameraInfo> info =
+        devices.Time(store::Device::kCamera, [&] { return camera.Info(); });
     if (!info.ok()) {
       return absl::StrCat("the camera does not answer: ",
                           info.status().message());
@@ -443,7 +454,8 @@ std::string BlockingCondition(const CaptureConditions& conditions,
                           conditions.min_battery_percent, "%");
     }
   }
-  absl::StatusOr<hardware::StageState> state = stage.State();
+  absl::StatusOr<hardware::StageState> state =
+      devices.Time(store::Device::kStage, [&] { return stage.State(); });
   if (!state.ok()) {
     return absl::StrCat("the stage does not read back: ",
                         state.status().message());
@@ -457,7 +469,9 @@ std::string BlockingCondition(const CaptureConditions& conditions,
                         absl::StrJoin(warnings, " "));
   }
   if (projector != nullptr) {
-    if (absl::Status s = projector->Check(); !s.ok()) {
+    if (absl::Status s = devices.Time(store::Device::kProjector,
+                                      [&] { return projector->Check(); });
+        !s.ok()) {
       return absl::StrCat("the projector is lost: ", s.message());
     }
   }
@@ -471,6 +485,241 @@ std::string BlockingCondition(const CaptureConditions& conditions,
     }
   }
   return "";
+}
+
+// One linear probe of automatic bracketing at `exposure_s`, the stage at
+// the view's position: in 16-bit TIFF where the camera offers it (the
+// simulator), else RAW (LibRaw decodes it linear); written to the job's
+// folder (jobs/<job>/probes/, kept for people, never a frame of the
+// dataset) and returned as float, full scale 1.
+class ProbeCamera {
+ public:
+  ProbeCamera(JobContext& context, hardware::Camera& camera, DeviceLog& devices,
+              const BaseSettings& base)
+      : context_(context), camera_(camera), devices_(devices), base_(base) {}
+
+  absl::StatusOr<cv::Mat> Take(absl::string_view view, double exposure_s) {
+    ASSIGN_OR_RETURN(const hardware::ExposureSettings applied,
+                     Configure(exposure_s));
+    ASSIGN_OR_RETURN(
+        const hardware::Frame frame,
+        InStep("capturing", devices_.Sample(store::Device::kCamera, [&] {
+          return camera_.Capture();
+        })));
+    const std::string relative = absl::StrFormat(
+        "jobs/%d/probes/%s/%02d_%s.%s", context_.job().id, view, ++taken_,
+        io::ExposureTag(applied.exposure_s), frame.extension);
+    RETURN_IF_ERROR(context_.store().files().WriteSessionFile(
+        context_.job().session, relative, frame.bytes));
+    ASSIGN_OR_RETURN(const io::DecodedImage decoded,
+                     io::DecodeImageFile(context_.store().files().SessionDir(
+                                             context_.job().session) /
+                                         relative));
+    if (decoded.pixels.depth() != CV_16U) {
+      return absl::DataLossError(absl::StrCat(
+          "probe ", relative, " is not 16-bit: it cannot be read as linear"));
+    }
+    return io::ToFloat(decoded.pixels);
+  }
+
+ private:
+  absl::StatusOr<hardware::ExposureSettings> Configure(double exposure_s) {
+    auto configure = [&](hardware::ImageFormat format) {
+      return InStep(
+          absl::StrCat("setting the exposure to ", io::ExposureTag(exposure_s)),
+          devices_.Time(store::Device::kCamera, [&] {
+            return camera_.Configure({.exposure_s = exposure_s,
+                                      .iso = base_.iso,
+                                      .aperture_f = base_.aperture_f,
+                                      .format = format});
+          }));
+    };
+    if (format_.has_value()) return configure(*format_);
+    absl::StatusOr<hardware::ExposureSettings> tiff =
+        configure(hardware::ImageFormat::kTiff16);
+    if (!absl::IsInvalidArgument(tiff.status())) {
+      format_ = hardware::ImageFormat::kTiff16;
+      return tiff;
+    }
+    absl::StatusOr<hardware::ExposureSettings> raw =
+        configure(hardware::ImageFormat::kRaw);
+    if (absl::IsInvalidArgument(raw.status())) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "automatic bracketing meters with linear probes, 16-bit TIFF or "
+          "RAW, and the camera offers neither: ",
+          tiff.status().message(), "; ", raw.status().message()));
+    }
+    format_ = hardware::ImageFormat::kRaw;
+    return raw;
+  }
+
+  JobContext& context_;
+  hardware::Camera& camera_;
+  DeviceLog& devices_;
+  const BaseSettings& base_;
+  std::optional<hardware::ImageFormat> format_;  // decided by the first
+  int taken_ = 0;
+};
+
+// The exposures of a plan with auto_bracket: those its capture chose
+// before (a resumed or resubmitted capture takes the same frames), else
+// the scene is metered now (hdr::MeterAndChoose; probes at most
+// kMaxAttemptsPerFrame times after transient faults), the choice refused
+// when it leaves too much uncovered (hdr::AcceptCoverage: the job fails
+// before any frame) and recorded with the capture.
+absl::StatusOr<v1::CapturePlan> ChooseExposures(
+    JobContext& context, store::FrameRepository& frames,
+    const store::CaptureRecord& capture, hardware::Camera& camera,
+    hardware::Stage& stage, hardware::Projector* projector, DeviceLog& devices,
+    const CaptureConditions& conditions,
+    const std::function<absl::Status(double)>& place_stage,
+    const std::function<void()>& after_suspension, const v1::CapturePlan& plan,
+    const RigLimits& limits, const BaseSettings& base) {
+  if (!capture.auto_bracket.empty()) {
+    absl::StatusOr<hdr::AutoBracketResult> chosen =
+        hdr::AutoBracketFromJson(capture.auto_bracket);
+    if (!chosen.ok()) {
+      return absl::DataLossError(absl::StrCat("capture ", capture.id, ": ",
+                                              chosen.status().message()));
+    }
+    context.Info(
+        absl::StrCat("automatic bracket chosen before: ", chosen->Reason()));
+    return WithChosenExposures(plan, *chosen);
+  }
+  const v1::BracketedStereoPlan& stereo = plan.bracketed_stereo();
+  const hdr::AutoBracketOptions options =
+      AutoBracketOptionsOf(stereo.auto_bracket());
+  ASSIGN_OR_RETURN(const hardware::CameraInfo info,
+                   InStep("asking the camera for its shutter speeds",
+                          devices.Time(store::Device::kCamera,
+                                       [&] { return camera.Info(); })));
+  std::vector<double> choices =
+      info.shutter_speeds_s.empty()
+          ? hdr::ThirdStopShutterSpeeds(info.min_exposure_s,
+                                        info.max_exposure_s)
+          : info.shutter_speeds_s;
+  if (options.max_exposure_s > 0) {
+    std::erase_if(choices, [&](double t) {
+      return t > options.max_exposure_s * (1 + 1e-9);
+    });
+  }
+  if (choices.empty()) {
+    return absl::FailedPreconditionError(absl::StrFormat(
+        "automatic bracketing has no shutter speed to choose from: the "
+        "camera offers %g .. %g s%s",
+        info.min_exposure_s, info.max_exposure_s,
+        options.max_exposure_s > 0
+            ? absl::StrFormat(", auto_bracket.max_exposure_s is %g s",
+                              options.max_exposure_s)
+            : ""));
+  }
+  // The frames come in the camera's own format again afterwards.
+  ASSIGN_OR_RETURN(
+      const hardware::ExposureSettings before,
+      devices.Time(store::Device::kCamera, [&] { return camera.Settings(); }));
+  absl::Cleanup restore = [&] {
+    devices
+        .Time(store::Device::kCamera,
+              [&] {
+                return camera.Configure(
+                    {.exposure_s = before.exposure_s, .format = before.format});
+              })
+        .IgnoreError();
+  };
+  if (projector != nullptr) {
+    RETURN_IF_ERROR(InStep("blanking the projector",
+                           devices.Sample(store::Device::kProjector,
+                                          [&] { return projector->Blank(); })));
+  }
+  RETURN_IF_ERROR(InStep("preparing the camera",
+                         devices
+                             .Time(store::Device::kCamera,
+                                   [&] { return camera.PrepareCaptureGroup(); })
+                             .status()));
+  ProbeCamera probes(context, camera, devices, base);
+  bool prepare_again = false;  // after the camera dropped
+  auto take = [&](int view, double exposure_s) -> absl::StatusOr<cv::Mat> {
+    const std::string name = io::ViewName(view, stereo.views());
+    const std::string what = absl::StrCat(
+        "metering the ", name, " view: probe at ", io::ExposureTag(exposure_s));
+    for (int attempt = 1, drops = 0;;) {
+      RETURN_IF_ERROR(context.Checkpoint());
+      // The frames' suspenders hold for probes too: a rig unfit for a
+      // frame (camera gone or its battery low, stage flags, disk short) is
+      // waited for at this boundary, not probed.
+      bool was_suspended = false;
+      RETURN_IF_ERROR(context.SuspendWhile(
+          [&] {
+            std::string why = BlockingCondition(conditions, camera, stage,
+                                                nullptr, {}, devices);
+            was_suspended = was_suspended || !why.empty();
+            return why;
+          },
+          conditions.poll));
+      if (was_suspended) after_suspension();
+      RETURN_IF_ERROR(context.Progress(0, 0, what));
+      if (prepare_again) {
+        // A camera that came back has its own settings, perhaps files.
+        RETURN_IF_ERROR(
+            InStep("preparing the camera",
+                   devices
+                       .Time(store::Device::kCamera,
+                             [&] { return camera.PrepareCaptureGroup(); })
+                       .status()));
+        prepare_again = false;
+      }
+      const int64_t drops_before = camera.Connection().drops;
+      absl::Status placed =
+          place_stage(limits.home_position_mm + view * stereo.baseline_mm());
+      absl::StatusOr<cv::Mat> probe = placed.ok()
+                                          ? probes.Take(name, exposure_s)
+                                          : absl::StatusOr<cv::Mat>(placed);
+      if (probe.ok()) return probe;
+      // The camera went away: the probe is taken again once it is back
+      // (the boundary above waits), as a frame is.
+      if (const hardware::ConnectionState link = camera.Connection();
+          placed.ok() && (link.drops != drops_before || !link.connected)) {
+        if (drops >= kMaxDropsPerFrame) {
+          return store::WithEventKind(
+              absl::Status(
+                  probe.status().code(),
+                  absl::StrCat(what, ": the camera dropped ", drops + 1,
+                               " times while taking it; "
+                               "last: ",
+                               probe.status().message())),
+              store::EventKind::kCameraDisconnected);
+        }
+        context.Warn(
+            absl::StrCat(what, ": the camera dropped (",
+                         probe.status().message(),
+                         "); the probe is taken again once it is back"),
+            store::EventTag(store::EventKind::kCameraDisconnected));
+        ++drops;
+        prepare_again = true;
+        continue;
+      }
+      if (!IsTransientDeviceError(probe.status()) ||
+          attempt >= kMaxAttemptsPerFrame) {
+        return probe;
+      }
+      ++attempt;
+      context.Warn(absl::StrCat(what, ": ", probe.status().message(),
+                                "; taking it again (attempt ", attempt,
+                                " of at most ", kMaxAttemptsPerFrame, ")"),
+                   store::EventTag(store::EventKindOf(probe.status())));
+    }
+  };
+  absl::StatusOr<hdr::AutoBracketResult> chosen =
+      hdr::MeterAndChoose(stereo.views(), take, choices,
+                          hdr::MergeOptions().linear_saturation, options);
+  if (!chosen.ok()) return InStep("automatic bracketing", chosen.status());
+  RETURN_IF_ERROR(hdr::AcceptCoverage(*chosen, options));
+  RETURN_IF_ERROR(
+      frames.SetAutoBracket(capture.id, nlohmann::json(*chosen).dump()));
+  context.Info(absl::StrCat("automatic bracket: ", chosen->Reason(), " (",
+                            chosen->probes, " probe frames in jobs/",
+                            context.job().id, "/probes/)"));
+  return WithChosenExposures(plan, *chosen);
 }
 
 }  // namespace
@@ -535,33 +784,6 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   ASSIGN_OR_RETURN(store::CaptureRecord capture,
                    frames.CaptureForJob(job.id, kind, job.request));
   const fs::path session_dir = context.store().files().SessionDir(job.session);
-  const std::vector<FrameSpec> specs = ExpandPlan(plan, limits, capture.id);
-  absl::StatusOr<std::map<int, store::FrameRecord>> done =
-      VerifiedFrames(frames, capture.id, session_dir, context);
-  if (!done.ok()) return done.status();
-  RETURN_IF_ERROR(RemoveUnrecordedFiles(session_dir, capture.id, *done));
-  const bool calibration = plan.has_calibration();
-  const int poses = calibration ? plan.calibration().poses() : 0;
-  if (calibration) {
-    // A pose left half taken (the daemon stopped between its views) is
-    // taken again whole: the board may have moved meanwhile.
-    for (int pose = 0; pose < poses; ++pose) {
-      const int left = specs[2 * pose].sequence;
-      const int right = specs[2 * pose + 1].sequence;
-      if (done->contains(left) && !done->contains(right)) {
-        RETURN_IF_ERROR(DropFrame(frames, capture.id, left, session_dir));
-        done->erase(left);
-        context.Info(absl::StrCat("pose ", pose + 1, " of ", poses,
-                                  " was half taken; it is taken again"));
-      }
-    }
-  }
-  const int64_t total = static_cast<int64_t>(specs.size());
-  int64_t count = static_cast<int64_t>(done->size());
-  RETURN_IF_ERROR(context.Progress(
-      count, total,
-      count > 0 ? absl::StrCat("resuming: ", count, " frames already recorded")
-                : "preparing the rig"));
 
   // Whatever happens, leave the hardware safe.
   bool moved = false;
@@ -610,6 +832,48 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
     if (base.settle_s > 0) devices.Wait(absl::Seconds(base.settle_s));
     return absl::OkStatus();
   };
+  if (ChoosesExposuresAtTheRig(plan)) {
+    // After a suspension the stage may have been touched: home it again.
+    auto after_suspension = [&] {
+      home_first = true;
+      position = std::nan("");
+    };
+    ASSIGN_OR_RETURN(
+        plan, ChooseExposures(context, frames, capture, camera, stage,
+                              projector, devices, conditions, place_stage,
+                              after_suspension, plan, limits, base));
+  }
+  const std::vector<FrameSpec> specs = ExpandPlan(plan, limits, capture.id);
+  absl::StatusOr<std::map<int, store::FrameRecord>> done =
+      VerifiedFrames(frames, capture.id, session_dir, context);
+  if (!done.ok()) return done.status();
+  const std::vector<FrameSpec> specs = ExpandPlan(plan, limits, capture.id);
+  absl::StatusOr<std::map<int, store::FrameRecord>> done =
+      VerifiedFrames(frames, capture.id, session_dir, context);
+  if (!done.ok()) return done.status();
+  RETURN_IF_ERROR(RemoveUnrecordedFiles(session_dir, capture.id, *done));
+  const bool calibration = plan.has_calibration();
+  const int poses = calibration ? plan.calibration().poses() : 0;
+  if (calibration) {
+    // A pose left half taken (the daemon stopped between its views) is
+    // taken again whole: the board may have moved meanwhile.
+    for (int pose = 0; pose < poses; ++pose) {
+      const int left = specs[2 * pose].sequence;
+      const int right = specs[2 * pose + 1].sequence;
+      if (done->contains(left) && !done->contains(right)) {
+        RETURN_IF_ERROR(DropFrame(frames, capture.id, left, session_dir));
+        done->erase(left);
+        context.Info(absl::StrCat("pose ", pose + 1, " of ", poses,
+                                  " was half taken; it is taken again"));
+      }
+    }
+  }
+  const int64_t total = static_cast<int64_t>(specs.size());
+  int64_t count = static_cast<int64_t>(done->size());
+  RETURN_IF_ERROR(context.Progress(
+      count, total,
+      count > 0 ? absl::StrCat("resuming: ", count, " frames already recorded")
+                : "preparing the rig"));
   double exposure = std::nan("");
   hardware::ExposureSettings in_effect;  // as Configure last returned them
   // Every frame is checked against the camera's own report; frames
@@ -774,7 +1038,8 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
                 BlockingCondition(conditions, camera, stage, watched_projector,
                                   {.frames = frames_left(),
                                    .bytes_per_frame = frame_size.bytes(),
-                                   .write_failure = write_failure});
+                                   .write_failure = write_failure},
+                                  devices);
             was_suspended = was_suspended || !why.empty();
             return why;
           },
@@ -1052,14 +1317,23 @@ absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
   RETURN_IF_ERROR(CheckDevicesFor(normal, rig));
   const size_t frames = ExpandPlan(normal, limits, 0).size();
   const io::CaptureKind kind = *PlanKind(normal);
+  const bool metered = ChoosesExposuresAtTheRig(normal);
   if (disk != nullptr) {
-    RETURN_IF_ERROR(disk->CheckRoomFor(kind, static_cast<int64_t>(frames)));
+    // A metered plan's frames are known at the rig: until then the room is
+    // that of the default bracket (and the rest is checked at every frame).
+    RETURN_IF_ERROR(disk->CheckRoomFor(
+        kind, static_cast<int64_t>(
+                  ExpandPlan(WithDefaultExposures(normal), limits, 0).size())));
   }
-  return engine.Submit(store::JobKind::kCapture, session,
-                       normal.SerializeAsString(), static_cast<int64_t>(frames),
-                       absl::StrCat("queued ", io::CaptureKindName(kind),
-                                    " capture of ", frames, " frames"),
-                       submitted_by);
+  return engine.Submit(
+      store::JobKind::kCapture, session, normal.SerializeAsString(),
+      static_cast<int64_t>(frames),
+      metered ? absl::StrCat("queued ", io::CaptureKindName(kind),
+                             " capture; its exposures are chosen by metering "
+                             "the scene at the rig")
+              : absl::StrCat("queued ", io::CaptureKindName(kind),
+                             " capture of ", frames, " frames"),
+      submitted_by);
 }
 
 }  // namespace hdrstereo::jobs

@@ -7,6 +7,7 @@
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_replace.h"
 #include "daemon/jobs/projector_probe.h"
+#include "processing/base/options.h"
 #include "processing/base/status_macros.h"
 
 namespace hdrstereo::jobs {
@@ -69,7 +70,62 @@ absl::Status CheckCamera(int iso, double aperture_f, absl::string_view prefix) {
   return absl::OkStatus();
 }
 
+// Zero fields from hdr::AutoBracketOptions' defaults, then its rules.
+absl::Status NormalizeAutoBracket(v1::AutoBracket* a) {
+  const hdr::AutoBracketOptions defaults;
+  if (a->min_snr() == 0) a->set_min_snr(defaults.min_snr);
+  if (a->max_step_stops() == 0) a->set_max_step_stops(defaults.max_step_stops);
+  return WithFieldPrefix("bracketed_stereo.auto_bracket",
+                         AutoBracketOptionsOf(*a).Validate());
+}
+
 }  // namespace
+
+bool ChoosesExposuresAtTheRig(const v1::CapturePlan& plan) {
+  return plan.has_bracketed_stereo() &&
+         plan.bracketed_stereo().has_auto_bracket() &&
+         plan.bracketed_stereo().exposures_s().empty();
+}
+
+hdr::AutoBracketOptions AutoBracketOptionsOf(const v1::AutoBracket& a) {
+  return {.min_snr = a.min_snr(),
+          .max_step_stops = a.max_step_stops(),
+          .exclude_emitters_above = a.exclude_emitters_above(),
+          .max_uncovered_fraction = a.max_uncovered_fraction(),
+          .max_exposure_s = a.max_exposure_s()};
+}
+
+v1::CapturePlan WithChosenExposures(v1::CapturePlan plan,
+                                    const hdr::AutoBracketResult& chosen) {
+  google::protobuf::RepeatedField<double>* exposures =
+      plan.mutable_bracketed_stereo()->mutable_exposures_s();
+  exposures->Clear();
+  for (double e : chosen.exposures_s) exposures->Add(e);
+  return plan;
+}
+
+v1::CapturePlan WithDefaultExposures(v1::CapturePlan plan) {
+  if (!ChoosesExposuresAtTheRig(plan)) return plan;
+  for (double e : v1::kDefaultStereoExposuresS) {
+    plan.mutable_bracketed_stereo()->add_exposures_s(e);
+  }
+  return plan;
+}
+
+void ToProto(const hdr::AutoBracketResult& chosen, v1::AutoBracketChoice* out) {
+  for (double e : chosen.exposures_s) out->add_exposures_s(e);
+  out->set_reason(chosen.Reason());
+  out->set_scene_range_stops(chosen.SceneStops());
+  out->set_camera_range_stops(chosen.CameraStops());
+  out->set_coverage(chosen.Coverage());
+  out->set_pixels(chosen.pixels);
+  out->set_emitter_pixels(chosen.emitter_pixels);
+  out->set_emitter_fraction(chosen.EmitterFraction());
+  out->set_min_snr(chosen.min_snr);
+  out->set_full_well_e(chosen.noise.full_well_e);
+  out->set_read_noise_e(chosen.noise.read_noise_e);
+  out->set_probes(chosen.probes);
+}
 
 absl::StatusOr<io::CaptureKind> PlanKind(const v1::CapturePlan& plan) {
   switch (plan.plan_case()) {
@@ -94,7 +150,14 @@ absl::StatusOr<v1::CapturePlan> NormalizePlan(const v1::CapturePlan& plan,
       v1::BracketedStereoPlan* p = out.mutable_bracketed_stereo();
       RETURN_IF_ERROR(
           CheckExposures(p->exposures_s(), "bracketed_stereo.exposures_s"));
-      if (p->exposures_s().empty()) {
+      if (p->has_auto_bracket()) {
+        if (!p->exposures_s().empty()) {
+          return absl::InvalidArgumentError(
+              "bracketed_stereo: give exposures_s or auto_bracket, not both "
+              "(automatic bracketing chooses the exposures)");
+        }
+        RETURN_IF_ERROR(NormalizeAutoBracket(p->mutable_auto_bracket()));
+      } else if (p->exposures_s().empty()) {
         for (double e : v1::kDefaultStereoExposuresS) p->add_exposures_s(e);
       }
       if (p->views() == 0) p->set_views(v1::kDefaultViews);
@@ -196,7 +259,7 @@ std::vector<FrameSpec> ExpandPlan(const v1::CapturePlan& plan,
   switch (plan.plan_case()) {
     case v1::CapturePlan::kBracketedStereo: {
       const v1::BracketedStereoPlan& p = plan.bracketed_stereo();
-      if (!p.skip_ambient()) {
+      if (!p.skip_ambient() && !p.exposures_s().empty()) {
         // One frame of the scene as it is (projector dark) before anything
         // moves, at the middle of the bracket.
         const double mid = p.exposures_s(p.exposures_s_size() / 2);

@@ -14,6 +14,7 @@
 
 #include "absl/status/statusor.h"
 #include "hdrstereo/v1/jobs.pb.h"
+#include "processing/hdr/auto_bracket.h"
 #include "processing/io/capture_layout.h"
 #include "processing/structured_light/gray_code.h"
 #include "proto/hdrstereo/v1/capture_defaults.h"
@@ -45,12 +46,30 @@ struct FrameSpec {
   std::string relative_stem;
 };
 
-// Checks `plan` against the rig and fills in defaults. INVALID_ARGUMENT
-// naming the field for anything out of range; nothing is changed then.
+// Checks `plan` against the rig and fills in defaults (an auto_bracket's
+// from hdr::AutoBracketOptions). INVALID_ARGUMENT naming the field for
+// anything out of range; nothing is changed then.
 absl::StatusOr<v1::CapturePlan> NormalizePlan(const v1::CapturePlan& plan,
                                               const RigLimits& rig);
 
-// The frames of a normalised plan, in capture order.
+// Whether the plan's exposures are chosen at the rig (auto_bracket): its
+// frames are known only then (ExpandPlan after ChosenExposures).
+bool ChoosesExposuresAtTheRig(const v1::CapturePlan& plan);
+// The options of a normalised plan's auto_bracket.
+hdr::AutoBracketOptions AutoBracketOptionsOf(
+    const v1::AutoBracket& auto_bracket);
+// The plan with the exposures automatic bracketing chose.
+v1::CapturePlan WithChosenExposures(v1::CapturePlan plan,
+                                    const hdr::AutoBracketResult& chosen);
+// A plan that chooses its exposures at the rig with the thesis' default
+// bracket in their place (other plans as they are): the frames room on
+// disk is promised for until it has chosen.
+v1::CapturePlan WithDefaultExposures(v1::CapturePlan plan);
+// The choice as the wire shows it (Job.auto_bracket).
+void ToProto(const hdr::AutoBracketResult& chosen, v1::AutoBracketChoice* out);
+
+// The frames of a normalised plan, in capture order (a plan that chooses
+// its exposures at the rig has none before WithChosenExposures).
 std::vector<FrameSpec> ExpandPlan(const v1::CapturePlan& plan,
                                   const RigLimits& rig, int64_t capture_id);
 

@@ -148,8 +148,15 @@ absl::StatusOr<int64_t> DiskGuard::PendingCaptureBytes() const {
           !plan.ParseFromString(job.request)) {
         continue;
       }
-      const int64_t left =
+      int64_t left =
           std::max<int64_t>(0, job.progress_total - job.progress_done);
+      // A capture that has not metered its scene yet has no frames to
+      // count: it was admitted for the default bracket's, and is promised
+      // those until it has chosen.
+      if (job.progress_total == 0 && ChoosesExposuresAtTheRig(plan)) {
+        left = static_cast<int64_t>(
+            ExpandPlan(WithDefaultExposures(plan), {}, 0).size());
+      }
       ASSIGN_OR_RETURN(io::CaptureKind kind, PlanKind(plan));
       ASSIGN_OR_RETURN(int64_t needed, NeededBytes(kind, left));
       total += needed - options_.margin_bytes;  // one margin for all

@@ -37,7 +37,9 @@ namespace fs = std::filesystem;
 // A capture with the frames its plan expects and those recorded.
 struct CaptureState {
   store::CaptureRecord capture;
+  // With the exposures automatic bracketing chose, where it did.
   v1::CapturePlan plan;
+  std::optional<hdr::AutoBracketResult> auto_bracket;
   std::vector<store::FrameRecord> frames;
   std::vector<std::string> missing;  // relative stems, in capture order
 };
@@ -65,9 +67,23 @@ absl::StatusOr<std::vector<CaptureState>> ReadCaptures(
       return absl::DataLossError(
           absl::StrCat("the plan of capture ", capture.id, " cannot be read"));
     }
+    if (!capture.auto_bracket.empty()) {
+      absl::StatusOr<hdr::AutoBracketResult> chosen =
+          hdr::AutoBracketFromJson(capture.auto_bracket);
+      if (!chosen.ok()) {
+        return absl::DataLossError(absl::StrCat("capture ", capture.id, ": ",
+                                                chosen.status().message()));
+      }
+      state.plan = WithChosenExposures(state.plan, *chosen);
+      state.auto_bracket = std::move(*chosen);
+    }
     ASSIGN_OR_RETURN(std::vector<store::FrameRecord> frames,
                      repository.FramesOfCapture(capture.id));
     state.frames = std::move(frames);
+    if (ChoosesExposuresAtTheRig(state.plan)) {
+      state.missing.push_back(absl::StrCat(
+          io::CaptureDir(capture.id), " (its exposures are not chosen yet)"));
+    }
     std::set<int> recorded;
     for (const store::FrameRecord& f : state.frames) {
       recorded.insert(f.sequence);
@@ -517,8 +533,18 @@ absl::Status RunProcessingJob(const hardware::Rig& rig,
                       inputs.stereo->frames.size(),
                       stereo_plan.views() > 0 ? stereo_plan.views() : 2,
                       stereo_plan.baseline_mm()));
-  input.capture_summary.emplace_back("exposures",
-                                     ExposureList(*inputs.stereo));
+  input.capture_summary.emplace_back("exposures", ExposureList(*inputs.stereo));
+  if (inputs.stereo->auto_bracket.has_value()) {
+    for (auto& row : inputs.stereo->auto_bracket->SummaryRows()) {
+      input.capture_summary.push_back(std::move(row));
+    }
+    input.capture_summary.emplace_back(
+        "fixed bracket (thesis)",
+        absl::StrFormat("%d exposures, 1/%.0f .. 1/%.0f s",
+                        v1::kDefaultStereoExposuresS.size(),
+                        1 / v1::kDefaultStereoExposuresS.back(),
+                        1 / v1::kDefaultStereoExposuresS.front()));
+  }
   if (inputs.structured_light != nullptr) {
     input.capture_summary.emplace_back(
         "structured-light capture",

@@ -11,6 +11,7 @@
 #include "daemon/jobs/processing_job.h"
 #include "daemon/rpc/pagination.h"
 #include "daemon/rpc/status.h"
+#include "daemon/store/frame_repository.h"
 #include "daemon/store/names.h"
 
 namespace hdrstereo::rpc {
@@ -205,7 +206,26 @@ grpc::Status JobsService::Get(grpc::ServerContext*,
                               const v1::GetJobRequest* request,
                               v1::Job* response) {
   if (grpc::Status s = CheckJobId(request->job_id()); !s.ok()) return s;
-  return Reply(engine_.repository().Get(request->job_id()), response);
+  if (grpc::Status s =
+          Reply(engine_.repository().Get(request->job_id()), response);
+      !s.ok() || !jobs::ChoosesExposuresAtTheRig(response->capture())) {
+    return s;
+  }
+  // What automatic bracketing chose, once it has.
+  absl::StatusOr<std::string> chosen =
+      store::FrameRepository(engine_.store()).AutoBracketOfJob(response->id());
+  if (absl::IsNotFound(chosen.status()) || (chosen.ok() && chosen->empty())) {
+    return grpc::Status::OK;  // not metered yet
+  }
+  if (!chosen.ok()) return ToGrpcStatus(chosen.status());
+  absl::StatusOr<hdr::AutoBracketResult> parsed =
+      hdr::AutoBracketFromJson(*chosen);
+  if (!parsed.ok()) {
+    return ToGrpcStatus(absl::DataLossError(
+        absl::StrCat("job ", response->id(), ": ", parsed.status().message())));
+  }
+  jobs::ToProto(*parsed, response->mutable_auto_bracket());
+  return grpc::Status::OK;
 }
 
 grpc::Status JobsService::List(grpc::ServerContext*,

@@ -77,8 +77,8 @@ absl::StatusOr<CaptureRecord> FrameRepository::CaptureForJob(
   RETURN_IF_ERROR(tx.status());
   ASSIGN_OR_RETURN(
       Statement find,
-      db.Prepare(
-          "SELECT id, session_id, kind, plan FROM captures WHERE job_id = ?1"));
+      db.Prepare("SELECT id, session_id, kind, plan, auto_bracket FROM "
+                 "captures WHERE job_id = ?1"));
   find.Bind(1, job_id);
   absl::StatusOr<bool> row = find.Step();
   if (!row.ok()) return row.status();
@@ -88,7 +88,8 @@ absl::StatusOr<CaptureRecord> FrameRepository::CaptureForJob(
                          .session_id = find.ColumnInt(1),
                          .job_id = job_id,
                          .kind = found,
-                         .plan = find.ColumnText(3)};
+                         .plan = find.ColumnText(3),
+                         .auto_bracket = find.ColumnText(4)};
   }
   // A resubmitted plan continues the capture of an earlier job of the same
   // session that failed or was cancelled, keeping the frames it recorded.
@@ -98,7 +99,7 @@ UPDATE captures SET job_id = ?1 WHERE id = (
   WHERE c.session_id = (SELECT session_id FROM jobs WHERE id = ?1)
     AND c.kind = ?2 AND c.plan = ?3 AND j.state IN ('failed', 'cancelled')
   ORDER BY c.id DESC LIMIT 1)
-RETURNING id, session_id)sql"));
+RETURNING id, session_id, auto_bracket)sql"));
   adopt.Bind(1, job_id).Bind(2, io::CaptureKindName(kind)).Bind(3, plan);
   row = adopt.Step();
   if (!row.ok()) return row.status();
@@ -107,7 +108,8 @@ RETURNING id, session_id)sql"));
                           .session_id = adopt.ColumnInt(1),
                           .job_id = job_id,
                           .kind = kind,
-                          .plan = std::string(plan)};
+                          .plan = std::string(plan),
+                          .auto_bracket = adopt.ColumnText(2)};
     // Run the statement to its end so that the transaction can commit.
     RETURN_IF_ERROR(adopt.Step().status());
     RETURN_IF_ERROR(tx.Commit());
@@ -128,7 +130,8 @@ RETURNING id, session_id)sql"));
                         .session_id = insert.ColumnInt(1),
                         .job_id = job_id,
                         .kind = kind,
-                        .plan = std::string(plan)};
+                        .plan = std::string(plan),
+                        .auto_bracket = ""};
   RETURN_IF_ERROR(insert.Step().status());
   RETURN_IF_ERROR(tx.Commit());
   return capture;
@@ -175,7 +178,8 @@ absl::StatusOr<std::vector<CaptureRecord>> FrameRepository::CapturesOfSession(
     absl::string_view session) {
   absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(Statement stmt, store_.db().Prepare(R"sql(
-SELECT s.id, c.id, c.session_id, coalesce(c.job_id, 0), c.kind, c.plan
+SELECT s.id, c.id, c.session_id, coalesce(c.job_id, 0), c.kind, c.plan,
+       c.auto_bracket
 FROM sessions s LEFT JOIN captures c ON c.session_id = s.id
 WHERE s.name = ?1 ORDER BY c.id
 )sql"));
@@ -192,7 +196,8 @@ WHERE s.name = ?1 ORDER BY c.id
                                 .session_id = stmt.ColumnInt(2),
                                 .job_id = stmt.ColumnInt(3),
                                 .kind = kind,
-                                .plan = stmt.ColumnText(5)});
+                                .plan = stmt.ColumnText(5),
+                                .auto_bracket = stmt.ColumnText(6)});
   }
   if (!found) {
     return absl::NotFoundError(
@@ -238,6 +243,34 @@ VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16,
   }
   insert.Bind(17, f.camera_file_name);
   return insert.Run();
+}
+
+absl::Status FrameRepository::SetAutoBracket(int64_t capture_id,
+                                             absl::string_view json) {
+  Transaction tx(store_.db());
+  RETURN_IF_ERROR(tx.status());
+  ASSIGN_OR_RETURN(
+      Statement update,
+      store_.db().Prepare(
+          "UPDATE captures SET auto_bracket = ?2 WHERE id = ?1 RETURNING id"));
+  update.Bind(1, capture_id).Bind(2, json);
+  ASSIGN_OR_RETURN(const bool row, update.Step());
+  if (!row) return absl::NotFoundError(absl::StrCat("no capture ", capture_id));
+  RETURN_IF_ERROR(update.Step().status());
+  return tx.Commit();
+}
+
+absl::StatusOr<std::string> FrameRepository::AutoBracketOfJob(int64_t job_id) {
+  absl::MutexLock lock(&store_.db().mutex());
+  ASSIGN_OR_RETURN(Statement find,
+                   store_.db().Prepare(
+                       "SELECT auto_bracket FROM captures WHERE job_id = ?1"));
+  find.Bind(1, job_id);
+  ASSIGN_OR_RETURN(const bool row, find.Step());
+  if (!row) {
+    return absl::NotFoundError(absl::StrCat("job ", job_id, " has no capture"));
+  }
+  return find.ColumnText(0);
 }
 
 absl::Status FrameRepository::SetProjectorTiming(

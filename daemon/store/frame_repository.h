@@ -25,6 +25,9 @@ struct CaptureRecord {
   int64_t job_id = 0;
   io::CaptureKind kind = io::CaptureKind::kBracketedStereo;
   std::string plan;  // serialized CapturePlan
+  // What automatic bracketing chose (hdr::AutoBracketResult's canonical
+  // JSON; "" when the plan did not ask or has not chosen yet).
+  std::string auto_bracket;
 };
 
 // What a structured-light capture measured of its projector: the latency
@@ -70,6 +73,12 @@ class FrameRepository {
                                               io::CaptureKind kind,
                                               absl::string_view plan);
   absl::StatusOr<std::vector<FrameRecord>> FramesOfCapture(int64_t capture_id);
+  // Records what automatic bracketing chose for the capture (before its
+  // first frame; a resumed capture keeps it).
+  absl::Status SetAutoBracket(int64_t capture_id, absl::string_view json);
+  // The automatic bracket of the capture a job records into ("" when
+  // none); NOT_FOUND when the job has no capture.
+  absl::StatusOr<std::string> AutoBracketOfJob(int64_t job_id);
   // The projector timing recorded with a capture; NOT_FOUND for an unknown
   // capture.
   absl::Status SetProjectorTiming(int64_t capture_id,

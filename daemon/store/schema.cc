@@ -15,7 +15,7 @@ namespace {
 
 // Append only: a released migration is never edited. Times are Unix
 // milliseconds (UTC); lengths in millimetres; exposures in seconds.
-constexpr std::array<absl::string_view, 12> kMigrations = {
+constexpr std::array<absl::string_view, 13> kMigrations = {
     // 1: the tables of DESIGN.md.
     R"sql(
 CREATE TABLE rigs (
@@ -289,7 +289,14 @@ CREATE INDEX device_time_by_job ON device_time(job_id);
 ALTER TABLE captures ADD COLUMN projector_latency_s REAL;
 ALTER TABLE captures ADD COLUMN projector_refresh_hz REAL;
 )sql",
-    // 11: calibration captures wait for the operator. The instruction a
+    // 11: automatic bracketing. What a bracketed-stereo capture that chose
+    // its exposures at the rig chose and why (hdr::AutoBracketResult's
+    // canonical JSON; '' otherwise), kept so that a resumed capture takes
+    // the same frames.
+    R"sql(
+ALTER TABLE captures ADD COLUMN auto_bracket TEXT NOT NULL DEFAULT '';
+)sql",
+    // 12: calibration captures wait for the operator. The instruction a
     // waiting job shows ('' otherwise). A waiting job is stored with state
     // 'paused' and a non-empty instruction (JobRepository reads it as
     // waiting): migration 1's CHECK on jobs.state cannot be widened without
@@ -297,7 +304,7 @@ ALTER TABLE captures ADD COLUMN projector_refresh_hz REAL;
     R"sql(
 ALTER TABLE jobs ADD COLUMN instruction TEXT NOT NULL DEFAULT '';
 )sql",
-    // 12: the rig's calibrations. One row per calibration capture that was
+    // 13: the rig's calibrations. One row per calibration capture that was
     // calibrated: its files' folder (relative to the data root), the
     // stereo reprojection RMS, the per-pose RMS of each view (px, comma
     // separated) and the fraction of each view the boards covered.

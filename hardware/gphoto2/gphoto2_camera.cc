@@ -505,12 +505,16 @@ absl::StatusOr<hardware::CameraInfo> Gphoto2Camera::Info() {
     info.battery_percent = ParseBatteryPercent(battery->value);
   }
   if (const ConfigWidget* shutter = FindShutterWidget(*widgets)) {
-    std::vector<ShutterChoice> timed = TimedShutterChoices(shutter->choices);
-    info.min_exposure_s = timed.front().seconds;
-    info.max_exposure_s = timed.front().seconds;
-    for (const ShutterChoice& choice : timed) {
-      info.min_exposure_s = std::min(info.min_exposure_s, choice.seconds);
-      info.max_exposure_s = std::max(info.max_exposure_s, choice.seconds);
+    for (const ShutterChoice& choice : TimedShutterChoices(shutter->choices)) {
+      info.shutter_speeds_s.push_back(choice.seconds);
+    }
+    std::sort(info.shutter_speeds_s.begin(), info.shutter_speeds_s.end());
+    info.shutter_speeds_s.erase(
+        std::unique(info.shutter_speeds_s.begin(), info.shutter_speeds_s.end()),
+        info.shutter_speeds_s.end());
+    if (!info.shutter_speeds_s.empty()) {
+      info.min_exposure_s = info.shutter_speeds_s.front();
+      info.max_exposure_s = info.shutter_speeds_s.back();
     }
   }
   return info;

@@ -65,6 +65,7 @@ absl::StatusOr<hardware::CameraInfo> SimCamera::Info() {
       .battery_percent = world_.ReadBattery(),
       .min_exposure_s = kMinExposureS,
       .max_exposure_s = kMaxExposureS,
+      .shutter_speeds_s = {},  // any exposure in the range
   };
 }
 

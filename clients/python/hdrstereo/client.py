@@ -170,15 +170,28 @@ class Capture:
                views: Optional[int] = None, iso: Optional[int] = None,
                aperture_f: Optional[float] = None,
                settle_s: Optional[float] = None, skip_ambient: bool = False,
+               auto_bracket: bool = False, min_snr: Optional[float] = None,
+               exclude_emitters_above: Optional[float] = None,
+               max_uncovered_fraction: Optional[float] = None,
+               max_exposure_s: Optional[float] = None,
                wait: bool = False, progress: bool = False) -> Job:
         """Queues a bracketed stereo capture (unset values: the daemon's
         defaults) and returns its Job; `wait=True` returns once it ended
-        (JobFailed if it did not succeed)."""
+        (JobFailed if it did not succeed). `auto_bracket=True` (instead of
+        `exposures_s`) meters the scene first and chooses the exposures at
+        the rig (min_snr, exclude_emitters_above, max_uncovered_fraction,
+        max_exposure_s tune it; `job.auto_bracket` says what it chose)."""
         plan = jobs_pb2.CapturePlan()
         _set(plan.bracketed_stereo, baseline_mm=baseline_mm, views=views,
              iso=iso, aperture_f=aperture_f, settle_s=settle_s,
              skip_ambient=skip_ambient)
         plan.bracketed_stereo.exposures_s.extend(exposures_s or [])
+        if auto_bracket:
+            plan.bracketed_stereo.auto_bracket.SetInParent()
+            _set(plan.bracketed_stereo.auto_bracket, min_snr=min_snr,
+                 exclude_emitters_above=exclude_emitters_above,
+                 max_uncovered_fraction=max_uncovered_fraction,
+                 max_exposure_s=max_exposure_s)
         return self._submit(session, plan, wait, progress)
 
     def structured_light(self, session: str,

@@ -54,6 +54,15 @@ class Job:
         board in pose 3 of 8 and continue'; '' otherwise. As last read."""
         return self.message.instruction
 
+    @property
+    def auto_bracket(self) -> Optional[list]:
+        """The exposures (s, longest first) automatic bracketing chose for
+        this capture, None before it has (or without auto_bracket); the
+        reason, range and coverage are in message.auto_bracket. As last
+        read: refresh() reads it again."""
+        chosen = self.message.auto_bracket.exposures_s
+        return list(chosen) if chosen else None
+
     def __repr__(self) -> str:
         p = self.message.progress
         suspended = (f", suspended={self.suspension_reason!r}"

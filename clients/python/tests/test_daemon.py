@@ -323,6 +323,31 @@ def test_live_view_writes_frames_and_says_why_it_ended(client,
         client.hardware.preview(max_fps=-1)
 
 
+def test_auto_bracket_chooses_records_and_says_why(client, daemon) -> None:
+    client.sessions.create("py-auto")
+    # Asking for both is refused before anything is queued.
+    with pytest.raises(hdrstereo.InvalidArgument, match="not both"):
+        client.capture.stereo("py-auto", exposures_s=EXPOSURES,
+                              auto_bracket=True)
+    with pytest.raises(hdrstereo.InvalidArgument,
+                       match=r"auto_bracket\.min_snr is 5"):
+        client.capture.stereo("py-auto", auto_bracket=True, min_snr=5)
+    job = client.capture.stereo("py-auto", auto_bracket=True,
+                                exclude_emitters_above=100, wait=True)
+    chosen = job.auto_bracket
+    assert chosen and len(chosen) >= 2
+    assert chosen == sorted(chosen, reverse=True)
+    choice = job.message.auto_bracket
+    assert choice.coverage == 1.0 and choice.emitter_pixels > 0
+    assert "covered" in choice.reason
+    # The frames are the chosen exposures at both views, plus the ambient.
+    frames = client.sessions.frames("py-auto")
+    stereo = sorted({round(f.exposure_s, 12) for f in frames
+                     if "/stereo/" in f.path})
+    assert stereo == sorted(round(e, 12) for e in chosen)
+    assert len(frames) == 2 * len(chosen) + 1
+
+
 def test_raw_calls_map_errors(client) -> None:
     listed = client.raw.Schedules.List(
         hdrstereo.v1.schedules_pb2.ListSchedulesRequest())

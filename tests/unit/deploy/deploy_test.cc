@@ -49,7 +49,7 @@ TEST(DeployTest, ShippedConfigIsAccepted) {
   ASSERT_TRUE(parsed.ok()) << parsed.status();
   const auto& config = std::get<daemon::Config>(*parsed);
   EXPECT_EQ(config.data_root, "/var/lib/hdrstereo");
-  EXPECT_EQ(config.hardware, "real");
+  EXPECT_EQ(config.hardware, hardware::HardwareMode::kReal);
   EXPECT_EQ(config.stage_port, "/dev/hdrstereo-stage");
   EXPECT_THAT(config.listen,
               ::testing::ElementsAre("unix:/run/hdrstereo/hdrstereod.sock"));
@@ -114,7 +114,7 @@ poll-s = 2
   absl::StatusOr<daemon::ParsedArgs> parsed = Parse({"--config", path});
   ASSERT_TRUE(parsed.ok()) << parsed.status();
   const auto& config = std::get<daemon::Config>(*parsed);
-  EXPECT_EQ(config.processing_backend, "slurm");
+  EXPECT_EQ(config.processing_backend, daemon::ProcessingBackend::kSlurm);
   EXPECT_EQ(config.processing_threads, 3);
   EXPECT_EQ(config.max_cluster_jobs, 40);
   EXPECT_EQ(config.slurm.partition, "short");
@@ -133,11 +133,18 @@ poll-s = 2
 
   absl::StatusOr<daemon::ParsedArgs> local = Parse({});
   ASSERT_TRUE(local.ok()) << local.status();
-  EXPECT_EQ(std::get<daemon::Config>(*local).processing_backend, "local")
+  EXPECT_EQ(std::get<daemon::Config>(*local).processing_backend,
+            daemon::ProcessingBackend::kLocal)
       << "local is the default";
-  EXPECT_THAT(Parse({"--processing-backend", "pbs"}),
-              testing::StatusIs(absl::StatusCode::kInvalidArgument,
-                                HasSubstr("processing-backend")));
+  EXPECT_THAT(
+      Parse({"--processing-backend", "pbs"}),
+      testing::StatusIs(absl::StatusCode::kInvalidArgument,
+                        HasSubstr("--processing-backend: 'pbs' is not one of "
+                                  "local, slurm")));
+  EXPECT_THAT(Parse({"--hardware", "usb"}),
+              testing::StatusIs(
+                  absl::StatusCode::kInvalidArgument,
+                  HasSubstr("--hardware: 'usb' is not one of real, sim")));
 }
 
 TEST(DeployTest, BadTlsAndAuthConfigIsRefusedByName) {

@@ -467,6 +467,12 @@ TEST_F(Gphoto2CameraTest, InfoReadsModelSerialBatteryAndRange) {
   EXPECT_EQ(info->battery_percent, 75);
   EXPECT_DOUBLE_EQ(info->min_exposure_s, 1.0 / 8000);
   EXPECT_DOUBLE_EQ(info->max_exposure_s, 30);
+  // The timed choices, ascending (bulb is not one): what automatic
+  // bracketing chooses from.
+  ASSERT_EQ(info->shutter_speeds_s.size(), 19u);
+  EXPECT_DOUBLE_EQ(info->shutter_speeds_s.front(), 1.0 / 8000);
+  EXPECT_DOUBLE_EQ(info->shutter_speeds_s[6], 1.0 / 125);
+  EXPECT_DOUBLE_EQ(info->shutter_speeds_s.back(), 30);
 }
 
 TEST_F(Gphoto2CameraTest, CamerasWithoutConfigurationStillOpenAndInform) {

@@ -6,6 +6,8 @@
 
 #include <set>
 
+#include "tests/support/status_matchers.h"
+
 namespace hdrstereo::jobs {
 namespace {
 
@@ -33,6 +35,46 @@ TEST(CapturePlanTest, DefaultStereoIsTheThesisBracketAtTwoViews) {
     EXPECT_EQ(frames[i].sequence, static_cast<int>(i));
     EXPECT_TRUE(frames[i].projector_blank);
   }
+}
+
+TEST(CapturePlanTest, AutoBracketChoosesItsExposuresAtTheRig) {
+  v1::CapturePlan request = Stereo();
+  request.mutable_bracketed_stereo()->mutable_auto_bracket()->set_min_snr(20);
+  ASSERT_OK_AND_ASSIGN(const v1::CapturePlan plan, NormalizePlan(request, {}));
+  // No exposures until the rig has chosen; the defaults of the rest.
+  EXPECT_TRUE(ChoosesExposuresAtTheRig(plan));
+  EXPECT_TRUE(ExpandPlan(plan, {}, 7).empty());
+  const v1::AutoBracket& a = plan.bracketed_stereo().auto_bracket();
+  EXPECT_EQ(a.min_snr(), 20);
+  EXPECT_EQ(a.max_step_stops(), hdr::AutoBracketOptions().max_step_stops);
+  EXPECT_EQ(a.exclude_emitters_above(), 0);
+  const hdr::AutoBracketOptions options = AutoBracketOptionsOf(a);
+  EXPECT_EQ(options.min_snr, 20);
+  EXPECT_EQ(options.max_step_stops, a.max_step_stops());
+  EXPECT_FALSE(ChoosesExposuresAtTheRig(Stereo()));
+
+  hdr::AutoBracketResult chosen;
+  chosen.exposures_s = {0.25, 0.125, 1.0 / 16};
+  const v1::CapturePlan with = WithChosenExposures(plan, chosen);
+  EXPECT_FALSE(ChoosesExposuresAtTheRig(with));
+  const std::vector<FrameSpec> frames = ExpandPlan(with, {}, 7);
+  ASSERT_EQ(frames.size(), 7u);            // ambient + 2 x 3
+  EXPECT_EQ(frames[0].exposure_s, 0.125);  // the middle one
+  EXPECT_EQ(frames[1].relative_stem, "captures/7/left/stereo/exp_1-4s");
+  EXPECT_EQ(frames[6].relative_stem, "captures/7/right/stereo/exp_1-16s");
+
+  chosen.pixels = 100;
+  chosen.emitter_pixels = 10;
+  chosen.uncovered_pixels = 9;
+  chosen.min_snr = 40;
+  chosen.probes = 5;
+  v1::AutoBracketChoice proto;
+  ToProto(chosen, &proto);
+  EXPECT_EQ(proto.exposures_s_size(), 3);
+  EXPECT_DOUBLE_EQ(proto.coverage(), 0.9);
+  EXPECT_DOUBLE_EQ(proto.emitter_fraction(), 0.1);
+  EXPECT_EQ(proto.probes(), 5);
+  EXPECT_EQ(proto.reason(), chosen.Reason());
 }
 
 TEST(CapturePlanTest, StructuredLightIs168FramesAt1024x768) {
@@ -79,6 +121,33 @@ TEST(CapturePlanTest, BadPlansNameTheField) {
       {[](v1::CapturePlan& p) { p.mutable_calibration()->set_poses(0); },
        "poses is 0"},
       {[](v1::CapturePlan&) {}, "plan must be one of"},
+      {[](v1::CapturePlan& p) {
+         p.mutable_bracketed_stereo()->add_exposures_s(0.01);
+         p.mutable_bracketed_stereo()->mutable_auto_bracket();
+       },
+       "give exposures_s or auto_bracket, not both"},
+      {[](v1::CapturePlan& p) {
+         p.mutable_bracketed_stereo()->mutable_auto_bracket()->set_min_snr(5);
+       },
+       "bracketed_stereo.auto_bracket.min_snr is 5; it must be in [10, 1000]"},
+      {[](v1::CapturePlan& p) {
+         p.mutable_bracketed_stereo()
+             ->mutable_auto_bracket()
+             ->set_exclude_emitters_above(0.5);
+       },
+       "bracketed_stereo.auto_bracket.exclude_emitters_above is 0.5"},
+      {[](v1::CapturePlan& p) {
+         p.mutable_bracketed_stereo()
+             ->mutable_auto_bracket()
+             ->set_max_uncovered_fraction(1);
+       },
+       "bracketed_stereo.auto_bracket.max_uncovered_fraction is 1"},
+      {[](v1::CapturePlan& p) {
+         p.mutable_bracketed_stereo()
+             ->mutable_auto_bracket()
+             ->set_max_exposure_s(-1);
+       },
+       "bracketed_stereo.auto_bracket.max_exposure_s is -1"},
   };
   for (const Case& c : cases) {
     v1::CapturePlan plan;

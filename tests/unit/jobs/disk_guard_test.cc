@@ -5,7 +5,7 @@
 // else the guess), what the rest of a running capture needs and the reason
 // that names both numbers, and the rule that a frame boundary does not count
 // the space promised to unfinished captures. The real filesystem cases are
-// DiskGuardTest in tests/integration/capture_test.cc.
+// DiskGuardTest in tests/integration/disk_guard_test.cc.
 #include "daemon/jobs/disk_guard.h"
 
 #include <gmock/gmock.h>
@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "daemon/jobs/capture_plan.h"
 #include "daemon/store/database.h"
 #include "daemon/store/frame_repository.h"
 #include "daemon/store/job_repository.h"
@@ -159,6 +160,38 @@ TEST_F(DiskGuardEstimateTest, AFrameBoundaryDoesNotCountThePromises) {
               StatusIs(absl::StatusCode::kResourceExhausted,
                        HasSubstr("of it promised to queued captures")));
   EXPECT_OK(guard.CheckRoomForRest(1, 1));
+}
+
+// A queued capture that chooses its exposures at the rig has no frame
+// count yet (0): it is promised the default bracket's 17 frames until it
+// has metered the scene, as it was admitted.
+TEST_F(DiskGuardEstimateTest,
+       AnUnmeteredAutoBracketIsPromisedTheDefaultBracket) {
+  const DiskGuard guard(*store_, {.margin_bytes = 0,
+                                  .processing_headroom = 1.0,
+                                  .frame_bytes_guess = 100});
+  v1::CapturePlan request;
+  request.mutable_bracketed_stereo()->mutable_auto_bracket();
+  ASSERT_OK_AND_ASSIGN(const v1::CapturePlan plan, NormalizePlan(request, {}));
+  ASSERT_TRUE(ChoosesExposuresAtTheRig(plan));
+  EXPECT_EQ(ExpandPlan(WithDefaultExposures(plan), {}, 0).size(), 17u);
+  ASSERT_OK_AND_ASSIGN(const store::JobRecord job,
+                       store::JobRepository(*store_).Create(
+                           store::JobKind::kCapture, "lab",
+                           plan.SerializeAsString(), 0, "queued", "tester"));
+  ASSERT_OK_AND_ASSIGN(int64_t promised, guard.PendingCaptureBytes());
+  EXPECT_EQ(promised, 17 * 100 * 2);
+  // Once it has chosen (4 exposures: 9 frames), those are what count.
+  {
+    store::Transaction tx(store_->db());
+    ASSERT_OK(tx.status());
+    ASSERT_OK(store::JobRepository(*store_)
+                  .SetProgressLocked(job.id, 0, 9, "chosen")
+                  .status());
+    ASSERT_OK(tx.Commit());
+  }
+  ASSERT_OK_AND_ASSIGN(promised, guard.PendingCaptureBytes());
+  EXPECT_EQ(promised, 9 * 100 * 2);
 }
 
 }  // namespace

@@ -148,6 +148,45 @@ TEST_F(FrameRepositoryTest, AResubmittedPlanContinuesTheEarlierCapture) {
   EXPECT_EQ(all.size(), 3u);
 }
 
+TEST_F(FrameRepositoryTest, TheAutomaticBracketStaysWithItsCapture) {
+  ASSERT_OK(Session("lab").status());
+  FrameRepository frames(*store_);
+  JobRepository jobs(*store_);
+  ASSERT_OK_AND_ASSIGN(const JobRecord job, Job("lab"));
+  EXPECT_THAT(
+      frames.AutoBracketOfJob(job.id),
+      StatusIs(absl::StatusCode::kNotFound, HasSubstr("has no capture")));
+  ASSERT_OK_AND_ASSIGN(
+      const CaptureRecord capture,
+      frames.CaptureForJob(job.id, io::CaptureKind::kBracketedStereo, "auto"));
+  EXPECT_EQ(capture.auto_bracket, "");
+  ASSERT_OK_AND_ASSIGN(const std::string none, frames.AutoBracketOfJob(job.id));
+  EXPECT_EQ(none, "");
+  ASSERT_OK(frames.SetAutoBracket(capture.id, R"({"exposures_s":[0.1]})"));
+  ASSERT_OK_AND_ASSIGN(const std::string chosen,
+                       frames.AutoBracketOfJob(job.id));
+  EXPECT_EQ(chosen, R"({"exposures_s":[0.1]})");
+  EXPECT_THAT(frames.SetAutoBracket(9999, "{}"),
+              StatusIs(absl::StatusCode::kNotFound, HasSubstr("9999")));
+  // Found again by the job, continued by a resubmission, listed.
+  ASSERT_OK_AND_ASSIGN(
+      const CaptureRecord again,
+      frames.CaptureForJob(job.id, io::CaptureKind::kBracketedStereo, "auto"));
+  EXPECT_EQ(again.auto_bracket, chosen);
+  ASSERT_OK(jobs.SetState(job.id, JobState::kFailed, "camera gone").status());
+  ASSERT_OK_AND_ASSIGN(const JobRecord retry, Job("lab"));
+  ASSERT_OK_AND_ASSIGN(
+      const CaptureRecord continued,
+      frames.CaptureForJob(retry.id, io::CaptureKind::kBracketedStereo,
+                           "auto"));
+  EXPECT_EQ(continued.id, capture.id);
+  EXPECT_EQ(continued.auto_bracket, chosen);
+  ASSERT_OK_AND_ASSIGN(const std::vector<CaptureRecord> all,
+                       frames.CapturesOfSession("lab"));
+  ASSERT_EQ(all.size(), 1u);
+  EXPECT_EQ(all[0].auto_bracket, chosen);
+}
+
 TEST_F(FrameRepositoryTest, FramesReadBackInOrderAndInPages) {
   ASSERT_OK(Session("lab").status());
   ASSERT_OK(Session("empty").status());

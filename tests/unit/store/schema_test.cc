@@ -9,6 +9,7 @@
 #include <string>
 
 #include "daemon/store/device_time_repository.h"
+#include "daemon/store/frame_repository.h"
 #include "daemon/store/job_repository.h"
 #include "daemon/store/metrics_repository.h"
 #include "daemon/store/store.h"
@@ -115,6 +116,43 @@ TEST(SchemaTest, ForeignDatabaseWithoutVersionTableIsRefused) {
   EXPECT_EQ(store.status().code(), absl::StatusCode::kFailedPrecondition);
   EXPECT_THAT(std::string(store.status().message()),
               HasSubstr("not an hdrstereo database"));
+}
+
+// A database written before automatic bracketing (version 10, with the
+// projector timing) with a capture: migration 11 gives it an empty
+// auto_bracket (it chose no exposures at the rig) and keeps the rest.
+TEST(SchemaTest, MigrationToAutoBracketLeavesOldCapturesWithoutOne) {
+  constexpr int kBeforeAutoBracket = 10;
+  TempDir dir;
+  {
+    ASSERT_OK_AND_ASSIGN(std::unique_ptr<Database> db,
+                         Database::Open(dir / "hdrstereo.db"));
+    ASSERT_OK_AND_ASSIGN(int version, Migrate(*db, kBeforeAutoBracket));
+    ASSERT_EQ(version, kBeforeAutoBracket);
+    Transaction tx(*db);
+    ASSERT_OK(tx.status());
+    ASSERT_OK(db->Exec(R"sql(
+INSERT INTO sessions (name, create_time_ms) VALUES ('old', 0);
+INSERT INTO captures (session_id, kind, plan, create_time_ms,
+                      projector_refresh_hz)
+VALUES (1, 'bracketed_stereo', 'fixed', 0, 60);
+)sql"));
+    EXPECT_THAT(
+        db->Prepare("SELECT auto_bracket FROM captures").status(),
+        StatusIs(absl::StatusCode::kInternal, HasSubstr("auto_bracket")));
+    ASSERT_OK(tx.Commit());
+  }
+  ASSERT_OK_AND_ASSIGN(std::unique_ptr<Store> store, Store::Open(dir.path()));
+  EXPECT_EQ(store->schema_version(), LatestSchemaVersion());
+  FrameRepository frames(*store);
+  ASSERT_OK_AND_ASSIGN(const std::vector<CaptureRecord> captures,
+                       frames.CapturesOfSession("old"));
+  ASSERT_EQ(captures.size(), 1u);
+  EXPECT_EQ(captures[0].plan, "fixed");
+  EXPECT_EQ(captures[0].auto_bracket, "");
+  ASSERT_OK_AND_ASSIGN(const ProjectorTiming timing,
+                       frames.ProjectorTimingOf(captures[0].id));
+  EXPECT_EQ(timing.refresh_hz, 60);
 }
 
 // A database written before the metrics (version 8) with a job and its
