@@ -13,9 +13,11 @@
 #include <vector>
 
 #include "absl/strings/ascii.h"
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
 #include "absl/time/clock.h"
 #include "clients/cli/commands.h"
 #include "clients/cli/exposure.h"
@@ -238,6 +240,8 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
     int views = 0;
     int iso = 0;
     int poses = 0;
+    std::string board;
+    double board_square_mm = 0;
     bool no_ambient = false;
     bool auto_bracket = false;
     double min_snr = 0;
@@ -383,11 +387,36 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
   common(calibration);
   calibration->add_option("--poses", args->poses, "Number of poses")
       ->required();
+  calibration->add_option(
+      "--board", args->board,
+      absl::StrCat("Inner corners of the chessboard, COLUMNSxROWS [default: ",
+                   v1::kDefaultBoardColumns, "x", v1::kDefaultBoardRows, "]"));
+  calibration->add_option(
+      "--board-square-mm", args->board_square_mm,
+      absl::StrCat("Edge of one square; sets the scale of the calibrated "
+                   "baseline [default: ",
+                   v1::kDefaultBoardSquareMm, "]"));
   calibration->callback([&options, exit_code, args] {
-    Client client(options);
     v1::SubmitCaptureRequest request;
     request.set_session(args->session);
-    request.mutable_plan()->mutable_calibration()->set_poses(args->poses);
+    v1::CalibrationPlan* plan = request.mutable_plan()->mutable_calibration();
+    plan->set_poses(args->poses);
+    if (!args->board.empty()) {
+      const std::vector<std::string> sides =
+          absl::StrSplit(absl::AsciiStrToLower(args->board), 'x');
+      int columns = 0, rows = 0;
+      if (sides.size() != 2 || !absl::SimpleAtoi(sides[0], &columns) ||
+          !absl::SimpleAtoi(sides[1], &rows)) {
+        std::cerr << "hdrstereo: --board \"" << args->board
+                  << "\" is not COLUMNSxROWS, e.g. 9x6\n";
+        *exit_code = kExitUsage;
+        return;
+      }
+      plan->set_board_columns(columns);
+      plan->set_board_rows(rows);
+    }
+    plan->set_board_square_mm(args->board_square_mm);
+    Client client(options);
     *exit_code = Submit(client, request, args->watch);
   });
 

@@ -23,11 +23,10 @@
 #include "daemon/jobs/device_log.h"
 #include "daemon/jobs/frame_check.h"
 #include "daemon/jobs/projector_probe.h"
-#include "daemon/store/calibration_repository.h"
+#include "daemon/jobs/rig_calibration.h"
 #include "daemon/store/frame_repository.h"
 #include "hardware/reconnecting_camera.h"
 #include "processing/base/status_macros.h"
-#include "processing/calib/stereo_calibration.h"
 #include "processing/hdr/merge.h"
 #include "processing/io/atomic_file.h"
 #include "processing/io/capture_layout.h"
@@ -182,20 +181,6 @@ int ViewsOf(const v1::CapturePlan& plan) {
   }
 }
 
-// Why a calibration frame does not show the chessboard ("" when it does, or
-// when the frame is RAW and cannot be checked here).
-std::string BoardMissing(const hardware::Frame& frame) {
-  if (frame.format == hardware::ImageFormat::kRaw) return "";
-  const cv::Mat image =
-      cv::imdecode(cv::Mat(1, static_cast<int>(frame.bytes.size()), CV_8UC1,
-                           const_cast<char*>(frame.bytes.data())),
-                   cv::IMREAD_GRAYSCALE);
-  if (image.empty()) return "";  // PersistFrame says it is corrupt
-  absl::StatusOr<std::vector<cv::Point2f>> corners = calib::FindChessboard(
-      image, calib::BoardSpec().inner_corners, "the frame");
-  return corners.ok() ? "" : std::string(corners.status().message());
-}
-
 // Drops a recorded frame (row and file), e.g. the left view of a
 // calibration pose whose right view did not show the board.
 absl::Status DropFrame(store::FrameRepository& frames, int64_t capture_id,
@@ -208,92 +193,6 @@ absl::Status DropFrame(store::FrameRepository& frames, int64_t capture_id,
     std::error_code ec;
     std::filesystem::remove(session_dir / frame.path, ec);
   }
-  return absl::OkStatus();
-}
-
-std::string JoinPx(const std::vector<double>& values) {
-  return absl::StrJoin(values, " ", [](std::string* out, double v) {
-    absl::StrAppendFormat(out, "%.3f", v);
-  });
-}
-
-// After the last pose of a calibration capture: calibrates the rig from
-// its poses and stores the result as the rig's latest calibration (files
-// under rig/calibrations/<capture id>/ of the data root, written
-// atomically, and a row in rig_calibrations).
-absl::Status CalibrateRig(JobContext& context, store::FrameRepository& frames,
-                          const store::CaptureRecord& capture,
-                          const std::filesystem::path& session_dir, int poses) {
-  if (poses < 3) {
-    context.Warn(absl::StrCat("the rig is not calibrated: ", poses,
-                              " pose(s), a calibration needs at least 3"));
-    return absl::OkStatus();
-  }
-  ASSIGN_OR_RETURN(std::vector<store::FrameRecord> recorded,
-                   frames.FramesOfCapture(capture.id));
-  std::sort(recorded.begin(), recorded.end(),
-            [](const store::FrameRecord& a, const store::FrameRecord& b) {
-              return a.sequence < b.sequence;
-            });
-  std::vector<std::vector<cv::Point2f>> corners[2];
-  cv::Size size;
-  for (const store::FrameRecord& frame : recorded) {
-    const cv::Mat image =
-        cv::imread((session_dir / frame.path).string(), cv::IMREAD_GRAYSCALE);
-    if (image.empty()) {
-      context.Warn(absl::StrCat("the rig is not calibrated: ", frame.path,
-                                " cannot be read here (RAW?); run "
-                                "`hdrstereo-proc calibrate` on the frames"));
-      return absl::OkStatus();
-    }
-    size = image.size();
-    ASSIGN_OR_RETURN(std::vector<cv::Point2f> found,
-                     calib::FindChessboard(
-                         image, calib::BoardSpec().inner_corners, frame.path));
-    corners[frame.view_index == 0 ? 0 : 1].push_back(std::move(found));
-  }
-  ASSIGN_OR_RETURN(const calib::StereoCalibration calibration,
-                   calib::CalibrateStereo(corners[0], corners[1], size));
-  ASSIGN_OR_RETURN(
-      const calib::CalibrationQuality quality,
-      calib::AssessCalibration(calibration, corners[0], corners[1]));
-  const std::string dir = absl::StrCat("rig/calibrations/", capture.id);
-  const std::filesystem::path abs = context.store().files().root() / dir;
-  std::error_code ec;
-  std::filesystem::create_directories(abs, ec);
-  if (ec) {
-    return absl::InternalError(
-        absl::StrCat("cannot create ", abs.string(), ": ", ec.message()));
-  }
-  RETURN_IF_ERROR(calib::SaveCalibration(abs / "calibration.yml", calibration));
-  for (int v = 0; v < 2; ++v) {
-    std::vector<uchar> png;
-    cv::imencode(".png",
-                 v == 0 ? quality.coverage_left : quality.coverage_right, png);
-    RETURN_IF_ERROR(io::WriteFileAtomically(
-        abs / (v == 0 ? "coverage-left.png" : "coverage-right.png"),
-        std::string(png.begin(), png.end())));
-  }
-  store::CalibrationRecord record;
-  record.capture_id = capture.id;
-  record.job_id = context.job().id;
-  record.dir = dir;
-  record.poses = static_cast<int>(corners[0].size());
-  record.rms_stereo = calibration.rms_stereo;
-  record.rms_left = quality.rms_left;
-  record.rms_right = quality.rms_right;
-  record.coverage_left = quality.coverage_fraction_left;
-  record.coverage_right = quality.coverage_fraction_right;
-  ASSIGN_OR_RETURN(
-      const int64_t id,
-      store::CalibrationRepository(context.store()).Insert(record));
-  context.Info(absl::StrFormat(
-      "calibrated the rig (calibration %d, %s): %d poses, stereo rms %.3f px; "
-      "per pose rms left %s px, right %s px; the boards cover %.0f%% of the "
-      "left view and %.0f%% of the right",
-      id, dir, record.poses, calibration.rms_stereo, JoinPx(quality.rms_left),
-      JoinPx(quality.rms_right), 100 * quality.coverage_fraction_left,
-      100 * quality.coverage_fraction_right));
   return absl::OkStatus();
 }
 
@@ -854,6 +753,8 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   RETURN_IF_ERROR(RemoveUnrecordedFiles(session_dir, capture.id, *done));
   const bool calibration = plan.has_calibration();
   const int poses = calibration ? plan.calibration().poses() : 0;
+  const calib::BoardSpec board =
+      calibration ? BoardOf(plan.calibration()) : calib::BoardSpec();
   if (calibration) {
     // A pose left half taken (the daemon stopped between its views) is
     // taken again whole: the board may have moved meanwhile.
@@ -1188,7 +1089,8 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
       ++drops;
     }
     if (calibration) {
-      if (const std::string missing = BoardMissing(*frame); !missing.empty()) {
+      if (const std::string missing = BoardMissing(*frame, board);
+          !missing.empty()) {
         const std::string view = spec.view_index == 0 ? "left" : "right";
         context.Warn(absl::StrCat("pose ", pose + 1, " of ", poses,
                                   ": the board was not found in the ", view,
@@ -1288,7 +1190,8 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   }
   std::move(safe).Cancel();
   if (calibration) {
-    RETURN_IF_ERROR(CalibrateRig(context, frames, capture, session_dir, poses));
+    RETURN_IF_ERROR(
+        CalibrateRig(context, frames, capture, session_dir, poses, board));
   }
   if (write_truth && plan.has_bracketed_stereo()) {
     const double left_mm = specs.front().stage_position_mm;

@@ -225,6 +225,28 @@ absl::StatusOr<v1::CapturePlan> NormalizePlan(const v1::CapturePlan& plan,
       if (p->baseline_mm() == 0) p->set_baseline_mm(v1::kDefaultBaselineMm);
       RETURN_IF_ERROR(
           CheckGeometry(p->baseline_mm(), 2, 0, rig, "calibration"));
+      if (p->board_columns() == 0)
+        p->set_board_columns(v1::kDefaultBoardColumns);
+      if (p->board_rows() == 0) p->set_board_rows(v1::kDefaultBoardRows);
+      if (p->board_square_mm() == 0) {
+        p->set_board_square_mm(v1::kDefaultBoardSquareMm);
+      }
+      // OpenCV finds boards of at least 3 x 3 inner corners.
+      for (const auto& [name, corners] :
+           {std::pair{"board_columns", p->board_columns()},
+            std::pair{"board_rows", p->board_rows()}}) {
+        if (corners < 3 || corners > kMaxBoardCorners) {
+          return absl::InvalidArgumentError(
+              absl::StrCat("calibration.", name, " is ", corners,
+                           " inner corners; use 3 to ", kMaxBoardCorners));
+        }
+      }
+      if (!std::isfinite(p->board_square_mm()) || p->board_square_mm() < 0 ||
+          p->board_square_mm() > kMaxBoardSquareMm) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "calibration.board_square_mm is ", p->board_square_mm(),
+            "; use a size in mm above 0 and up to ", kMaxBoardSquareMm));
+      }
       return out;
     }
     case v1::CapturePlan::PLAN_NOT_SET:

@@ -24,6 +24,8 @@ namespace hdrstereo::jobs {
 inline constexpr int kMaxExposures = 64;
 inline constexpr int kMaxViews = 16;
 inline constexpr int kMaxCalibrationPoses = 64;
+inline constexpr int kMaxBoardCorners = 100;  // along either side
+inline constexpr double kMaxBoardSquareMm = 1000;
 
 struct RigLimits {
   double travel_mm = 150;

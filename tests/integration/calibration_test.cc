@@ -295,7 +295,9 @@ TEST_F(CalibrationTest, ARigCalibrationRectifiesLaterSessionsBelowAThirdPixel) {
   const double uncalibrated = VerticalDisparityRms(before_truth, std::nullopt);
 
   ASSERT_EQ(Cli({"session", "create", "cal"}).exit_code, 0);
-  const int64_t id = Submit({"capture", "calibration", "cal", "--poses", "8"});
+  // The simulated board's squares are 40 mm (scenes/checkerboard.json).
+  const int64_t id = Submit({"capture", "calibration", "cal", "--poses", "8",
+                             "--board", "9x6", "--board-square-mm", "40"});
   ASSERT_GT(id, 0);
   for (int pose = 1; pose <= 8; ++pose) {
     ASSERT_TRUE(WaitForInstruction(
@@ -333,6 +335,15 @@ TEST_F(CalibrationTest, ARigCalibrationRectifiesLaterSessionsBelowAThirdPixel) {
             << " px (after, as taken); rectified with the rig calibration "
             << calibrated << " px\n";
   EXPECT_LE(calibrated, kMaxVerticalRmsPx);
+  // The board's square sets the scale: the calibrated baseline is the
+  // stage's 150 mm move (along the tilted axis, the same length).
+  constexpr double kStageBaselineMm = 150;
+  constexpr double kMaxBaselineError = 0.03;  // relative
+  const double baseline_mm = 1000 * cv::norm(calibration->translation);
+  std::cout << "calibrated baseline " << baseline_mm << " mm (stage "
+            << kStageBaselineMm << " mm)\n";
+  EXPECT_NEAR(baseline_mm, kStageBaselineMm,
+              kMaxBaselineError * kStageBaselineMm);
   // Without the calibration the test would fail: clearly larger.
   EXPECT_GT(uncalibrated, 3 * kMaxVerticalRmsPx);
   EXPECT_GT(after_uncalibrated, 3 * kMaxVerticalRmsPx);

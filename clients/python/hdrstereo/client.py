@@ -217,14 +217,21 @@ class Capture:
 
     def calibration(self, session: str, poses: int,
                     exposure_s: Optional[float] = None,
-                    baseline_mm: Optional[float] = None, wait: bool = False,
-                    progress: bool = False) -> Job:
+                    baseline_mm: Optional[float] = None,
+                    board: Optional[tuple[int, int]] = None,
+                    board_square_mm: Optional[float] = None,
+                    wait: bool = False, progress: bool = False) -> Job:
         """Queues a checkerboard calibration capture of `poses` poses. Before
         each pose it waits (state 'waiting', `job.instruction` says which
-        pose) until `job.continue_()`; `wait=True` would wait forever."""
+        pose) until `job.continue_()`; `wait=True` would wait forever.
+        `board`: inner corners (columns, rows), default (9, 6);
+        `board_square_mm`: a square's edge, default 25, the scale of the
+        calibrated baseline."""
         plan = jobs_pb2.CapturePlan()
+        columns, rows = board if board is not None else (None, None)
         _set(plan.calibration, poses=poses, exposure_s=exposure_s,
-             baseline_mm=baseline_mm)
+             baseline_mm=baseline_mm, board_columns=columns, board_rows=rows,
+             board_square_mm=board_square_mm)
         return self._submit(session, plan, wait, progress)
 
 

@@ -14,6 +14,11 @@ namespace hdrstereo::v1 {
 inline constexpr int kDefaultViews = 2;            // left + right
 inline constexpr double kDefaultBaselineMm = 150;  // between views
 inline constexpr double kDefaultCalibrationExposureS = 1.0 / 60;
+// The calibration chessboard: inner corners along a row and down a column,
+// and the edge of a square.
+inline constexpr int kDefaultBoardColumns = 9;
+inline constexpr int kDefaultBoardRows = 6;
+inline constexpr double kDefaultBoardSquareMm = 25;
 // The thesis' bracket (Fig. 3.2), longest first.
 inline constexpr std::array<double, 8> kDefaultStereoExposuresS = {
     1.0 / 15,  1.0 / 30,  1.0 / 60,   1.0 / 125,

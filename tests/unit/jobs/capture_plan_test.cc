@@ -6,6 +6,7 @@
 
 #include <set>
 
+#include "daemon/jobs/rig_calibration.h"
 #include "tests/support/status_matchers.h"
 
 namespace hdrstereo::jobs {
@@ -94,6 +95,25 @@ TEST(CapturePlanTest, StructuredLightIs168FramesAt1024x768) {
             "captures/3/left/structured_light/sl_col_b00_inv_exp_1-30s");
 }
 
+TEST(CapturePlanTest, CalibrationBoardDefaultsToNineBySixOf25Mm) {
+  v1::CapturePlan request;
+  request.mutable_calibration()->set_poses(4);
+  ASSERT_OK_AND_ASSIGN(const v1::CapturePlan plan, NormalizePlan(request, {}));
+  EXPECT_EQ(plan.calibration().board_columns(), 9);
+  EXPECT_EQ(plan.calibration().board_rows(), 6);
+  EXPECT_EQ(plan.calibration().board_square_mm(), 25);
+  const calib::BoardSpec board = BoardOf(plan.calibration());
+  EXPECT_EQ(board.inner_corners, cv::Size(9, 6));
+  EXPECT_DOUBLE_EQ(board.square_m, 0.025);
+
+  request.mutable_calibration()->set_board_columns(7);
+  request.mutable_calibration()->set_board_rows(5);
+  request.mutable_calibration()->set_board_square_mm(40);
+  ASSERT_OK_AND_ASSIGN(const v1::CapturePlan own, NormalizePlan(request, {}));
+  EXPECT_EQ(BoardOf(own.calibration()).inner_corners, cv::Size(7, 5));
+  EXPECT_DOUBLE_EQ(BoardOf(own.calibration()).square_m, 0.040);
+}
+
 TEST(CapturePlanTest, BadPlansNameTheField) {
   struct Case {
     std::function<void(v1::CapturePlan&)> edit;
@@ -120,6 +140,21 @@ TEST(CapturePlanTest, BadPlansNameTheField) {
        "iso is -5"},
       {[](v1::CapturePlan& p) { p.mutable_calibration()->set_poses(0); },
        "poses is 0"},
+      {[](v1::CapturePlan& p) {
+         p.mutable_calibration()->set_poses(3);
+         p.mutable_calibration()->set_board_columns(2);
+       },
+       "calibration.board_columns is 2 inner corners; use 3 to 100"},
+      {[](v1::CapturePlan& p) {
+         p.mutable_calibration()->set_poses(3);
+         p.mutable_calibration()->set_board_rows(101);
+       },
+       "calibration.board_rows is 101 inner corners; use 3 to 100"},
+      {[](v1::CapturePlan& p) {
+         p.mutable_calibration()->set_poses(3);
+         p.mutable_calibration()->set_board_square_mm(-4);
+       },
+       "calibration.board_square_mm is -4; use a size in mm above 0"},
       {[](v1::CapturePlan&) {}, "plan must be one of"},
       {[](v1::CapturePlan& p) {
          p.mutable_bracketed_stereo()->add_exposures_s(0.01);
