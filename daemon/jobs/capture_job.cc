@@ -746,10 +746,6 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   absl::StatusOr<std::map<int, store::FrameRecord>> done =
       VerifiedFrames(frames, capture.id, session_dir, context);
   if (!done.ok()) return done.status();
-  const std::vector<FrameSpec> specs = ExpandPlan(plan, limits, capture.id);
-  absl::StatusOr<std::map<int, store::FrameRecord>> done =
-      VerifiedFrames(frames, capture.id, session_dir, context);
-  if (!done.ok()) return done.status();
   RETURN_IF_ERROR(RemoveUnrecordedFiles(session_dir, capture.id, *done));
   const bool calibration = plan.has_calibration();
   const int poses = calibration ? plan.calibration().poses() : 0;
