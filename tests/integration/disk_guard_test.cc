@@ -178,7 +178,11 @@ TEST_F(DiskGuardTest, ENOSPCInTheWriteSuspendsAndTakesTheSameFrameAgain) {
       smallest = std::min(smallest, static_cast<int64_t>(entry.file_size()));
     }
   }
-  FillLeaving(smallest / 2);  // room for the database, not for a frame
+  // Room for the database's next transactions (its WAL grows a few 4 kB
+  // pages with each), not for a frame: the held frame's size is checked at
+  // the end to be above it.
+  const int64_t room = smallest - (8 << 10);
+  FillLeaving(room);
   hold.Release();
   ASSERT_TRUE(WaitForJobState(job, "paused")) << daemon_log();
 
@@ -204,6 +208,10 @@ TEST_F(DiskGuardTest, ENOSPCInTheWriteSuspendsAndTakesTheSameFrameAgain) {
   // The frame whose write failed is the one recorded at its place now.
   const std::string held_path =
       Sql(absl::StrCat("SELECT path FROM frames WHERE sequence = ", kHeld - 1));
+  EXPECT_GT(static_cast<int64_t>(fs::file_size(data_root() / "sessions" /
+                                               "nospace" / held_path)),
+            room)
+      << "the held frame would have fit: the test did not fill the disk";
   EXPECT_EQ(EventsLike(absl::StrCat(
                 "cannot write ",
                 (data_root() / "sessions" / "nospace" / held_path).string(),
