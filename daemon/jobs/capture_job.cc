@@ -474,13 +474,10 @@ absl::StatusOr<v1::CapturePlan> ChooseExposures(
     const std::function<absl::Status(double)>& place_stage,
     const std::function<void()>& after_suspension, const v1::CapturePlan& plan,
     const RigLimits& limits, const BaseSettings& base) {
-  if (!capture.auto_bracket.empty()) {
-    absl::StatusOr<hdr::AutoBracketResult> chosen =
-        hdr::AutoBracketFromJson(capture.auto_bracket);
-    if (!chosen.ok()) {
-      return absl::DataLossError(absl::StrCat("capture ", capture.id, ": ",
-                                              chosen.status().message()));
-    }
+  ASSIGN_OR_RETURN(const std::optional<hdr::AutoBracketResult> chosen,
+                   RecordedAutoBracket(absl::StrCat("capture ", capture.id),
+                                       capture.auto_bracket));
+  if (chosen.has_value()) {
     context.Info(
         absl::StrCat("automatic bracket chosen before: ", chosen->Reason()));
     return WithChosenExposures(plan, *chosen);

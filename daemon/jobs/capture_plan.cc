@@ -104,6 +104,18 @@ v1::CapturePlan WithChosenExposures(v1::CapturePlan plan,
   return plan;
 }
 
+absl::StatusOr<std::optional<hdr::AutoBracketResult>> RecordedAutoBracket(
+    const std::string& whose, const std::string& json) {
+  if (json.empty()) return std::nullopt;
+  absl::StatusOr<hdr::AutoBracketResult> chosen =
+      hdr::AutoBracketFromJson(json);
+  if (!chosen.ok()) {
+    return absl::DataLossError(
+        absl::StrCat(whose, ": ", chosen.status().message()));
+  }
+  return std::move(*chosen);
+}
+
 v1::CapturePlan WithDefaultExposures(v1::CapturePlan plan) {
   if (!ChoosesExposuresAtTheRig(plan)) return plan;
   for (double e : v1::kDefaultStereoExposuresS) {

@@ -67,6 +67,11 @@ v1::CapturePlan WithChosenExposures(v1::CapturePlan plan,
 // bracket in their place (other plans as they are): the frames room on
 // disk is promised for until it has chosen.
 v1::CapturePlan WithDefaultExposures(v1::CapturePlan plan);
+// The choice a capture recorded (captures.auto_bracket, `json`; nullopt
+// when it has none), DATA_LOSS naming `whose` ("capture 3") when it cannot
+// be read.
+absl::StatusOr<std::optional<hdr::AutoBracketResult>> RecordedAutoBracket(
+    const std::string& whose, const std::string& json);
 // The choice as the wire shows it (Job.auto_bracket).
 void ToProto(const hdr::AutoBracketResult& chosen, v1::AutoBracketChoice* out);
 

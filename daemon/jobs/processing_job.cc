@@ -67,13 +67,10 @@ absl::StatusOr<std::vector<CaptureState>> ReadCaptures(
       return absl::DataLossError(
           absl::StrCat("the plan of capture ", capture.id, " cannot be read"));
     }
-    if (!capture.auto_bracket.empty()) {
-      absl::StatusOr<hdr::AutoBracketResult> chosen =
-          hdr::AutoBracketFromJson(capture.auto_bracket);
-      if (!chosen.ok()) {
-        return absl::DataLossError(absl::StrCat("capture ", capture.id, ": ",
-                                                chosen.status().message()));
-      }
+    ASSIGN_OR_RETURN(std::optional<hdr::AutoBracketResult> chosen,
+                     RecordedAutoBracket(absl::StrCat("capture ", capture.id),
+                                         capture.auto_bracket));
+    if (chosen.has_value()) {
       state.plan = WithChosenExposures(state.plan, *chosen);
       state.auto_bracket = std::move(*chosen);
     }

@@ -214,18 +214,15 @@ grpc::Status JobsService::Get(grpc::ServerContext*,
   // What automatic bracketing chose, once it has.
   absl::StatusOr<std::string> chosen =
       store::FrameRepository(engine_.store()).AutoBracketOfJob(response->id());
-  if (absl::IsNotFound(chosen.status()) || (chosen.ok() && chosen->empty())) {
-    return grpc::Status::OK;  // not metered yet
-  }
+  if (absl::IsNotFound(chosen.status())) return grpc::Status::OK;
   if (!chosen.ok()) return ToGrpcStatus(chosen.status());
-  absl::StatusOr<hdr::AutoBracketResult> parsed =
-      hdr::AutoBracketFromJson(*chosen);
-  if (!parsed.ok()) {
-    return ToGrpcStatus(absl::DataLossError(
-        absl::StrCat("job ", response->id(), ": ", parsed.status().message())));
+  absl::StatusOr<std::optional<hdr::AutoBracketResult>> parsed =
+      jobs::RecordedAutoBracket(absl::StrCat("job ", response->id()), *chosen);
+  if (!parsed.ok()) return ToGrpcStatus(parsed.status());
+  if (parsed->has_value()) {
+    jobs::ToProto(**parsed, response->mutable_auto_bracket());
   }
-  jobs::ToProto(*parsed, response->mutable_auto_bracket());
-  return grpc::Status::OK;
+  return grpc::Status::OK;  // or not metered yet
 }
 
 grpc::Status JobsService::List(grpc::ServerContext*,

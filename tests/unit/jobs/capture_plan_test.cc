@@ -4,6 +4,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 
 #include "daemon/jobs/rig_calibration.h"
@@ -12,6 +14,7 @@
 namespace hdrstereo::jobs {
 namespace {
 
+using ::hdrstereo::testing::StatusIs;
 using ::testing::HasSubstr;
 
 v1::CapturePlan Stereo() {
@@ -112,6 +115,21 @@ TEST(CapturePlanTest, CalibrationBoardDefaultsToNineBySixOf25Mm) {
   ASSERT_OK_AND_ASSIGN(const v1::CapturePlan own, NormalizePlan(request, {}));
   EXPECT_EQ(BoardOf(own.calibration()).inner_corners, cv::Size(7, 5));
   EXPECT_DOUBLE_EQ(BoardOf(own.calibration()).square_m, 0.040);
+}
+
+TEST(CapturePlanTest, ARecordedAutoBracketReadsBackOrNamesItsOwner) {
+  hdr::AutoBracketResult chosen;
+  chosen.exposures_s = {0.2, 0.1, 0.05};
+  const nlohmann::json json = chosen;
+  ASSERT_OK_AND_ASSIGN(const std::optional<hdr::AutoBracketResult> back,
+                       RecordedAutoBracket("capture 3", json.dump()));
+  ASSERT_TRUE(back.has_value());
+  EXPECT_EQ(back->exposures_s, chosen.exposures_s);
+  ASSERT_OK_AND_ASSIGN(const std::optional<hdr::AutoBracketResult> none,
+                       RecordedAutoBracket("capture 3", ""));
+  EXPECT_FALSE(none.has_value()) << "a capture that chose nothing";
+  EXPECT_THAT(RecordedAutoBracket("capture 3", "{not json"),
+              StatusIs(absl::StatusCode::kDataLoss, HasSubstr("capture 3: ")));
 }
 
 TEST(CapturePlanTest, BadPlansNameTheField) {
