@@ -474,13 +474,13 @@ absl::StatusOr<v1::CapturePlan> ChooseExposures(
     const std::function<absl::Status(double)>& place_stage,
     const std::function<void()>& after_suspension, const v1::CapturePlan& plan,
     const RigLimits& limits, const BaseSettings& base) {
-  ASSIGN_OR_RETURN(const std::optional<hdr::AutoBracketResult> before,
+  ASSIGN_OR_RETURN(const std::optional<hdr::AutoBracketResult> recorded,
                    RecordedAutoBracket(absl::StrCat("capture ", capture.id),
                                        capture.auto_bracket));
-  if (before.has_value()) {
+  if (recorded.has_value()) {
     context.Info(
-        absl::StrCat("automatic bracket chosen before: ", before->Reason()));
-    return WithChosenExposures(plan, *before);
+        absl::StrCat("automatic bracket chosen before: ", recorded->Reason()));
+    return WithChosenExposures(plan, *recorded);
   }
   const v1::BracketedStereoPlan& stereo = plan.bracketed_stereo();
   const hdr::AutoBracketOptions options =
