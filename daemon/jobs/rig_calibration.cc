@@ -12,6 +12,7 @@
 #include "daemon/store/calibration_repository.h"
 #include "processing/base/status_macros.h"
 #include "processing/io/atomic_file.h"
+#include "proto/hdrstereo/v1/capture_defaults.h"
 
 namespace hdrstereo::jobs {
 namespace {
@@ -25,9 +26,17 @@ std::string JoinPx(const std::vector<double>& values) {
 }  // namespace
 
 calib::BoardSpec BoardOf(const v1::CalibrationPlan& plan) {
+  // 0 is the default here too: a plan stored before the board was named
+  // (a calibration resumed after an upgrade) is not normalized again.
+  auto or_default = [](auto value, auto fallback) {
+    return value > 0 ? value : fallback;
+  };
   calib::BoardSpec board;
-  board.inner_corners = cv::Size(plan.board_columns(), plan.board_rows());
-  board.square_m = plan.board_square_mm() / 1000;
+  board.inner_corners =
+      cv::Size(or_default(plan.board_columns(), v1::kDefaultBoardColumns),
+               or_default(plan.board_rows(), v1::kDefaultBoardRows));
+  board.square_m =
+      or_default(plan.board_square_mm(), v1::kDefaultBoardSquareMm) / 1000;
   return board;
 }
 

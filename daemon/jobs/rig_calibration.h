@@ -18,7 +18,7 @@
 
 namespace hdrstereo::jobs {
 
-// The chessboard a (normalized) calibration plan names.
+// The chessboard a calibration plan names (0 fields: the defaults).
 calib::BoardSpec BoardOf(const v1::CalibrationPlan& plan);
 
 // Why a calibration frame does not show `board` ("" when it does, or when

@@ -109,6 +109,10 @@ TEST(CapturePlanTest, CalibrationBoardDefaultsToNineBySixOf25Mm) {
   EXPECT_EQ(board.inner_corners, cv::Size(9, 6));
   EXPECT_DOUBLE_EQ(board.square_m, 0.025);
 
+  EXPECT_EQ(BoardOf(request.calibration()).inner_corners, cv::Size(9, 6))
+      << "a plan stored before the board was named";
+  EXPECT_DOUBLE_EQ(BoardOf(request.calibration()).square_m, 0.025);
+
   request.mutable_calibration()->set_board_columns(7);
   request.mutable_calibration()->set_board_rows(5);
   request.mutable_calibration()->set_board_square_mm(40);
