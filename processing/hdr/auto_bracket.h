@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
-// Automatic exposure bracketing (issue 24; the thesis chose its eight
-// exposures by trial and error, ch. 3 "lessons learned"): a still scene is
+// Automatic exposure bracketing (the thesis chose its eight exposures by
+// trial and error, ch. 3 "lessons learned"): a still scene is
 // metered with a few linear probe frames per view, its radiance range is
 // estimated, and the fewest exposures are chosen from the camera's shutter
 // speeds such that every channel of every pixel of every view (emitters

@@ -82,7 +82,7 @@ TEST(MethodRolesTest, RolesAreTheOnesTheIssueGives) {
       {"/hdrstereo.v1.Hardware/MoveStage", Role::kOperator, true, true},
       {"/hdrstereo.v1.Hardware/ShowPattern", Role::kOperator, true, true},
       {"/hdrstereo.v1.Hardware/SetCameraSettings", Role::kOperator, true, true},
-      // Live view drives the camera but records nothing (issue 24).
+      // Live view drives the camera but records nothing.
       {"/hdrstereo.v1.Hardware/StreamPreview", Role::kOperator, false, true},
       {"/hdrstereo.v1.Hardware/ProbeProjector", Role::kOperator, true, true},
       {"/hdrstereo.v1.Hardware/Lock", Role::kOperator, true, false},

@@ -91,7 +91,7 @@ TEST(SceneTest, ErrorsNameTheBadField) {
                    "sensor.response.kind");
 }
 
-// The projector's timing (issue 24): each field is read, has its default
+// The projector's timing: each field is read, has its default
 // when absent, and a bad value is refused naming the field.
 TEST(SceneTest, ProjectorLatencyAndRefreshRateAreReadAndChecked) {
   const Scene scene = testing::ParseOrDie(SmallSceneJson(
