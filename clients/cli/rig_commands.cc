@@ -68,6 +68,23 @@ std::string StatisticsLine(const v1::PreviewFrame& frame) {
                           c.channel(), c.p1(), c.p50(), c.p99(),
                           100 * c.clipped_low(), 100 * c.clipped_high());
   }
+  if (frame.has_calibration()) {
+    // "  calibration job 4, pose 2 of 8: board found; 1 pose kept covers
+    // 21.3% of the left view, 20.9% of the right; with this pose 38.0%".
+    const v1::CalibrationGuide& g = frame.calibration();
+    absl::StrAppendFormat(
+        &line,
+        "  calibration job %d, pose %d of %d: %s; %d pose%s kept cover%s "
+        "%.1f%% of the left view, %.1f%% of the right",
+        g.job_id(), g.pose(), g.poses(),
+        g.board_found() ? "board found" : g.board_missing(), g.poses_kept(),
+        g.poses_kept() == 1 ? "" : "s", g.poses_kept() == 1 ? "s" : "",
+        100 * g.coverage_left(), 100 * g.coverage_right());
+    if (g.board_found()) {
+      absl::StrAppendFormat(&line, "; with this pose %.1f%%",
+                            100 * g.coverage_with_this_pose());
+    }
+  }
   return line;
 }
 

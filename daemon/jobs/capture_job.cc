@@ -887,8 +887,18 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
         next = go_on;
         continue;
       }
+      // Live view shows the pose's first frame: the stage goes to it now.
+      // A stage that fails here is dealt with by that frame's own attempts.
+      place_stage(spec.stage_position_mm).IgnoreError();
+      // The simulated operator places the board as asked, while the job
+      // waits, as a person would.
+      if (place_board != nullptr) {
+        RETURN_IF_ERROR(InStep("placing the simulated calibration board",
+                               place_board(pose)));
+      }
       // The rig is let go meanwhile, for live view (Hardware.StreamPreview
-      // allows a waiting job's rig; other direct calls still refuse it).
+      // allows a waiting job's rig and guides the board; other direct calls
+      // still refuse it).
       lane.unlock();
       const absl::Status continued = context.WaitForOperator(
           absl::StrCat(retry_note, "place the board in pose ", pose + 1, " of ",
@@ -896,10 +906,6 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
       lane.lock();
       RETURN_IF_ERROR(continued);
       retry_note.clear();
-      if (place_board != nullptr) {
-        RETURN_IF_ERROR(InStep("placing the simulated calibration board",
-                               place_board(pose)));
-      }
       placed_pose = pose;
     }
     // A frame still being written while the rest does not fit is finished

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <system_error>
 #include <vector>
 
@@ -129,6 +130,95 @@ absl::Status CalibrateRig(JobContext& context, store::FrameRepository& frames,
       JoinPx(quality.rms_right), 100 * quality.coverage_fraction_left,
       100 * quality.coverage_fraction_right));
   return absl::OkStatus();
+}
+
+absl::StatusOr<std::vector<cv::Point2f>> CalibrationGuide::CornersOf(
+    const store::FrameRecord& frame, const std::filesystem::path& dir,
+    const calib::BoardSpec& board) {
+  if (auto it = corners_.find(frame.id); it != corners_.end()) {
+    return it->second;
+  }
+  // A frame read here for the first time: found on a copy at most
+  // kGuideWidth wide (quick on a camera's full frame, and finer than live
+  // view). None for a frame that cannot be read here (RAW).
+  constexpr int kGuideWidth = 1200;
+  std::vector<cv::Point2f> corners;
+  cv::Mat image = cv::imread((dir / frame.path).string(), cv::IMREAD_GRAYSCALE);
+  if (!image.empty()) {
+    if (image.cols > kGuideWidth) {
+      const double scale = static_cast<double>(kGuideWidth) / image.cols;
+      cv::resize(image, image, cv::Size(), scale, scale, cv::INTER_AREA);
+    }
+    absl::StatusOr<std::vector<cv::Point2f>> found =
+        calib::FindChessboard(image, board.inner_corners, frame.path);
+    if (found.ok()) {
+      for (const cv::Point2f& p : *found) {
+        corners.emplace_back((p.x + 0.5f) / image.cols,
+                             (p.y + 0.5f) / image.rows);
+      }
+    }
+  }
+  corners_[frame.id] = corners;
+  return corners;
+}
+
+absl::StatusOr<std::optional<PoseGuide>> CalibrationGuide::Guide(
+    const store::JobRecord& job, const cv::Mat& preview) {
+  v1::CapturePlan plan;
+  if (!plan.ParseFromString(job.request)) {
+    return absl::DataLossError("the job's capture plan cannot be read");
+  }
+  if (!plan.has_calibration()) return std::nullopt;
+  if (preview.empty()) {
+    return absl::InvalidArgumentError("the live-view frame is empty");
+  }
+  const calib::BoardSpec board = BoardOf(plan.calibration());
+  ASSIGN_OR_RETURN(const std::vector<store::FrameRecord> kept,
+                   store::FrameRepository(store_).FramesOfJob(job.id));
+  const std::filesystem::path dir = store_.files().SessionDir(job.session);
+  const cv::Size size = preview.size();
+  // The kept poses' corners, per view, in live-view pixels.
+  std::vector<std::vector<cv::Point2f>> views[2];
+  {
+    absl::MutexLock lock(&mutex_);
+    if (job_id_ != job.id) {
+      corners_.clear();
+      job_id_ = job.id;
+    }
+    for (const store::FrameRecord& frame : kept) {
+      ASSIGN_OR_RETURN(std::vector<cv::Point2f> corners,
+                       CornersOf(frame, dir, board));
+      for (cv::Point2f& p : corners) {
+        p = cv::Point2f(p.x * size.width - 0.5f, p.y * size.height - 0.5f);
+      }
+      views[frame.view_index == 0 ? 0 : 1].push_back(std::move(corners));
+    }
+  }
+  auto covered = [&](const std::vector<std::vector<cv::Point2f>>& poses) {
+    return static_cast<double>(
+               cv::countNonZero(calib::CoverageMask(poses, size))) /
+           size.area();
+  };
+  PoseGuide guide;
+  guide.job_id = job.id;
+  guide.poses = plan.calibration().poses();
+  // A pose is kept whole (both views) or not at all.
+  guide.poses_kept =
+      static_cast<int>(std::min(views[0].size(), views[1].size()));
+  guide.pose = guide.poses_kept + 1;
+  guide.coverage_left = covered(views[0]);
+  guide.coverage_right = covered(views[1]);
+  absl::StatusOr<std::vector<cv::Point2f>> found = calib::FindChessboard(
+      preview, board.inner_corners, "the live-view frame");
+  if (found.ok()) {
+    guide.corners = *std::move(found);
+    views[0].push_back(guide.corners);
+    guide.coverage_with_this_pose = covered(views[0]);
+  } else {
+    guide.board_missing = std::string(found.status().message());
+    guide.coverage_with_this_pose = guide.coverage_left;
+  }
+  return guide;
 }
 
 }  // namespace hdrstereo::jobs

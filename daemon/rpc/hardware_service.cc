@@ -478,6 +478,38 @@ absl::StatusOr<v1::PreviewFrame> HardwareService::TakePreviewFrame() {
   return out;
 }
 
+void HardwareService::GuideCalibration(v1::PreviewFrame* frame) {
+  const int64_t job_id = engine_.running_capture();
+  if (job_id == 0) return;
+  absl::StatusOr<store::JobRecord> job = engine_.repository().Get(job_id);
+  if (!job.ok() || job->state != store::JobState::kWaiting) return;
+  const std::string& jpeg = frame->jpeg();
+  const cv::Mat image =
+      cv::imdecode(cv::Mat(1, static_cast<int>(jpeg.size()), CV_8UC1,
+                           const_cast<char*>(jpeg.data())),
+                   cv::IMREAD_GRAYSCALE);
+  absl::StatusOr<std::optional<jobs::PoseGuide>> guide =
+      guide_.Guide(*job, image);
+  if (!guide.ok()) {
+    // Live view goes on without the guide.
+    spdlog::warn("live view: no calibration guide for job {}: {}", job_id,
+                 guide.status().ToString());
+    return;
+  }
+  if (!guide->has_value()) return;
+  const jobs::PoseGuide& g = **guide;
+  v1::CalibrationGuide* out = frame->mutable_calibration();
+  out->set_job_id(g.job_id);
+  out->set_pose(g.pose);
+  out->set_poses(g.poses);
+  out->set_board_found(!g.corners.empty());
+  out->set_board_missing(g.board_missing);
+  out->set_poses_kept(g.poses_kept);
+  out->set_coverage_left(g.coverage_left);
+  out->set_coverage_right(g.coverage_right);
+  out->set_coverage_with_this_pose(g.coverage_with_this_pose);
+}
+
 grpc::Status HardwareService::StreamPreview(
     grpc::ServerContext* context, const v1::StreamPreviewRequest* request,
     grpc::ServerWriter<v1::PreviewMessage>* writer) {
@@ -540,6 +572,7 @@ grpc::Status HardwareService::StreamPreview(
       }
       return DeviceError(frame.status());
     }
+    GuideCalibration(&*frame);
     const absl::Time now = absl::Now();
     frame->set_sequence(++sent);
     *frame->mutable_time() = TimestampOf(now);

@@ -9,6 +9,7 @@
 #include "absl/status/statusor.h"
 #include "absl/synchronization/mutex.h"
 #include "daemon/jobs/job_engine.h"
+#include "daemon/jobs/rig_calibration.h"
 #include "daemon/jobs/rig_lock.h"
 #include "daemon/rpc/authenticator.h"
 #include "hardware/rig.h"
@@ -37,7 +38,8 @@ class HardwareService final : public v1::Hardware::Service {
       : rig_(rig),
         lock_(lock),
         authenticator_(authenticator),
-        engine_(engine) {}
+        engine_(engine),
+        guide_(engine.store()) {}
 
   grpc::Status GetStatus(grpc::ServerContext* context,
                          const v1::GetHardwareStatusRequest* request,
@@ -96,11 +98,15 @@ class HardwareService final : public v1::Hardware::Service {
       bool allow_waiting, absl::Duration wait = kLaneWait);
   // One live-view frame with its statistics (under the lane).
   absl::StatusOr<v1::PreviewFrame> TakePreviewFrame();
+  // While a calibration capture waits for a pose: what `frame` shows of
+  // the board and what the poses kept so far cover (frame->calibration).
+  void GuideCalibration(v1::PreviewFrame* frame);
 
   hardware::Rig& rig_;
   jobs::RigLock& lock_;
   Authenticator& authenticator_;
   jobs::JobEngine& engine_;
+  jobs::CalibrationGuide guide_;
   absl::Mutex showing_mutex_;
   // What this service last showed.
   std::string showing_ ABSL_GUARDED_BY(showing_mutex_) = "blank";

@@ -148,6 +148,17 @@ absl::StatusOr<std::vector<FrameRecord>> FrameRepository::FramesOfCapture(
   return ReadAll(stmt);
 }
 
+absl::StatusOr<std::vector<FrameRecord>> FrameRepository::FramesOfJob(
+    int64_t job_id) {
+  absl::MutexLock lock(&store_.db().mutex());
+  ASSIGN_OR_RETURN(
+      Statement stmt,
+      store_.db().Prepare(absl::StrCat(
+          kSelectFrame, "WHERE c.job_id = ?1 ORDER BY f.sequence")));
+  stmt.Bind(1, job_id);
+  return ReadAll(stmt);
+}
+
 absl::StatusOr<std::vector<FrameRecord>> FrameRepository::FramesOfSession(
     absl::string_view session, int64_t capture_id, int64_t after_id,
     int limit) {

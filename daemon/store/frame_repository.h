@@ -73,6 +73,9 @@ class FrameRepository {
                                               io::CaptureKind kind,
                                               absl::string_view plan);
   absl::StatusOr<std::vector<FrameRecord>> FramesOfCapture(int64_t capture_id);
+  // The frames of the capture a job records into, by sequence (none when
+  // the job has no capture yet).
+  absl::StatusOr<std::vector<FrameRecord>> FramesOfJob(int64_t job_id);
   // Records what automatic bracketing chose for the capture (before its
   // first frame; a resumed capture keeps it).
   absl::Status SetAutoBracket(int64_t capture_id, absl::string_view json);

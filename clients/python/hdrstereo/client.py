@@ -294,7 +294,10 @@ class Preview:
     """Live view (`client.hardware.preview(...)`): iterate for
     `hardware_pb2.PreviewFrame`s (`jpeg`, `width_px`, `height_px`,
     `exposure_s`, `fps_cap`, and per channel `histogram` (256 bins),
-    `clipped_low`, `clipped_high`, `mean`, `p1`, `p50`, `p99`). Stopping the
+    `clipped_low`, `clipped_high`, `mean`, `p1`, `p50`, `p99`; while a
+    calibration waits for a pose, `calibration`: `board_found`,
+    `board_missing`, `pose`, `poses`, `poses_kept`, `coverage_left`,
+    `coverage_right`, `coverage_with_this_pose`). Stopping the
     iteration ends the stream. When the daemon ends it (the frames asked
     for were sent, or a capture job started: live view never holds up a
     capture), iteration stops and `ended` says why (`reason`,
