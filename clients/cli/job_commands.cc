@@ -69,6 +69,22 @@ void PrintJob(const v1::Job& job) {
             : absl::StrCat(job.instruction(), " (hdrstereo jobs continue ",
                            job.id(), ")")},
        {"error", job.error().empty() ? "-" : job.error()}});
+  if (job.has_projector_timing()) {
+    // "latency 0.120 s (probed; each frame waits it), refresh 60.00 Hz".
+    const v1::ProjectorTiming& timing = job.projector_timing();
+    PrintFields(
+        std::cout,
+        {{"projector",
+          absl::StrCat(
+              timing.has_latency_s()
+                  ? absl::StrFormat("latency %.3f s (probed; each frame "
+                                    "waits it)",
+                                    timing.latency_s())
+                  : "latency not probed",
+              timing.has_refresh_hz()
+                  ? absl::StrFormat(", refresh %.2f Hz", timing.refresh_hz())
+                  : ", refresh rate unknown")}});
+  }
   if (!job.capture().bracketed_stereo().has_auto_bracket()) return;
   const v1::AutoBracketChoice& chosen = job.auto_bracket();
   if (chosen.exposures_s().empty()) {

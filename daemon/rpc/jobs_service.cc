@@ -208,12 +208,30 @@ grpc::Status JobsService::Get(grpc::ServerContext*,
   if (grpc::Status s = CheckJobId(request->job_id()); !s.ok()) return s;
   if (grpc::Status s =
           Reply(engine_.repository().Get(request->job_id()), response);
-      !s.ok() || !jobs::ChoosesExposuresAtTheRig(response->capture())) {
+      !s.ok()) {
     return s;
   }
+  store::FrameRepository frames(engine_.store());
+  if (response->capture().has_structured_light()) {
+    // What the capture measured of its projector, once it has started.
+    absl::StatusOr<int64_t> capture = frames.CaptureIdOfJob(response->id());
+    if (absl::IsNotFound(capture.status())) return grpc::Status::OK;
+    if (!capture.ok()) return ToGrpcStatus(capture.status());
+    absl::StatusOr<store::ProjectorTiming> timing =
+        frames.ProjectorTimingOf(*capture);
+    if (!timing.ok()) return ToGrpcStatus(timing.status());
+    v1::ProjectorTiming* out = response->mutable_projector_timing();
+    if (timing->latency_s.has_value()) out->set_latency_s(*timing->latency_s);
+    if (timing->refresh_hz.has_value()) {
+      out->set_refresh_hz(*timing->refresh_hz);
+    }
+    return grpc::Status::OK;
+  }
+  if (!jobs::ChoosesExposuresAtTheRig(response->capture())) {
+    return grpc::Status::OK;
+  }
   // What automatic bracketing chose, once it has.
-  absl::StatusOr<std::string> chosen =
-      store::FrameRepository(engine_.store()).AutoBracketOfJob(response->id());
+  absl::StatusOr<std::string> chosen = frames.AutoBracketOfJob(response->id());
   if (absl::IsNotFound(chosen.status())) return grpc::Status::OK;
   if (!chosen.ok()) return ToGrpcStatus(chosen.status());
   absl::StatusOr<std::optional<hdr::AutoBracketResult>> parsed =

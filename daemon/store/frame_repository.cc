@@ -326,6 +326,19 @@ SELECT projector_latency_s, projector_refresh_hz FROM captures WHERE id = ?1
   return timing;
 }
 
+absl::StatusOr<int64_t> FrameRepository::CaptureIdOfJob(int64_t job_id) {
+  absl::MutexLock lock(&store_.db().mutex());
+  ASSIGN_OR_RETURN(
+      Statement find,
+      store_.db().Prepare("SELECT id FROM captures WHERE job_id = ?1"));
+  find.Bind(1, job_id);
+  ASSIGN_OR_RETURN(const bool row, find.Step());
+  if (!row) {
+    return absl::NotFoundError(absl::StrCat("job ", job_id, " has no capture"));
+  }
+  return find.ColumnInt(0);
+}
+
 absl::Status FrameRepository::Delete(int64_t frame_id) {
   Transaction tx(store_.db());
   RETURN_IF_ERROR(tx.status());

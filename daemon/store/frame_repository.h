@@ -87,6 +87,8 @@ class FrameRepository {
   absl::Status SetProjectorTiming(int64_t capture_id,
                                   const ProjectorTiming& timing);
   absl::StatusOr<ProjectorTiming> ProjectorTimingOf(int64_t capture_id);
+  // The capture a job records into; NOT_FOUND when it has none yet.
+  absl::StatusOr<int64_t> CaptureIdOfJob(int64_t job_id);
   // The captures of a session ordered by id. NOT_FOUND for an unknown
   // session.
   absl::StatusOr<std::vector<CaptureRecord>> CapturesOfSession(

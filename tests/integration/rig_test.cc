@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "hardware/sim/scene.h"
 #include "hardware/sim/sim_world.h"
 #include "hdrstereo/v1/hardware.grpc.pb.h"
@@ -339,6 +340,15 @@ TEST_F(RigTest, AStructuredLightCaptureProbesAndRecordsTheProjectorTiming) {
   EXPECT_LE(std::abs(latency - kLatencyS), 0.02 + 1e-9);  // default step
   EXPECT_EQ(std::stod(Sql("SELECT projector_refresh_hz FROM captures")),
             kRefreshHz);
+  // The job says both (Jobs.Get, `jobs show`).
+  const nlohmann::json timing = Job(job)["projector_timing"];
+  EXPECT_EQ(timing["latency_s"].get<double>(), latency) << timing.dump();
+  EXPECT_EQ(timing["refresh_hz"].get<double>(), kRefreshHz);
+  EXPECT_THAT(Cli({"jobs", "show", std::to_string(job)}).out,
+              HasSubstr(absl::StrFormat(
+                  "latency %.3f s (probed; each frame waits it), refresh "
+                  "75.00 Hz",
+                  latency)));
   EXPECT_EQ(EventsLike("projector latency %each frame waits that long%"), 1);
   EXPECT_EQ(EventsLike("display refresh 75.00 Hz: every exposure lasts whole "
                        "periods"),
@@ -372,6 +382,9 @@ TEST_F(RigTest, ExposuresAreCheckedAgainstTheRefreshPeriodOrRounded) {
   EXPECT_EQ(Sql("SELECT projector_latency_s IS NULL FROM captures"), "1");
   EXPECT_EQ(std::stod(Sql("SELECT projector_refresh_hz FROM captures")),
             kRefreshHz);
+  EXPECT_FALSE(Job(warned)["projector_timing"].contains("latency_s"));
+  EXPECT_THAT(Cli({"jobs", "show", std::to_string(warned)}).out,
+              HasSubstr("latency not probed, refresh 75.00 Hz"));
 
   ASSERT_EQ(Cli({"session", "create", "rounded"}).exit_code, 0);
   const int64_t rounded =

@@ -63,6 +63,20 @@ class Job:
         chosen = self.message.auto_bracket.exposures_s
         return list(chosen) if chosen else None
 
+    @property
+    def projector_timing(self) -> Optional[dict]:
+        """What a structured-light capture measured of its projector once it
+        has started: {'latency_s': ..., 'refresh_hz': ...}, each None when
+        not probed or unknown; None before the capture starts (or for other
+        jobs). As last read: refresh() reads it again."""
+        if not self.message.HasField("projector_timing"):
+            return None
+        t = self.message.projector_timing
+        return {
+            "latency_s": t.latency_s if t.HasField("latency_s") else None,
+            "refresh_hz": t.refresh_hz if t.HasField("refresh_hz") else None,
+        }
+
     def __repr__(self) -> str:
         p = self.message.progress
         suspended = (f", suspended={self.suspension_reason!r}"
