@@ -261,6 +261,7 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
     bool no_ambient = false;
     bool auto_bracket = false;
     double min_snr = 0;
+    double max_step = 0;
     double exclude_emitters_above = 0;
     double max_uncovered = 0;
     std::string max_exposure;
@@ -314,6 +315,12 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
                    "12232 \"excellent\"]")
       ->needs(auto_flag);
   stereo
+      ->add_option("--max-step", args->max_step,
+                   "--auto: most stops between neighbouring exposures "
+                   "[default: 2/3 (the camera's own format, 8-bit); 1 for "
+                   "plans that ask for 16-bit TIFF or RAW]")
+      ->needs(auto_flag);
+  stereo
       ->add_option("--exclude-emitters-above", args->exclude_emitters_above,
                    "--auto: pixels brighter than this many times their "
                    "view's median are emitters, excluded and reported "
@@ -347,6 +354,7 @@ void AddJobCommands(CLI::App& app, const GlobalOptions& options,
     if (args->auto_bracket) {
       v1::AutoBracket* a = plan->mutable_auto_bracket();
       a->set_min_snr(args->min_snr);
+      a->set_max_step_stops(args->max_step);
       a->set_exclude_emitters_above(args->exclude_emitters_above);
       a->set_max_uncovered_fraction(args->max_uncovered);
       if (!args->max_exposure.empty()) {

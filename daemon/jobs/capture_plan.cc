@@ -70,11 +70,20 @@ absl::Status CheckCamera(int iso, double aperture_f, absl::string_view prefix) {
   return absl::OkStatus();
 }
 
-// Zero fields from hdr::AutoBracketOptions' defaults, then its rules.
-absl::Status NormalizeAutoBracket(v1::AutoBracket* a) {
+// Zero fields from hdr::AutoBracketOptions' defaults, then its rules. The
+// step's default depends on the frames: linear ones (16-bit TIFF, RAW) take
+// the library's, 8-bit ones and the camera's own format (usually JPEG) the
+// closer hdr::kMaxStepStops8Bit.
+absl::Status NormalizeAutoBracket(v1::ImageFormat format, v1::AutoBracket* a) {
   const hdr::AutoBracketOptions defaults;
   if (a->min_snr() == 0) a->set_min_snr(defaults.min_snr);
-  if (a->max_step_stops() == 0) a->set_max_step_stops(defaults.max_step_stops);
+  if (a->max_step_stops() == 0) {
+    const bool linear = format == v1::IMAGE_FORMAT_TIFF_16 ||
+                        format == v1::IMAGE_FORMAT_RAW ||
+                        format == v1::IMAGE_FORMAT_RAW_AND_JPEG;
+    a->set_max_step_stops(linear ? defaults.max_step_stops
+                                 : hdr::kMaxStepStops8Bit);
+  }
   return WithFieldPrefix("bracketed_stereo.auto_bracket",
                          AutoBracketOptionsOf(*a).Validate());
 }
@@ -168,7 +177,8 @@ absl::StatusOr<v1::CapturePlan> NormalizePlan(const v1::CapturePlan& plan,
               "bracketed_stereo: give exposures_s or auto_bracket, not both "
               "(automatic bracketing chooses the exposures)");
         }
-        RETURN_IF_ERROR(NormalizeAutoBracket(p->mutable_auto_bracket()));
+        RETURN_IF_ERROR(
+            NormalizeAutoBracket(p->format(), p->mutable_auto_bracket()));
       } else if (p->exposures_s().empty()) {
         for (double e : v1::kDefaultStereoExposuresS) p->add_exposures_s(e);
       }

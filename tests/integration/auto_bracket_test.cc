@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <opencv2/core.hpp>
 
 #include "absl/strings/str_cat.h"
@@ -101,6 +102,14 @@ TEST_F(CaptureTest, AutoBracketMetersChoosesRecordsAndReports) {
   ASSERT_GE(chosen.size(), 2u) << job;
   // textured spans less than the eight's 1/2000 .. 1/15 s and the window.
   EXPECT_LT(chosen.size(), 8u) << job;
+  // The simulated camera's own format is 8-bit PNG: 2/3-stop steps.
+  EXPECT_EQ(job["capture"]["bracketed_stereo"]["auto_bracket"]["max_step_stops"]
+                .get<double>(),
+            2.0 / 3)
+      << job;
+  for (size_t i = 1; i < chosen.size(); ++i) {
+    EXPECT_LE(std::log2(chosen[i - 1] / chosen[i]), 2.0 / 3 + 1e-6) << job;
+  }
   EXPECT_EQ(job["state"], "JOB_STATE_SUCCEEDED") << job;
   EXPECT_EQ(job["auto_bracket"]["coverage"].get<double>(), 1.0);
   EXPECT_THAT(job["auto_bracket"]["reason"].get<std::string>(),
@@ -245,6 +254,11 @@ TEST_F(CaptureTest, AutoBracketRefusesASceneBeyondTheCameraUnlessLampsGo) {
   EXPECT_EQ(low.exit_code, 2);
   EXPECT_THAT(low.err, HasSubstr("bracketed_stereo.auto_bracket.min_snr is 5; "
                                  "it must be in [10, 1000]"));
+  CommandResult fine =
+      Cli({"capture", "stereo", "bright", "--auto", "--max-step", "0.1"});
+  EXPECT_EQ(fine.exit_code, 2);
+  EXPECT_THAT(fine.err,
+              HasSubstr("bracketed_stereo.auto_bracket.max_step_stops is 0.1"));
   EXPECT_EQ(Sql("SELECT count(*) FROM jobs"), "0");
 
   // The lamp cannot be covered: the job fails before any frame, with both

@@ -171,6 +171,7 @@ class Capture:
                aperture_f: Optional[float] = None,
                settle_s: Optional[float] = None, skip_ambient: bool = False,
                auto_bracket: bool = False, min_snr: Optional[float] = None,
+               max_step_stops: Optional[float] = None,
                exclude_emitters_above: Optional[float] = None,
                max_uncovered_fraction: Optional[float] = None,
                max_exposure_s: Optional[float] = None,
@@ -179,8 +180,9 @@ class Capture:
         defaults) and returns its Job; `wait=True` returns once it ended
         (JobFailed if it did not succeed). `auto_bracket=True` (instead of
         `exposures_s`) meters the scene first and chooses the exposures at
-        the rig (min_snr, exclude_emitters_above, max_uncovered_fraction,
-        max_exposure_s tune it; `job.auto_bracket` says what it chose)."""
+        the rig (min_snr, max_step_stops, exclude_emitters_above,
+        max_uncovered_fraction, max_exposure_s tune it; `job.auto_bracket`
+        says what it chose)."""
         plan = jobs_pb2.CapturePlan()
         _set(plan.bracketed_stereo, baseline_mm=baseline_mm, views=views,
              iso=iso, aperture_f=aperture_f, settle_s=settle_s,
@@ -189,6 +191,7 @@ class Capture:
         if auto_bracket:
             plan.bracketed_stereo.auto_bracket.SetInParent()
             _set(plan.bracketed_stereo.auto_bracket, min_snr=min_snr,
+                 max_step_stops=max_step_stops,
                  exclude_emitters_above=exclude_emitters_above,
                  max_uncovered_fraction=max_uncovered_fraction,
                  max_exposure_s=max_exposure_s)

@@ -332,6 +332,10 @@ def test_auto_bracket_chooses_records_and_says_why(client, daemon) -> None:
     with pytest.raises(hdrstereo.InvalidArgument,
                        match=r"auto_bracket\.min_snr is 5"):
         client.capture.stereo("py-auto", auto_bracket=True, min_snr=5)
+    with pytest.raises(hdrstereo.InvalidArgument,
+                       match=r"auto_bracket\.max_step_stops is 0\.1"):
+        client.capture.stereo("py-auto", auto_bracket=True,
+                              max_step_stops=0.1)
     job = client.capture.stereo("py-auto", auto_bracket=True,
                                 exclude_emitters_above=100, wait=True)
     chosen = job.auto_bracket
@@ -346,6 +350,15 @@ def test_auto_bracket_chooses_records_and_says_why(client, daemon) -> None:
                      if "/stereo/" in f.path})
     assert stereo == sorted(round(e, 12) for e in chosen)
     assert len(frames) == 2 * len(chosen) + 1
+
+
+def test_structured_light_job_says_its_projector_timing(client) -> None:
+    client.sessions.create("py-sl")
+    job = client.capture.structured_light("py-sl", wait=True)
+    # The simulated display refreshes at 60 Hz; the plan did not probe.
+    assert job.projector_timing == {"latency_s": None, "refresh_hz": 60.0}
+    stereo = client.capture.stereo("py-sl", exposures_s=EXPOSURES, wait=True)
+    assert stereo.projector_timing is None
 
 
 def test_raw_calls_map_errors(client) -> None:
@@ -441,6 +454,14 @@ def test_a_calibration_waits_for_continue(board_daemon) -> None:
                 assert time.monotonic() < deadline, repr(job)
                 time.sleep(0.05)
             assert job.state == "waiting"
+            if pose == 1:
+                # Live view guides the board: found, nothing kept yet.
+                frame = next(iter(c.hardware.preview(max_frames=1)))
+                guide = frame.calibration
+                assert (guide.job_id, guide.pose, guide.poses) == (job.id, 1, 3)
+                assert guide.board_found, guide.board_missing
+                assert guide.poses_kept == 0 and guide.coverage_left == 0
+                assert guide.coverage_with_this_pose > 0
             job.continue_()
         deadline = time.monotonic() + 60
         while not job.refresh().done:

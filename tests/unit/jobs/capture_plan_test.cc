@@ -50,12 +50,34 @@ TEST(CapturePlanTest, AutoBracketChoosesItsExposuresAtTheRig) {
   EXPECT_TRUE(ExpandPlan(plan, {}, 7).empty());
   const v1::AutoBracket& a = plan.bracketed_stereo().auto_bracket();
   EXPECT_EQ(a.min_snr(), 20);
-  EXPECT_EQ(a.max_step_stops(), hdr::AutoBracketOptions().max_step_stops);
+  // The camera's own format may be 8-bit: the closer step.
+  EXPECT_EQ(a.max_step_stops(), hdr::kMaxStepStops8Bit);
   EXPECT_EQ(a.exclude_emitters_above(), 0);
   const hdr::AutoBracketOptions options = AutoBracketOptionsOf(a);
   EXPECT_EQ(options.min_snr, 20);
   EXPECT_EQ(options.max_step_stops, a.max_step_stops());
   EXPECT_FALSE(ChoosesExposuresAtTheRig(Stereo()));
+  // Linear frames take the library's step, 8-bit ones the closer one; a
+  // step the request gives is kept.
+  for (const auto& [format, step] :
+       {std::pair{v1::IMAGE_FORMAT_TIFF_16, 1.0},
+        {v1::IMAGE_FORMAT_RAW, 1.0},
+        {v1::IMAGE_FORMAT_JPEG, hdr::kMaxStepStops8Bit},
+        {v1::IMAGE_FORMAT_PNG_8, hdr::kMaxStepStops8Bit}}) {
+    v1::CapturePlan with_format = request;
+    with_format.mutable_bracketed_stereo()->set_format(format);
+    ASSERT_OK_AND_ASSIGN(const v1::CapturePlan normalized,
+                         NormalizePlan(with_format, {}));
+    EXPECT_EQ(normalized.bracketed_stereo().auto_bracket().max_step_stops(),
+              step)
+        << v1::ImageFormat_Name(format);
+    with_format.mutable_bracketed_stereo()
+        ->mutable_auto_bracket()
+        ->set_max_step_stops(2);
+    ASSERT_OK_AND_ASSIGN(const v1::CapturePlan given,
+                         NormalizePlan(with_format, {}));
+    EXPECT_EQ(given.bracketed_stereo().auto_bracket().max_step_stops(), 2);
+  }
 
   hdr::AutoBracketResult chosen;
   chosen.exposures_s = {0.25, 0.125, 1.0 / 16};
