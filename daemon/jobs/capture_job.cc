@@ -314,6 +314,57 @@ class Attempts {
   std::vector<std::string> failures_;  // each attempt's error
 };
 
+// A step taken at a frame boundary before the frames (a metering probe,
+// the projector's timing), as a frame is taken: the frames' suspenders
+// (`blocking`, polled every `poll`) are waited for first; a camera that
+// drops while the step runs is waited for at the boundary and the step
+// taken again, at most kMaxDropsPerFrame times; a transient device fault
+// takes it again (`attempts`); anything else fails the job. `start_over`
+// runs after a suspension, a drop or a fault: what the step relies on
+// (the stage homed, the camera prepared) is to be done again.
+template <typename T>
+absl::StatusOr<T> TakeBeforeFrames(
+    JobContext& context, hardware::Camera& camera, Attempts& attempts,
+    const std::function<std::string()>& blocking, absl::Duration poll,
+    const std::function<void()>& start_over, absl::string_view what,
+    absl::string_view again, const std::function<absl::StatusOr<T>()>& step) {
+  for (int drops = 0;;) {
+    RETURN_IF_ERROR(context.Checkpoint());
+    bool was_suspended = false;
+    RETURN_IF_ERROR(context.SuspendWhile(
+        [&] {
+          std::string why = blocking();
+          was_suspended = was_suspended || !why.empty();
+          return why;
+        },
+        poll));
+    if (was_suspended) start_over();
+    const int64_t drops_before = camera.Connection().drops;
+    absl::StatusOr<T> result = step();
+    if (result.ok()) return result;
+    if (const hardware::ConnectionState link = camera.Connection();
+        link.drops != drops_before || !link.connected) {
+      if (drops >= kMaxDropsPerFrame) {
+        return store::WithEventKind(
+            absl::Status(result.status().code(),
+                         absl::StrCat(what, ": the camera dropped ", drops + 1,
+                                      " times while taking it; last: ",
+                                      result.status().message())),
+            store::EventKind::kCameraDisconnected);
+      }
+      context.Warn(absl::StrCat(what, ": the camera dropped (",
+                                result.status().message(), "); ", again,
+                                " once it is back"),
+                   store::EventTag(store::EventKind::kCameraDisconnected));
+      ++drops;
+      start_over();
+      continue;
+    }
+    RETURN_IF_ERROR(attempts.Retry(result.status()));
+    start_over();
+  }
+}
+
 // What the disk condition asks at a frame boundary.
 struct DiskNeed {
   int64_t frames = 0;  // not written yet; a frame being written counts
@@ -472,7 +523,7 @@ absl::StatusOr<v1::CapturePlan> ChooseExposures(
     hardware::Stage& stage, hardware::Projector* projector, DeviceLog& devices,
     const CaptureConditions& conditions,
     const std::function<absl::Status(double)>& place_stage,
-    const std::function<void()>& after_suspension, const v1::CapturePlan& plan,
+    const std::function<void()>& home_again, const v1::CapturePlan& plan,
     const RigLimits& limits, const BaseSettings& base) {
   ASSIGN_OR_RETURN(const std::optional<hdr::AutoBracketResult> recorded,
                    RecordedAutoBracket(absl::StrCat("capture ", capture.id),
@@ -538,72 +589,40 @@ absl::StatusOr<v1::CapturePlan> ChooseExposures(
     const std::string name = io::ViewName(view, stereo.views());
     const std::string what = absl::StrCat(
         "metering the ", name, " view: probe at ", io::ExposureTag(exposure_s));
-    for (int attempt = 1, drops = 0;;) {
-      RETURN_IF_ERROR(context.Checkpoint());
-      // The frames' suspenders hold for probes too: a rig unfit for a
-      // frame (camera gone or its battery low, stage flags, disk short) is
-      // waited for at this boundary, not probed.
-      bool was_suspended = false;
-      RETURN_IF_ERROR(context.SuspendWhile(
-          [&] {
-            std::string why = BlockingCondition(conditions, camera, stage,
-                                                nullptr, {}, devices);
-            was_suspended = was_suspended || !why.empty();
-            return why;
-          },
-          conditions.poll));
-      if (was_suspended) after_suspension();
-      RETURN_IF_ERROR(context.Progress(0, 0, what));
-      if (prepare_again) {
-        // A camera that came back has its own settings, perhaps files.
-        RETURN_IF_ERROR(
-            InStep("preparing the camera",
-                   devices
-                       .Time(store::Device::kCamera,
-                             [&] { return camera.PrepareCaptureGroup(); })
-                       .status()));
-        prepare_again = false;
-      }
-      const int64_t drops_before = camera.Connection().drops;
-      absl::Status placed =
-          place_stage(limits.home_position_mm + view * stereo.baseline_mm());
-      absl::StatusOr<cv::Mat> probe = placed.ok()
-                                          ? probes.Take(name, exposure_s)
-                                          : absl::StatusOr<cv::Mat>(placed);
-      if (probe.ok()) return probe;
-      // The camera went away: the probe is taken again once it is back
-      // (the boundary above waits), as a frame is.
-      if (const hardware::ConnectionState link = camera.Connection();
-          placed.ok() && (link.drops != drops_before || !link.connected)) {
-        if (drops >= kMaxDropsPerFrame) {
-          return store::WithEventKind(
-              absl::Status(
-                  probe.status().code(),
-                  absl::StrCat(what, ": the camera dropped ", drops + 1,
-                               " times while taking it; "
-                               "last: ",
-                               probe.status().message())),
-              store::EventKind::kCameraDisconnected);
-        }
-        context.Warn(
-            absl::StrCat(what, ": the camera dropped (",
-                         probe.status().message(),
-                         "); the probe is taken again once it is back"),
-            store::EventTag(store::EventKind::kCameraDisconnected));
-        ++drops;
-        prepare_again = true;
-        continue;
-      }
-      if (!IsTransientDeviceError(probe.status()) ||
-          attempt >= kMaxAttemptsPerFrame) {
-        return probe;
-      }
-      ++attempt;
-      context.Warn(absl::StrCat(what, ": ", probe.status().message(),
-                                "; taking it again (attempt ", attempt,
-                                " of at most ", kMaxAttemptsPerFrame, ")"),
-                   store::EventTag(store::EventKindOf(probe.status())));
-    }
+    // The frames' suspenders hold for probes too: a rig unfit for a frame
+    // (camera gone or its battery low, stage flags, disk short) is waited
+    // for at this boundary, not probed.
+    Attempts attempts(context, what, "the probe is taken again",
+                      "no frame was taken");
+    return TakeBeforeFrames<cv::Mat>(
+        context, camera, attempts,
+        [&] {
+          return BlockingCondition(conditions, camera, stage, nullptr, {},
+                                   devices);
+        },
+        conditions.poll,
+        [&] {
+          // The stage may have been touched, or faulted: home it again; a
+          // camera that came back has its own settings, perhaps files.
+          home_again();
+          prepare_again = true;
+        },
+        what, "the probe is taken again",
+        [&]() -> absl::StatusOr<cv::Mat> {
+          RETURN_IF_ERROR(context.Progress(0, 0, what));
+          if (prepare_again) {
+            RETURN_IF_ERROR(
+                InStep("preparing the camera",
+                       devices
+                           .Time(store::Device::kCamera,
+                                 [&] { return camera.PrepareCaptureGroup(); })
+                           .status()));
+            prepare_again = false;
+          }
+          RETURN_IF_ERROR(place_stage(limits.home_position_mm +
+                                      view * stereo.baseline_mm()));
+          return probes.Take(name, exposure_s);
+        });
   };
   absl::StatusOr<hdr::AutoBracketResult> chosen =
       hdr::MeterAndChoose(stereo.views(), take, choices,
@@ -694,10 +713,23 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   // asks) latency, recorded with the capture; each pattern is waited for.
   absl::Duration pattern_wait;
   if (plan.has_structured_light()) {
-    ASSIGN_OR_RETURN(
-        pattern_wait,
-        PrepareProjectorTiming(plan.structured_light(), camera, *projector,
-                               context, frames, capture.id));
+    const std::string what = "measuring the projector's timing";
+    Attempts attempts(context, what, "it is measured again",
+                      "no frame was taken");
+    ASSIGN_OR_RETURN(pattern_wait,
+                     TakeBeforeFrames<absl::Duration>(
+                         context, camera, attempts,
+                         [&] {
+                           return BlockingCondition(conditions, camera, stage,
+                                                    watched_projector, {},
+                                                    devices);
+                         },
+                         conditions.poll, [] {}, what, "it is measured again",
+                         [&] {
+                           return PrepareProjectorTiming(
+                               plan.structured_light(), camera, *projector,
+                               context, frames, capture.id);
+                         }));
   }
   const BaseSettings base = SettingsOf(plan);
   // The stage is homed before it is next placed when it is not homed (or
@@ -729,15 +761,15 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
     return absl::OkStatus();
   };
   if (ChoosesExposuresAtTheRig(plan)) {
-    // After a suspension the stage may have been touched: home it again.
-    auto after_suspension = [&] {
+    // After a suspension or a fault the stage may be off: home it again.
+    auto home_again = [&] {
       home_first = true;
       position = std::nan("");
     };
     ASSIGN_OR_RETURN(
         plan, ChooseExposures(context, frames, capture, camera, stage,
                               projector, devices, conditions, place_stage,
-                              after_suspension, plan, limits, base));
+                              home_again, plan, limits, base));
   }
   const std::vector<FrameSpec> specs = ExpandPlan(plan, limits, capture.id);
   absl::StatusOr<std::map<int, store::FrameRecord>> done =

@@ -11,6 +11,8 @@
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "absl/time/clock.h"
+#include "daemon/jobs/device_log.h"
+#include "daemon/store/event_kind.h"
 #include "processing/base/status_macros.h"
 #include "processing/exposure/frame_statistics.h"
 
@@ -29,6 +31,20 @@ constexpr double kPeriodTolerance = 0.02;
 // "0.12 s" for people.
 std::string Seconds(absl::Duration d) {
   return absl::StrFormat("%g s", absl::ToDoubleSeconds(d));
+}
+
+// The error of a call on `device` marked with its kind, as DeviceLog marks
+// a capture's calls: a capture takes the probe again after a transient one
+// (IsTransientDeviceError).
+absl::Status Marked(store::Device device, absl::Status status) {
+  if (status.ok()) return status;
+  const store::EventKind kind = DeviceErrorKind(device, status);
+  return store::WithEventKind(std::move(status), kind);
+}
+template <typename T>
+absl::StatusOr<T> Marked(store::Device device, absl::StatusOr<T> result) {
+  if (result.ok()) return result;
+  return Marked(device, result.status());
 }
 
 }  // namespace
@@ -121,13 +137,16 @@ absl::StatusOr<ProbeResult> ProbeProjectorLatency(
     hardware::Camera& camera, hardware::Projector& projector,
     const ProbeOptions& options,
     const std::function<absl::Status()>& checkpoint) {
-  ASSIGN_OR_RETURN(const hardware::ExposureSettings before, camera.Settings());
-  RETURN_IF_ERROR(camera
-                      .Configure({.exposure_s = options.exposure_s,
-                                  .iso = 0,
-                                  .aperture_f = 0,
-                                  .format = hardware::ImageFormat::kJpeg})
-                      .status());
+  using store::Device;
+  ASSIGN_OR_RETURN(const hardware::ExposureSettings before,
+                   Marked(Device::kCamera, camera.Settings()));
+  RETURN_IF_ERROR(Marked(
+      Device::kCamera, camera
+                           .Configure({.exposure_s = options.exposure_s,
+                                       .iso = 0,
+                                       .aperture_f = 0,
+                                       .format = hardware::ImageFormat::kJpeg})
+                           .status()));
   absl::Cleanup restore = [&] {
     projector.Blank().IgnoreError();
     if (before.exposure_s > 0) camera.Configure(before).IgnoreError();
@@ -137,10 +156,12 @@ absl::StatusOr<ProbeResult> ProbeProjectorLatency(
   auto level_after = [&](const cv::Mat& pattern,
                          absl::Duration delay) -> absl::StatusOr<double> {
     RETURN_IF_ERROR(checkpoint());
-    RETURN_IF_ERROR(pattern.empty() ? projector.Blank()
-                                    : projector.Show(pattern));
+    RETURN_IF_ERROR(Marked(Device::kProjector, pattern.empty()
+                                                   ? projector.Blank()
+                                                   : projector.Show(pattern)));
     absl::SleepFor(delay);
-    ASSIGN_OR_RETURN(const hardware::Frame frame, camera.Capture());
+    ASSIGN_OR_RETURN(const hardware::Frame frame,
+                     Marked(Device::kCamera, camera.Capture()));
     ASSIGN_OR_RETURN(const exposure::FrameStatistics stats,
                      exposure::ComputeEncodedFrameStatistics(frame.bytes));
     return stats.MeanLevel();
@@ -149,14 +170,15 @@ absl::StatusOr<ProbeResult> ProbeProjectorLatency(
                    level_after(cv::Mat(), options.max_delay));
   ASSIGN_OR_RETURN(const double white_level,
                    level_after(white, options.max_delay));
-  return SearchLatency(options, black, white_level,
-                       [&](absl::Duration delay) -> absl::StatusOr<double> {
-                         // Black long enough to show whatever the latency (up
-                         // to the longest delay tried), then white.
-                         RETURN_IF_ERROR(projector.Blank());
-                         absl::SleepFor(options.max_delay);
-                         return level_after(white, delay);
-                       });
+  return SearchLatency(
+      options, black, white_level,
+      [&](absl::Duration delay) -> absl::StatusOr<double> {
+        // Black long enough to show whatever the latency (up
+        // to the longest delay tried), then white.
+        RETURN_IF_ERROR(Marked(Device::kProjector, projector.Blank()));
+        absl::SleepFor(options.max_delay);
+        return level_after(white, delay);
+      });
 }
 
 bool IsWholeRefreshPeriods(double exposure_s, double refresh_hz) {
@@ -198,7 +220,17 @@ absl::StatusOr<absl::Duration> PrepareProjectorTiming(
   }
   std::optional<double> latency_s;
   absl::Duration wait;
-  if (plan.has_projector_probe()) {
+  ASSIGN_OR_RETURN(const store::ProjectorTiming recorded,
+                   frames.ProjectorTimingOf(capture_id));
+  if (plan.has_projector_probe() && recorded.latency_s.has_value()) {
+    // A resumed capture keeps the timing its frames were taken with.
+    latency_s = recorded.latency_s;
+    wait = absl::Seconds(*latency_s);
+    context.Info(absl::StrFormat(
+        "projector latency %s, as probed when the capture started: each "
+        "frame waits that long after its pattern",
+        Seconds(wait)));
+  } else if (plan.has_projector_probe()) {
     ASSIGN_OR_RETURN(const ProbeOptions options,
                      ProbeOptionsFrom(plan.projector_probe(),
                                       "structured_light.projector_probe"));

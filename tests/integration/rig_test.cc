@@ -96,8 +96,10 @@ class RigTest : public ::hdrstereo::testing::DaemonFixture {
   // The small lab-lamp with a projector `latency_s` late at kRefreshHz,
   // and a camera that takes no time beyond its exposure (at time scale 1
   // only the latency and the probe's own waits take real time).
-  fs::path TimedScene(double latency_s) {
+  fs::path TimedScene(double latency_s,
+                      const nlohmann::json& faults = nlohmann::json::object()) {
     nlohmann::json patch = ::hdrstereo::testing::SmallLabLamp();
+    if (!faults.empty()) patch["faults"] = faults;
     patch["projector"]["latency_s"] = latency_s;
     patch["projector"]["refresh_hz"] = kRefreshHz;
     patch["timing"] = {
@@ -363,6 +365,31 @@ TEST_F(RigTest, AStructuredLightCaptureProbesAndRecordsTheProjectorTiming) {
     return cv::mean(image)[1];
   };
   EXPECT_GT(mean_of("white"), mean_of("black") + 5);
+  EXPECT_EQ(StopDaemon(), 0);
+}
+
+// A camera timeout while the latency is probed (its second frame) is a
+// transient fault, as at a frame: the probe is taken again from its start
+// and the capture finishes with the latency found.
+TEST_F(RigTest, AProbeThatMeetsACameraTimeoutIsTakenAgain) {
+  StartDaemon(
+      {"--sim-scene",
+       TimedScene(kLatencyS, {{"camera", {{"timeout", {{"calls", {2}}}}}}})
+           .string(),
+       "--sim-time-scale", "1"});
+  ASSERT_EQ(Cli({"session", "create", "sl"}).exit_code, 0);
+  const int64_t job = Submit({"capture", "sl", "sl", "--exposures", "1/75",
+                              "--views", "1", "--probe-projector"});
+  ASSERT_GT(job, 0);
+  ASSERT_TRUE(WaitForJobState(job, "succeeded", absl::Seconds(180)))
+      << Job(job).dump(2) << daemon_log();
+  EXPECT_EQ(EventsLike("measuring the projector's timing: %; it is measured "
+                       "again (attempt 2 of at most 3)"),
+            1)
+      << Job(job).dump(2);
+  const double latency =
+      Job(job)["projector_timing"]["latency_s"].get<double>();
+  EXPECT_LE(std::abs(latency - kLatencyS), 0.02 + 1e-9);
   EXPECT_EQ(StopDaemon(), 0);
 }
 
