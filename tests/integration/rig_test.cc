@@ -383,7 +383,7 @@ TEST_F(RigTest, AProbeThatMeetsACameraTimeoutIsTakenAgain) {
   ASSERT_GT(job, 0);
   ASSERT_TRUE(WaitForJobState(job, "succeeded", absl::Seconds(180)))
       << Job(job).dump(2) << daemon_log();
-  EXPECT_EQ(EventsLike("measuring the projector's timing: %; it is measured "
+  EXPECT_EQ(EventsLike("measuring the projector''s timing: %; it is measured "
                        "again (attempt 2 of at most 3)"),
             1)
       << Job(job).dump(2);
