@@ -280,13 +280,7 @@ absl::Status JobEngine::WaitForOperatorFor(int64_t id,
   }
   control.waiting = false;
   control.continued = false;
-  if (result.ok()) {
-    RETURN_IF_ERROR(
-        jobs_.SetState(id, JobState::kRunning, "continued by the operator")
-            .status());
-    NotifyEventLocked();
-  }
-  return result;
+  return result;  // Continue recorded the state
 }
 
 absl::Status JobEngine::SuspendWhileFor(
@@ -435,10 +429,16 @@ absl::StatusOr<JobRecord> JobEngine::Continue(int64_t id) {
           absl::StrCat("job ", id, " is ", store::JobStateName(job.state),
                        "; only a waiting job can be continued"));
     }
+    // Recorded here rather than by the job when it wakes, so that the
+    // caller reads the job as it goes on.
+    RETURN_IF_ERROR(
+        jobs_.SetState(id, JobState::kRunning, "continued by the operator")
+            .status());
     it->second.continued = true;
+    NotifyEventLocked();
   }
   control_cv_.SignalAll();
-  return job;
+  return jobs_.Get(id);
 }
 
 void JobEngine::NotifyEvent() {

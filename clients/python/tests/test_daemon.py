@@ -462,7 +462,8 @@ def test_a_calibration_waits_for_continue(board_daemon) -> None:
                 assert guide.board_found, guide.board_missing
                 assert guide.poses_kept == 0 and guide.coverage_left == 0
                 assert guide.coverage_with_this_pose > 0
-            job.continue_()
+            # The answer is the job as it goes on.
+            assert job.continue_().state == "running"
         deadline = time.monotonic() + 60
         while not job.refresh().done:
             assert time.monotonic() < deadline, repr(job)

@@ -405,7 +405,11 @@ TEST_F(JobEngineTest, AWaitingJobGoesOnWhenContinued) {
   EXPECT_THAT(
       engine.Pause(job->id).status(),
       StatusIs(absl::StatusCode::kFailedPrecondition, HasSubstr("is waiting")));
-  ASSERT_TRUE(engine.Continue(job->id).ok());
+  // Continue answers with the job as it goes on.
+  absl::StatusOr<store::JobRecord> continued = engine.Continue(job->id);
+  ASSERT_TRUE(continued.ok()) << continued.status();
+  EXPECT_EQ(continued->state, JobState::kRunning);
+  EXPECT_EQ(continued->instruction, "");
   ASSERT_TRUE(WaitUntil(engine, [&] {
     absl::StatusOr<store::JobRecord> j = engine.repository().Get(job->id);
     return j.ok() && j->state == JobState::kWaiting && j->progress_done == 1;
