@@ -14,6 +14,7 @@
 #include "absl/time/time.h"
 #include "daemon/jobs/capture_plan.h"
 #include "daemon/jobs/disk_guard.h"
+#include "daemon/jobs/frame_boundary.h"
 #include "daemon/jobs/job_engine.h"
 #include "hardware/rig.h"
 
@@ -44,23 +45,10 @@ absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
 using TruthWriter = std::function<absl::Status(
     double left_mm, double baseline_mm, const std::filesystem::path& dir)>;
 
-// Puts the calibration board in pose `pose` (0-based) when the operator
-// continues a calibration capture to it (simulation only: the simulated
-// operator places the board; at a real rig the person does).
+// Puts the calibration board in pose `pose` (0-based) when a calibration
+// capture asks the operator for it (simulation only: the simulated operator
+// places the board; at a real rig the person does).
 using BoardPlacer = std::function<absl::Status(int pose)>;
-
-// What must hold at every frame boundary of a capture; while one does not,
-// the job is suspended (JobContext::SuspendWhile) and resumes by itself.
-struct CaptureConditions {
-  // The rest of the plan must fit on the data root (with the guard's
-  // margin; DiskGuard::CheckRoomForRest); a frame whose write finds the
-  // disk full all the same is taken again after this condition, rather
-  // than failing the job. nullptr: not checked.
-  const DiskGuard* disk = nullptr;
-  // 0 disables; a camera that does not report its battery passes.
-  int min_battery_percent = 0;
-  absl::Duration poll = absl::Seconds(1);
-};
 
 // The job runner for capture jobs (JobKind::kCapture); the job's request is
 // a serialized, normalised v1::CapturePlan. With `write_truth`, a finished
@@ -68,9 +56,10 @@ struct CaptureConditions {
 // Before each frame, `conditions` are checked (and the camera, stage and
 // projector asked whether they still answer); a frame is taken only into
 // conditions that hold.
-// A calibration capture waits for the operator before each pose
+// A calibration capture moves the stage to the pose's first view, calls
+// `place_board` (simulation) and waits for the operator before each pose
 // (JobContext::WaitForOperator, "place the board in pose 3 of 8 and
-// continue"), then calls `place_board` (simulation); a pose whose frames
+// continue"; live view guides the board meanwhile); a pose whose frames
 // do not show the chessboard (calib::BoardSpec's inner corners; RAW frames
 // are not checked) is not kept: its frames are dropped and the pose is
 // waited for again, the event and the instruction saying so. A pose left

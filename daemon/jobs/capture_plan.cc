@@ -355,4 +355,40 @@ std::vector<FrameSpec> ExpandPlan(const v1::CapturePlan& plan,
   return frames;
 }
 
+BaseSettings SettingsOf(const v1::CapturePlan& plan) {
+  BaseSettings base;
+  switch (plan.plan_case()) {
+    case v1::CapturePlan::kBracketedStereo: {
+      const auto& p = plan.bracketed_stereo();
+      base = {p.iso(), p.aperture_f(), std::nullopt, p.settle_s()};
+      switch (p.format()) {
+        case v1::IMAGE_FORMAT_JPEG:
+          base.format = hardware::ImageFormat::kJpeg;
+          break;
+        case v1::IMAGE_FORMAT_RAW:
+        case v1::IMAGE_FORMAT_RAW_AND_JPEG:
+          base.format = hardware::ImageFormat::kRaw;
+          break;
+        case v1::IMAGE_FORMAT_TIFF_16:
+          base.format = hardware::ImageFormat::kTiff16;
+          break;
+        case v1::IMAGE_FORMAT_PNG_8:
+          base.format = hardware::ImageFormat::kPng8;
+          break;
+        default:
+          break;
+      }
+      break;
+    }
+    case v1::CapturePlan::kStructuredLight: {
+      const auto& p = plan.structured_light();
+      base = {p.iso(), p.aperture_f(), std::nullopt, p.settle_s()};
+      break;
+    }
+    default:
+      break;
+  }
+  return base;
+}
+
 }  // namespace hdrstereo::jobs

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "hardware/camera.h"
 #include "hdrstereo/v1/jobs.pb.h"
 #include "processing/hdr/auto_bracket.h"
 #include "processing/io/capture_layout.h"
@@ -33,6 +34,17 @@ struct RigLimits {
   cv::Size projector_size{1024, 768};
   double projector_refresh_hz = 0;  // 0: unknown
 };
+
+// The camera settings a plan asks for besides the exposure (0 and nullopt:
+// the camera's own), and the stage's settle time after a move.
+struct BaseSettings {
+  int iso = 0;
+  double aperture_f = 0;
+  std::optional<hardware::ImageFormat> format;
+  double settle_s = 0;
+};
+
+BaseSettings SettingsOf(const v1::CapturePlan& plan);
 
 // One frame of a capture.
 struct FrameSpec {
