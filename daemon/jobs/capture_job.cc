@@ -257,23 +257,28 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   // asks) latency, recorded with the capture; each pattern is waited for.
   absl::Duration pattern_wait;
   if (plan.has_structured_light()) {
-    const std::string what = "measuring the projector's timing";
-    Attempts attempts(context, what, "it is measured again",
-                      "no frame was taken");
-    ASSIGN_OR_RETURN(pattern_wait,
-                     TakeBeforeFrames<absl::Duration>(
-                         context, camera, attempts,
-                         [&] {
-                           return BlockingCondition(conditions, camera, stage,
-                                                    watched_projector, {},
-                                                    devices);
-                         },
-                         conditions.poll, [] {}, what, "it is measured again",
-                         [&] {
-                           return PrepareProjectorTiming(
-                               plan.structured_light(), camera, *projector,
-                               context, frames, capture.id);
-                         }));
+    auto prepare = [&] {
+      return PrepareProjectorTiming(plan.structured_light(), camera, *projector,
+                                    context, frames, capture.id);
+    };
+    if (!plan.structured_light().has_projector_probe()) {
+      // Only the display's refresh rate is read: no camera call.
+      ASSIGN_OR_RETURN(pattern_wait, prepare());
+    } else {
+      // The probe takes frames: at a frame boundary, as a frame.
+      const std::string what = "measuring the projector's timing";
+      Attempts attempts(context, what, "it is measured again",
+                        "no frame was taken");
+      ASSIGN_OR_RETURN(
+          pattern_wait,
+          TakeBeforeFrames<absl::Duration>(
+              context, camera, attempts,
+              [&] {
+                return BlockingCondition(conditions, camera, stage,
+                                         watched_projector, {}, devices);
+              },
+              conditions.poll, [] {}, what, "it is measured again", prepare));
+    }
   }
   const BaseSettings base = SettingsOf(plan);
   // The stage is homed before it is next placed when it is not homed (or

@@ -434,11 +434,13 @@ absl::StatusOr<JobRecord> JobEngine::Continue(int64_t id) {
     RETURN_IF_ERROR(
         jobs_.SetState(id, JobState::kRunning, "continued by the operator")
             .status());
+    // Read before the job can wake (it waits for mutex_) and move on.
+    ASSIGN_OR_RETURN(job, jobs_.Get(id));
     it->second.continued = true;
     NotifyEventLocked();
   }
   control_cv_.SignalAll();
-  return jobs_.Get(id);
+  return job;
 }
 
 void JobEngine::NotifyEvent() {
