@@ -266,18 +266,16 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
       ASSIGN_OR_RETURN(pattern_wait, prepare());
     } else {
       // The probe takes frames: at a frame boundary, as a frame.
-      const std::string what = "measuring the projector's timing";
-      Attempts attempts(context, what, "it is measured again",
-                        "no frame was taken");
-      ASSIGN_OR_RETURN(
-          pattern_wait,
-          TakeBeforeFrames<absl::Duration>(
-              context, camera, attempts,
-              [&] {
-                return BlockingCondition(conditions, camera, stage,
-                                         watched_projector, {}, devices);
-              },
-              conditions.poll, [] {}, what, "it is measured again", prepare));
+      Attempts attempts(context, "measuring the projector's timing",
+                        "it is measured again", "no frame was taken");
+      ASSIGN_OR_RETURN(pattern_wait, TakeBeforeFrames<absl::Duration>(
+                                         context, camera, attempts,
+                                         [&] {
+                                           return BlockingCondition(
+                                               conditions, camera, stage,
+                                               watched_projector, {}, devices);
+                                         },
+                                         conditions.poll, [] {}, prepare));
     }
   }
   const BaseSettings base = SettingsOf(plan);

@@ -83,6 +83,9 @@ class Attempts {
   // the job's error.
   absl::Status Retry(const absl::Status& failed);
 
+  const std::string& what() const { return what_; }
+  const std::string& again() const { return again_; }
+
  private:
   JobContext& context_;
   const std::string what_;
@@ -96,15 +99,16 @@ class Attempts {
 // (`blocking`, polled every `poll`) are waited for first; a camera that
 // drops while the step runs is waited for at the boundary and the step
 // taken again, at most kMaxDropsPerFrame times; a transient device fault
-// takes it again (`attempts`); anything else fails the job. `start_over`
+// takes it again (`attempts`, whose what() and again() also word the
+// drop's messages); anything else fails the job. `start_over`
 // runs after a suspension, a drop or a fault: what the step relies on
 // (the stage homed, the camera prepared) is to be done again.
 template <typename T>
 absl::StatusOr<T> TakeBeforeFrames(
     JobContext& context, hardware::Camera& camera, Attempts& attempts,
     const std::function<std::string()>& blocking, absl::Duration poll,
-    const std::function<void()>& start_over, absl::string_view what,
-    absl::string_view again, const std::function<absl::StatusOr<T>()>& step) {
+    const std::function<void()>& start_over,
+    const std::function<absl::StatusOr<T>()>& step) {
   for (int drops = 0;;) {
     RETURN_IF_ERROR(context.Checkpoint());
     bool was_suspended = false;
@@ -123,15 +127,16 @@ absl::StatusOr<T> TakeBeforeFrames(
         link.drops != drops_before || !link.connected) {
       if (drops >= kMaxDropsPerFrame) {
         return store::WithEventKind(
-            absl::Status(result.status().code(),
-                         absl::StrCat(what, ": the camera dropped ", drops + 1,
-                                      " times while taking it; last: ",
-                                      result.status().message())),
+            absl::Status(
+                result.status().code(),
+                absl::StrCat(attempts.what(), ": the camera dropped ",
+                             drops + 1, " times while taking it; last: ",
+                             result.status().message())),
             store::EventKind::kCameraDisconnected);
       }
-      context.Warn(absl::StrCat(what, ": the camera dropped (",
-                                result.status().message(), "); ", again,
-                                " once it is back"),
+      context.Warn(absl::StrCat(attempts.what(), ": the camera dropped (",
+                                result.status().message(), "); ",
+                                attempts.again(), " once it is back"),
                    store::EventTag(store::EventKind::kCameraDisconnected));
       ++drops;
       start_over();

@@ -189,7 +189,6 @@ absl::StatusOr<v1::CapturePlan> ChooseExposures(
           home_again();
           prepare_again = true;
         },
-        what, "the probe is taken again",
         [&]() -> absl::StatusOr<cv::Mat> {
           RETURN_IF_ERROR(context.Progress(0, 0, what));
           if (prepare_again) {
