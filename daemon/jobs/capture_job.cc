@@ -637,8 +637,7 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
       }();
       if (took.ok()) break;
       // Failed because the camera went away (or was away already)?
-      if (const hardware::ConnectionState link = camera.Connection();
-          link.drops == drops_before && link.connected) {
+      if (!CameraDropped(camera, drops_before)) {
         // A frame that failed its verification twice ends the job as it is.
         if (store::FamilyOf(store::EventKindOf(took)) !=
             store::EventFamily::kDeviceError) {
@@ -647,24 +646,13 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
         RETURN_IF_ERROR(take_again(attempts, InStep(camera_step, took)));
         continue;
       }
-      if (drops >= kMaxDropsPerFrame) {
-        return store::WithEventKind(
-            absl::Status(
-                took.code(),
-                absl::StrCat("frame ", Describe(spec, views),
-                             ": the camera dropped ", drops + 1,
-                             " times while taking it; last: ", took.message())),
-            store::EventKind::kCameraDisconnected);
-      }
       // Nothing of this frame was recorded; the camera comes back with its
       // own settings and perhaps files from before.
-      context.Warn(absl::StrCat("frame ", Describe(spec, views),
-                                ": the camera dropped (", took.message(),
-                                "); the frame is taken again once it is back"),
-                   store::EventTag(store::EventKind::kCameraDisconnected));
+      RETURN_IF_ERROR(
+          OnCameraDrop(context, absl::StrCat("frame ", Describe(spec, views)),
+                       "the frame is taken again", took, &drops));
       camera_prepared = false;
       exposure = std::nan("");
-      ++drops;
     }
     if (calibration) {
       if (const std::string missing = BoardMissing(*frame, board);

@@ -32,6 +32,12 @@ EventKind DeviceErrorKind(Device device, const absl::Status& status) {
   return EventKind::kNone;
 }
 
+absl::Status MarkDeviceError(store::Device device, absl::Status status) {
+  if (status.ok()) return status;
+  const store::EventKind kind = DeviceErrorKind(device, status);
+  return store::WithEventKind(std::move(status), kind);
+}
+
 bool IsTransientDeviceError(const absl::Status& status) {
   switch (store::EventKindOf(status)) {
     case EventKind::kCameraTimeout:

@@ -34,6 +34,17 @@ namespace hdrstereo::jobs {
 store::EventKind DeviceErrorKind(store::Device device,
                                  const absl::Status& status);
 
+// The result of a call on `device`, an error marked with its device error
+// kind (as DeviceLog marks the calls it times; IsTransientDeviceError reads
+// the mark). For calls made outside a capture's DeviceLog.
+absl::Status MarkDeviceError(store::Device device, absl::Status status);
+template <typename T>
+absl::StatusOr<T> MarkDeviceError(store::Device device,
+                                  absl::StatusOr<T> result) {
+  if (result.ok()) return result;
+  return MarkDeviceError(device, result.status());
+}
+
 // Whether `status`, the error of a device call that DeviceLog marked with
 // its kind, may pass when the call is made again: a camera that timed out
 // or stayed busy past the driver's own retries; a stage whose replies were
@@ -82,10 +93,7 @@ class DeviceLog {
     const absl::Time start = absl::Now();
     auto result = call();
     Add(device, sample, start, absl::Now());
-    if (!result.ok()) {
-      const absl::Status& status = StatusOf(result);
-      result = store::WithEventKind(status, DeviceErrorKind(device, status));
-    }
+    if (!result.ok()) result = MarkDeviceError(device, StatusOf(result));
     return result;
   }
   void Add(store::Device device, bool sample, absl::Time start, absl::Time end);

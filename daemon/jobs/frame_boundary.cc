@@ -113,4 +113,27 @@ std::string BlockingCondition(const CaptureConditions& conditions,
   return "";
 }
 
+bool CameraDropped(hardware::Camera& camera, int64_t drops_before) {
+  const hardware::ConnectionState link = camera.Connection();
+  return link.drops != drops_before || !link.connected;
+}
+
+absl::Status OnCameraDrop(JobContext& context, absl::string_view what,
+                          absl::string_view again, const absl::Status& failed,
+                          int* drops) {
+  if (*drops >= kMaxDropsPerFrame) {
+    return store::WithEventKind(
+        absl::Status(
+            failed.code(),
+            absl::StrCat(what, ": the camera dropped ", *drops + 1,
+                         " times while taking it; last: ", failed.message())),
+        store::EventKind::kCameraDisconnected);
+  }
+  context.Warn(absl::StrCat(what, ": the camera dropped (", failed.message(),
+                            "); ", again, " once it is back"),
+               store::EventTag(store::EventKind::kCameraDisconnected));
+  ++*drops;
+  return absl::OkStatus();
+}
+
 }  // namespace hdrstereo::jobs

@@ -94,6 +94,19 @@ class Attempts {
   std::vector<std::string> failures_;  // each attempt's error
 };
 
+// Whether the camera dropped (its drop count moved past `drops_before`) or
+// is away: a step that failed then is taken again once it is back.
+bool CameraDropped(hardware::Camera& camera, int64_t drops_before);
+
+// A step (`what`: "frame left view, ...") that failed with `failed` while
+// the camera dropped: counted in `drops` and OK after the warning "`what`:
+// the camera dropped (...); `again` once it is back"; the job's error
+// (kCameraDisconnected) when the step has already seen kMaxDropsPerFrame
+// drops.
+absl::Status OnCameraDrop(JobContext& context, absl::string_view what,
+                          absl::string_view again, const absl::Status& failed,
+                          int* drops);
+
 // A step taken at a frame boundary before the frames (a metering probe,
 // the projector's timing), as a frame is taken: the frames' suspenders
 // (`blocking`, polled every `poll`) are waited for first; a camera that
@@ -123,22 +136,9 @@ absl::StatusOr<T> TakeBeforeFrames(
     const int64_t drops_before = camera.Connection().drops;
     absl::StatusOr<T> result = step();
     if (result.ok()) return result;
-    if (const hardware::ConnectionState link = camera.Connection();
-        link.drops != drops_before || !link.connected) {
-      if (drops >= kMaxDropsPerFrame) {
-        return store::WithEventKind(
-            absl::Status(
-                result.status().code(),
-                absl::StrCat(attempts.what(), ": the camera dropped ",
-                             drops + 1, " times while taking it; last: ",
-                             result.status().message())),
-            store::EventKind::kCameraDisconnected);
-      }
-      context.Warn(absl::StrCat(attempts.what(), ": the camera dropped (",
-                                result.status().message(), "); ",
-                                attempts.again(), " once it is back"),
-                   store::EventTag(store::EventKind::kCameraDisconnected));
-      ++drops;
+    if (CameraDropped(camera, drops_before)) {
+      RETURN_IF_ERROR(OnCameraDrop(context, attempts.what(), attempts.again(),
+                                   result.status(), &drops));
       start_over();
       continue;
     }

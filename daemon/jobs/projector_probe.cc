@@ -33,20 +33,6 @@ std::string Seconds(absl::Duration d) {
   return absl::StrFormat("%g s", absl::ToDoubleSeconds(d));
 }
 
-// The error of a call on `device` marked with its kind, as DeviceLog marks
-// a capture's calls: a capture takes the probe again after a transient one
-// (IsTransientDeviceError).
-absl::Status Marked(store::Device device, absl::Status status) {
-  if (status.ok()) return status;
-  const store::EventKind kind = DeviceErrorKind(device, status);
-  return store::WithEventKind(std::move(status), kind);
-}
-template <typename T>
-absl::StatusOr<T> Marked(store::Device device, absl::StatusOr<T> result) {
-  if (result.ok()) return result;
-  return Marked(device, result.status());
-}
-
 }  // namespace
 
 absl::StatusOr<ProbeOptions> ProbeOptionsFrom(
@@ -139,8 +125,8 @@ absl::StatusOr<ProbeResult> ProbeProjectorLatency(
     const std::function<absl::Status()>& checkpoint) {
   using store::Device;
   ASSIGN_OR_RETURN(const hardware::ExposureSettings before,
-                   Marked(Device::kCamera, camera.Settings()));
-  RETURN_IF_ERROR(Marked(
+                   MarkDeviceError(Device::kCamera, camera.Settings()));
+  RETURN_IF_ERROR(MarkDeviceError(
       Device::kCamera, camera
                            .Configure({.exposure_s = options.exposure_s,
                                        .iso = 0,
@@ -156,12 +142,12 @@ absl::StatusOr<ProbeResult> ProbeProjectorLatency(
   auto level_after = [&](const cv::Mat& pattern,
                          absl::Duration delay) -> absl::StatusOr<double> {
     RETURN_IF_ERROR(checkpoint());
-    RETURN_IF_ERROR(Marked(Device::kProjector, pattern.empty()
-                                                   ? projector.Blank()
-                                                   : projector.Show(pattern)));
+    RETURN_IF_ERROR(MarkDeviceError(
+        Device::kProjector,
+        pattern.empty() ? projector.Blank() : projector.Show(pattern)));
     absl::SleepFor(delay);
     ASSIGN_OR_RETURN(const hardware::Frame frame,
-                     Marked(Device::kCamera, camera.Capture()));
+                     MarkDeviceError(Device::kCamera, camera.Capture()));
     ASSIGN_OR_RETURN(const exposure::FrameStatistics stats,
                      exposure::ComputeEncodedFrameStatistics(frame.bytes));
     return stats.MeanLevel();
@@ -175,7 +161,7 @@ absl::StatusOr<ProbeResult> ProbeProjectorLatency(
       [&](absl::Duration delay) -> absl::StatusOr<double> {
         // Black long enough to show whatever the latency (up
         // to the longest delay tried), then white.
-        RETURN_IF_ERROR(Marked(Device::kProjector, projector.Blank()));
+        RETURN_IF_ERROR(MarkDeviceError(Device::kProjector, projector.Blank()));
         absl::SleepFor(options.max_delay);
         return level_after(white, delay);
       });
