@@ -1,0 +1,61 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "processing/base/input_limits.h"
+
+#include "absl/strings/escaping.h"
+#include "absl/strings/str_cat.h"
+#include "processing/base/status_macros.h"
+
+namespace hdrstereo {
+
+std::string QuoteInput(absl::string_view text) {
+  if (text.size() <= kMaxQuotedBytes) {
+    return absl::StrCat("\"", absl::CHexEscape(text), "\"");
+  }
+  return absl::StrCat("\"", absl::CHexEscape(text.substr(0, kMaxQuotedBytes)),
+                      "\"... (", text.size(), " bytes)");
+}
+
+absl::Status CheckRange(absl::string_view field, int64_t value, int64_t min,
+                        int64_t max) {
+  if (value < min || value > max) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, ": ", value, " is outside [", min, ", ", max, "]"));
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<uint64_t> CheckedMultiply(absl::string_view what, uint64_t a,
+                                         uint64_t b, uint64_t limit) {
+  uint64_t product = 0;
+  if (__builtin_mul_overflow(a, b, &product) || product > limit) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        what, ": ", a, " x ", b, " is more than the limit of ", limit));
+  }
+  return product;
+}
+
+absl::StatusOr<size_t> ImageBytes(absl::string_view what, int64_t width,
+                                  int64_t height, int64_t channels,
+                                  int64_t bytes_per_channel) {
+  RETURN_IF_ERROR(
+      CheckRange(absl::StrCat(what, " width"), width, 1, kMaxImageSide));
+  RETURN_IF_ERROR(
+      CheckRange(absl::StrCat(what, " height"), height, 1, kMaxImageSide));
+  RETURN_IF_ERROR(CheckRange(absl::StrCat(what, " channels"), channels, 1,
+                             kMaxImageChannels));
+  RETURN_IF_ERROR(CheckRange(absl::StrCat(what, " bytes per channel"),
+                             bytes_per_channel, 1, 8));
+  ASSIGN_OR_RETURN(
+      uint64_t pixels,
+      CheckedMultiply(absl::StrCat(what, " pixels (width x height)"), width,
+                      height, kMaxImagePixels));
+  ASSIGN_OR_RETURN(uint64_t values,
+                   CheckedMultiply(absl::StrCat(what, " values"), pixels,
+                                   channels, UINT64_MAX));
+  ASSIGN_OR_RETURN(uint64_t bytes,
+                   CheckedMultiply(absl::StrCat(what, " bytes"), values,
+                                   bytes_per_channel, SIZE_MAX));
+  return static_cast<size_t>(bytes);
+}
+
+}  // namespace hdrstereo

@@ -1,0 +1,60 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// Checks for sizes that untrusted input declares (a file's width, a peer's
+// data length, a layout's frame count): every such number is compared with
+// an explicit limit, with overflow-checked arithmetic, before anything is
+// allocated or copied, and the error names the field, its value and the
+// limit. Error messages quote what they received through QuoteInput, which
+// keeps only a bounded, escaped prefix.
+//
+//   RETURN_IF_ERROR(CheckRange("PFM width", width, 1, kMaxImageSide));
+//   ASSIGN_OR_RETURN(size_t bytes,
+//                    ImageBytes("PFM", width, height, channels, 4));
+#ifndef HDRSTEREO_PROCESSING_BASE_INPUT_LIMITS_H_
+#define HDRSTEREO_PROCESSING_BASE_INPUT_LIMITS_H_
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+
+namespace hdrstereo {
+
+// OpenCV's own limits for decoded images (imgcodecs' defaults of
+// OPENCV_IO_MAX_IMAGE_WIDTH, _HEIGHT and _PIXELS): no reader of ours accepts
+// an image OpenCV itself would refuse to decode.
+inline constexpr int64_t kMaxImageSide = int64_t{1} << 20;
+inline constexpr int64_t kMaxImagePixels = int64_t{1} << 30;
+// cv::Mat holds at most 512 channels (CV_CN_MAX).
+inline constexpr int64_t kMaxImageChannels = 512;
+
+// The most bytes of received text an error message quotes.
+inline constexpr size_t kMaxQuotedBytes = 64;
+
+// `text` for an error message: at most kMaxQuotedBytes of it, C-escaped, in
+// double quotes, followed by "... (N bytes)" when it was cut.
+std::string QuoteInput(absl::string_view text);
+
+// INVALID_ARGUMENT "<field>: <value> is outside [<min>, <max>]" unless
+// min <= value <= max.
+absl::Status CheckRange(absl::string_view field, int64_t value, int64_t min,
+                        int64_t max);
+
+// a * b; INVALID_ARGUMENT naming `what` when the
+// product overflows 64 bits or exceeds `limit`.
+absl::StatusOr<uint64_t> CheckedMultiply(absl::string_view what, uint64_t a,
+                                         uint64_t b, uint64_t limit);
+
+// The bytes of a width x height image of `channels` channels of
+// `bytes_per_channel` bytes, after checking each against OpenCV's limits
+// above (INVALID_ARGUMENT naming `what`, the field, its value and the limit).
+absl::StatusOr<size_t> ImageBytes(absl::string_view what, int64_t width,
+                                  int64_t height, int64_t channels,
+                                  int64_t bytes_per_channel);
+
+}  // namespace hdrstereo
+
+#endif  // HDRSTEREO_PROCESSING_BASE_INPUT_LIMITS_H_

@@ -1,0 +1,61 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "processing/base/input_limits.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <string>
+
+namespace hdrstereo {
+namespace {
+
+using ::testing::HasSubstr;
+
+TEST(QuoteInputTest, ShortTextIsQuotedWholeAndEscaped) {
+  EXPECT_EQ(QuoteInput("ab\n\"c"), "\"ab\\n\\\"c\"");
+}
+
+TEST(QuoteInputTest, LongTextKeepsABoundedPrefixAndItsSize) {
+  const std::string huge(2'000'000, 'x');
+  const std::string quoted = QuoteInput(huge);
+  EXPECT_LT(quoted.size(), kMaxQuotedBytes + 40);
+  EXPECT_THAT(quoted, HasSubstr("... (2000000 bytes)"));
+  EXPECT_EQ(quoted.substr(0, 5), "\"xxxx");
+}
+
+TEST(CheckRangeTest, NamesTheFieldTheValueAndTheLimits) {
+  EXPECT_TRUE(CheckRange("width", 5, 1, 10).ok());
+  const absl::Status s = CheckRange("PFM width", -3, 1, 1048576);
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(s.message(), "PFM width: -3 is outside [1, 1048576]");
+}
+
+TEST(CheckedMultiplyTest, RefusesOverflowAndProductsAboveTheLimit) {
+  EXPECT_EQ(*CheckedMultiply("n", 1000, 1000, 1'000'000), 1'000'000u);
+  const auto over = CheckedMultiply("n", 1001, 1000, 1'000'000);
+  EXPECT_EQ(over.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(over.status().message(),
+            "n: 1001 x 1000 is more than the limit of 1000000");
+  // 2^32 * 2^32 wraps to 0 in 64 bits: refused, not accepted as 0.
+  const auto wraps =
+      CheckedMultiply("n", uint64_t{1} << 32, uint64_t{1} << 32, UINT64_MAX);
+  EXPECT_EQ(wraps.status().code(), absl::StatusCode::kInvalidArgument);
+}
+
+TEST(ImageBytesTest, ChecksEachFieldAgainstOpenCvsLimits) {
+  EXPECT_EQ(*ImageBytes("PFM", 640, 480, 3, 4), 640u * 480 * 3 * 4);
+  EXPECT_EQ(ImageBytes("PFM", 0, 480, 3, 4).status().message(),
+            "PFM width: 0 is outside [1, 1048576]");
+  EXPECT_EQ(ImageBytes("PFM", 640, 2'000'000, 3, 4).status().message(),
+            "PFM height: 2000000 is outside [1, 1048576]");
+  // Each side within its limit, the area not: 2^20 x 2^20 > 2^30 pixels.
+  EXPECT_THAT(
+      std::string(ImageBytes("EXR", kMaxImageSide, kMaxImageSide, 1, 4)
+                      .status()
+                      .message()),
+      HasSubstr("EXR pixels (width x height): 1048576 x 1048576 is more than "
+                "the limit of 1073741824"));
+}
+
+}  // namespace
+}  // namespace hdrstereo
