@@ -1,11 +1,34 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "processing/base/input_limits.h"
 
+#include <cstdlib>
+
 #include "absl/strings/escaping.h"
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "processing/base/status_macros.h"
 
 namespace hdrstereo {
+namespace {
+
+int64_t EnvOr(const char* name, int64_t fallback) {
+  const char* text = std::getenv(name);
+  int64_t value = 0;
+  if (text == nullptr || !absl::SimpleAtoi(text, &value) || value <= 0) {
+    return fallback;
+  }
+  return value;
+}
+
+}  // namespace
+
+const ImageLimits& DecodedImageLimits() {
+  static const ImageLimits limits = {
+      EnvOr("OPENCV_IO_MAX_IMAGE_WIDTH", int64_t{1} << 20),
+      EnvOr("OPENCV_IO_MAX_IMAGE_HEIGHT", int64_t{1} << 20),
+      EnvOr("OPENCV_IO_MAX_IMAGE_PIXELS", int64_t{1} << 30)};
+  return limits;
+}
 
 std::string QuoteInput(absl::string_view text) {
   if (text.size() <= kMaxQuotedBytes) {
@@ -37,10 +60,11 @@ absl::StatusOr<uint64_t> CheckedMultiply(absl::string_view what, uint64_t a,
 absl::StatusOr<size_t> ImageBytes(absl::string_view what, int64_t width,
                                   int64_t height, int64_t channels,
                                   int64_t bytes_per_channel) {
+  const ImageLimits& limits = DecodedImageLimits();
   RETURN_IF_ERROR(
-      CheckRange(absl::StrCat(what, " width"), width, 1, kMaxImageSide));
+      CheckRange(absl::StrCat(what, " width"), width, 1, limits.max_width));
   RETURN_IF_ERROR(
-      CheckRange(absl::StrCat(what, " height"), height, 1, kMaxImageSide));
+      CheckRange(absl::StrCat(what, " height"), height, 1, limits.max_height));
   RETURN_IF_ERROR(CheckRange(absl::StrCat(what, " channels"), channels, 1,
                              kMaxImageChannels));
   RETURN_IF_ERROR(CheckRange(absl::StrCat(what, " bytes per channel"),

@@ -23,11 +23,18 @@
 
 namespace hdrstereo {
 
-// OpenCV's own limits for decoded images (imgcodecs' defaults of
-// OPENCV_IO_MAX_IMAGE_WIDTH, _HEIGHT and _PIXELS): no reader of ours accepts
-// an image OpenCV itself would refuse to decode.
-inline constexpr int64_t kMaxImageSide = int64_t{1} << 20;
-inline constexpr int64_t kMaxImagePixels = int64_t{1} << 30;
+// OpenCV's own limits for decoded images: imgcodecs reads them from the
+// environment variables OPENCV_IO_MAX_IMAGE_WIDTH, _HEIGHT and _PIXELS
+// (defaults 2^20, 2^20 and 2^30), and so do we, once per process, so that
+// no reader of ours accepts an image OpenCV itself would refuse to decode,
+// and one setting lowers both (the fuzz targets lower them to keep every
+// allocation under libFuzzer's malloc limit).
+struct ImageLimits {
+  int64_t max_width;
+  int64_t max_height;
+  int64_t max_pixels;
+};
+const ImageLimits& DecodedImageLimits();
 // cv::Mat holds at most 512 channels (CV_CN_MAX).
 inline constexpr int64_t kMaxImageChannels = 512;
 
@@ -49,8 +56,9 @@ absl::StatusOr<uint64_t> CheckedMultiply(absl::string_view what, uint64_t a,
                                          uint64_t b, uint64_t limit);
 
 // The bytes of a width x height image of `channels` channels of
-// `bytes_per_channel` bytes, after checking each against OpenCV's limits
-// above (INVALID_ARGUMENT naming `what`, the field, its value and the limit).
+// `bytes_per_channel` bytes, after checking each against
+// DecodedImageLimits() (INVALID_ARGUMENT naming `what`, the field, its value
+// and the limit).
 absl::StatusOr<size_t> ImageBytes(absl::string_view what, int64_t width,
                                   int64_t height, int64_t channels,
                                   int64_t bytes_per_channel);

@@ -42,7 +42,10 @@ TEST(CheckedMultiplyTest, RefusesOverflowAndProductsAboveTheLimit) {
   EXPECT_EQ(wraps.status().code(), absl::StatusCode::kInvalidArgument);
 }
 
+// The suite runs with OpenCV's default limits (no OPENCV_IO_MAX_IMAGE_*).
 TEST(ImageBytesTest, ChecksEachFieldAgainstOpenCvsLimits) {
+  ASSERT_EQ(DecodedImageLimits().max_width, 1 << 20);
+  ASSERT_EQ(DecodedImageLimits().max_pixels, 1 << 30);
   EXPECT_EQ(*ImageBytes("PFM", 640, 480, 3, 4), 640u * 480 * 3 * 4);
   EXPECT_EQ(ImageBytes("PFM", 0, 480, 3, 4).status().message(),
             "PFM width: 0 is outside [1, 1048576]");
@@ -50,7 +53,7 @@ TEST(ImageBytesTest, ChecksEachFieldAgainstOpenCvsLimits) {
             "PFM height: 2000000 is outside [1, 1048576]");
   // Each side within its limit, the area not: 2^20 x 2^20 > 2^30 pixels.
   EXPECT_THAT(
-      std::string(ImageBytes("EXR", kMaxImageSide, kMaxImageSide, 1, 4)
+      std::string(ImageBytes("EXR", int64_t{1} << 20, int64_t{1} << 20, 1, 4)
                       .status()
                       .message()),
       HasSubstr("EXR pixels (width x height): 1048576 x 1048576 is more than "
