@@ -72,7 +72,7 @@ absl::StatusOr<size_t> ImageBytes(absl::string_view what, int64_t width,
   ASSIGN_OR_RETURN(
       uint64_t pixels,
       CheckedMultiply(absl::StrCat(what, " pixels (width x height)"), width,
-                      height, kMaxImagePixels));
+                      height, limits.max_pixels));
   ASSIGN_OR_RETURN(uint64_t values,
                    CheckedMultiply(absl::StrCat(what, " values"), pixels,
                                    channels, UINT64_MAX));
