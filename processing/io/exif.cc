@@ -4,14 +4,17 @@
 #include <libraw/libraw.h>
 #include <zlib.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <utility>
 #include <vector>
 
+#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/civil_time.h"
@@ -30,17 +33,20 @@ class TiffReader {
     return (data_.substr(0, 2) == "II" || data_.substr(0, 2) == "MM") &&
            U16(2) == 42;
   }
+  // True when `length` bytes from `offset` lie within the data.
+  bool Fits(size_t offset, size_t length) const {
+    return offset <= data_.size() && length <= data_.size() - offset;
+  }
   uint32_t U16(size_t off) const {
-    if (off + 2 > data_.size()) return 0;
+    if (!Fits(off, 2)) return 0;
     const auto* p = reinterpret_cast<const unsigned char*>(data_.data() + off);
     return big_endian_ ? (p[0] << 8 | p[1]) : (p[1] << 8 | p[0]);
   }
   uint32_t U32(size_t off) const {
-    if (off + 4 > data_.size()) return 0;
+    if (!Fits(off, 4)) return 0;
     return big_endian_ ? (U16(off) << 16 | U16(off + 2))
                        : (U16(off + 2) << 16 | U16(off));
   }
-  size_t size() const { return data_.size(); }
   absl::string_view data() const { return data_; }
 
  private:
@@ -53,6 +59,40 @@ constexpr uint16_t kTypeShort = 3;
 constexpr uint16_t kTypeLong = 4;
 constexpr uint16_t kTypeRational = 5;
 
+// Bytes of one value of a TIFF field type; 0 for types TIFF 6.0 does not
+// define.
+size_t TypeSize(uint16_t type) {
+  switch (type) {
+    case 1:  // BYTE
+    case kTypeAscii:
+    case 6:  // SBYTE
+    case 7:  // UNDEFINED
+      return 1;
+    case kTypeShort:
+    case 8:  // SSHORT
+      return 2;
+    case kTypeLong:
+    case 9:   // SLONG
+    case 11:  // FLOAT
+      return 4;
+    case kTypeRational:
+    case 10:  // SRATIONAL
+    case 12:  // DOUBLE
+      return 8;
+    default:
+      return 0;
+  }
+}
+
+// Entries read of one IFD, and strings kept of a field: cameras write a few
+// dozen entries and strings of a few dozen characters.
+constexpr uint32_t kMaxIfdEntries = 1000;
+constexpr size_t kMaxExifString = 255;
+// ISOSpeedRatings (0x8827) is a SHORT: EXIF 2.3 writes 65535 there for a
+// higher ISO.
+constexpr uint32_t kSaturatedIso = 65535;
+
+// An IFD entry whose count x type-size bytes of value lie within the data.
 struct Entry {
   uint16_t tag;
   uint16_t type;
@@ -60,7 +100,22 @@ struct Entry {
   size_t value_offset;  // where the value lies (inline or pointed to)
 };
 
+// The entry at `at` (12 bytes within the data); nullopt when its type is
+// unknown or its value does not lie within the data.
+std::optional<Entry> ReadEntry(const TiffReader& r, size_t at) {
+  Entry e{static_cast<uint16_t>(r.U16(at)),
+          static_cast<uint16_t>(r.U16(at + 2)), r.U32(at + 4), at + 8};
+  const size_t unit = TypeSize(e.type);
+  if (unit == 0 || e.count > r.data().size() / unit) return std::nullopt;
+  const size_t bytes = unit * e.count;  // no overflow: at most the data size
+  if (bytes > 4) e.value_offset = r.U32(at + 8);
+  if (!r.Fits(e.value_offset, bytes)) return std::nullopt;
+  return e;
+}
+
+// The entry's first value as a number (SHORT, LONG or RATIONAL).
 std::optional<double> EntryNumber(const TiffReader& r, const Entry& e) {
+  if (e.count == 0) return std::nullopt;
   switch (e.type) {
     case kTypeShort:
       return r.U16(e.value_offset);
@@ -83,63 +138,98 @@ std::optional<double> Positive(std::optional<double> v) {
   return std::nullopt;
 }
 
+// An ASCII value up to its first NUL, at most kMaxExifString bytes, without
+// trailing spaces.
 std::string EntryString(const TiffReader& r, const Entry& e) {
-  if (e.type != kTypeAscii || e.value_offset + e.count > r.size()) return "";
-  std::string s(r.data().substr(e.value_offset, e.count));
-  while (!s.empty() && (s.back() == '\0' || s.back() == ' ')) s.pop_back();
-  return s;
+  if (e.type != kTypeAscii) return "";
+  absl::string_view s = r.data().substr(e.value_offset, e.count);
+  s = s.substr(0, std::min(s.find('\0'), kMaxExifString));
+  while (!s.empty() && s.back() == ' ') s.remove_suffix(1);
+  return std::string(s);
 }
 
-void ReadIfd(const TiffReader& r, size_t ifd, ExifInfo& info, int depth) {
-  if (depth > 2 || ifd == 0 || ifd + 2 > r.size()) return;
-  uint32_t n = r.U16(ifd);
+// What IFD0 and the Exif IFD hold, before the ISO is chosen.
+struct Fields {
   std::string make, model;
-  for (uint32_t i = 0; i < n && i < 1000; ++i) {
-    size_t at = ifd + 2 + 12 * i;
-    if (at + 12 > r.size()) break;
-    Entry e{static_cast<uint16_t>(r.U16(at)),
-            static_cast<uint16_t>(r.U16(at + 2)), r.U32(at + 4), at + 8};
-    size_t unit = e.type == kTypeShort      ? 2
-                  : e.type == kTypeRational ? 8
-                  : e.type == kTypeLong     ? 4
-                                            : 1;
-    if (unit * e.count > 4) e.value_offset = r.U32(at + 8);
-    switch (e.tag) {
+  size_t exif_ifd = 0;
+  std::optional<double> iso;  // ISOSpeedRatings (0x8827)
+  std::optional<double> sensitivity_type;
+  std::optional<double> sos, rei, iso_speed;
+};
+
+// Reads the entries of the IFD at `ifd` (at most kMaxIfdEntries).
+void ReadIfd(const TiffReader& r, size_t ifd, Fields& fields, ExifInfo& info) {
+  if (ifd == 0 || !r.Fits(ifd, 2)) return;
+  const uint32_t n = std::min(r.U16(ifd), kMaxIfdEntries);
+  for (uint32_t i = 0; i < n && r.Fits(ifd + 2 + 12 * i, 12); ++i) {
+    const std::optional<Entry> e = ReadEntry(r, ifd + 2 + 12 * i);
+    if (!e.has_value()) continue;
+    switch (e->tag) {
       case 0x010F:
-        make = EntryString(r, e);
+        fields.make = EntryString(r, *e);
         break;
       case 0x0110:
-        model = EntryString(r, e);
+        fields.model = EntryString(r, *e);
         break;
       case 0x8769:  // Exif sub-IFD
-        if (auto off = EntryNumber(r, e)) {
-          ReadIfd(r, static_cast<size_t>(*off), info, depth + 1);
-        }
+        fields.exif_ifd = static_cast<size_t>(EntryNumber(r, *e).value_or(0));
         break;
       case 0x829A:
-        info.exposure_s = Positive(EntryNumber(r, e));
+        info.exposure_s = Positive(EntryNumber(r, *e));
         break;
       case 0x829D:
-        info.aperture = Positive(EntryNumber(r, e));
+        info.aperture = Positive(EntryNumber(r, *e));
         break;
       case 0x8827:
-        info.iso = Positive(EntryNumber(r, e));
+        fields.iso = Positive(EntryNumber(r, *e));
+        break;
+      case 0x8830:
+        fields.sensitivity_type = EntryNumber(r, *e);
+        break;
+      case 0x8831:
+        fields.sos = Positive(EntryNumber(r, *e));
+        break;
+      case 0x8832:
+        fields.rei = Positive(EntryNumber(r, *e));
+        break;
+      case 0x8833:
+        fields.iso_speed = Positive(EntryNumber(r, *e));
         break;
       case 0x9003:
-        info.date_time_original = EntryString(r, e);
+        info.date_time_original = EntryString(r, *e);
         break;
       case 0x9291:
-        info.subsec_time_original = EntryString(r, e);
+        info.subsec_time_original = EntryString(r, *e);
         break;
       default:
         break;
     }
   }
-  if (!make.empty() || !model.empty()) {
-    info.camera = make.empty()    ? model
-                  : model.empty() ? make
-                                  : make + " " + model;
-  }
+}
+
+// ISOSpeedRatings, unless it is missing or saturated (EXIF 2.3): then the
+// 32-bit sensitivity SensitivityType names (0x8830: 1 SOS, 2 REI, 3 ISO
+// speed, 4 to 7 their combinations, 0 or missing unknown), in the order
+// RecommendedExposureIndex, ISOSpeed, StandardOutputSensitivity.
+std::optional<double> ChooseIso(const Fields& f) {
+  if (f.iso.has_value() && *f.iso < kSaturatedIso) return f.iso;
+  constexpr int kSos = 1, kRei = 2, kIsoSpeed = 4;
+  // The sensitivities each SensitivityType names.
+  static constexpr int kNamed[8] = {kSos | kRei | kIsoSpeed,
+                                    kSos,
+                                    kRei,
+                                    kIsoSpeed,
+                                    kSos | kRei,
+                                    kSos | kIsoSpeed,
+                                    kRei | kIsoSpeed,
+                                    kSos | kRei | kIsoSpeed};
+  const double type = f.sensitivity_type.value_or(0);
+  const int named =
+      type >= 0 && type < 8 ? kNamed[static_cast<int>(type)] : kNamed[0];
+  if ((named & kRei) && f.rei.has_value()) return f.rei;
+  if ((named & kIsoSpeed) && f.iso_speed.has_value()) return f.iso_speed;
+  if ((named & kSos) && f.sos.has_value()) return f.sos;
+  return f.iso;
 }
 
 uint32_t BigEndian32(absl::string_view s, size_t off) {
@@ -280,8 +370,14 @@ std::string EncodeExifTiff(const ExifInfo& info) {
         100));
   }
   if (info.iso.has_value()) {
-    exif.push_back(
-        W::Short(0x8827, static_cast<uint32_t>(std::lround(*info.iso))));
+    // As cameras write an ISO above ISOSpeedRatings' 16 bits (EXIF 2.3):
+    // 65535 there, the ISO as RecommendedExposureIndex (SensitivityType 2).
+    const uint32_t iso = static_cast<uint32_t>(std::lround(*info.iso));
+    exif.push_back(W::Short(0x8827, std::min<uint32_t>(iso, kSaturatedIso)));
+    if (iso > kSaturatedIso) {
+      exif.push_back(W::Short(0x8830, 2));
+      exif.push_back(W::Long(0x8832, iso));
+    }
   }
   if (!info.date_time_original.empty()) {
     exif.push_back(W::Ascii(0x9003, info.date_time_original));
@@ -343,7 +439,15 @@ ExifInfo ParseExifTiff(absl::string_view tiff) {
   ExifInfo info;
   TiffReader r(tiff);
   if (!r.Valid()) return info;
-  ReadIfd(r, r.U32(4), info, 0);
+  // IFD0 and the Exif IFD it points to, no other: two IFDs at most.
+  Fields fields;
+  const size_t ifd0 = r.U32(4);
+  ReadIfd(r, ifd0, fields, info);
+  if (fields.exif_ifd != ifd0) ReadIfd(r, fields.exif_ifd, fields, info);
+  info.iso = ChooseIso(fields);
+  info.camera = fields.make.empty()    ? fields.model
+                : fields.model.empty() ? fields.make
+                                       : fields.make + " " + fields.model;
   return info;
 }
 
@@ -352,31 +456,31 @@ ExifInfo ParseExifFromFile(absl::string_view f) {
                         f.substr(0, 4) == absl::string_view("MM\0*", 4))) {
     return ParseExifTiff(f);
   }
-  if (f.size() >= 2 && static_cast<unsigned char>(f[0]) == 0xFF &&
-      static_cast<unsigned char>(f[1]) == 0xD8) {  // JPEG
+  auto byte = [&](size_t at) { return static_cast<unsigned char>(f[at]); };
+  if (f.size() >= 2 && byte(0) == 0xFF && byte(1) == 0xD8) {  // JPEG
+    // Marker segments: FF, marker, 2-byte length (counting itself), data.
     size_t at = 2;
-    while (at + 4 <= f.size() && static_cast<unsigned char>(f[at]) == 0xFF) {
-      unsigned char marker = static_cast<unsigned char>(f[at + 1]);
-      size_t len = (static_cast<unsigned char>(f[at + 2]) << 8) |
-                   static_cast<unsigned char>(f[at + 3]);
-      if (marker == 0xDA || len < 2) break;  // start of scan
-      if (marker == 0xE1 && at + 4 + len - 2 <= f.size()) {
-        absl::string_view seg = f.substr(at + 4, len - 2);
-        if (seg.size() > 6 &&
-            seg.substr(0, 6) == absl::string_view("Exif\0\0", 6)) {
-          return ParseExifTiff(seg.substr(6));
-        }
+    while (f.size() - at >= 4 && byte(at) == 0xFF) {
+      const unsigned char marker = byte(at + 1);
+      const size_t len = byte(at + 2) << 8 | byte(at + 3);
+      if (marker == 0xDA || len < 2) break;    // start of scan
+      if (len - 2 > f.size() - at - 4) break;  // the segment runs off
+      const absl::string_view segment = f.substr(at + 4, len - 2);
+      if (marker == 0xE1 &&
+          absl::StartsWith(segment, absl::string_view("Exif\0\0", 6))) {
+        return ParseExifTiff(segment.substr(6));
       }
       at += 2 + len;
     }
     return {};
   }
   if (f.size() >= 8 && f.substr(1, 3) == "PNG") {
+    // Chunks: 4-byte length (below 2^31), type, data, CRC.
     size_t at = 8;
-    while (at + 12 <= f.size()) {
-      uint32_t len = BigEndian32(f, at);
-      absl::string_view type = f.substr(at + 4, 4);
-      if (at + 12 + len > f.size()) break;
+    while (f.size() - at >= 12) {
+      const uint32_t len = BigEndian32(f, at);
+      if (len > 0x7FFFFFFF || len > f.size() - at - 12) break;
+      const absl::string_view type = f.substr(at + 4, 4);
       if (type == "eXIf") return ParseExifTiff(f.substr(at + 8, len));
       if (type == "IEND") break;
       at += 12 + len;

@@ -18,9 +18,12 @@ namespace hdrstereo::io {
 
 struct ExifInfo {
   std::optional<double> exposure_s;  // ExposureTime (0x829A)
-  std::optional<double> iso;         // ISOSpeedRatings (0x8827)
-  std::optional<double> aperture;    // FNumber (0x829D)
-  std::string camera;                // Make + Model
+  // ISOSpeedRatings (0x8827), or where it is missing or saturated at 65535
+  // the sensitivity SensitivityType (0x8830) names: EXIF 2.3's
+  // RecommendedExposureIndex, ISOSpeed or StandardOutputSensitivity.
+  std::optional<double> iso;
+  std::optional<double> aperture;  // FNumber (0x829D)
+  std::string camera;              // Make + Model
   // DateTimeOriginal (0x9003) as written, "YYYY:MM:DD HH:MM:SS" (the
   // camera's clock, no time zone), and SubSecTimeOriginal (0x9291) digits.
   std::string date_time_original;
@@ -32,8 +35,11 @@ struct ExifInfo {
 // not as wall time). nullopt when absent or malformed.
 std::optional<int64_t> ExifCaptureTimeMs(const ExifInfo& info);
 
-// Parses a TIFF-structured EXIF block ("II*\0" or "MM\0*" header). Never
-// fails: fields that cannot be read (or are 0) are left empty.
+// Parses a TIFF-structured EXIF block ("II*\0" or "MM\0*" header): IFD0
+// and the Exif IFD it points to. Never fails: fields that cannot be read
+// (or are 0) are left empty; every offset and count is checked against the
+// block, strings are cut at 255 bytes and an IFD is read for at most 1000
+// entries.
 ExifInfo ParseExifTiff(absl::string_view tiff);
 
 // Finds the EXIF block in a whole JPEG, TIFF or PNG file and parses it.
@@ -48,7 +54,9 @@ ExifInfo ReadRawMetadata(absl::string_view file_bytes);
 // A little-endian EXIF block (TIFF structure: IFD0 with Model and the Exif
 // sub-IFD with the fields of `info` that are set), as ParseExifTiff reads
 // it back. ExposureTime is written as a rational with denominator 10^6 (or
-// 1/n for exact fractions), FNumber with denominator 100.
+// 1/n for exact fractions), FNumber with denominator 100, an ISO above
+// 65535 as cameras write it (ISOSpeedRatings 65535, SensitivityType 2,
+// RecommendedExposureIndex).
 std::string EncodeExifTiff(const ExifInfo& info);
 
 // `file_bytes` (a PNG or a JPEG) with the EXIF block `exif_tiff` added: an

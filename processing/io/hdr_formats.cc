@@ -2,26 +2,34 @@
 #include "processing/io/hdr_formats.h"
 
 #include <Imath/half.h>
+#include <OpenEXR/IexBaseExc.h>
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfIO.h>
 #include <OpenEXR/ImfInputFile.h>
+#include <OpenEXR/ImfName.h>
 #include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/ImfStdIO.h>
+#include <OpenEXR/ImfVersion.h>
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <exception>
+#include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <sstream>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
-#include "absl/strings/str_split.h"
+#include "processing/base/input_limits.h"
 #include "processing/base/status_macros.h"
 #include "processing/io/atomic_file.h"
 #include "processing/io/image.h"
@@ -51,23 +59,214 @@ cv::Mat ToRgbFloat(const cv::Mat& image) {
   return f;
 }
 
-// Reads one whitespace-delimited token of a PFM header.
-bool NextToken(absl::string_view data, size_t& at, std::string& token) {
-  while (at < data.size() &&
-         std::isspace(static_cast<unsigned char>(data[at]))) {
-    ++at;
+// The next whitespace-delimited token of a PFM header, "" at the end.
+absl::string_view NextToken(absl::string_view data, size_t& at) {
+  auto space = [&](size_t i) {
+    return std::isspace(static_cast<unsigned char>(data[i])) != 0;
+  };
+  while (at < data.size() && space(at)) ++at;
+  const size_t start = at;
+  while (at < data.size() && !space(at)) ++at;
+  return data.substr(start, at - start);
+}
+
+absl::Status BadPfm(absl::string_view why) {
+  return absl::InvalidArgumentError(absl::StrCat("corrupt PFM: ", why));
+}
+
+// A PFM width or height: a whole number (its range is ImageBytes').
+absl::StatusOr<int64_t> PfmDimension(absl::string_view field,
+                                     absl::string_view token) {
+  int64_t value = 0;
+  if (!absl::SimpleAtoi(token, &value)) {
+    return BadPfm(absl::StrCat(field, " ", QuoteInput(token),
+                               " is not a whole number of 64 bits"));
   }
-  size_t start = at;
-  while (at < data.size() &&
-         !std::isspace(static_cast<unsigned char>(data[at]))) {
-    ++at;
-  }
-  token = std::string(data.substr(start, at - start));
-  return !token.empty();
+  return value;
 }
 
 uint32_t ByteSwap32(uint32_t v) {
   return (v >> 24) | ((v >> 8) & 0xFF00u) | ((v << 8) & 0xFF0000u) | (v << 24);
+}
+
+// An OpenEXR input stream over bytes in memory (StdISStream would copy
+// them). OpenEXR turns its exceptions into our errors (ParseExr).
+class MemoryIStream : public Imf::IStream {
+ public:
+  explicit MemoryIStream(absl::string_view bytes)
+      : Imf::IStream(kInMemory), bytes_(bytes) {}
+  bool read(char c[], int n) override {
+    if (n < 0 || static_cast<size_t>(n) > bytes_.size() - at_) {
+      throw Iex::InputExc("unexpected end of file");
+    }
+    std::memcpy(c, bytes_.data() + at_, n);
+    at_ += n;
+    return at_ < bytes_.size();
+  }
+  uint64_t tellg() override { return at_; }
+  void seekg(uint64_t pos) override {
+    if (pos > bytes_.size()) throw Iex::InputExc("seek past the end of file");
+    at_ = pos;
+  }
+  void clear() override {}
+
+ private:
+  absl::string_view bytes_;
+  size_t at_ = 0;
+};
+
+uint32_t LittleEndian32(absl::string_view bytes, size_t at) {
+  uint32_t v = 0;
+  for (int i = 3; i >= 0; --i) {
+    v = v << 8 | static_cast<unsigned char>(bytes[at + i]);
+  }
+  return v;
+}
+
+// The NUL-terminated name (at most Imf::Name::MAX_LENGTH characters) at
+// `at`, which moves past it; nullopt when the file ends first.
+std::optional<absl::string_view> ExrName(absl::string_view bytes, size_t& at) {
+  const size_t end = bytes.find('\0', at);
+  if (end == absl::string_view::npos ||
+      end - at > static_cast<size_t>(Imf::Name::MAX_LENGTH)) {
+    return std::nullopt;
+  }
+  const absl::string_view name = bytes.substr(at, end - at);
+  at = end + 1;
+  return name;
+}
+
+// Walks the header's attributes before OpenEXR reads them: OpenEXR
+// allocates each attribute's declared size (up to 2 GiB) before it finds
+// that the file is shorter. Returns the version field.
+absl::StatusOr<int> CheckExrAttributes(absl::string_view bytes) {
+  if (bytes.size() < 8 || LittleEndian32(bytes, 0) != Imf::MAGIC) {
+    return absl::InvalidArgumentError("no OpenEXR magic number");
+  }
+  const int version = static_cast<int>(LittleEndian32(bytes, 4));
+  if (Imf::isMultiPart(version) || Imf::isNonImage(version)) {
+    return absl::InvalidArgumentError(
+        "multi-part and deep files are not supported");
+  }
+  size_t at = 8;
+  while (true) {
+    const std::optional<absl::string_view> name = ExrName(bytes, at);
+    if (!name.has_value()) {
+      return absl::InvalidArgumentError("an attribute name runs off");
+    }
+    if (name->empty()) return version;  // the end of the header
+    if (!ExrName(bytes, at).has_value() || bytes.size() - at < 4) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("attribute ", QuoteInput(*name), " is cut off"));
+    }
+    const int64_t size = static_cast<int32_t>(LittleEndian32(bytes, at));
+    at += 4;
+    RETURN_IF_ERROR(
+        CheckRange(absl::StrCat("attribute ", QuoteInput(*name), " size"), size,
+                   0, static_cast<int64_t>(bytes.size() - at)));
+    at += size;
+  }
+}
+
+// The bytes OpenEXR holds for `width` x `height` pixels of every channel
+// of the file (4 bytes a value at most): within the image limits and at
+// most those of an RGBA float image of the limits' pixels.
+absl::Status CheckExrBlock(absl::string_view what, int64_t width,
+                           int64_t height, int64_t channels) {
+  ASSIGN_OR_RETURN(const size_t bytes,
+                   ImageBytes(what, width, height, channels, 4));
+  constexpr int64_t kRgbaFloat = 4 * sizeof(float);
+  const int64_t limit =
+      std::min(DecodedImageLimits().max_pixels,
+               std::numeric_limits<int64_t>::max() / kRgbaFloat) *
+      kRgbaFloat;
+  return CheckRange(absl::StrCat(what, " bytes (all channels)"),
+                    static_cast<int64_t>(bytes), 1, limit);
+}
+
+// Scan lines in a chunk of a scanline file, by compression (OpenEXR's own
+// numbers).
+int ExrLinesPerChunk(Imf::Compression compression) {
+  switch (compression) {
+    case Imf::ZIP_COMPRESSION:
+    case Imf::PXR24_COMPRESSION:
+      return 16;
+    case Imf::PIZ_COMPRESSION:
+    case Imf::B44_COMPRESSION:
+    case Imf::B44A_COMPRESSION:
+    case Imf::DWAA_COMPRESSION:
+      return 32;
+    case Imf::DWAB_COMPRESSION:
+      return 256;
+    default:
+      return 1;
+  }
+}
+
+int64_t CeilDiv(int64_t a, int64_t b) { return (a + b - 1) / b; }
+
+// What OpenEXR allocates as it opens a file with `header`, bounded before
+// it does: the image, one chunk's buffers and a tiled file's offset table.
+absl::Status CheckExrHeader(const Imf::Header& header, size_t file_bytes) {
+  const Imath::Box2i& dw = header.dataWindow();
+  const int64_t width = int64_t{dw.max.x} - dw.min.x + 1;
+  const int64_t height = int64_t{dw.max.y} - dw.min.y + 1;
+  int64_t channels = 0;  // ChannelList's iterators are not std iterators
+  for (auto it = header.channels().begin(); it != header.channels().end();
+       ++it) {
+    ++channels;
+  }
+  RETURN_IF_ERROR(CheckExrBlock("data window", width, height, channels));
+  if (!header.hasTileDescription()) {
+    return CheckExrBlock("scan-line block", width,
+                         ExrLinesPerChunk(header.compression()), channels);
+  }
+  const Imf::TileDescription& tile = header.tileDescription();
+  RETURN_IF_ERROR(CheckExrBlock("tile", tile.xSize, tile.ySize, channels));
+  // InputFile reads a tiled file into scan lines a row of tiles at a time.
+  RETURN_IF_ERROR(CheckExrBlock("row of tiles", width, tile.ySize, channels));
+  // The offset table (8 bytes a tile, more at lower levels) is in the file.
+  const int64_t tiles =
+      CeilDiv(width, tile.xSize) * CeilDiv(height, tile.ySize);
+  return CheckedMultiply("tile offsets (level 0 tiles x 8 bytes)", tiles, 8,
+                         file_bytes)
+      .status();
+}
+
+// ParseExr without "cannot read EXR: " before its errors.
+absl::StatusOr<cv::Mat> ReadExrImage(absl::string_view bytes) {
+  ASSIGN_OR_RETURN(int version, CheckExrAttributes(bytes));
+  // OpenEXR throws Iex exceptions and std::bad_alloc, all std::exception.
+  try {
+    MemoryIStream stream(bytes);
+    stream.seekg(8);  // past the magic number and the version
+    Imf::Header header;
+    header.readFrom(stream, version);
+    RETURN_IF_ERROR(CheckExrHeader(header, bytes.size()));
+    stream.seekg(0);
+    Imf::InputFile file(stream);
+    const Imath::Box2i dw = file.header().dataWindow();
+    const Imf::ChannelList& list = file.header().channels();
+    const bool grey =
+        list.findChannel("Y") != nullptr && list.findChannel("R") == nullptr;
+    const int channels = grey ? 1 : 3;
+    cv::Mat rgb(dw.max.y - dw.min.y + 1, dw.max.x - dw.min.x + 1,
+                CV_32FC(channels), cv::Scalar::all(0));
+    const size_t xs = sizeof(float) * channels;
+    Imf::FrameBuffer fb;
+    const char* const kNames[3] = {"R", "G", "B"};
+    for (int c = 0; c < channels; ++c) {
+      fb.insert(grey ? "Y" : kNames[c],
+                Imf::Slice::Make(Imf::FLOAT, rgb.ptr<float>() + c, dw, xs,
+                                 rgb.step[0]));
+    }
+    file.setFrameBuffer(fb);
+    file.readPixels(dw.min.y, dw.max.y);
+    if (channels == 3) cv::cvtColor(rgb, rgb, cv::COLOR_RGB2BGR);
+    return rgb;
+  } catch (const std::exception& e) {
+    return absl::InvalidArgumentError(e.what());
+  }
 }
 
 }  // namespace
@@ -98,37 +297,45 @@ absl::Status WritePfm(const std::filesystem::path& path, const cv::Mat& image) {
   return WriteFileAtomically(path, out);
 }
 
-absl::StatusOr<cv::Mat> ReadPfm(const std::filesystem::path& path) {
-  ASSIGN_OR_RETURN(std::string bytes, ReadFileBytes(path));
-  auto bad = [&](absl::string_view why) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("corrupt PFM ", path.string(), ": ", why));
-  };
+absl::StatusOr<cv::Mat> ParsePfm(absl::string_view bytes) {
   size_t at = 0;
-  std::string magic, w_s, h_s, scale_s;
-  if (!NextToken(bytes, at, magic) || (magic != "PF" && magic != "Pf")) {
-    return bad("missing PF/Pf magic");
+  const absl::string_view magic = NextToken(bytes, at);
+  if (magic != "PF" && magic != "Pf") {
+    return BadPfm(absl::StrCat("no PF/Pf magic at the start of ",
+                               QuoteInput(bytes.substr(0, 16))));
   }
-  int width = 0, height = 0;
-  double scale = 0;
-  if (!NextToken(bytes, at, w_s) || !NextToken(bytes, at, h_s) ||
-      !NextToken(bytes, at, scale_s) || !absl::SimpleAtoi(w_s, &width) ||
-      !absl::SimpleAtoi(h_s, &height) || !absl::SimpleAtod(scale_s, &scale) ||
-      width <= 0 || height <= 0 || scale == 0) {
-    return bad("bad header");
-  }
-  ++at;  // the single whitespace after the scale
   const int channels = magic == "PF" ? 3 : 1;
-  const size_t row_bytes = sizeof(float) * size_t(width) * channels;
-  if (bytes.size() < at || bytes.size() - at < row_bytes * height) {
-    return bad(absl::StrCat("truncated: need ", row_bytes * height,
-                            " bytes of pixels"));
+  ASSIGN_OR_RETURN(const int64_t width,
+                   PfmDimension("width", NextToken(bytes, at)));
+  ASSIGN_OR_RETURN(const int64_t height,
+                   PfmDimension("height", NextToken(bytes, at)));
+  const absl::string_view scale_token = NextToken(bytes, at);
+  double scale = 0;
+  if (!absl::SimpleAtod(scale_token, &scale) || !std::isfinite(scale) ||
+      scale == 0) {
+    return BadPfm(absl::StrCat("scale ", QuoteInput(scale_token),
+                               " is not a finite, non-zero number"));
   }
+  ASSIGN_OR_RETURN(const size_t pixel_bytes,
+                   ImageBytes("PFM", width, height, channels, sizeof(float)));
+  // Exactly one whitespace character ends the header.
+  if (at == bytes.size() ||
+      !std::isspace(static_cast<unsigned char>(bytes[at]))) {
+    return BadPfm("the header does not end in whitespace");
+  }
+  ++at;
+  if (bytes.size() - at < pixel_bytes) {
+    return BadPfm(absl::StrCat("truncated: ", bytes.size() - at,
+                               " bytes of pixels, the header declares ",
+                               pixel_bytes));
+  }
+  const size_t row_bytes = pixel_bytes / height;
   const bool file_little = scale < 0;
   const bool swap = file_little != (std::endian::native == std::endian::little);
-  cv::Mat img(height, width, CV_32FC(channels));
-  for (int y = 0; y < height; ++y) {
-    float* dst = img.ptr<float>(height - 1 - y);
+  cv::Mat img(static_cast<int>(height), static_cast<int>(width),
+              CV_32FC(channels));
+  for (int y = 0; y < img.rows; ++y) {
+    float* dst = img.ptr<float>(img.rows - 1 - y);
     const char* src = bytes.data() + at + row_bytes * y;
     std::memcpy(dst, src, row_bytes);
     if (swap) {
@@ -139,6 +346,11 @@ absl::StatusOr<cv::Mat> ReadPfm(const std::filesystem::path& path) {
   }
   if (channels == 3) cv::cvtColor(img, img, cv::COLOR_RGB2BGR);
   return img;
+}
+
+absl::StatusOr<cv::Mat> ReadPfm(const std::filesystem::path& path) {
+  ASSIGN_OR_RETURN(const std::string bytes, ReadFileBytes(path));
+  return WithSource(path.string(), ParsePfm(bytes));
 }
 
 absl::Status WriteExr(const std::filesystem::path& path, const cv::Mat& image,
@@ -186,39 +398,18 @@ absl::Status WriteExr(const std::filesystem::path& path, const cv::Mat& image,
   }
 }
 
-absl::StatusOr<cv::Mat> ReadExr(const std::filesystem::path& path) {
-  ASSIGN_OR_RETURN(std::string bytes, ReadFileBytes(path));
-  try {
-    Imf::StdISStream stream;
-    stream.str(bytes);
-    Imf::InputFile file(stream);
-    const Imath::Box2i dw = file.header().dataWindow();
-    const int width = dw.max.x - dw.min.x + 1;
-    const int height = dw.max.y - dw.min.y + 1;
-    const Imf::ChannelList& list = file.header().channels();
-    const bool grey =
-        list.findChannel("Y") != nullptr && list.findChannel("R") == nullptr;
-    const int channels = grey ? 1 : 3;
-    cv::Mat rgb(height, width, CV_32FC(channels), cv::Scalar::all(0));
-    const size_t xs = sizeof(float) * channels;
-    const size_t ys = xs * width;
-    char* base =
-        reinterpret_cast<char*>(rgb.data) - (dw.min.x * xs + dw.min.y * ys);
-    Imf::FrameBuffer fb;
-    const char* const kNames[3] = {"R", "G", "B"};
-    for (int c = 0; c < channels; ++c) {
-      fb.insert(
-          grey ? "Y" : kNames[c],
-          Imf::Slice(Imf::FLOAT, base + sizeof(float) * c, xs, ys, 1, 1, 0.0));
-    }
-    file.setFrameBuffer(fb);
-    file.readPixels(dw.min.y, dw.max.y);
-    if (channels == 3) cv::cvtColor(rgb, rgb, cv::COLOR_RGB2BGR);
-    return rgb;
-  } catch (const std::exception& e) {
+absl::StatusOr<cv::Mat> ParseExr(absl::string_view bytes) {
+  absl::StatusOr<cv::Mat> image = ReadExrImage(bytes);
+  if (!image.ok()) {
     return absl::InvalidArgumentError(
-        absl::StrCat("cannot read EXR ", path.string(), ": ", e.what()));
+        absl::StrCat("cannot read EXR: ", image.status().message()));
   }
+  return image;
+}
+
+absl::StatusOr<cv::Mat> ReadExr(const std::filesystem::path& path) {
+  ASSIGN_OR_RETURN(const std::string bytes, ReadFileBytes(path));
+  return WithSource(path.string(), ParseExr(bytes));
 }
 
 absl::Status WriteEncoded(const std::filesystem::path& path,
@@ -263,25 +454,28 @@ absl::Status WriteRgbe(const std::filesystem::path& path,
       absl::string_view(reinterpret_cast<const char*>(buf.data()), buf.size()));
 }
 
-absl::StatusOr<cv::Mat> ReadRgbe(const std::filesystem::path& path) {
-  ASSIGN_OR_RETURN(std::string bytes, ReadFileBytes(path));
-  if (bytes.rfind("#?", 0) != 0) {
+absl::StatusOr<cv::Mat> ParseRgbe(absl::string_view bytes) {
+  if (!absl::StartsWith(bytes, "#?")) {
     return absl::InvalidArgumentError(
-        absl::StrCat("not a Radiance RGBE file: ", path.string()));
+        absl::StrCat("not a Radiance RGBE file: it starts ",
+                     QuoteInput(bytes.substr(0, 16))));
   }
-  cv::Mat img;
-  try {
-    std::vector<uchar> buf(bytes.begin(), bytes.end());
-    img = cv::imdecode(buf, cv::IMREAD_ANYDEPTH | cv::IMREAD_COLOR);
-  } catch (const cv::Exception& e) {
+  absl::StatusOr<cv::Mat> img =
+      DecodeWithOpenCv(bytes, cv::IMREAD_ANYDEPTH | cv::IMREAD_COLOR);
+  if (!img.ok()) {
     return absl::InvalidArgumentError(
-        absl::StrCat("cannot decode RGBE ", path.string(), ": ", e.what()));
+        absl::StrCat("corrupt RGBE file: ", img.status().message()));
   }
-  if (img.empty() || img.depth() != CV_32F) {
+  if (img->depth() != CV_32F) {
     return absl::InvalidArgumentError(
-        absl::StrCat("corrupt RGBE file ", path.string()));
+        "corrupt RGBE file: OpenCV decoded it as another format");
   }
   return img;
+}
+
+absl::StatusOr<cv::Mat> ReadRgbe(const std::filesystem::path& path) {
+  ASSIGN_OR_RETURN(const std::string bytes, ReadFileBytes(path));
+  return WithSource(path.string(), ParseRgbe(bytes));
 }
 
 absl::Status WritePng(const std::filesystem::path& path, const cv::Mat& image) {

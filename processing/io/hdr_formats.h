@@ -5,6 +5,12 @@
 //
 // Images are OpenCV-ordered (BGR for colour); the writers store RGB as each
 // format expects and the readers return BGR again.
+//
+// The readers parse untrusted bytes: Parse* read from memory (errors say
+// what is wrong, INVALID_ARGUMENT for a file that is not a valid image),
+// Read* read a file and put its path before the error. Declared sizes are
+// checked against DecodedImageLimits() (processing/base/input_limits.h)
+// before anything is allocated.
 #ifndef HDRSTEREO_PROCESSING_IO_HDR_FORMATS_H_
 #define HDRSTEREO_PROCESSING_IO_HDR_FORMATS_H_
 
@@ -13,6 +19,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
 
 namespace hdrstereo::io {
 
@@ -20,6 +27,8 @@ namespace hdrstereo::io {
 // stored bottom-to-top, negative scale = little-endian (always written so).
 // Accepts CV_32FC1 / CV_32FC3 (other depths are converted to float).
 absl::Status WritePfm(const std::filesystem::path& path, const cv::Mat& image);
+// The file must hold the width x height pixels its header declares.
+absl::StatusOr<cv::Mat> ParsePfm(absl::string_view bytes);
 absl::StatusOr<cv::Mat> ReadPfm(const std::filesystem::path& path);
 
 // OpenEXR scanline file, channels R,G,B (or Y for one channel), ZIP
@@ -28,10 +37,18 @@ enum class ExrPixelType { kHalf, kFloat };
 absl::Status WriteExr(const std::filesystem::path& path, const cv::Mat& image,
                       ExrPixelType type = ExrPixelType::kHalf);
 // Returns CV_32FC3 (BGR) or CV_32FC1 for a file with only a Y channel.
+// Single-part, flat (not deep) files: the header's attributes must lie
+// within the file, its data window and its chunks (tiles or blocks of scan
+// lines, all channels as 4-byte values) within the image limits and at most
+// the bytes of an RGBA float image of the limits' pixels, and a tiled
+// file's offset table within the file.
+absl::StatusOr<cv::Mat> ParseExr(absl::string_view bytes);
 absl::StatusOr<cv::Mat> ReadExr(const std::filesystem::path& path);
 
 // Radiance RGBE (.hdr). Colour (CV_32FC3) only; one channel is replicated.
 absl::Status WriteRgbe(const std::filesystem::path& path, const cv::Mat& image);
+// Decoded by OpenCV, which refuses dimensions above its limits.
+absl::StatusOr<cv::Mat> ParseRgbe(absl::string_view bytes);
 absl::StatusOr<cv::Mat> ReadRgbe(const std::filesystem::path& path);
 
 // PNG: CV_8U or CV_16U, 1 or 3 channels, written as is.

@@ -6,14 +6,16 @@
 #include <algorithm>
 #include <cctype>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
-#include <vector>
 
 #include "absl/status/status.h"
+#include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
+#include "processing/base/input_limits.h"
 #include "processing/base/status_macros.h"
 #include "processing/io/exif.h"
 #include "processing/io/hdr_formats.h"
@@ -27,81 +29,27 @@ std::string LowerExtension(const std::filesystem::path& path) {
   return ext;
 }
 
-bool IsRawExtension(const std::filesystem::path& path) {
+namespace {
+
+bool IsRawSuffix(absl::string_view ext) {
   static const char* const kRaw[] = {".cr2", ".cr3", ".crw", ".nef", ".nrw",
                                      ".arw", ".srf", ".sr2", ".dng", ".orf",
                                      ".rw2", ".raf", ".pef", ".srw", ".raw",
                                      ".3fr", ".erf", ".kdc", ".mrw", ".x3f"};
-  std::string ext = LowerExtension(path);
   return std::find(std::begin(kRaw), std::end(kRaw), ext) != std::end(kRaw);
 }
 
-absl::StatusOr<std::string> ReadFileBytes(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    return absl::NotFoundError(
-        absl::StrCat("no such file (or not a regular file): ", path.string()));
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    return absl::PermissionDeniedError(
-        absl::StrCat("cannot open ", path.string()));
-  }
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  if (in.bad()) {
-    return absl::DataLossError(absl::StrCat("cannot read ", path.string()));
-  }
-  return std::move(buffer).str();
+// LibRaw's cap on its raw buffer: the bytes of a 16-bit sensor of the image
+// limits' pixels, at most LibRaw's own default.
+unsigned RawMemoryLimitMb() {
+  const int64_t pixels =
+      std::min<int64_t>(DecodedImageLimits().max_pixels, int64_t{1} << 52);
+  return static_cast<unsigned>(
+      std::clamp<int64_t>((pixels * 2) >> 20, 1, LIBRAW_MAX_ALLOC_MB_DEFAULT));
 }
 
-absl::StatusOr<DecodedImage> DecodeImageFile(
-    const std::filesystem::path& path) {
-  if (IsRawExtension(path)) return DecodeRawFile(path);
-  const std::string ext = LowerExtension(path);
-  if (ext == ".pfm" || ext == ".exr" || ext == ".hdr") {
-    ASSIGN_OR_RETURN(cv::Mat f, ext == ".pfm"   ? ReadPfm(path)
-                                : ext == ".exr" ? ReadExr(path)
-                                                : ReadRgbe(path));
-    DecodedImage out;
-    out.pixels = std::move(f);
-    out.metadata.linear = true;
-    return out;
-  }
-  ASSIGN_OR_RETURN(std::string bytes, ReadFileBytes(path));
-  if (bytes.empty()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("empty image file: ", path.string()));
-  }
-  DecodedImage out;
-  try {
-    std::vector<uchar> buf(bytes.begin(), bytes.end());
-    out.pixels = cv::imdecode(buf, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
-  } catch (const cv::Exception& e) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("cannot decode ", path.string(), ": ", e.what()));
-  }
-  if (out.pixels.empty()) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "cannot decode ", path.string(), " (corrupt or unsupported format)"));
-  }
-  int depth = out.pixels.depth();
-  if (depth != CV_8U && depth != CV_16U && depth != CV_32F) {
-    out.pixels.convertTo(out.pixels, CV_32F);
-  }
-  if (out.pixels.channels() == 4) {
-    cv::cvtColor(out.pixels, out.pixels, cv::COLOR_BGRA2BGR);
-  }
-  ExifInfo exif = ParseExifFromFile(bytes);
-  out.metadata.exposure_s = exif.exposure_s;
-  out.metadata.iso = exif.iso;
-  out.metadata.aperture = exif.aperture;
-  out.metadata.camera = exif.camera;
-  out.metadata.linear = out.pixels.depth() == CV_32F;
-  return out;
-}
-
-absl::StatusOr<DecodedImage> DecodeRawFile(const std::filesystem::path& path) {
+// DecodeRawBytes without the source in its errors.
+absl::StatusOr<DecodedImage> DecodeRaw(absl::string_view bytes) {
   auto raw = std::make_unique<LibRaw>();
   raw->imgdata.params.output_bps = 16;
   raw->imgdata.params.gamm[0] = 1.0;  // linear
@@ -110,18 +58,25 @@ absl::StatusOr<DecodedImage> DecodeRawFile(const std::filesystem::path& path) {
   raw->imgdata.params.use_camera_wb = 1;
   raw->imgdata.params.use_auto_wb = 0;
   raw->imgdata.params.output_color = 1;  // sRGB primaries, linear
+  raw->imgdata.params.max_raw_memory_mb = RawMemoryLimitMb();
   auto fail = [&](absl::string_view stage, int rc) {
-    return absl::InvalidArgumentError(absl::StrCat("cannot decode RAW ",
-                                                   path.string(), " (", stage,
-                                                   "): ", libraw_strerror(rc)));
+    return absl::InvalidArgumentError(
+        absl::StrCat("cannot decode RAW (", stage, "): ", libraw_strerror(rc)));
   };
-  ASSIGN_OR_RETURN(std::string bytes, ReadFileBytes(path));
-  if (int rc = raw->open_buffer(bytes.data(), bytes.size());
+  // LibRaw only reads the buffer; its signature is not const.
+  if (int rc = raw->open_buffer(const_cast<char*>(bytes.data()), bytes.size());
       rc != LIBRAW_SUCCESS) {
     return fail("open", rc);
   }
-  if (int rc = raw->unpack(); rc != LIBRAW_SUCCESS) return fail("unpack", rc);
+  // The sizes the file declares, before LibRaw allocates for them (the
+  // demosaiced image holds four 16-bit values a pixel).
   const libraw_image_sizes_t& sizes = raw->imgdata.sizes;
+  RETURN_IF_ERROR(
+      ImageBytes("RAW sensor", sizes.raw_width, sizes.raw_height, 1, 2)
+          .status());
+  RETURN_IF_ERROR(
+      ImageBytes("RAW image", sizes.width, sizes.height, 4, 2).status());
+  if (int rc = raw->unpack(); rc != LIBRAW_SUCCESS) return fail("unpack", rc);
   RawLevels levels;
   levels.sensor_size = cv::Size(sizes.raw_width, sizes.raw_height);
   levels.active_area =
@@ -154,8 +109,8 @@ absl::StatusOr<DecodedImage> DecodeRawFile(const std::filesystem::path& path) {
   if (img->type != LIBRAW_IMAGE_BITMAP || img->bits != 16 ||
       (img->colors != 3 && img->colors != 1)) {
     return absl::InvalidArgumentError(
-        absl::StrCat("unexpected LibRaw output for ", path.string(), ": ",
-                     img->colors, " colours, ", img->bits, " bits"));
+        absl::StrCat("unexpected LibRaw output: ", img->colors, " colours, ",
+                     img->bits, " bits"));
   }
   DecodedImage out;
   cv::Mat wrapped(img->height, img->width, CV_16UC(img->colors), img->data);
@@ -179,6 +134,112 @@ absl::StatusOr<DecodedImage> DecodeRawFile(const std::filesystem::path& path) {
       std::array<float, 4>{mul[0], mul[1], mul[2], mul[3]};
   out.metadata.raw = levels;
   return out;
+}
+
+// DecodeImageBytes without the source in its errors; `ext` lower case.
+absl::StatusOr<DecodedImage> Decode(absl::string_view bytes,
+                                    absl::string_view ext) {
+  if (IsRawSuffix(ext)) return DecodeRaw(bytes);
+  if (ext == ".pfm" || ext == ".exr" || ext == ".hdr") {
+    ASSIGN_OR_RETURN(cv::Mat f, ext == ".pfm"   ? ParsePfm(bytes)
+                                : ext == ".exr" ? ParseExr(bytes)
+                                                : ParseRgbe(bytes));
+    DecodedImage out;
+    out.pixels = std::move(f);
+    out.metadata.linear = true;
+    return out;
+  }
+  if (bytes.empty()) return absl::InvalidArgumentError("empty image file");
+  DecodedImage out;
+  ASSIGN_OR_RETURN(
+      out.pixels,
+      DecodeWithOpenCv(bytes, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR));
+  int depth = out.pixels.depth();
+  if (depth != CV_8U && depth != CV_16U && depth != CV_32F) {
+    out.pixels.convertTo(out.pixels, CV_32F);
+  }
+  if (out.pixels.channels() == 4) {
+    cv::cvtColor(out.pixels, out.pixels, cv::COLOR_BGRA2BGR);
+  }
+  ExifInfo exif = ParseExifFromFile(bytes);
+  out.metadata.exposure_s = exif.exposure_s;
+  out.metadata.iso = exif.iso;
+  out.metadata.aperture = exif.aperture;
+  out.metadata.camera = exif.camera;
+  out.metadata.linear = out.pixels.depth() == CV_32F;
+  return out;
+}
+
+}  // namespace
+
+bool IsRawExtension(const std::filesystem::path& path) {
+  return IsRawSuffix(LowerExtension(path));
+}
+
+absl::Status WithSource(absl::string_view source, const absl::Status& status) {
+  if (status.ok()) return status;
+  return absl::Status(status.code(),
+                      absl::StrCat(source, ": ", status.message()));
+}
+
+absl::StatusOr<std::string> ReadFileBytes(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    return absl::NotFoundError(
+        absl::StrCat("no such file (or not a regular file): ", path.string()));
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    return absl::PermissionDeniedError(
+        absl::StrCat("cannot open ", path.string()));
+  }
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  if (in.bad()) {
+    return absl::DataLossError(absl::StrCat("cannot read ", path.string()));
+  }
+  return std::move(buffer).str();
+}
+
+absl::StatusOr<cv::Mat> DecodeWithOpenCv(absl::string_view bytes, int flags) {
+  RETURN_IF_ERROR(CheckRange("encoded image bytes",
+                             static_cast<int64_t>(bytes.size()), 1,
+                             std::numeric_limits<int>::max()));
+  // imdecode only reads the buffer; cv::Mat's constructor is not const.
+  const cv::Mat buffer(1, static_cast<int>(bytes.size()), CV_8UC1,
+                       const_cast<char*>(bytes.data()));
+  cv::Mat image;
+  try {
+    image = cv::imdecode(buffer, flags);
+  } catch (const cv::Exception& e) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("cannot decode: ", e.what()));
+  }
+  if (image.empty()) {
+    return absl::InvalidArgumentError(
+        "cannot decode (corrupt or unsupported format)");
+  }
+  return image;
+}
+
+absl::StatusOr<DecodedImage> DecodeImageBytes(absl::string_view bytes,
+                                              absl::string_view extension) {
+  return WithSource(kInMemory, Decode(bytes, absl::AsciiStrToLower(extension)));
+}
+
+absl::StatusOr<DecodedImage> DecodeImageFile(
+    const std::filesystem::path& path) {
+  ASSIGN_OR_RETURN(const std::string bytes, ReadFileBytes(path));
+  return WithSource(path.string(), Decode(bytes, LowerExtension(path)));
+}
+
+absl::StatusOr<DecodedImage> DecodeRawBytes(absl::string_view bytes) {
+  return WithSource(kInMemory, DecodeRaw(bytes));
+}
+
+absl::StatusOr<DecodedImage> DecodeRawFile(const std::filesystem::path& path) {
+  ASSIGN_OR_RETURN(const std::string bytes, ReadFileBytes(path));
+  return WithSource(path.string(), DecodeRaw(bytes));
 }
 
 cv::Mat ToFloat(const cv::Mat& pixels) {

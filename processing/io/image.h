@@ -11,6 +11,7 @@
 #include <optional>
 #include <string>
 
+#include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 
@@ -51,16 +52,43 @@ struct DecodedImage {
 // True for file extensions LibRaw decodes (cr2, cr3, nef, arw, dng, ...).
 bool IsRawExtension(const std::filesystem::path& path);
 
+// What the in-memory decoders' errors name as the source.
+inline constexpr char kInMemory[] = "(in memory)";
+
 // Decodes any supported file (float formats .pfm, .exr and .hdr through
 // hdr_formats.h, as linear CV_32F). Errors (missing, unreadable, corrupt,
 // unsupported) are returned as a status that names the file.
 absl::StatusOr<DecodedImage> DecodeImageFile(const std::filesystem::path& path);
+// The same for a file's bytes in memory, the format chosen by `extension`
+// as DecodeImageFile chooses it by the file's (".png", ".PFM", ".nef", ...);
+// errors name kInMemory. Declared dimensions are checked against
+// DecodedImageLimits() (OpenCV's own check for the formats it decodes)
+// before the pixels are allocated.
+absl::StatusOr<DecodedImage> DecodeImageBytes(absl::string_view bytes,
+                                              absl::string_view extension);
 
 // Camera RAW through LibRaw: black level subtracted and scaled so that the
 // white level is full scale, demosaiced, camera white balance, linear
 // (gamma 1, no auto-brightness), 16-bit BGR, sRGB primaries; only the
 // sensor's active area. metadata.raw says which levels and area were used.
+// The sensor and the image must lie within DecodedImageLimits().
 absl::StatusOr<DecodedImage> DecodeRawFile(const std::filesystem::path& path);
+absl::StatusOr<DecodedImage> DecodeRawBytes(absl::string_view bytes);
+
+// cv::imdecode of `bytes` (at most 2^31 - 1 of them, not copied) with
+// `flags`; INVALID_ARGUMENT "cannot decode ..." when OpenCV throws (as it
+// does for dimensions above its limits) or decodes nothing.
+absl::StatusOr<cv::Mat> DecodeWithOpenCv(absl::string_view bytes, int flags);
+
+// `status` with "<source>: " before its message (OK stays OK): how the path
+// readers name their file around the in-memory parsers.
+absl::Status WithSource(absl::string_view source, const absl::Status& status);
+template <typename T>
+absl::StatusOr<T> WithSource(absl::string_view source,
+                             absl::StatusOr<T> result) {
+  if (result.ok()) return result;
+  return WithSource(source, result.status());
+}
 
 // Scales integer images to float in [0, 1] (8-bit / 255, 16-bit / 65535);
 // float images are returned converted to CV_32F unchanged.

@@ -11,6 +11,7 @@
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
+#include "processing/base/input_limits.h"
 #include "processing/base/status_macros.h"
 #include "processing/io/atomic_file.h"
 #include "processing/io/hdr_formats.h"
@@ -33,13 +34,17 @@ std::string Camera(double fx, double fy, double cx, double cy) {
   return absl::StrFormat("[%.6f 0 %.6f; 0 %.6f %.6f; 0 0 1]", fx, cx, fy, cy);
 }
 
-// "[fx 0 cx; 0 fy cy; 0 0 1]" -> fx, fy, cx, cy.
+bool ParseFinite(absl::string_view text, double* value) {
+  return absl::SimpleAtod(text, value) && std::isfinite(*value);
+}
+
+// "[fx 0 cx; 0 fy cy; 0 0 1]" -> fx, fy, cx, cy: nine finite numbers.
 bool ParseCamera(absl::string_view text, Calib* calib) {
   std::vector<double> v;
   for (absl::string_view part :
        absl::StrSplit(text, absl::ByAnyChar("[]; "), absl::SkipEmpty())) {
     double x = 0;
-    if (!absl::SimpleAtod(part, &x)) return false;
+    if (v.size() == 9 || !ParseFinite(part, &x)) return false;
     v.push_back(x);
   }
   if (v.size() != 9 || !(v[0] > 0) || !(v[4] > 0)) return false;
@@ -79,30 +84,52 @@ absl::StatusOr<Calib> ParseCalib(absl::string_view text) {
       c.extra.emplace_back(key, value);
     }
   }
-  auto missing = [](absl::string_view key, absl::string_view what) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("calib.txt: ", key, " is missing or not ", what));
+  // The key's value, or nullptr when the key is missing.
+  auto find = [&](absl::string_view key) -> const std::string* {
+    auto it = values.find(key);
+    return it == values.end() ? nullptr : &it->second;
   };
-  auto it = values.find("cam0");
-  if (it == values.end() || !ParseCamera(it->second, &c)) {
-    return missing("cam0", "[fx 0 cx; 0 fy cy; 0 0 1]");
+  auto missing = [](absl::string_view key, const std::string* value,
+                    absl::string_view what) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "calib.txt: ", key, " is missing or not ", what,
+        value == nullptr ? "" : absl::StrCat(": ", QuoteInput(*value))));
+  };
+  const std::string* value = find("cam0");
+  if (value == nullptr || !ParseCamera(*value, &c)) {
+    return missing("cam0", value, "[fx 0 cx; 0 fy cy; 0 0 1]");
   }
-  if (auto d = values.find("doffs");
-      d != values.end() && !absl::SimpleAtod(d->second, &c.doffs)) {
-    return missing("doffs", "a number");
+  value = find("doffs");
+  if (value != nullptr && !ParseFinite(*value, &c.doffs)) {
+    return missing("doffs", value, "a number");
   }
-  it = values.find("baseline");
-  if (it == values.end() || !absl::SimpleAtod(it->second, &c.baseline_mm) ||
+  value = find("baseline");
+  if (value == nullptr || !ParseFinite(*value, &c.baseline_mm) ||
       !(c.baseline_mm > 0)) {
-    return missing("baseline", "a positive number (mm)");
+    return missing("baseline", value, "a positive number (mm)");
   }
-  for (auto [key, field] : {std::pair{"width", &c.width},
-                            {"height", &c.height},
-                            {"ndisp", &c.ndisp}}) {
-    it = values.find(key);
-    if (it == values.end() || !absl::SimpleAtoi(it->second, field) ||
-        *field <= 0) {
-      return missing(key, "a positive whole number");
+  int64_t width = 0, height = 0, ndisp = 0;
+  for (auto [key, field] :
+       {std::pair{"width", &width}, {"height", &height}, {"ndisp", &ndisp}}) {
+    value = find(key);
+    if (value == nullptr || !absl::SimpleAtoi(*value, field)) {
+      return missing(key, value, "a whole number");
+    }
+  }
+  // The size of the disparity maps the file describes; a disparity is at
+  // most an image width.
+  RETURN_IF_ERROR(
+      ImageBytes("calib.txt", width, height, 1, sizeof(float)).status());
+  RETURN_IF_ERROR(
+      CheckRange("calib.txt ndisp", ndisp, 1, DecodedImageLimits().max_width));
+  c.width = static_cast<int>(width);
+  c.height = static_cast<int>(height);
+  c.ndisp = static_cast<int>(ndisp);
+  // The 2014 data sets' bounds of the disparities, kept in `extra`.
+  for (const auto& [key, text] : c.extra) {
+    double bound = 0;
+    if ((key == "vmin" || key == "vmax") && !ParseFinite(text, &bound)) {
+      return missing(key, &text, "a finite number");
     }
   }
   return c;
@@ -118,13 +145,7 @@ absl::StatusOr<Calib> ReadCalib(const std::filesystem::path& path) {
     return absl::NotFoundError(absl::StrCat(path.string(), ": no calib.txt"));
   }
   ASSIGN_OR_RETURN(const std::string text, ReadFileBytes(path));
-  absl::StatusOr<Calib> calib = ParseCalib(text);
-  if (!calib.ok()) {
-    return absl::Status(
-        calib.status().code(),
-        absl::StrCat(path.string(), ": ", calib.status().message()));
-  }
-  return calib;
+  return WithSource(path.string(), ParseCalib(text));
 }
 
 cv::Mat MaskFromTruth(const cv::Mat& disparity, const cv::Mat& nonoccluded) {

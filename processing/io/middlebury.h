@@ -54,8 +54,11 @@ struct Calib {
 // `extra`; intrinsics and baseline with 6 decimals.
 std::string FormatCalib(const Calib& calib);
 // INVALID_ARGUMENT naming the key that is missing or unreadable (cam0,
-// baseline, width, height, ndisp; doffs defaults to 0); unknown keys are
-// kept in `extra`.
+// baseline, width, height, ndisp; doffs defaults to 0) and quoting a bounded
+// prefix of its value; unknown keys are kept in `extra`. Numbers must be
+// finite (vmin and vmax too, where present), width and height within
+// DecodedImageLimits() (processing/base/input_limits.h), ndisp at most its
+// largest width.
 absl::StatusOr<Calib> ParseCalib(absl::string_view text);
 // Written atomically. Read: NOT_FOUND for a missing file, the parse error
 // prefixed with the path otherwise.

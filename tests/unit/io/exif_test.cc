@@ -11,6 +11,8 @@
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include "tests/support/status_matchers.h"
 
@@ -90,6 +92,182 @@ TEST(ExifTimeTest, MalformedStampsAreUnknown) {
   info.date_time_original = "2015:07:24 11:52:31";
   info.subsec_time_original = "5";  // a fraction: 0.5 s
   EXPECT_EQ(ExifCaptureTimeMs(info).value_or(0), 1437738751500);
+}
+
+// A little-endian TIFF built by hand: IFD0 of `ifd0` entries at 8, then the
+// bytes of `tail`. Each entry is (tag, type, count, value or offset).
+struct RawEntry {
+  uint16_t tag, type;
+  uint32_t count, value;
+};
+std::string Le16(uint32_t v) {
+  return {static_cast<char>(v), static_cast<char>(v >> 8)};
+}
+std::string Le32(uint32_t v) { return Le16(v & 0xFFFF) + Le16(v >> 16); }
+std::string Ifd(const std::vector<RawEntry>& entries, uint32_t next = 0) {
+  std::string out = Le16(static_cast<uint32_t>(entries.size()));
+  for (const RawEntry& e : entries) {
+    out += Le16(e.tag) + Le16(e.type) + Le32(e.count) + Le32(e.value);
+  }
+  return out + Le32(next);
+}
+std::string Tiff(const std::vector<RawEntry>& ifd0,
+                 const std::string& tail = "") {
+  return "II" + Le16(42) + Le32(8) + Ifd(ifd0) + tail;
+}
+// Up to 4 bytes of ASCII (with its NUL) as an inline entry value.
+uint32_t Le32ValueOf(const std::string& text) {
+  uint32_t v = 0;
+  for (size_t i = 0; i < text.size() && i < 4; ++i) {
+    v |= static_cast<uint32_t>(static_cast<uint8_t>(text[i])) << (8 * i);
+  }
+  return v;
+}
+// Where the bytes after IFD0 of `n` entries begin.
+uint32_t AfterIfd0(size_t n) {
+  return static_cast<uint32_t>(8 + 2 + 12 * n + 4);
+}
+
+// EXIF 2.3: a camera writes ISO 204800 as ISOSpeedRatings 65535,
+// SensitivityType 2 (REI) and RecommendedExposureIndex 204800 (a LONG).
+TEST(ExifIsoTest, IsoAbove65535IsReadFromTheTagSensitivityTypeNames) {
+  const uint32_t exif_ifd = AfterIfd0(1);
+  const std::string rei = Tiff(
+      {{0x8769, 4, 1, exif_ifd}},
+      Ifd({{0x8827, 3, 1, 65535}, {0x8830, 3, 1, 2}, {0x8832, 4, 1, 204800}}));
+  EXPECT_EQ(ParseExifTiff(rei).iso.value_or(0), 204800);
+  // SensitivityType 3: ISOSpeed (0x8833).
+  const std::string speed = Tiff(
+      {{0x8769, 4, 1, exif_ifd}},
+      Ifd({{0x8827, 3, 1, 65535}, {0x8830, 3, 1, 3}, {0x8833, 4, 1, 102400}}));
+  EXPECT_EQ(ParseExifTiff(speed).iso.value_or(0), 102400);
+  // SensitivityType 1 (SOS) names StandardOutputSensitivity, not the REI.
+  const std::string sos =
+      Tiff({{0x8769, 4, 1, exif_ifd}}, Ifd({{0x8827, 3, 1, 65535},
+                                            {0x8830, 3, 1, 1},
+                                            {0x8831, 4, 1, 80000},
+                                            {0x8832, 4, 1, 90000}}));
+  EXPECT_EQ(ParseExifTiff(sos).iso.value_or(0), 80000);
+  // No SensitivityType and no ISOSpeedRatings: the REI still counts.
+  const std::string bare =
+      Tiff({{0x8769, 4, 1, exif_ifd}}, Ifd({{0x8832, 4, 1, 409600}}));
+  EXPECT_EQ(ParseExifTiff(bare).iso.value_or(0), 409600);
+  // Below saturation ISOSpeedRatings is the ISO, as before.
+  const std::string low = Tiff(
+      {{0x8769, 4, 1, exif_ifd}},
+      Ifd({{0x8827, 3, 1, 3200}, {0x8830, 3, 1, 2}, {0x8832, 4, 1, 3200}}));
+  EXPECT_EQ(ParseExifTiff(low).iso.value_or(0), 3200);
+  // Saturated with nothing else: 65535 is all the file says.
+  const std::string only =
+      Tiff({{0x8769, 4, 1, exif_ifd}}, Ifd({{0x8827, 3, 1, 65535}}));
+  EXPECT_EQ(ParseExifTiff(only).iso.value_or(0), 65535);
+}
+
+TEST(ExifIsoTest, TheWriterWritesHighIsoAsCamerasDo) {
+  for (double iso : {100.0, 65535.0, 102400.0, 409600.0}) {
+    ExifInfo info;
+    info.iso = iso;
+    ASSERT_OK_AND_ASSIGN(const std::string jpeg,
+                         EmbedExif(Encoded(".jpg"), EncodeExifTiff(info)));
+    EXPECT_EQ(ParseExifFromFile(jpeg).iso.value_or(0), iso) << iso;
+  }
+  // ISOSpeedRatings itself saturates at 65535 (a SHORT) instead of
+  // wrapping: a reader that knows only 0x8827 sees 65535.
+  ExifInfo high;
+  high.iso = 102400;
+  const std::string tiff = EncodeExifTiff(high);
+  const size_t entry = tiff.find(Le16(0x8827) + Le16(3) + Le32(1));
+  ASSERT_NE(entry, std::string::npos);
+  EXPECT_EQ(tiff.substr(entry + 8, 2), Le16(65535));
+}
+
+// Offsets, counts and IFD chains chosen by an attacker: every read stays
+// within the block and the walk ends.
+TEST(ExifHostileTest, OffsetsAndCountsOutsideTheBlockAreIgnored) {
+  const std::vector<RawEntry> cases[] = {
+      // Value offsets past the end, and at the very end.
+      {{0x829A, 5, 1, 0xFFFFFFF0}, {0x010F, 2, 100, 0xFFFFFFFF}},
+      // count x 8 overflows 32 bits (and 64-bit counts of SHORTs).
+      {{0x829A, 5, 0x20000001, 26}, {0x8827, 3, 0xFFFFFFFF, 26}},
+      // Unknown types and a zero count.
+      {{0x829A, 99, 1, 26}, {0x8827, 3, 0, 400}},
+      // The Exif IFD pointer at IFD0 itself, and past the end.
+      {{0x8769, 4, 1, 8}},
+      {{0x8769, 4, 1, 0xFFFFFFFF}},
+  };
+  for (const auto& entries : cases) {
+    const ExifInfo info = ParseExifTiff(Tiff(entries));
+    EXPECT_FALSE(info.exposure_s.has_value());
+    EXPECT_FALSE(info.iso.has_value());
+    EXPECT_EQ(info.camera, "");
+  }
+  // An IFD that claims 65535 entries in a block of 30 bytes.
+  std::string many = "II" + Le16(42) + Le32(8) + Le16(65535) + Le16(0x8827) +
+                     Le16(3) + Le32(1) + Le32(800);
+  EXPECT_EQ(ParseExifTiff(many).iso.value_or(0), 800);
+  many.resize(many.size() - 1);
+  EXPECT_FALSE(ParseExifTiff(many).iso.has_value());
+}
+
+// Before the fix, IFD0 with 1000 Exif pointers to itself was read
+// 1000^3 times (recursion to depth 2); now IFD0 and one Exif IFD are read.
+TEST(ExifHostileTest, ACycleOfIfdsIsReadOnce) {
+  std::vector<RawEntry> entries(999, RawEntry{0x8769, 4, 1, 8});
+  entries.push_back({0x8827, 3, 1, 250});
+  const ExifInfo info = ParseExifTiff(Tiff(entries));
+  EXPECT_EQ(info.iso.value_or(0), 250);
+  // IFD0 -> Exif IFD -> IFD0: the Exif IFD's own pointer is not followed.
+  const uint32_t exif_ifd = AfterIfd0(2);
+  const std::string loop =
+      Tiff({{0x0110, 2, 4, Le32ValueOf("cam")}, {0x8769, 4, 1, exif_ifd}},
+           Ifd({{0x8769, 4, 1, 8}, {0x8827, 3, 1, 640}}));
+  const ExifInfo looped = ParseExifTiff(loop);
+  EXPECT_EQ(looped.iso.value_or(0), 640);
+  EXPECT_EQ(looped.camera, "cam");
+}
+
+TEST(ExifHostileTest, StringsAreBounded) {
+  const std::string make(100000, 'M');
+  const std::string tiff = Tiff({{0x010F, 2, 100000, AfterIfd0(1)}}, make);
+  EXPECT_EQ(ParseExifTiff(tiff).camera, std::string(255, 'M'));
+  // A string stops at its first NUL.
+  const std::string nul =
+      Tiff({{0x0110, 2, 8, AfterIfd0(1)}}, std::string("TG-4\0xyz", 8));
+  EXPECT_EQ(ParseExifTiff(nul).camera, "TG-4");
+}
+
+TEST(ExifHostileTest, ContainerLengthsOutsideTheFileAreIgnored) {
+  const std::string block = EncodeExifTiff(Sample());
+  // JPEG: an APP1 segment whose length runs past the end, one shorter than
+  // its own length field, and a segment cut off at every byte.
+  const std::string app1 = "\xFF\xD8\xFF\xE1";
+  for (const std::string& length :
+       {std::string("\xFF\xFF"), std::string("\x00\x01", 2)}) {
+    EXPECT_FALSE(
+        ParseExifFromFile(app1 + length + "Exif" + std::string(2, '\0') + block)
+            .iso.has_value());
+  }
+  ASSERT_OK_AND_ASSIGN(const std::string jpeg,
+                       EmbedExif(Encoded(".jpg"), block));
+  ASSERT_OK_AND_ASSIGN(const std::string png,
+                       EmbedExif(Encoded(".png"), block));
+  for (const std::string& file : {jpeg, png}) {
+    for (size_t n = 0; n < 200; ++n) {
+      const ExifInfo info = ParseExifFromFile(file.substr(0, n));
+      if (info.iso.has_value()) {
+        EXPECT_EQ(*info.iso, 400) << n;
+      }
+    }
+  }
+  // PNG: chunk lengths of 2^31 and 2^32 - 1 (PNG's own limit is 2^31 - 1).
+  for (const uint32_t length : {0x80000000u, 0xFFFFFFFFu}) {
+    std::string hostile = png;
+    const size_t exif_chunk = hostile.find("eXIf") - 4;
+    for (int b = 0; b < 4; ++b) {
+      hostile[exif_chunk + b] = static_cast<char>(length >> (24 - 8 * b));
+    }
+    EXPECT_FALSE(ParseExifFromFile(hostile).iso.has_value()) << length;
+  }
 }
 
 // A real camera's JPEGs (Olympus TG-4): the README of the data folder states

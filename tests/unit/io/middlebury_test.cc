@@ -15,6 +15,8 @@
 #include <utility>
 #include <vector>
 
+#include "absl/strings/str_cat.h"
+#include "processing/base/input_limits.h"
 #include "processing/io/atomic_file.h"
 #include "processing/io/hdr_formats.h"
 #include "tests/support/status_matchers.h"
@@ -131,6 +133,65 @@ TEST(MiddleburyTest, BadCalibNamesTheKey) {
   EXPECT_THAT(ReadCalib(tmp / kCalibFile),
               StatusIs(absl::StatusCode::kInvalidArgument,
                        HasSubstr("calib.txt: ndisp is missing")));
+}
+
+// Numbers a hostile or damaged calib.txt may hold: each refused naming the
+// key, quoting a bounded prefix of the value or giving the limit.
+TEST(MiddleburyTest, CalibNumbersAreBounded) {
+  const std::string good = FormatCalib(Sample());
+  auto with = [&](const std::string& key, const std::string& value) {
+    std::string out;
+    for (size_t at = 0; at < good.size();) {
+      const size_t end = good.find('\n', at);
+      const std::string line = good.substr(at, end - at + 1);
+      out += line.rfind(key + "=", 0) == 0 ? key + "=" + value + "\n" : line;
+      at = end + 1;
+    }
+    return out;
+  };
+  const int64_t max_width = DecodedImageLimits().max_width;
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {with("width", "2147483648"),
+       absl::StrCat("calib.txt width: 2147483648 is outside [1, ", max_width,
+                    "]")},
+      {with("height", "-480"), "calib.txt height: -480 is outside [1, "},
+      {with("width", "99999999999999999999"),
+       "calib.txt: width is missing or not a whole number: "
+       "\"99999999999999999999\""},
+      {with("width", "1048576") + "height=1048576\n",
+       absl::StrCat("calib.txt pixels (width x height): 1048576 x 1048576 is "
+                    "more than the limit of ",
+                    DecodedImageLimits().max_pixels)},
+      {with("ndisp", "0"), "calib.txt ndisp: 0 is outside [1, "},
+      {with("ndisp", "4000000"),
+       absl::StrCat("calib.txt ndisp: 4000000 is outside [1, ", max_width,
+                    "]")},
+      {with("cam0", "[nan 0 1; 0 1 1; 0 0 1]"), "cam0 is missing or not [fx"},
+      {with("cam0", "[1 0 inf; 0 1 1; 0 0 1]"), "cam0 is missing or not [fx"},
+      {with("cam0", "[1 0 1; 0 1 1; 0 0 1; 5]"), "cam0 is missing or not [fx"},
+      {with("baseline", "inf"),
+       "calib.txt: baseline is missing or not a positive number (mm): "
+       "\"inf\""},
+      {with("doffs", "nan"), "calib.txt: doffs is missing or not a number"},
+      {good + "vmin=nan\n",
+       "calib.txt: vmin is missing or not a finite number: \"nan\""},
+      {good + "vmax=1e999\n", "calib.txt: vmax is missing or not a finite"},
+  };
+  for (const auto& [text, message] : cases) {
+    EXPECT_THAT(ParseCalib(text), StatusIs(absl::StatusCode::kInvalidArgument,
+                                           HasSubstr(message)))
+        << text;
+  }
+  // A value of a megabyte is quoted by its first bytes and its size.
+  const absl::Status s =
+      ParseCalib(with("width", std::string(1 << 20, '7') + "x")).status();
+  EXPECT_THAT(s, StatusIs(absl::StatusCode::kInvalidArgument,
+                          HasSubstr("(1048577 bytes)")));
+  EXPECT_LT(s.message().size(), 200u);
+  // Finite bounds are kept as they are.
+  ASSERT_OK_AND_ASSIGN(const Calib c, ParseCalib(good + "vmin=31\nvmax=257\n"));
+  EXPECT_EQ(c.extra.back(),
+            (std::pair<std::string, std::string>{"vmax", "257"}));
 }
 
 TEST(MiddleburyTest, MaskFromTruth) {

@@ -11,13 +11,19 @@
 #include <string>
 #include <vector>
 
+#include "absl/strings/str_cat.h"
+#include "processing/base/input_limits.h"
 #include "processing/io/image.h"
+#include "tests/support/status_matchers.h"
 #include "tests/support/temp_dir.h"
 
 namespace hdrstereo::io {
 namespace {
 
+using ::hdrstereo::testing::ReadFileOrDie;
+using ::hdrstereo::testing::StatusIs;
 using ::hdrstereo::testing::TempDir;
+using ::testing::HasSubstr;
 
 constexpr int kSize = 64;
 
@@ -84,6 +90,45 @@ TEST(RawDecodeTest, DngDecodesLinearWithoutAutoBrightness) {
     ASSERT_GT(a[c], 100) << "channel " << c;
     EXPECT_NEAR(b[c] / a[c], 2.0, 0.02) << "channel " << c;
   }
+}
+
+// Sets the value of the SHORT or LONG entry `tag` of IFD0 of a
+// little-endian TIFF.
+void PatchTag(std::string& tiff, uint16_t tag, uint32_t value) {
+  auto u16 = [&](size_t at) -> uint32_t {
+    return static_cast<uint8_t>(tiff[at]) | static_cast<uint8_t>(tiff[at + 1])
+                                                << 8;
+  };
+  ASSERT_EQ(tiff.substr(0, 2), "II");
+  size_t ifd = 0;
+  for (int i = 3; i >= 0; --i) {
+    ifd = ifd << 8 | static_cast<uint8_t>(tiff[4 + i]);
+  }
+  for (uint32_t i = 0; i < u16(ifd); ++i) {
+    const size_t at = ifd + 2 + 12 * i;
+    if (u16(at) != tag) continue;
+    for (int b = 0; b < (u16(at + 2) == 3 ? 2 : 4); ++b) {
+      tiff[at + 8 + b] = static_cast<char>(value >> (8 * b));
+    }
+    return;
+  }
+  FAIL() << "no tag " << tag;
+}
+
+// A sensor of 40000 x 40000 pixels declared by a DNG of a few kB: each side
+// within the limits, the area not; refused before LibRaw unpacks it.
+TEST(RawDecodeTest, SensorSizesAboveTheLimitsAreRefusedBeforeUnpacking) {
+  TempDir dir;
+  ASSERT_TRUE(WriteDng(dir / "small.dng", 1000, 1500, 800));
+  std::string dng = ReadFileOrDie(dir / "small.dng");
+  PatchTag(dng, 256, 40000);  // ImageWidth
+  PatchTag(dng, 257, 40000);  // ImageLength
+  const std::string why = absl::StrCat(
+      "RAW sensor pixels (width x height): 40000 x 40000 is "
+      "more than the limit of ",
+      DecodedImageLimits().max_pixels);
+  EXPECT_THAT(DecodeRawBytes(dng), StatusIs(absl::StatusCode::kInvalidArgument,
+                                            HasSubstr("(in memory): " + why)));
 }
 
 }  // namespace
