@@ -198,6 +198,20 @@ TEST(HostileExrTest, AValidFileReadsFromMemory) {
   EXPECT_EQ(d.pixels.size(), cv::Size(5, 4));
 }
 
+// The limits leave ordinary files alone: tiled, grey, a data window off
+// the origin.
+TEST(HostileExrTest, TiledFilesOffTheOriginRead) {
+  Imf::Header header(Imath::Box2i({0, 0}, {39, 29}),
+                     Imath::Box2i({-3, 5}, {36, 34}));
+  header.channels().insert("Y", Imf::Channel(Imf::HALF));
+  header.setTileDescription(Imf::TileDescription(16, 16));
+  ASSERT_OK_AND_ASSIGN(const cv::Mat grey,
+                       ParseExr(ExrWith(header, 0, /*tiled=*/true)));
+  EXPECT_EQ(grey.type(), CV_32FC1);
+  EXPECT_EQ(grey.size(), cv::Size(40, 30));
+  EXPECT_EQ(cv::countNonZero(grey), 0);
+}
+
 TEST(HostileExrTest, DataWindowsBeyondTheLimitsAreRefused) {
   struct Case {
     int32_t min_x, min_y, max_x, max_y;
