@@ -11,6 +11,7 @@
 #include "absl/time/time.h"
 #include "processing/base/status_macros.h"
 #include "processing/io/atomic_file.h"
+#include "processing/io/relative_path.h"
 
 namespace hdrstereo::store {
 namespace fs = std::filesystem;
@@ -27,20 +28,6 @@ std::string TimeTag() {
 }
 
 }  // namespace
-
-absl::Status ValidateRelativePath(const fs::path& relative) {
-  if (relative.empty() || relative.is_absolute()) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "path \"", relative.string(), "\" must be relative and non-empty"));
-  }
-  for (const fs::path& part : relative) {
-    if (part == ".." || part == ".") {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "path \"", relative.string(), "\" must not contain . or .."));
-    }
-  }
-  return absl::OkStatus();
-}
 
 absl::StatusOr<FileStore> FileStore::Open(const fs::path& root) {
   std::error_code ec;
@@ -113,7 +100,7 @@ absl::Status FileStore::RemoveSessionDir(absl::string_view session) {
 absl::Status FileStore::WriteSessionFile(absl::string_view session,
                                          const fs::path& relative,
                                          absl::string_view data) {
-  RETURN_IF_ERROR(ValidateRelativePath(relative));
+  RETURN_IF_ERROR(io::ValidateRelativePath(relative.native()));
   fs::path path = SessionDir(session) / relative;
   std::error_code ec;
   fs::create_directories(path.parent_path(), ec);

@@ -40,7 +40,7 @@ class FileStore {
   // removes it. Missing folders are fine.
   absl::Status RemoveSessionDir(absl::string_view session);
 
-  // Writes `relative` (inside the session folder; no "..", not absolute)
+  // Writes `relative` (inside the session folder: io::ValidateRelativePath)
   // atomically, creating parent folders. A full disk is io::IsDiskFull
   // (RESOURCE_EXHAUSTED naming the path and the free space) and leaves
   // neither the file nor a temporary one.
@@ -59,9 +59,6 @@ class FileStore {
 
   std::filesystem::path root_;
 };
-
-// Checks that `relative` stays inside the folder it is joined to.
-absl::Status ValidateRelativePath(const std::filesystem::path& relative);
 
 }  // namespace hdrstereo::store
 
