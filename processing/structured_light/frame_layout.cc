@@ -7,13 +7,18 @@
 #include <utility>
 
 #include "absl/status/status.h"
+#include "absl/strings/ascii.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
+#include "absl/strings/strip.h"
 #include "nlohmann/json.hpp"
+#include "processing/base/input_limits.h"
 #include "processing/base/status_macros.h"
 #include "processing/io/image.h"
+#include "processing/io/json_input.h"
+#include "processing/io/relative_path.h"
 #include "processing/structured_light/gray_code.h"
 
 namespace hdrstereo::structured_light {
@@ -22,10 +27,94 @@ namespace {
 using nlohmann::json;
 
 constexpr char kFormat[] = "hdrstereo-sl-layout-1";
+// A path template is one line; its expansion is checked against PATH_MAX.
+constexpr size_t kMaxFilesBytes = 1024;
+// {frame:N}: frame numbers have at most 2 digits (kMaxLayoutFrames).
+constexpr int kMaxFrameDigits = 9;
+constexpr int kMaxViews = 16;
+constexpr size_t kMaxViewNameBytes = 64;
 
 absl::Status Bad(absl::string_view key, absl::string_view why) {
   return absl::InvalidArgumentError(
       absl::StrCat("structured-light layout: ", key, ": ", why));
+}
+
+absl::Status BadFiles(absl::string_view files, absl::string_view why) {
+  return Bad("files", absl::StrCat(QuoteInput(files), " ", why));
+}
+
+// A view's name goes into file names: letters, digits, '-' and '_' only.
+absl::Status CheckViewName(absl::string_view view) {
+  if (view.empty() || view.size() > kMaxViewNameBytes ||
+      !std::all_of(view.begin(), view.end(), [](char c) {
+        return absl::ascii_isalnum(c) || c == '-' || c == '_';
+      })) {
+    return Bad(
+        "views",
+        absl::StrCat(QuoteInput(view), " is not a view name (1 to ",
+                     kMaxViewNameBytes, " letters, digits, '-' or '_')"));
+  }
+  return absl::OkStatus();
+}
+
+// The zero-padding width of a {frame...} placeholder; `name` is what is
+// between its braces.
+absl::StatusOr<int> FrameWidth(absl::string_view files,
+                               absl::string_view name) {
+  if (name == "frame") return 0;
+  absl::string_view digits = name;
+  int64_t width = 0;
+  if (!absl::ConsumePrefix(&digits, "frame:") || digits.empty() ||
+      !std::all_of(digits.begin(), digits.end(), absl::ascii_isdigit)) {
+    return BadFiles(
+        files, absl::StrCat("has the placeholder ",
+                            QuoteInput(absl::StrCat("{", name, "}")),
+                            "; allowed are {frame}, {frame:N} and {view}"));
+  }
+  if (!absl::SimpleAtoi(digits, &width) || width < 1 ||
+      width > kMaxFrameDigits) {
+    return BadFiles(
+        files,
+        absl::StrCat("pads frame numbers to ", QuoteInput(digits),
+                     " digits; the limit is [1, ", kMaxFrameDigits, "]"));
+  }
+  return static_cast<int>(width);
+}
+
+// `files` with its placeholders replaced. INVALID_ARGUMENT naming "files"
+// for an unknown placeholder, a brace without its partner or no {frame}.
+absl::StatusOr<std::string> ExpandFiles(absl::string_view files, int frame,
+                                        absl::string_view view) {
+  if (files.size() > kMaxFilesBytes) {
+    return BadFiles(files, absl::StrCat("is longer than the limit of ",
+                                        kMaxFilesBytes, " bytes"));
+  }
+  std::string out;
+  bool has_frame = false;
+  for (size_t i = 0; i < files.size();) {
+    if (files[i] == '}') return BadFiles(files, "has a '}' without its '{'");
+    if (files[i] != '{') {
+      out += files[i++];
+      continue;
+    }
+    const size_t close = files.find('}', i);
+    if (close == absl::string_view::npos) {
+      return BadFiles(files, "has a '{' without its '}'");
+    }
+    const absl::string_view name = files.substr(i + 1, close - i - 1);
+    i = close + 1;
+    if (name == "view") {
+      absl::StrAppend(&out, view);
+      continue;
+    }
+    ASSIGN_OR_RETURN(const int width, FrameWidth(files, name));
+    absl::StrAppendFormat(&out, "%0*d", width, frame);
+    has_frame = true;
+  }
+  if (!has_frame) {
+    return BadFiles(files, "has no {frame} (a path with {frame} and {view})");
+  }
+  return out;
 }
 
 absl::StatusOr<int> Int(const json& object, const std::string& key,
@@ -36,12 +125,13 @@ absl::StatusOr<int> Int(const json& object, const std::string& key,
     return Bad(path, "missing");
   }
   const json& value = object[key];
+  const std::optional<int64_t> v = io::JsonInt64(value);
   if (!value.is_number_integer()) return Bad(path, "must be an integer");
-  const int64_t v = value.get<int64_t>();
-  if (v < min || v > max) {
-    return Bad(path, absl::StrFormat("%d is outside [%d, %d]", v, min, max));
+  if (!v.has_value() || *v < min || *v > max) {
+    return Bad(path, absl::StrFormat("%s is outside [%d, %d]", value.dump(),
+                                     min, max));
   }
-  return static_cast<int>(v);
+  return static_cast<int>(*v);
 }
 
 absl::StatusOr<std::string> Choice(const json& object, const std::string& key,
@@ -66,8 +156,8 @@ absl::StatusOr<CodeLayout> ParseCode(const json& root, const std::string& key,
   const json& o = root[key];
   CodeLayout code;
   ASSIGN_OR_RETURN(code.bits, Int(o, "bits", key + ".bits", 1, 16));
-  ASSIGN_OR_RETURN(code.first_frame,
-                   Int(o, "first_frame", key + ".first_frame", 0, 100000));
+  ASSIGN_OR_RETURN(code.first_frame, Int(o, "first_frame", key + ".first_frame",
+                                         0, kMaxLayoutFrames));
   ASSIGN_OR_RETURN(code.code_offset,
                    Int(o, "code_offset", key + ".code_offset", 0, 65535, 0));
   ASSIGN_OR_RETURN(std::string order, Choice(o, "bit_order", key + ".bit_order",
@@ -95,29 +185,20 @@ int CodeLayout::Frame(int bit, bool inverse) const {
   return first_frame + plane + (inverse ? bits : 0);
 }
 
-std::string FrameLayout::FileName(int frame, const std::string& view) const {
-  std::string out;
-  for (size_t i = 0; i < files.size();) {
-    if (files.compare(i, 6, "{view}") == 0) {
-      out += view;
-      i += 6;
-      continue;
-    }
-    if (files.compare(i, 6, "{frame") == 0) {
-      const size_t close = files.find('}', i);
-      int width = 0;
-      if (close != std::string::npos && files[i + 6] == ':') {
-        absl::SimpleAtoi(files.substr(i + 7, close - i - 7), &width);
-      }
-      if (close != std::string::npos) {
-        out += absl::StrFormat("%0*d", width, frame);
-        i = close + 1;
-        continue;
-      }
-    }
-    out += files[i++];
+absl::StatusOr<std::string> FrameLayout::FileName(
+    int frame, absl::string_view view) const {
+  if (frame < 0 || frame > kMaxLayoutFrames) {
+    return Bad("frame",
+               absl::StrCat(frame, " is outside [0, ", kMaxLayoutFrames, "]"));
   }
-  return out;
+  RETURN_IF_ERROR(CheckViewName(view));
+  ASSIGN_OR_RETURN(std::string name, ExpandFiles(files, frame, view));
+  if (absl::Status s = io::ValidateRelativePath(name); !s.ok()) {
+    return Bad("files", absl::StrCat(QuoteInput(files), ": ", s.message(),
+                                     " (frames are inside the capture "
+                                     "folder)"));
+  }
+  return name;
 }
 
 absl::StatusOr<FrameLayout> ParseFrameLayout(absl::string_view text) {
@@ -126,7 +207,8 @@ absl::StatusOr<FrameLayout> ParseFrameLayout(absl::string_view text) {
     root = json::parse(text);
   } catch (const json::exception& e) {
     return absl::InvalidArgumentError(
-        absl::StrCat("structured-light layout is not JSON: ", e.what()));
+        absl::StrCat("structured-light layout is not JSON: ",
+                     io::BoundedJsonError(e.what())));
   }
   if (!root.is_object()) return Bad("(top level)", "must be an object");
   if (!root.contains("format") || root["format"] != kFormat) {
@@ -136,28 +218,37 @@ absl::StatusOr<FrameLayout> ParseFrameLayout(absl::string_view text) {
   if (!root.contains("projector") || !root["projector"].is_object()) {
     return Bad("projector", "missing ({\"width\": W, \"height\": H})");
   }
-  ASSIGN_OR_RETURN(
-      int width, Int(root["projector"], "width", "projector.width", 1, 65535));
+  ASSIGN_OR_RETURN(int width, Int(root["projector"], "width", "projector.width",
+                                  1, kMaxProjectorSide));
   ASSIGN_OR_RETURN(int height, Int(root["projector"], "height",
-                                   "projector.height", 1, 65535));
+                                   "projector.height", 1, kMaxProjectorSide));
   layout.projector_size = cv::Size(width, height);
-  if (!root.contains("files") || !root["files"].is_string() ||
-      root["files"].get<std::string>().find("{frame") == std::string::npos) {
+  if (!root.contains("files")) {
     return Bad("files", "missing (a path with {frame} and {view})");
+  }
+  if (!root["files"].is_string()) {
+    return Bad("files", "must be a string (a path with {frame} and {view})");
   }
   layout.files = root["files"].get<std::string>();
   if (!root.contains("views") || !root["views"].is_array() ||
       root["views"].empty()) {
     return Bad("views", "missing (e.g. [\"left\", \"right\"])");
   }
-  for (const json& v : root["views"]) {
-    if (!v.is_string() || v.get<std::string>().empty()) {
-      return Bad("views", "must be non-empty names");
-    }
-    layout.views.push_back(v.get<std::string>());
+  if (root["views"].size() > kMaxViews) {
+    return Bad("views",
+               absl::StrCat(root["views"].size(),
+                            " views, more than the limit of ", kMaxViews));
   }
-  ASSIGN_OR_RETURN(layout.white, Int(root, "white", "white", 0, 100000));
-  ASSIGN_OR_RETURN(layout.black, Int(root, "black", "black", 0, 100000));
+  for (const json& v : root["views"]) {
+    if (!v.is_string()) return Bad("views", "must be names (strings)");
+    layout.views.push_back(v.get<std::string>());
+    // Checks the name and the file names the template gives for it.
+    RETURN_IF_ERROR(layout.FileName(0, layout.views.back()).status());
+  }
+  ASSIGN_OR_RETURN(layout.white,
+                   Int(root, "white", "white", 0, kMaxLayoutFrames));
+  ASSIGN_OR_RETURN(layout.black,
+                   Int(root, "black", "black", 0, kMaxLayoutFrames));
   ASSIGN_OR_RETURN(layout.columns, ParseCode(root, "columns", width));
   ASSIGN_OR_RETURN(layout.rows, ParseCode(root, "rows", height));
   ASSIGN_OR_RETURN(layout.min_bits,
@@ -165,7 +256,19 @@ absl::StatusOr<FrameLayout> ParseFrameLayout(absl::string_view text) {
   if (layout.min_bits > std::min(layout.columns.bits, layout.rows.bits)) {
     return Bad("min_bits", "is more than the bits of the codes");
   }
-  // Every frame plays one role.
+  // Every frame plays one role, and the frames are numbered from 0 or 1 up:
+  // none is beyond the layout's frame count.
+  const int frames = 2 + 2 * (layout.columns.bits + layout.rows.bits);
+  const std::string count =
+      absl::StrCat("the layout's ", frames, " frames (white, black and ",
+                   frames - 2, " code planes, numbered from 0 or 1)");
+  for (const auto& [key, frame] :
+       {std::pair<const char*, int>{"white", layout.white},
+        {"black", layout.black}}) {
+    if (frame > frames) {
+      return Bad(key, absl::StrCat(frame, " is beyond ", count));
+    }
+  }
   std::set<int> used = {layout.white};
   if (!used.insert(layout.black).second) {
     return Bad("black", "is the same frame as white");
@@ -176,11 +279,17 @@ absl::StatusOr<FrameLayout> ParseFrameLayout(absl::string_view text) {
     for (int bit = 0; bit < code->bits; ++bit) {
       for (bool inverse : {false, true}) {
         const int frame = code->Frame(bit, inverse);
+        const std::string role =
+            absl::StrFormat("bit %d%s", bit, inverse ? " inverse" : "");
+        if (frame > frames) {
+          return Bad(absl::StrCat(name, ".first_frame"),
+                     absl::StrCat(code->first_frame, " puts ", role,
+                                  " at frame ", frame, ", beyond ", count));
+        }
         if (!used.insert(frame).second) {
-          return Bad(name,
-                     absl::StrFormat("frame %d (bit %d%s) is already used by "
-                                     "another pattern",
-                                     frame, bit, inverse ? " inverse" : ""));
+          return Bad(name, absl::StrFormat("frame %d (%s) is already used by "
+                                           "another pattern",
+                                           frame, role));
         }
       }
     }
@@ -216,8 +325,8 @@ absl::StatusOr<ViewFrames> LoadLayoutView(
   out.row_offset = layout.rows.code_offset;
   ExposureFrames exposure;
   auto load = [&](int frame) -> absl::Status {
-    const std::filesystem::path file =
-        capture_dir / layout.FileName(frame, view);
+    ASSIGN_OR_RETURN(const std::string name, layout.FileName(frame, view));
+    const std::filesystem::path file = capture_dir / name;
     absl::StatusOr<io::DecodedImage> image = io::DecodeImageFile(file);
     if (!image.ok()) {
       return absl::Status(image.status().code(),

@@ -19,9 +19,14 @@
 //     "min_bits": 8
 //   }
 //
-// - "files": the path of frame N of a view, relative to the capture folder;
-//   "{frame}" is N ("{frame:02}" zero-padded to 2 digits), "{view}" the
-//   view's name.
+// - "files": the path of frame N of a view, relative to the capture folder
+//   (no "..", not absolute; at most 1024 bytes); "{frame}" is N
+//   ("{frame:02}" zero-padded to 2 digits, at most 9), "{view}" the view's
+//   name (1 to 64 letters, digits, '-' or '_'; at most 16 views). No other
+//   braces.
+// - "white", "black", "first_frame": frame numbers, from 0 or 1 up to the
+//   layout's frame count (2 + 2 x the bits of both codes), each used once.
+// - "projector": at most kMaxProjectorSide pixels each way.
 // - "columns"/"rows": `bits` bit planes, each projected as a pattern and its
 //   inverse, starting at frame `first_frame`. "interleaved": bit, inverse,
 //   next bit, ...; "blocked": every bit, then every inverse. "msb-first":
@@ -45,6 +50,13 @@
 
 namespace hdrstereo::structured_light {
 
+// The largest frame buffer a display offers (X11 and GPUs' largest
+// framebuffer and texture side; an 8K projector is 8192 wide).
+inline constexpr int kMaxProjectorSide = 16384;
+// The most frames a layout can use: white, black, and 16-bit column and
+// row codes whose bits each have an inverse.
+inline constexpr int kMaxLayoutFrames = 2 + 2 * 2 * 16;
+
 struct CodeLayout {
   int bits = 0;
   int first_frame = 0;
@@ -67,7 +79,9 @@ struct FrameLayout {
   int min_bits = 0;  // 0 = every bit
 
   // The file of frame `frame` of `view`, relative to the capture folder.
-  std::string FileName(int frame, const std::string& view) const;
+  // Checks `files`, `frame` and `view` as ParseFrameLayout does
+  // (INVALID_ARGUMENT naming the key), so it is safe on any layout.
+  absl::StatusOr<std::string> FileName(int frame, absl::string_view view) const;
 };
 
 // Parses a layout file's text. INVALID_ARGUMENT naming the key for a

@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "processing/io/hdr_formats.h"
@@ -145,7 +146,8 @@ constexpr char kLayout[] = R"({
 // read back through the layout gives exactly the frames in our order.
 TEST(FrameLayoutTest, LoadsFramesInTheLayoutsOrder) {
   ASSERT_OK_AND_ASSIGN(FrameLayout layout, ParseFrameLayout(kLayout));
-  EXPECT_EQ(layout.FileName(7, "a"), "cam_a/img007.png");
+  ASSERT_OK_AND_ASSIGN(const std::string name, layout.FileName(7, "a"));
+  EXPECT_EQ(name, "cam_a/img007.png");
   EXPECT_EQ(layout.columns.Frame(0, false), 10);  // MSB, LSB first
   EXPECT_EQ(layout.columns.Frame(9, false), 1);
   EXPECT_EQ(layout.columns.Frame(9, true), 11);
@@ -155,7 +157,8 @@ TEST(FrameLayoutTest, LoadsFramesInTheLayoutsOrder) {
   ::hdrstereo::testing::TempDir dir;
   std::filesystem::create_directories(dir / "cam_a");
   auto write = [&](int frame, const cv::Mat& image) {
-    ASSERT_OK(io::WritePng(dir / layout.FileName(frame, "a"), image));
+    ASSERT_OK_AND_ASSIGN(const std::string name, layout.FileName(frame, "a"));
+    ASSERT_OK(io::WritePng(dir / name, image));
   };
   for (int bit = 0; bit < kBits; ++bit) {
     write(layout.columns.Frame(bit, false), f[2 * bit]);
@@ -218,6 +221,163 @@ TEST(FrameLayoutTest, BadLayoutsNameTheField) {
   EXPECT_THAT(with("\"min_bits\": 6", "\"min_bits\": 12"),
               StatusIs(absl::StatusCode::kInvalidArgument,
                        HasSubstr("min_bits: is more than the bits")));
+}
+
+// kLayout with `from` replaced by `to`, parsed.
+absl::StatusOr<FrameLayout> ParseWith(const std::string& from,
+                                      const std::string& to) {
+  std::string text = kLayout;
+  text.replace(text.find(from), from.size(), to);
+  return ParseFrameLayout(text);
+}
+
+constexpr char kFiles[] = "\"cam_{view}/img{frame:03}.png\"";
+
+// The review's layout: 400 valid-looking bytes whose template asked for
+// two-billion-digit frame numbers (9.8 GB, 53 s and a 2 GB message). It is
+// refused naming the key, the value and the limit, in a short message, and
+// FileName refuses it even on a layout that was never parsed.
+TEST(FrameLayoutTest, ATwoBillionDigitFrameNumberIsRefused) {
+  const absl::StatusOr<FrameLayout> layout =
+      ParseWith(kFiles, "\"x{frame:2000000000}.png\"");
+  EXPECT_THAT(layout, StatusIs(absl::StatusCode::kInvalidArgument,
+                               HasSubstr("structured-light layout: files: "
+                                         "\"x{frame:2000000000}.png\" pads "
+                                         "frame numbers to \"2000000000\" "
+                                         "digits; the limit is [1, 9]")));
+  EXPECT_LT(layout.status().message().size(), 200u);
+
+  FrameLayout unparsed;
+  unparsed.files = "x{frame:2000000000}.png";
+  EXPECT_THAT(unparsed.FileName(1, "left"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("the limit is [1, 9]")));
+  unparsed.files = "x{frame:99999999999999999999999}.png";  // not an int64
+  EXPECT_THAT(unparsed.FileName(1, "left"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("the limit is [1, 9]")));
+  unparsed.files = "x{frame:9}.png";
+  ASSERT_OK_AND_ASSIGN(const std::string name, unparsed.FileName(12, "left"));
+  EXPECT_EQ(name, "x000000012.png");
+  EXPECT_THAT(unparsed.FileName(kMaxLayoutFrames + 1, "left"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("frame: 67 is outside [0, 66]")));
+  EXPECT_THAT(unparsed.FileName(-1, "left"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("frame: -1 is outside [0, 66]")));
+}
+
+TEST(FrameLayoutTest, FilesStayInsideTheCaptureFolder) {
+  const std::pair<const char*, const char*> bad[] = {
+      {"\"../{frame}.png\"",
+       "files: \"../{frame}.png\": path \"../0.png\" has a \"..\" component"},
+      {"\"{view}/../../{frame}.png\"",
+       "path \"a/../../0.png\" has a \"..\" component"},
+      {"\"/data/{view}{frame}.png\"", "path \"/data/a0.png\" is absolute"},
+      {"\"{view}//{frame}.png\"", "path \"a//0.png\" has an empty component"},
+  };
+  for (const auto& [files, message] : bad) {
+    EXPECT_THAT(
+        ParseWith(kFiles, files),
+        StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr(message)))
+        << files;
+  }
+}
+
+TEST(FrameLayoutTest, TheTemplateHasOnlyItsPlaceholders) {
+  const std::pair<const char*, const char*> bad[] = {
+      {"\"img{frame.png\"",
+       "files: \"img{frame.png\" has a '{' without its '}'"},
+      {"\"img}{frame}.png\"",
+       "files: \"img}{frame}.png\" has a '}' without its '{'"},
+      {"\"{frame}{id}.png\"",
+       "has the placeholder \"{id}\"; allowed are {frame}, {frame:N} and "
+       "{view}"},
+      {"\"{frame:{view}}.png\"", "has the placeholder \"{frame:{view}\""},
+      {"\"{frame:0}.png\"", "pads frame numbers to \"0\" digits"},
+      {"\"{frame:-2}.png\"", "has the placeholder \"{frame:-2}\""},
+      {"\"{view}.png\"", "has no {frame}"},
+      {"3", "files: must be a string"},
+  };
+  for (const auto& [files, message] : bad) {
+    EXPECT_THAT(
+        ParseWith(kFiles, files),
+        StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr(message)))
+        << files;
+  }
+  // A long template is refused with a bounded quote.
+  const absl::StatusOr<FrameLayout> long_files =
+      ParseWith(kFiles, "\"" + std::string(100000, 'x') + "{frame}\"");
+  EXPECT_THAT(long_files, StatusIs(absl::StatusCode::kInvalidArgument,
+                                   HasSubstr("... (100007 bytes) is longer "
+                                             "than the limit of 1024 bytes")));
+  EXPECT_LT(long_files.status().message().size(), 250u);
+}
+
+TEST(FrameLayoutTest, ViewNamesAreSafeInFileNames) {
+  const std::pair<const char*, const char*> bad[] = {
+      {"[\"a/b\"]",
+       "views: \"a/b\" is not a view name (1 to 64 letters, "
+       "digits, '-' or '_')"},
+      {"[\"..\"]", "views: \"..\" is not a view name"},
+      {"[\"\"]", "views: \"\" is not a view name"},
+      {"[7]", "views: must be names (strings)"},
+      {"[\"a\",\"a\",\"a\",\"a\",\"a\",\"a\",\"a\",\"a\",\"a\",\"a\",\"a\","
+       "\"a\",\"a\",\"a\",\"a\",\"a\",\"a\"]",
+       "views: 17 views, more than the limit of 16"},
+  };
+  for (const auto& [views, message] : bad) {
+    EXPECT_THAT(
+        ParseWith("[\"a\"]", views),
+        StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr(message)))
+        << views;
+  }
+  EXPECT_THAT(ParseWith("[\"a\"]", "[\"" + std::string(65, 'v') + "\"]"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("is not a view name (1 to 64")));
+}
+
+// kLayout uses 42 frames (white, black, 2 x 10 bits with inverses for each
+// code), numbered 0 to 41.
+TEST(FrameLayoutTest, NoFrameIsBeyondTheLayoutsFrameCount) {
+  EXPECT_THAT(ParseWith("\"black\": 41", "\"black\": 50"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("black: 50 is beyond the layout's 42 frames "
+                                 "(white, black and 40 code planes, numbered "
+                                 "from 0 or 1)")));
+  EXPECT_THAT(ParseWith("\"first_frame\": 21", "\"first_frame\": 60"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("rows.first_frame: 60 puts bit 0 at frame 60, "
+                                 "beyond the layout's 42 frames")));
+  EXPECT_THAT(ParseWith("\"first_frame\": 21", "\"first_frame\": 2000000000"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("rows.first_frame: 2000000000 is outside "
+                                 "[0, 66]")));
+  EXPECT_THAT(
+      ParseWith("\"white\": 0", "\"white\": 18446744073709551615"),
+      StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("white: ")));
+  // Numbered from 1, the last frame is the frame count itself.
+  EXPECT_OK(ParseWith("\"white\": 0", "\"white\": 42"));
+}
+
+TEST(FrameLayoutTest, TheProjectorIsAtMostWhatADisplayCanBe) {
+  EXPECT_THAT(ParseWith("\"width\": 1000", "\"width\": 16385"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("projector.width: 16385 is outside "
+                                 "[1, 16384]")));
+  EXPECT_THAT(ParseWith("\"height\": 700", "\"height\": -700"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("projector.height: -700 is outside "
+                                 "[1, 16384]")));
+}
+
+TEST(FrameLayoutTest, ANotJsonMessageQuotesABoundedPrefix) {
+  const absl::StatusOr<FrameLayout> layout =
+      ParseFrameLayout("{\"files\": \"" + std::string(100000, 'x'));
+  EXPECT_THAT(layout, StatusIs(absl::StatusCode::kInvalidArgument,
+                               HasSubstr("structured-light layout is not "
+                                         "JSON: ")));
+  EXPECT_LT(layout.status().message().size(), 400u);
 }
 
 }  // namespace
