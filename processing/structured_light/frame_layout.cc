@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <optional>
 #include <set>
+#include <system_error>
 #include <utility>
 
 #include "absl/status/status.h"
@@ -27,6 +28,8 @@ namespace {
 using nlohmann::json;
 
 constexpr char kFormat[] = "hdrstereo-sl-layout-1";
+// A layout file is a page of JSON (the example above is 500 bytes).
+constexpr size_t kMaxLayoutBytes = 1 << 20;
 // A path template is one line; its expansion is checked against PATH_MAX.
 constexpr size_t kMaxFilesBytes = 1024;
 // {frame:N}: frame numbers have at most 2 digits (kMaxLayoutFrames).
@@ -37,6 +40,12 @@ constexpr size_t kMaxViewNameBytes = 64;
 absl::Status Bad(absl::string_view key, absl::string_view why) {
   return absl::InvalidArgumentError(
       absl::StrCat("structured-light layout: ", key, ": ", why));
+}
+
+absl::Status TooLarge(uintmax_t bytes) {
+  return absl::InvalidArgumentError(
+      absl::StrCat("structured-light layout: ", bytes,
+                   " bytes, more than the limit of ", kMaxLayoutBytes));
 }
 
 absl::Status BadFiles(absl::string_view files, absl::string_view why) {
@@ -202,6 +211,7 @@ absl::StatusOr<std::string> FrameLayout::FileName(
 }
 
 absl::StatusOr<FrameLayout> ParseFrameLayout(absl::string_view text) {
+  if (text.size() > kMaxLayoutBytes) return TooLarge(text.size());
   json root;
   try {
     root = json::parse(text);
@@ -298,13 +308,16 @@ absl::StatusOr<FrameLayout> ParseFrameLayout(absl::string_view text) {
 }
 
 absl::StatusOr<FrameLayout> LoadFrameLayout(const std::filesystem::path& path) {
+  auto in_file = [&](const absl::Status& status) {
+    return absl::Status(status.code(),
+                        absl::StrCat(path.string(), ": ", status.message()));
+  };
+  std::error_code ec;
+  const uintmax_t size = std::filesystem::file_size(path, ec);
+  if (!ec && size > kMaxLayoutBytes) return in_file(TooLarge(size));
   ASSIGN_OR_RETURN(std::string text, io::ReadFileBytes(path));
   absl::StatusOr<FrameLayout> layout = ParseFrameLayout(text);
-  if (!layout.ok()) {
-    return absl::Status(
-        layout.status().code(),
-        absl::StrCat(path.string(), ": ", layout.status().message()));
-  }
+  if (!layout.ok()) return in_file(layout.status());
   return layout;
 }
 

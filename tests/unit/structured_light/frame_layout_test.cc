@@ -371,6 +371,21 @@ TEST(FrameLayoutTest, TheProjectorIsAtMostWhatADisplayCanBe) {
                                  "[1, 16384]")));
 }
 
+TEST(FrameLayoutTest, AHugeLayoutFileIsRefusedUnread) {
+  ::hdrstereo::testing::TempDir dir;
+  const std::filesystem::path file = dir / "layout.json";
+  { std::ofstream(file) << kLayout; }
+  std::filesystem::resize_file(file, 2 << 20);  // sparse
+  EXPECT_THAT(LoadFrameLayout(file),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       file.string() + ": structured-light layout: 2097152 "
+                                       "bytes, more than the limit of "
+                                       "1048576"));
+  EXPECT_THAT(ParseFrameLayout(std::string(2 << 20, ' ')),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("2097152 bytes, more than the limit")));
+}
+
 TEST(FrameLayoutTest, ANotJsonMessageQuotesABoundedPrefix) {
   const absl::StatusOr<FrameLayout> layout =
       ParseFrameLayout("{\"files\": \"" + std::string(100000, 'x'));
