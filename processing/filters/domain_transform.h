@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
 // Domain-transform edge-aware filter, recursive-filter variant (Gastal &
-// Oliveira, SIGGRAPH 2011, Sec. 4 "RF").
+// Oliveira, SIGGRAPH 2011, Sec. 4 "RF"): OpenCV's cv::ximgproc DTFilter
+// (DTF_RF) behind the filters' checks and options.
 //
 // The guide J defines the 1-D domain transform ct(u) = integral of
 // 1 + sigma_s / sigma_r * sum_c |J_c'| (L1 over channels); the input is
@@ -24,8 +25,13 @@
 namespace hdrstereo::filters {
 
 struct DomainTransformOptions {
-  double sigma_s = 60.0;  // spatial standard deviation, pixels
-  double sigma_r = 0.33;  // range standard deviation, guide units
+  // OpenCV's filter silently raises smaller values to these minimums, so
+  // Validate rejects them instead.
+  static constexpr double kMinSigmaS = 1.0;
+  static constexpr double kMinSigmaR = 0.01;
+
+  double sigma_s = 60.0;  // spatial standard deviation, pixels, >= 1
+  double sigma_r = 0.33;  // range standard deviation, guide units, >= 0.01
   int iterations = 3;
 
   // INVALID_ARGUMENT naming the first field that breaks a rule.

@@ -39,10 +39,10 @@ void to_json(nlohmann::json& j, const GuidedFilterOptions& o) {
 }
 
 absl::Status DomainTransformOptions::Validate() const {
-  RETURN_IF_ERROR(RequireField(sigma_s > 0 && std::isfinite(sigma_s), "sigma_s",
-                               sigma_s, "> 0 (pixels)"));
-  RETURN_IF_ERROR(RequireField(sigma_r > 0 && std::isfinite(sigma_r), "sigma_r",
-                               sigma_r, "> 0 (guide units)"));
+  RETURN_IF_ERROR(RequireField(sigma_s >= kMinSigmaS && std::isfinite(sigma_s),
+                               "sigma_s", sigma_s, ">= 1 (pixels)"));
+  RETURN_IF_ERROR(RequireField(sigma_r >= kMinSigmaR && std::isfinite(sigma_r),
+                               "sigma_r", sigma_r, ">= 0.01 (guide units)"));
   return RequireField(iterations >= 1, "iterations", iterations, ">= 1");
 }
 
