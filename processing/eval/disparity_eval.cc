@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
 
@@ -80,19 +81,15 @@ struct Accumulator {
   }
 };
 
-std::string RegionJson(const RegionMetrics& m,
-                       const std::vector<double>& thresholds) {
-  std::string s = absl::StrFormat(
-      "{\"pixels\": %d, \"estimated\": %d, \"coverage\": %.6f, "
-      "\"rmse\": %.6f, \"mae\": %.6f, \"bad\": {",
-      m.pixels, m.estimated, m.coverage, m.rmse, m.mae);
-  for (size_t i = 0; i < thresholds.size(); ++i) {
-    absl::StrAppend(
-        &s, i ? ", " : "",
-        absl::StrFormat("\"%g\": %.4f", thresholds[i], m.bad_percent[i]));
+nlohmann::json RegionJson(const RegionMetrics& m,
+                          const std::vector<double>& thresholds) {
+  nlohmann::json bad = nlohmann::json::object();
+  for (size_t i = 0; i < thresholds.size() && i < m.bad_percent.size(); ++i) {
+    bad[absl::StrFormat("%g", thresholds[i])] = m.bad_percent[i];
   }
-  absl::StrAppend(&s, "}}");
-  return s;
+  return {{"pixels", m.pixels},     {"estimated", m.estimated},
+          {"coverage", m.coverage}, {"rmse", m.rmse},
+          {"mae", m.mae},           {"bad", bad}};
 }
 
 }  // namespace
@@ -150,15 +147,13 @@ absl::StatusOr<DisparityEvaluation> EvaluateDisparity(
 }
 
 std::string EvaluationToJson(const DisparityEvaluation& e) {
-  std::string s = "{\"thresholds\": [";
-  for (size_t i = 0; i < e.thresholds.size(); ++i) {
-    absl::StrAppend(&s, i ? ", " : "", absl::StrFormat("%g", e.thresholds[i]));
-  }
-  absl::StrAppend(
-      &s, "], \"all\": ", RegionJson(e.all, e.thresholds),
-      ", \"nonoccluded\": ", RegionJson(e.nonoccluded, e.thresholds),
-      ", \"valid\": ", RegionJson(e.valid, e.thresholds), "}");
-  return s;
+  const nlohmann::json j = {
+      {"thresholds", e.thresholds},
+      {"all", RegionJson(e.all, e.thresholds)},
+      {"nonoccluded", RegionJson(e.nonoccluded, e.thresholds)},
+      {"valid", RegionJson(e.valid, e.thresholds)}};
+  // No strings but the keys, all ASCII: dump cannot throw.
+  return j.dump(2);
 }
 
 std::string EvaluationToText(const DisparityEvaluation& e) {

@@ -61,7 +61,11 @@ absl::StatusOr<DisparityEvaluation> EvaluateDisparity(
 
 // JSON object {"thresholds": [...], "all": {...}, "nonoccluded": {...},
 // "valid": {...}}, each region with pixels, estimated, coverage, rmse, mae,
-// bad (object "0.5": percent, ...).
+// bad (object "0.5": percent, ...; keys are the thresholds in %g), keys
+// sorted, indented by 2. Built with nlohmann-json: a NaN or infinite number
+// (an RMSE whose sum of squares overflowed) is written as null, which its
+// readers (people and scripts reading `hdrstereo-proc eval --json`) must
+// take as "not a number".
 std::string EvaluationToJson(const DisparityEvaluation& evaluation);
 // A short human-readable table.
 std::string EvaluationToText(const DisparityEvaluation& evaluation);

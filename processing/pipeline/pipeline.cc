@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <string>
 #include <system_error>
@@ -135,7 +136,9 @@ absl::Status Runner::ExecuteStep(const StepSpec& spec) {
   // The step's options, built once: hashed here, used by `run` below.
   StepContext context(session_, state_, step, "");
   ASSIGN_OR_RETURN(const ConfiguredStep configured, spec.configure(context));
-  const std::string params = configured.params.dump();
+  // Text that is not UTF-8 is replaced, not thrown on (a worker thread).
+  const std::string params = configured.params.dump(
+      -1, ' ', false, nlohmann::json::error_handler_t::replace);
   std::string key = absl::StrCat(step, "\n", kVersion, "\n", params, "\n");
   for (const auto& [path, sha] : inputs) {
     absl::StrAppend(&key, path, " ", sha, "\n");
@@ -162,20 +165,14 @@ absl::Status Runner::ExecuteStep(const StepSpec& spec) {
   // The manifest: what the step read and wrote, so that a step without
   // outputs (no structured light) is remembered too.
   std::vector<Artifact>& outputs = run.outputs().artifacts();
-  std::string manifest =
-      absl::StrCat("{\n  \"step\": \"", step, "\",\n  \"version\": \"",
-                   kVersion, "\",\n  \"input_hash\": \"", hash,
-                   "\",\n  \"params\": ", params, ",\n  \"outputs\": [");
-  for (size_t i = 0; i < outputs.size(); ++i) {
-    Artifact& a = outputs[i];
+  for (Artifact& a : outputs) {
     ASSIGN_OR_RETURN(a.sha256, io::Sha256HexOfFile(session_.dir / a.path));
     std::error_code ec;
     a.size_bytes =
         static_cast<int64_t>(fs::file_size(session_.dir / a.path, ec));
-    absl::StrAppend(&manifest, i == 0 ? "\n" : ",\n", "    {\"path\": \"",
-                    a.path, "\", \"sha256\": \"", a.sha256, "\"}");
   }
-  absl::StrAppend(&manifest, "\n  ]\n}\n");
+  const std::string manifest =
+      StepManifestJson(step, hash, configured.params, outputs);
   RETURN_IF_ERROR(run.outputs().WriteText(
       "manifest", absl::StrCat("pipeline/", step, ".json"), manifest));
   Artifact& m = outputs.back();
@@ -234,6 +231,24 @@ absl::Status Runner::Schedule(const std::vector<std::string>& steps) {
 }
 
 }  // namespace
+
+std::string StepManifestJson(const std::string& step,
+                             const std::string& input_hash,
+                             const nlohmann::json& params,
+                             const std::vector<Artifact>& outputs) {
+  nlohmann::json files = nlohmann::json::array();
+  for (const Artifact& a : outputs) {
+    files.push_back(nlohmann::json{{"path", a.path}, {"sha256", a.sha256}});
+  }
+  const nlohmann::json manifest = {{"step", step},
+                                   {"version", kVersion},
+                                   {"input_hash", input_hash},
+                                   {"params", params},
+                                   {"outputs", files}};
+  return manifest.dump(2, ' ', false,
+                       nlohmann::json::error_handler_t::replace) +
+         "\n";
+}
 
 absl::Status StepOptions::Validate() const {
   RETURN_IF_ERROR(WithFieldPrefix("experiment", experiment.Validate()));

@@ -24,6 +24,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <nlohmann/json_fwd.hpp>
 #include <optional>
 #include <string>
 #include <utility>
@@ -185,6 +186,17 @@ struct RunSummary {
   std::vector<Metric> metrics;        // when evaluate ran or was reused
   std::string report_path;            // relative; when report ran
 };
+
+// The manifest a computed step writes as pipeline/<step>.json (what it
+// read and wrote, so that a step without outputs is remembered too):
+// {"input_hash", "outputs": [{"path", "sha256"}, ...], "params", "step",
+// "version"}, indented by 2, with a final newline. Built with nlohmann-json:
+// every string is escaped, bytes that are not UTF-8 become U+FFFD, and a NaN
+// or infinite number in `params` becomes null.
+std::string StepManifestJson(const std::string& step,
+                             const std::string& input_hash,
+                             const nlohmann::json& params,
+                             const std::vector<Artifact>& outputs);
 
 // FAILED_PRECONDITION naming what is missing (no stereo frames, a
 // structured-light capture without some bit plane, ...), INVALID_ARGUMENT

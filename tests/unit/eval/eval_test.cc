@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <string>
 
@@ -68,10 +69,42 @@ TEST(EvaluateDisparityTest, JsonAndText) {
   const cv::Mat gt(4, 4, CV_32FC1, cv::Scalar(5));
   absl::StatusOr<DisparityEvaluation> e = EvaluateDisparity(gt, gt);
   ASSERT_TRUE(e.ok());
-  const std::string j = EvaluationToJson(*e);
-  EXPECT_NE(j.find("\"nonoccluded\": {\"pixels\": 16"), std::string::npos) << j;
-  EXPECT_NE(j.find("\"1\": 0.0000"), std::string::npos) << j;
+  const std::string text = EvaluationToJson(*e);
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  ASSERT_FALSE(j.is_discarded()) << text;
+  EXPECT_EQ(j.at("thresholds"), nlohmann::json({0.5, 1.0, 2.0, 4.0}));
+  EXPECT_EQ(j.at("nonoccluded").at("pixels"), 16);
+  EXPECT_EQ(j.at("nonoccluded").at("coverage"), 1.0);
+  EXPECT_EQ(j.at("valid").at("bad").at("1"), 0.0);
+  EXPECT_EQ(j.at("all").at("bad").at("0.5"), 0.0);
   EXPECT_NE(EvaluationToText(*e).find("valid"), std::string::npos);
+}
+
+// A NaN or infinite metric (an RMSE whose sum of squares overflowed) must
+// still give valid JSON: nlohmann writes it as null.
+TEST(EvaluateDisparityTest, NonFiniteMetricsGiveValidJson) {
+  DisparityEvaluation e;
+  e.thresholds = {0.5, 1e-7};
+  e.all = {.pixels = 4,
+           .estimated = 4,
+           .coverage = 1,
+           .rmse = std::numeric_limits<double>::infinity(),
+           .mae = std::numeric_limits<double>::quiet_NaN(),
+           .bad_percent = {25, -std::numeric_limits<double>::infinity()}};
+  e.nonoccluded = e.all;
+  e.valid = e.all;
+  const std::string text = EvaluationToJson(e);
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  ASSERT_FALSE(j.is_discarded()) << text;
+  for (const char* region : {"all", "nonoccluded", "valid"}) {
+    SCOPED_TRACE(region);
+    EXPECT_TRUE(j.at(region).at("rmse").is_null());
+    EXPECT_TRUE(j.at(region).at("mae").is_null());
+    EXPECT_EQ(j.at(region).at("pixels"), 4);
+    EXPECT_EQ(j.at(region).at("bad").at("0.5"), 25.0);
+    EXPECT_TRUE(j.at(region).at("bad").at("1e-07").is_null());
+  }
+  EXPECT_EQ(j.at("thresholds"), nlohmann::json({0.5, 1e-7}));
 }
 
 TEST(EvaluateDisparityTest, BadInput) {
