@@ -14,6 +14,8 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "hardware/sim/bundled_scenes.h"
+#include "processing/base/input_limits.h"
+#include "processing/io/json_input.h"
 
 namespace hdrstereo::sim {
 namespace {
@@ -22,6 +24,37 @@ using Json = nlohmann::json;
 
 constexpr double kPi = 3.14159265358979323846;
 
+// Limits on what a scene file declares (scenes are shared between labs), so
+// that neither parsing nor rendering one runs out of memory or time:
+// - a scene file is a page of JSON (the bundled ones are 2-3 KB);
+constexpr size_t kMaxSceneBytes = 1 << 20;
+// - coordinates and lengths within 10 km, and checker squares and noise
+//   features of at least 1 um, so that the renderer's texture cell indices
+//   (length / feature) stay far inside int64;
+constexpr double kMaxLengthMm = 1e7;
+constexpr double kMinFeatureMm = 1e-3;
+// - the camera within OpenCV's decoded-image limits and at most 2^26 pixels
+//   (a 61 MP sensor is 9504 x 6336): the renderer keeps 18 bytes a pixel
+//   besides the images;
+constexpr int64_t kMaxCameraPixels = int64_t{1} << 26;
+// - the projector at most 16384 pixels each way (the largest frame buffer
+//   a display offers) and 2^27 pixels (a 16K display is 15360 x 8640): its
+//   pattern is rendered as 12 bytes a pixel;
+constexpr int kMaxProjectorSide = 16384;
+constexpr int64_t kMaxProjectorPixels = int64_t{1} << 27;
+// - every pixel is traced against every object and towards every light
+//   (and object ids are 16-bit);
+constexpr size_t kMaxObjects = 256;
+constexpr size_t kMaxLights = 16;
+// - a fault trigger lists a few call numbers, each an int.
+constexpr size_t kMaxTriggerCalls = 1000;
+constexpr int kMaxCallNumber = 1000000000;
+constexpr size_t kMaxNameBytes = 256;
+constexpr size_t kMaxDescriptionBytes = 4096;
+constexpr size_t kMaxPathBytes = 4096;  // PATH_MAX
+// Calibration poses a capture asks for.
+constexpr size_t kMaxBoardPoses = 64;
+
 // Thrown inside the parser only; ParseScene turns it into a Status.
 struct FieldError : std::runtime_error {
   using std::runtime_error::runtime_error;
@@ -29,6 +62,11 @@ struct FieldError : std::runtime_error {
 
 [[noreturn]] void Fail(const std::string& path, const std::string& what) {
   throw FieldError(absl::StrCat(path, ": ", what));
+}
+
+// Fails with `status`'s message unless it is OK.
+void Check(const absl::Status& status) {
+  if (!status.ok()) throw FieldError(std::string(status.message()));
 }
 
 std::string Join(const std::string& path, const std::string& key) {
@@ -40,10 +78,24 @@ void CheckKeys(const Json& j, const std::string& path,
   if (!j.is_object()) Fail(path.empty() ? "scene" : path, "expected an object");
   for (const auto& [key, value] : j.items()) {
     if (!allowed.count(key)) {
-      Fail(Join(path, key), absl::StrCat("unknown field (allowed: ",
-                                         absl::StrJoin(allowed, ", "), ")"));
+      Fail(path.empty() ? "scene" : path,
+           absl::StrCat("unknown field ", QuoteInput(key),
+                        " (allowed: ", absl::StrJoin(allowed, ", "), ")"));
     }
   }
+}
+
+// obj[key] (when present) with at most `max` elements, else nullptr.
+const Json* GetArray(const Json& obj, const std::string& path,
+                     const std::string& key, size_t max) {
+  if (!obj.contains(key)) return nullptr;
+  const Json& j = obj.at(key);
+  if (!j.is_array()) Fail(Join(path, key), "expected an array");
+  if (j.size() > max) {
+    Fail(Join(path, key),
+         absl::StrCat(j.size(), " elements, more than the limit of ", max));
+  }
+  return &j;
 }
 
 double Number(const Json& j, const std::string& path) {
@@ -55,8 +107,8 @@ double Number(const Json& j, const std::string& path) {
 
 // Reads obj[key] if present; checks lo <= v <= hi.
 double GetNumber(const Json& obj, const std::string& path,
-                 const std::string& key, double fallback, double lo = -1e300,
-                 double hi = 1e300) {
+                 const std::string& key, double fallback, double lo,
+                 double hi) {
   if (!obj.contains(key)) return fallback;
   const std::string p = Join(path, key);
   double v = Number(obj.at(key), p);
@@ -66,24 +118,27 @@ double GetNumber(const Json& obj, const std::string& path,
   return v;
 }
 
+// Reads obj[key] if present; checks 0 < v <= hi.
 double GetPositive(const Json& obj, const std::string& path,
-                   const std::string& key, double fallback) {
-  double v = GetNumber(obj, path, key, fallback);
+                   const std::string& key, double fallback, double hi) {
+  double v = GetNumber(obj, path, key, fallback, 0, hi);
   if (!(v > 0)) Fail(Join(path, key), absl::StrCat("must be > 0, got ", v));
   return v;
+}
+
+int Int(const Json& j, const std::string& path, int lo, int hi) {
+  const std::optional<int64_t> v = io::JsonInt64(j);
+  if (!j.is_number_integer()) Fail(path, "expected an integer");
+  if (!v.has_value() || *v < lo || *v > hi) {
+    Fail(path, absl::StrCat("must be in [", lo, ", ", hi, "], got ", j.dump()));
+  }
+  return static_cast<int>(*v);
 }
 
 int GetInt(const Json& obj, const std::string& path, const std::string& key,
            int fallback, int lo, int hi) {
   if (!obj.contains(key)) return fallback;
-  const std::string p = Join(path, key);
-  const Json& j = obj.at(key);
-  if (!j.is_number_integer()) Fail(p, "expected an integer");
-  int64_t v = j.get<int64_t>();
-  if (v < lo || v > hi) {
-    Fail(p, absl::StrCat("must be in [", lo, ", ", hi, "], got ", v));
-  }
-  return static_cast<int>(v);
+  return Int(obj.at(key), Join(path, key), lo, hi);
 }
 
 bool GetBool(const Json& obj, const std::string& path, const std::string& key,
@@ -94,16 +149,32 @@ bool GetBool(const Json& obj, const std::string& path, const std::string& key,
 }
 
 std::string GetString(const Json& obj, const std::string& path,
-                      const std::string& key, const std::string& fallback) {
+                      const std::string& key, const std::string& fallback,
+                      size_t max_bytes = kMaxNameBytes) {
   if (!obj.contains(key)) return fallback;
   if (!obj.at(key).is_string()) Fail(Join(path, key), "expected a string");
-  return obj.at(key).get<std::string>();
+  std::string v = obj.at(key).get<std::string>();
+  if (v.size() > max_bytes) {
+    Fail(Join(path, key),
+         absl::StrCat(QuoteInput(v), " is longer than the limit of ", max_bytes,
+                      " bytes"));
+  }
+  return v;
 }
 
+// Positions, lengths and angles: each within +-kMaxLengthMm.
 Vec3 ToVec3(const Json& j, const std::string& path) {
   if (!j.is_array() || j.size() != 3) Fail(path, "expected 3 numbers");
-  return Vec3(Number(j[0], path + "[0]"), Number(j[1], path + "[1]"),
-              Number(j[2], path + "[2]"));
+  Vec3 v;
+  for (int i = 0; i < 3; ++i) {
+    const std::string p = absl::StrCat(path, "[", i, "]");
+    v[i] = Number(j[i], p);
+    if (std::abs(v[i]) > kMaxLengthMm) {
+      Fail(p, absl::StrCat("must be in [", -kMaxLengthMm, ", ", kMaxLengthMm,
+                           "], got ", v[i]));
+    }
+  }
+  return v;
 }
 
 Vec3 GetVec3(const Json& obj, const std::string& path, const std::string& key,
@@ -181,14 +252,10 @@ FaultTrigger ParseTrigger(const Json& obj, const std::string& path,
   const Json& j = obj.at(key);
   extra.insert({"calls", "probability"});
   CheckKeys(j, p, extra);
-  if (j.contains("calls")) {
-    const Json& calls = j.at("calls");
-    if (!calls.is_array()) Fail(p + ".calls", "expected an array of integers");
-    for (size_t i = 0; i < calls.size(); ++i) {
-      if (!calls[i].is_number_integer() || calls[i].get<int64_t>() < 1) {
-        Fail(absl::StrCat(p, ".calls[", i, "]"), "expected a call number >= 1");
-      }
-      t.calls.push_back(static_cast<int>(calls[i].get<int64_t>()));
+  if (const Json* calls = GetArray(j, p, "calls", kMaxTriggerCalls)) {
+    for (size_t i = 0; i < calls->size(); ++i) {
+      t.calls.push_back(Int((*calls)[i], absl::StrCat(p, ".calls[", i, "]"), 1,
+                            kMaxCallNumber));
     }
   }
   t.probability = GetNumber(j, p, "probability", 0.0, 0.0, 1.0);
@@ -240,8 +307,8 @@ ResponseCurve ParseResponse(const Json& obj, const std::string& path,
   } else if (kind == "s_curve") {
     r.kind = ResponseKind::kSCurve;
   } else {
-    Fail(p + ".kind",
-         "expected linear, gamma or s_curve, got \"" + kind + "\"");
+    Fail(p + ".kind", absl::StrCat("expected linear, gamma or s_curve, got ",
+                                   QuoteInput(kind)));
   }
   r.gamma = GetNumber(j, p, "gamma", r.gamma, 0.1, 10.0);
   r.contrast = GetNumber(j, p, "contrast", r.contrast, 0.2, 10.0);
@@ -271,12 +338,15 @@ Material ParseMaterial(const Json& obj, const std::string& path) {
       m.texture.kind = TextureKind::kNoise;
     } else {
       Fail(tp + ".kind",
-           "expected uniform, checker or noise, got \"" + kind + "\"");
+           absl::StrCat("expected uniform, checker or noise, got ",
+                        QuoteInput(kind)));
     }
     m.texture.second_albedo =
         GetColor(t, tp, "second_albedo", m.texture.second_albedo, 0.0, 1.0);
-    m.texture.square_mm = GetPositive(t, tp, "square_mm", m.texture.square_mm);
-    m.texture.scale_mm = GetPositive(t, tp, "scale_mm", m.texture.scale_mm);
+    m.texture.square_mm = GetNumber(t, tp, "square_mm", m.texture.square_mm,
+                                    kMinFeatureMm, kMaxLengthMm);
+    m.texture.scale_mm = GetNumber(t, tp, "scale_mm", m.texture.scale_mm,
+                                   kMinFeatureMm, kMaxLengthMm);
     m.texture.octaves = GetInt(t, tp, "octaves", m.texture.octaves, 1, 8);
     m.texture.seed = static_cast<uint64_t>(
         GetInt(t, tp, "seed", static_cast<int>(m.texture.seed), 0, 1 << 30));
@@ -323,6 +393,9 @@ Object ParseObject(const Json& j, const std::string& p) {
         Fail(p + ".size_mm",
              "must be > 0 (leave it out for an infinite plane)");
       }
+      if (o.size[0] > kMaxLengthMm || o.size[1] > kMaxLengthMm) {
+        Fail(p + ".size_mm", absl::StrCat("must be at most ", kMaxLengthMm));
+      }
     }
   } else if (type == "box") {
     o.shape = ShapeKind::kBox;
@@ -337,9 +410,10 @@ Object ParseObject(const Json& j, const std::string& p) {
     o.shape = ShapeKind::kSphere;
     forbid({"normal", "u_axis", "size_mm", "rotation_deg"});
     if (!j.contains("radius_mm")) Fail(p + ".radius_mm", "missing");
-    o.radius = GetPositive(j, p, "radius_mm", o.radius);
+    o.radius = GetPositive(j, p, "radius_mm", o.radius, kMaxLengthMm);
   } else {
-    Fail(p + ".type", "expected plane, box or sphere, got \"" + type + "\"");
+    Fail(p + ".type",
+         absl::StrCat("expected plane, box or sphere, got ", QuoteInput(type)));
   }
   return o;
 }
@@ -351,19 +425,28 @@ Scene ParseSceneJson(const Json& root) {
              "faults", "calibration_board"});
   Scene s;
   s.name = GetString(root, "", "name", "");
-  s.description = GetString(root, "", "description", "");
+  s.description = GetString(root, "", "description", "", kMaxDescriptionBytes);
   s.seed = static_cast<uint64_t>(GetInt(root, "", "seed", 1, 0, 1 << 30));
 
   if (root.contains("camera")) {
     const Json& j = root.at("camera");
     CheckKeys(j, "camera", {"width", "height", "fx", "fy", "cx", "cy"});
     CameraIntrinsics& c = s.camera;
-    c.width = GetInt(j, "camera", "width", c.width, 8, 20000);
-    c.height = GetInt(j, "camera", "height", c.height, 8, 20000);
-    c.fx = GetPositive(j, "camera", "fx", c.fx);
-    c.fy = GetPositive(j, "camera", "fy", c.fx);
-    c.cx = GetNumber(j, "camera", "cx", (c.width - 1) / 2.0);
-    c.cy = GetNumber(j, "camera", "cy", (c.height - 1) / 2.0);
+    const ImageLimits& limits = DecodedImageLimits();
+    c.width = GetInt(
+        j, "camera", "width", c.width, 8,
+        static_cast<int>(std::min<int64_t>(limits.max_width, INT32_MAX)));
+    c.height = GetInt(
+        j, "camera", "height", c.height, 8,
+        static_cast<int>(std::min<int64_t>(limits.max_height, INT32_MAX)));
+    Check(CheckedMultiply("camera pixels (width x height)", c.width, c.height,
+                          std::min(kMaxCameraPixels, limits.max_pixels))
+              .status());
+    // Focal lengths and the principal point in pixels.
+    c.fx = GetPositive(j, "camera", "fx", c.fx, 1e7);
+    c.fy = GetPositive(j, "camera", "fy", c.fx, 1e7);
+    c.cx = GetNumber(j, "camera", "cx", (c.width - 1) / 2.0, -1e7, 1e7);
+    c.cy = GetNumber(j, "camera", "cy", (c.height - 1) / 2.0, -1e7, 1e7);
   }
   if (root.contains("rig")) {
     const Json& j = root.at("rig");
@@ -373,7 +456,7 @@ Scene ParseSceneJson(const Json& root) {
     r.origin = GetVec3(j, "rig", "origin_mm", r.origin);
     r.rotation =
         RotationFromEulerDeg(GetVec3(j, "rig", "rotation_deg", Vec3()));
-    r.travel_mm = GetPositive(j, "rig", "travel_mm", r.travel_mm);
+    r.travel_mm = GetPositive(j, "rig", "travel_mm", r.travel_mm, kMaxLengthMm);
     if (j.contains("misalignment")) {
       const Json& m = j.at("misalignment");
       const std::string p = "rig.misalignment";
@@ -390,9 +473,9 @@ Scene ParseSceneJson(const Json& root) {
               {"electrons_per_exposure", "full_well_e", "read_noise_e",
                "shot_noise", "response", "raw_response", "raw_white_level"});
     SensorModel& m = s.sensor;
-    m.electrons_per_exposure =
-        GetPositive(j, p, "electrons_per_exposure", m.electrons_per_exposure);
-    m.full_well_e = GetPositive(j, p, "full_well_e", m.full_well_e);
+    m.electrons_per_exposure = GetPositive(j, p, "electrons_per_exposure",
+                                           m.electrons_per_exposure, 1e9);
+    m.full_well_e = GetPositive(j, p, "full_well_e", m.full_well_e, 1e9);
     m.read_noise_e = GetNumber(j, p, "read_noise_e", m.read_noise_e, 0, 1e6);
     m.shot_noise = GetBool(j, p, "shot_noise", m.shot_noise);
     m.response = ParseResponse(j, p, "response", m.response);
@@ -402,47 +485,45 @@ Scene ParseSceneJson(const Json& root) {
   }
   s.ambient_lux = GetColor(root, "", "ambient_lux", s.ambient_lux, 0, 1e9);
 
-  if (root.contains("objects")) {
-    const Json& objects = root.at("objects");
-    if (!objects.is_array()) Fail("objects", "expected an array");
+  if (const Json* objects = GetArray(root, "", "objects", kMaxObjects)) {
     std::set<std::string> names;
-    for (size_t i = 0; i < objects.size(); ++i) {
+    for (size_t i = 0; i < objects->size(); ++i) {
       const std::string p = absl::StrCat("objects[", i, "]");
-      s.objects.push_back(ParseObject(objects[i], p));
+      s.objects.push_back(ParseObject((*objects)[i], p));
       const std::string& name = s.objects.back().name;
       if (!name.empty() && !names.insert(name).second) {
-        Fail(p + ".name", "duplicate object name \"" + name + "\"");
+        Fail(p + ".name",
+             absl::StrCat("duplicate object name ", QuoteInput(name)));
       }
     }
   }
-  if (s.objects.size() > 65000) Fail("objects", "too many objects");
   if (root.contains("calibration_board")) {
     const Json& j = root.at("calibration_board");
     const std::string p = "calibration_board";
     CheckKeys(j, p, {"objects", "poses"});
-    if (!j.contains("objects") || !j.at("objects").is_array() ||
-        j.at("objects").empty()) {
+    const Json* names = GetArray(j, p, "objects", kMaxObjects);
+    if (names == nullptr || names->empty()) {
       Fail(p + ".objects", "expected a non-empty array of object names");
     }
-    const Json& names = j.at("objects");
-    for (size_t i = 0; i < names.size(); ++i) {
+    for (size_t i = 0; i < names->size(); ++i) {
       const std::string np = absl::StrCat(p, ".objects[", i, "]");
-      if (!names[i].is_string()) Fail(np, "expected an object name");
-      const int index = s.FindObject(names[i].get<std::string>());
+      const Json& name = (*names)[i];
+      if (!name.is_string()) Fail(np, "expected an object name");
+      const int index = s.FindObject(name.get<std::string>());
       if (index < 0) {
-        Fail(np, "no object is called \"" + names[i].get<std::string>() + "\"");
+        Fail(np, absl::StrCat("no object is called ",
+                              QuoteInput(name.get<std::string>())));
       }
       if (s.objects[index].shape != ShapeKind::kPlane) {
         Fail(np, "only planes can be board objects");
       }
       s.calibration_board.objects.push_back(index);
     }
-    if (!j.contains("poses") || !j.at("poses").is_array() ||
-        j.at("poses").empty()) {
+    const Json* board_poses = GetArray(j, p, "poses", kMaxBoardPoses);
+    if (board_poses == nullptr || board_poses->empty()) {
       Fail(p + ".poses", "expected a non-empty array of poses");
     }
-    const Json& poses = j.at("poses");
-    if (poses.size() > 64) Fail(p + ".poses", "at most 64 poses");
+    const Json& poses = *board_poses;
     for (size_t i = 0; i < poses.size(); ++i) {
       const std::string pp = absl::StrCat(p, ".poses[", i, "]");
       CheckKeys(poses[i], pp, {"offset_mm", "rotation_deg"});
@@ -458,12 +539,10 @@ Scene ParseSceneJson(const Json& root) {
       s.calibration_board.poses.push_back(pose);
     }
   }
-  if (root.contains("lights")) {
-    const Json& lights = root.at("lights");
-    if (!lights.is_array()) Fail("lights", "expected an array");
-    for (size_t i = 0; i < lights.size(); ++i) {
+  if (const Json* lights = GetArray(root, "", "lights", kMaxLights)) {
+    for (size_t i = 0; i < lights->size(); ++i) {
       const std::string p = absl::StrCat("lights[", i, "]");
-      const Json& j = lights[i];
+      const Json& j = (*lights)[i];
       CheckKeys(j, p, {"type", "position_mm", "intensity_cd", "color"});
       std::string type = GetString(j, p, "type", "point");
       if (type != "point") Fail(p + ".type", "only \"point\" lights exist");
@@ -487,8 +566,11 @@ Scene ParseSceneJson(const Json& root) {
     pr.position = GetVec3(j, p, "position_mm", pr.position);
     Vec3 look = GetVec3(j, p, "look_at_mm", pr.position + Vec3(0, 0, 1000));
     pr.rotation = LookAt(pr.position, look, p + ".look_at_mm");
-    pr.width = GetInt(j, p, "width", pr.width, 2, 16384);
-    pr.height = GetInt(j, p, "height", pr.height, 2, 16384);
+    pr.width = GetInt(j, p, "width", pr.width, 2, kMaxProjectorSide);
+    pr.height = GetInt(j, p, "height", pr.height, 2, kMaxProjectorSide);
+    Check(CheckedMultiply("projector pixels (width x height)", pr.width,
+                          pr.height, kMaxProjectorPixels)
+              .status());
     pr.fov_deg = GetNumber(j, p, "fov_deg", pr.fov_deg, 1, 170);
     pr.max_intensity_cd =
         GetNumber(j, p, "max_intensity_cd", pr.max_intensity_cd, 0, 1e12);
@@ -508,10 +590,11 @@ Scene ParseSceneJson(const Json& root) {
     t.scale = GetNumber(j, p, "scale", t.scale, 0, 1000);
     t.readout_s = GetNumber(j, p, "readout_s", t.readout_s, 0, 3600);
     t.transfer_s = GetNumber(j, p, "transfer_s", t.transfer_s, 0, 3600);
+    // A crawling stage would sleep for ages in a scaled simulation.
     t.stage_speed_mm_s =
-        GetPositive(j, p, "stage_speed_mm_s", t.stage_speed_mm_s);
+        GetNumber(j, p, "stage_speed_mm_s", t.stage_speed_mm_s, 1e-3, 1e6);
     t.stage_accel_mm_s2 =
-        GetPositive(j, p, "stage_accel_mm_s2", t.stage_accel_mm_s2);
+        GetNumber(j, p, "stage_accel_mm_s2", t.stage_accel_mm_s2, 1e-3, 1e7);
     t.projector_settle_s =
         GetNumber(j, p, "projector_settle_s", t.projector_settle_s, 0, 3600);
   }
@@ -533,13 +616,14 @@ Scene ParseSceneJson(const Json& root) {
       s.camera_faults.disconnect_failed_reopens =
           GetInt(c, p, "disconnect_failed_reopens", -1, -1, 1000000);
       s.camera_faults.absent_until_file =
-          GetString(c, p, "absent_until_file", "");
+          GetString(c, p, "absent_until_file", "", kMaxPathBytes);
       s.camera_faults.corrupt = ParseTrigger(c, p, "corrupt");
       s.camera_faults.previous_file = ParseTrigger(c, p, "previous_file");
       s.camera_faults.wrong_exposure = ParseTrigger(c, p, "wrong_exposure");
       s.camera_faults.card_target = ParseTrigger(c, p, "card_target");
       s.camera_faults.hold = ParseTrigger(c, p, "hold");
-      s.camera_faults.hold_fifo = GetString(c, p, "hold_fifo", "");
+      s.camera_faults.hold_fifo =
+          GetString(c, p, "hold_fifo", "", kMaxPathBytes);
       if (s.camera_faults.hold.enabled() && s.camera_faults.hold_fifo.empty()) {
         Fail(p + ".hold_fifo", "required with hold (the FIFO it waits on)");
       }
@@ -697,12 +781,18 @@ int Scene::FindObject(absl::string_view name) const {
 }
 
 absl::StatusOr<Scene> ParseScene(absl::string_view json_text) {
+  if (json_text.size() > kMaxSceneBytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("scene: ", json_text.size(),
+                     " bytes, more than the limit of ", kMaxSceneBytes));
+  }
   Json root;
   try {
     root = Json::parse(json_text.begin(), json_text.end());
-  } catch (const Json::parse_error& e) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("scene is not valid JSON: ", e.what()));
+  } catch (const Json::exception& e) {
+    // Not only parse_error: a number beyond double is out_of_range.
+    return absl::InvalidArgumentError(absl::StrCat(
+        "scene is not valid JSON: ", io::BoundedJsonError(e.what())));
   }
   try {
     return ParseSceneJson(root);
@@ -714,8 +804,15 @@ absl::StatusOr<Scene> ParseScene(absl::string_view json_text) {
 }
 
 absl::StatusOr<Scene> LoadSceneFile(const std::filesystem::path& path) {
+  std::error_code ec;
+  const uintmax_t size = std::filesystem::file_size(path, ec);
+  if (!ec && size > kMaxSceneBytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path.string(), ": scene: ", size,
+                     " bytes, more than the limit of ", kMaxSceneBytes));
+  }
   std::ifstream in(path, std::ios::binary);
-  if (!in) {
+  if (ec || !in) {
     return absl::NotFoundError(
         absl::StrCat("cannot read scene file ", path.string()));
   }
