@@ -11,9 +11,13 @@
 #include <algorithm>
 #include <cerrno>
 #include <optional>
+#include <string>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
+#include "processing/base/input_limits.h"
+#include "processing/base/status_macros.h"
 
 extern char** environ;
 
@@ -55,43 +59,108 @@ std::vector<std::string> Environment(
   return out;
 }
 
+// A pipe whose ends are closed when it goes out of scope (or before, by
+// Close), so that no path out of RunCommand leaks one.
+struct Pipe {
+  int read_end = -1;
+  int write_end = -1;
+
+  Pipe() = default;
+  Pipe(const Pipe&) = delete;
+  Pipe& operator=(const Pipe&) = delete;
+  ~Pipe() {
+    Close(read_end);
+    Close(write_end);
+  }
+  absl::Status Open() {
+    int fds[2];
+    if (::pipe2(fds, O_CLOEXEC) != 0) return absl::ErrnoToStatus(errno, "pipe");
+    read_end = fds[0];
+    write_end = fds[1];
+    return absl::OkStatus();
+  }
+  static void Close(int& fd) {
+    if (fd >= 0) ::close(fd);
+    fd = -1;
+  }
+};
+
+// The last `limit` bytes appended and how many came before them. The front
+// is dropped only once half a limit has piled up beyond it, so each byte is
+// moved at most twice and the text stays under 1.5 * limit + one read.
+class Tail {
+ public:
+  explicit Tail(size_t limit) : limit_(limit) {}
+  void Append(const char* data, size_t n) {
+    text_.append(data, n);
+    if (text_.size() > limit_ && text_.size() - limit_ > limit_ / 2) Trim();
+  }
+  // The last `limit` bytes into *text, the count of those before into
+  // *dropped.
+  void Finish(std::string* text, int64_t* dropped) {
+    if (text_.size() > limit_) Trim();
+    *text = std::move(text_);
+    *dropped = dropped_;
+  }
+
+ private:
+  void Trim() {
+    const size_t excess = text_.size() - limit_;
+    text_.erase(0, excess);
+    dropped_ += static_cast<int64_t>(excess);
+  }
+
+  const size_t limit_;
+  std::string text_;
+  int64_t dropped_ = 0;
+};
+
 }  // namespace
 
 absl::StatusOr<CommandResult> RunCommand(const std::vector<std::string>& argv,
                                          const std::vector<std::string>& env,
-                                         absl::Duration timeout) {
+                                         absl::Duration timeout,
+                                         size_t max_output_bytes) {
   if (argv.empty()) return absl::InvalidArgumentError("no command to run");
-  int out_pipe[2], err_pipe[2];
-  if (::pipe2(out_pipe, O_CLOEXEC) != 0 || ::pipe2(err_pipe, O_CLOEXEC) != 0) {
-    return absl::ErrnoToStatus(errno, "pipe");
-  }
+  Pipe out_pipe, err_pipe;
+  RETURN_IF_ERROR(out_pipe.Open());
+  RETURN_IF_ERROR(err_pipe.Open());
   posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_adddup2(&actions, out_pipe[1], STDOUT_FILENO);
-  posix_spawn_file_actions_adddup2(&actions, err_pipe[1], STDERR_FILENO);
-  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null",
-                                   O_RDONLY, 0);
+  int rc = posix_spawn_file_actions_init(&actions);
+  if (rc != 0) return absl::ErrnoToStatus(rc, "posix_spawn_file_actions_init");
+  rc = posix_spawn_file_actions_adddup2(&actions, out_pipe.write_end,
+                                        STDOUT_FILENO);
+  if (rc == 0) {
+    rc = posix_spawn_file_actions_adddup2(&actions, err_pipe.write_end,
+                                          STDERR_FILENO);
+  }
+  if (rc == 0) {
+    rc = posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null",
+                                          O_RDONLY, 0);
+  }
   pid_t pid = 0;
-  std::vector<char*> args = Pointers(argv);
-  const std::vector<std::string> environment = Environment(env);
-  std::vector<char*> envp = Pointers(environment);
-  int rc = ::posix_spawnp(&pid, args[0], &actions, nullptr, args.data(),
-                          envp.data());
+  if (rc == 0) {
+    std::vector<char*> args = Pointers(argv);
+    const std::vector<std::string> environment = Environment(env);
+    std::vector<char*> envp = Pointers(environment);
+    rc = ::posix_spawnp(&pid, args[0], &actions, nullptr, args.data(),
+                        envp.data());
+  }
   posix_spawn_file_actions_destroy(&actions);
-  ::close(out_pipe[1]);
-  ::close(err_pipe[1]);
+  // The child holds its own copies; ours would keep the pipes from ending.
+  Pipe::Close(out_pipe.write_end);
+  Pipe::Close(err_pipe.write_end);
   if (rc != 0) {
-    ::close(out_pipe[0]);
-    ::close(err_pipe[0]);
     return absl::ErrnoToStatus(rc, absl::StrCat("cannot run ", argv[0]));
   }
 
-  CommandResult result;
   const absl::Time deadline = absl::Now() + timeout;
-  pollfd fds[2] = {{out_pipe[0], POLLIN, 0}, {err_pipe[0], POLLIN, 0}};
-  std::string* sinks[2] = {&result.out, &result.err};
+  pollfd fds[2] = {{out_pipe.read_end, POLLIN, 0},
+                   {err_pipe.read_end, POLLIN, 0}};
+  Tail tails[2] = {Tail(max_output_bytes), Tail(max_output_bytes)};
   int open_fds = 2;
   bool timed_out = false;
+  int poll_errno = 0;
   while (open_fds > 0) {
     int wait_ms = static_cast<int>(std::max<int64_t>(
         0, absl::ToInt64Milliseconds(deadline - absl::Now())));
@@ -99,29 +168,39 @@ absl::StatusOr<CommandResult> RunCommand(const std::vector<std::string>& argv,
       timed_out = true;
       break;
     }
-    if (::poll(fds, 2, wait_ms) < 0 && errno != EINTR) break;
+    if (::poll(fds, 2, wait_ms) < 0) {
+      if (errno == EINTR) continue;  // revents are stale
+      poll_errno = errno;
+      break;
+    }
     for (int i = 0; i < 2; ++i) {
       if (fds[i].fd < 0 || fds[i].revents == 0) continue;
       char buffer[4096];
       ssize_t n = ::read(fds[i].fd, buffer, sizeof buffer);
       if (n > 0) {
-        sinks[i]->append(buffer, static_cast<size_t>(n));
+        tails[i].Append(buffer, static_cast<size_t>(n));
       } else if (n == 0 || errno != EINTR) {
-        ::close(fds[i].fd);
-        fds[i].fd = -1;
+        fds[i].fd = -1;  // closed with its Pipe
         --open_fds;
       }
     }
   }
-  for (pollfd& fd : fds) {
-    if (fd.fd >= 0) ::close(fd.fd);
-  }
-  if (timed_out) ::kill(pid, SIGKILL);
+  Pipe::Close(out_pipe.read_end);
+  Pipe::Close(err_pipe.read_end);
+  if (timed_out || poll_errno != 0) ::kill(pid, SIGKILL);
   std::optional<int> code = WaitForExit(pid, absl::Now() + absl::Seconds(10));
+  CommandResult result;
+  tails[0].Finish(&result.out, &result.out_dropped);
+  tails[1].Finish(&result.err, &result.err_dropped);
+  if (poll_errno != 0) {
+    return absl::ErrnoToStatus(poll_errno,
+                               absl::StrCat("waiting for ", argv[0]));
+  }
   if (timed_out) {
     return absl::DeadlineExceededError(absl::StrCat(
         argv[0], " did not finish within ", absl::FormatDuration(timeout),
-        "; output so far: ", result.out, result.err));
+        "; output so far: ", QuoteInput(result.out),
+        ", standard error: ", QuoteInput(result.err)));
   }
   result.exit_code = code.value_or(-1);
   return result;

@@ -8,6 +8,8 @@
 
 #include <sys/types.h>
 
+#include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -17,21 +19,35 @@
 
 namespace hdrstereo::process {
 
+// The most bytes RunCommand keeps of each of a command's standard output
+// and standard error: the last ones (a tool's summary or error comes last);
+// what came before is dropped and counted, so that a runaway command cannot
+// fill the daemon's memory. Slurm's tools print kilobytes.
+inline constexpr size_t kMaxCommandOutputBytes = size_t{16} << 20;
+
 struct CommandResult {
   int exit_code = -1;  // 128 + signal number when killed by a signal
-  std::string out;     // standard output
-  std::string err;     // standard error
+  std::string out;     // standard output (its last bytes, see below)
+  std::string err;     // standard error (its last bytes, see below)
+  // Bytes dropped from the front of `out` and `err` to keep each within the
+  // limit; 0 when the stream is complete.
+  int64_t out_dropped = 0;
+  int64_t err_dropped = 0;
 };
 
 // Runs argv[0] (looked up in PATH unless it has a slash) with the daemon's
 // environment plus `env` ("NAME=value", replacing a variable of that
-// name), standard input /dev/null. After `timeout` the command is killed
-// and DEADLINE_EXCEEDED carries its output so far; a command that cannot
-// be started is the errno's status naming it. A non-zero exit is not an
-// error here: the caller reads exit_code.
-absl::StatusOr<CommandResult> RunCommand(const std::vector<std::string>& argv,
-                                         const std::vector<std::string>& env,
-                                         absl::Duration timeout);
+// name), standard input /dev/null. Of each output stream the last
+// `max_output_bytes` are kept (memory stays under about three times that
+// per stream). After `timeout` the command is killed and DEADLINE_EXCEEDED
+// quotes the start of what it had printed; a command that cannot be started
+// is the errno's status naming it; a pipe that cannot be made is the
+// errno's status of "pipe" (EMFILE: RESOURCE_EXHAUSTED). Every descriptor
+// opened here is closed on every path. A non-zero exit is not an error
+// here: the caller reads exit_code.
+absl::StatusOr<CommandResult> RunCommand(
+    const std::vector<std::string>& argv, const std::vector<std::string>& env,
+    absl::Duration timeout, size_t max_output_bytes = kMaxCommandOutputBytes);
 
 // Waits for the child `pid` until `deadline`: its exit code (128 + signal
 // number when killed, -1 when it cannot be waited for), or nullopt while it

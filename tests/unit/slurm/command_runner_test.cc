@@ -1,15 +1,23 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
-// The daemon's way to run a command line: output captured, PATH searched,
-// environment entries added or replaced, a time limit that kills, and a
-// program that is not there named in the error.
+// The daemon's way to run a command line: output captured (its tail, within
+// a limit), PATH searched, environment entries added or replaced, a time
+// limit that kills, a program that is not there named in the error, and no
+// descriptor left open on any path.
 #include "daemon/processing/command_runner.h"
 
+#include <fcntl.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 
 #include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <vector>
 
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
 #include "tests/support/status_matchers.h"
 
 namespace hdrstereo::process {
@@ -43,12 +51,110 @@ TEST(CommandRunnerTest, EnvironmentEntriesAreAddedOrReplaced) {
 }
 
 TEST(CommandRunnerTest, ACommandPastItsLimitIsKilledWithItsOutputSoFar) {
+  EXPECT_THAT(RunCommand({"sh", "-c", "echo started; exec sleep 30"}, {},
+                         absl::Milliseconds(300)),
+              StatusIs(absl::StatusCode::kDeadlineExceeded,
+                       HasSubstr("did not finish within 300ms; output so far: "
+                                 "\"started\\n\", standard error: \"\"")));
+}
+
+// What a runaway command printed is quoted in the error only up to
+// kMaxQuotedBytes (64), with its length.
+TEST(CommandRunnerTest, TheTimeoutMessageQuotesABoundedPrefix) {
+  absl::StatusOr<CommandResult> r = RunCommand(
+      {"sh", "-c", "head -c 100000 /dev/zero | tr '\\0' x; exec sleep 30"}, {},
+      absl::Seconds(2));
   EXPECT_THAT(
-      RunCommand({"sh", "-c", "echo started; exec sleep 30"}, {},
-                 absl::Milliseconds(300)),
-      StatusIs(absl::StatusCode::kDeadlineExceeded,
-               HasSubstr("did not finish within 300ms; output so far: "
-                         "started")));
+      r, StatusIs(absl::StatusCode::kDeadlineExceeded,
+                  HasSubstr(absl::StrCat("output so far: \"",
+                                         std::string(64, 'x'), "\"... ("))));
+  EXPECT_LT(r.status().message().size(), 200u) << r.status().message();
+}
+
+// A command printing far more than the limit: the runner keeps the last
+// `max_output_bytes` of it (consecutive numbers up to the last one), counts
+// what it dropped, and its memory does not grow with the output.
+TEST(CommandRunnerTest, KeepsOnlyTheTailOfALargeOutput) {
+  constexpr size_t kLimit = 64 << 10;
+  // seq 1 10000000 prints 78888897 bytes.
+  constexpr int64_t kTotal = 78888897;
+  rusage before{};
+  ASSERT_EQ(::getrusage(RUSAGE_SELF, &before), 0);
+  ASSERT_OK_AND_ASSIGN(CommandResult r,
+                       RunCommand({"sh", "-c", "seq 1 10000000; echo done >&2"},
+                                  {}, absl::Seconds(60), kLimit));
+  rusage after{};
+  ASSERT_EQ(::getrusage(RUSAGE_SELF, &after), 0);
+  EXPECT_EQ(r.exit_code, 0);
+  ASSERT_EQ(r.out.size(), kLimit);
+  EXPECT_EQ(r.out_dropped, kTotal - static_cast<int64_t>(kLimit));
+  EXPECT_EQ(r.err, "done\n");
+  EXPECT_EQ(r.err_dropped, 0);
+  // After the first (cut) line: every number follows the one before, up to
+  // 10000000.
+  std::vector<std::string> lines =
+      absl::StrSplit(r.out.substr(r.out.find('\n') + 1), '\n');
+  ASSERT_EQ(lines.back(), "");
+  lines.pop_back();
+  ASSERT_GT(lines.size(), 1000u);
+  EXPECT_EQ(lines.back(), "10000000");
+  int64_t expected = 10000000 - static_cast<int64_t>(lines.size()) + 1;
+  for (const std::string& line : lines) {
+    ASSERT_EQ(line, std::to_string(expected)) << "out of sequence";
+    ++expected;
+  }
+  // ru_maxrss is in KiB: keeping all 79 MB would raise the peak by that.
+  EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 8 * 1024)
+      << "peak resident set grew from " << before.ru_maxrss << " KiB to "
+      << after.ru_maxrss << " KiB";
+}
+
+// Counts this process's open descriptors.
+int OpenFds() {
+  int n = 0;
+  for ([[maybe_unused]] const auto& e :
+       std::filesystem::directory_iterator("/proc/self/fd")) {
+    ++n;
+  }
+  return n;
+}
+
+// The first pipe is made and the second fails (the descriptor limit lowered
+// to leave room for exactly two more): RunCommand fails naming the pipe and
+// closes the first.
+TEST(CommandRunnerTest, ASecondPipeThatFailsLeaksNoDescriptor) {
+  // The three lowest free descriptors: pipe2 takes the lowest free ones.
+  std::vector<int> free_fds;
+  for (int fd = 0; free_fds.size() < 3; ++fd) {
+    if (::fcntl(fd, F_GETFD) < 0) free_fds.push_back(fd);
+  }
+  const int fds_before = OpenFds();
+  rlimit saved{};
+  ASSERT_EQ(::getrlimit(RLIMIT_NOFILE, &saved), 0);
+  rlimit lowered = saved;
+  lowered.rlim_cur = static_cast<rlim_t>(free_fds[2]);
+  ASSERT_EQ(::setrlimit(RLIMIT_NOFILE, &lowered), 0);
+  const absl::StatusOr<CommandResult> r =
+      RunCommand({"true"}, {}, absl::Seconds(10));
+  ASSERT_EQ(::setrlimit(RLIMIT_NOFILE, &saved), 0);
+  EXPECT_THAT(r, StatusIs(absl::StatusCode::kResourceExhausted,
+                          HasSubstr("pipe: Too many open files")));
+  EXPECT_LT(::fcntl(free_fds[0], F_GETFD), 0) << "first pipe left open";
+  EXPECT_LT(::fcntl(free_fds[1], F_GETFD), 0) << "first pipe left open";
+  EXPECT_EQ(OpenFds(), fds_before);
+}
+
+// Every descriptor is closed after a normal run and after a timeout.
+TEST(CommandRunnerTest, ClosesEveryDescriptor) {
+  const int fds_before = OpenFds();
+  ASSERT_OK_AND_ASSIGN(CommandResult r,
+                       RunCommand({"sh", "-c", "echo out; echo err >&2"}, {},
+                                  absl::Seconds(10)));
+  EXPECT_EQ(r.out, "out\n");
+  EXPECT_THAT(RunCommand({"sleep", "30"}, {}, absl::Milliseconds(100)),
+              StatusIs(absl::StatusCode::kDeadlineExceeded,
+                       HasSubstr("sleep did not finish within 100ms")));
+  EXPECT_EQ(OpenFds(), fds_before);
 }
 
 TEST(CommandRunnerTest, AMissingProgramIsNamed) {
