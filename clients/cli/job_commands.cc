@@ -22,6 +22,7 @@
 #include "clients/cli/commands.h"
 #include "clients/cli/exposure.h"
 #include "clients/cli/output.h"
+#include "clients/cli/progress_bar.h"
 #include "hdrstereo/v1/jobs.grpc.pb.h"
 #include "processing/base/status_macros.h"
 #include "proto/hdrstereo/v1/capture_defaults.h"
@@ -39,12 +40,6 @@ bool IsFinal(v1::JobState state) {
 }
 
 namespace {
-
-std::string FormatDuration(double seconds) {
-  if (!(seconds >= 0) || seconds > 360000) return "--:--";
-  const int s = static_cast<int>(seconds + 0.5);
-  return absl::StrFormat("%d:%02d:%02d", s / 3600, (s / 60) % 60, s % 60);
-}
 
 void PrintJob(const v1::Job& job) {
   PrintFields(
@@ -171,16 +166,8 @@ int WatchJob(const Client& client, int64_t job_id) {
         }
         const double elapsed = absl::ToDoubleSeconds(t - rate_start);
         const double rate = elapsed > 0 ? (done - rate_done) / elapsed : 0;
-        constexpr int kWidth = 30;
-        const int filled = static_cast<int>(kWidth * done / total);
-        std::cout << absl::StrFormat(
-                         "\r[%s%s] %d/%d %3.0f%% %5.2f/s ETA %s  %-40.40s",
-                         std::string(filled, '#'),
-                         std::string(kWidth - filled, '-'), done, total,
-                         100.0 * done / total, rate,
-                         rate > 0 ? FormatDuration((total - done) / rate)
-                                  : "--:--",
-                         event.progress().step())
+        std::cout << "\r"
+                  << ProgressLine(done, total, rate, event.progress().step())
                   << std::flush;
         bar_open = true;
       } else if (!event.message().empty() || event.state() != last_state ||
