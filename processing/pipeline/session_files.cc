@@ -13,12 +13,16 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "processing/base/input_limits.h"
 #include "processing/base/status_macros.h"
 #include "processing/io/atomic_file.h"
 #include "processing/io/capture_layout.h"
 #include "processing/io/image.h"
+#include "processing/io/json_input.h"
 #include "processing/io/middlebury.h"
+#include "processing/io/relative_path.h"
 #include "processing/io/sha256.h"
+#include "processing/structured_light/frame_layout.h"
 
 namespace hdrstereo::pipeline {
 namespace fs = std::filesystem;
@@ -26,21 +30,242 @@ using nlohmann::json;
 
 namespace {
 
+// Limits on the files a run elsewhere (a cluster node) writes into the
+// session folder for the daemon, and that the node reads back: request.json,
+// result.json, pipeline_state.json, metrics.json.
+// - The largest file: a request of kMaxFrames frames is about 30 MB.
+constexpr size_t kMaxFileBytes = size_t{64} << 20;
+// - A session's frames: e.g. 20 captures of 50 structured-light patterns in
+//   5 exposures from 2 views.
+constexpr size_t kMaxFrames = 100000;
+// - Steps of a run (the pipeline has about 15) and the files of one step.
+constexpr size_t kMaxSteps = 256;
+constexpr size_t kMaxArtifacts = 100000;
+constexpr size_t kMaxMetrics = 100000;
+constexpr size_t kMaxSummaryRows = 1000;
+// - A name, hash or kind; and a longer text (a step's parameters as JSON, a
+//   status message, a summary value).
+constexpr size_t kMaxNameBytes = 256;
+constexpr size_t kMaxTextBytes = 64 << 10;
+// - Views of a rig (daemon/jobs/capture_plan.h: at most 16).
+constexpr int64_t kMaxViewIndex = 15;
+// - Exposures, baselines, intrinsics, durations and metrics: finite and
+//   far from overflowing what is computed from them.
+constexpr double kMaxNumber = 1e12;
+
+// Reading a JSON document received from elsewhere: every error is
+// INVALID_ARGUMENT "<field>: <why>" naming the field (e.g.
+// "steps[2].artifacts[0].path"); the readers turn it into DATA_LOSS "not a
+// <document>: ...".
+absl::Status Bad(absl::string_view field, absl::string_view why) {
+  return absl::InvalidArgumentError(absl::StrCat(field, ": ", why));
+}
+
+std::string Field(absl::string_view parent, absl::string_view key) {
+  return parent.empty() ? std::string(key) : absl::StrCat(parent, ".", key);
+}
+
+std::string Index(absl::string_view array, size_t i) {
+  return absl::StrCat(array, "[", i, "]");
+}
+
+// object[key]: nullptr when it is absent and not `required`.
+absl::StatusOr<const json*> Member(const json& object, absl::string_view where,
+                                   const char* key, bool required) {
+  if (!object.is_object()) return Bad(where, "expected an object");
+  const auto it = object.find(key);
+  if (it == object.end()) {
+    if (required) return Bad(Field(where, key), "missing");
+    return nullptr;
+  }
+  return &*it;
+}
+
+absl::Status CheckString(const json& j, absl::string_view field,
+                         size_t max_bytes) {
+  if (!j.is_string()) return Bad(field, "expected a string");
+  const std::string& v = j.get_ref<const std::string&>();
+  if (v.size() > max_bytes) {
+    return Bad(field,
+               absl::StrCat(QuoteInput(v), " is longer than the limit of ",
+                            max_bytes, " bytes"));
+  }
+  return absl::OkStatus();
+}
+
+// Each reader leaves `out` alone when the key is absent and not required.
+absl::Status ReadString(const json& object, absl::string_view where,
+                        const char* key, size_t max_bytes, std::string* out,
+                        bool required = true) {
+  ASSIGN_OR_RETURN(const json* j, Member(object, where, key, required));
+  if (j == nullptr) return absl::OkStatus();
+  RETURN_IF_ERROR(CheckString(*j, Field(where, key), max_bytes));
+  *out = j->get<std::string>();
+  return absl::OkStatus();
+}
+
+// A path relative to the session folder (io::ValidateRelativePath); an
+// `optional` one may be absent or "" (none).
+absl::Status ReadPath(const json& object, absl::string_view where,
+                      const char* key, std::string* out,
+                      bool optional = false) {
+  RETURN_IF_ERROR(ReadString(object, where, key, io::kMaxRelativePathBytes, out,
+                             !optional));
+  if (optional && out->empty()) return absl::OkStatus();
+  if (absl::Status s = io::ValidateRelativePath(*out); !s.ok()) {
+    return Bad(Field(where, key), s.message());
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<int64_t> IntValue(const json& j, absl::string_view field,
+                                 int64_t min, int64_t max) {
+  const std::optional<int64_t> v = io::JsonInt64(j);
+  if (!j.is_number_integer()) return Bad(field, "expected an integer");
+  if (!v.has_value() || *v < min || *v > max) {
+    return Bad(field,
+               absl::StrCat(j.dump(), " is outside [", min, ", ", max, "]"));
+  }
+  return *v;
+}
+
+absl::Status ReadInt(const json& object, absl::string_view where,
+                     const char* key, int64_t min, int64_t max, int64_t* out,
+                     bool required = true) {
+  ASSIGN_OR_RETURN(const json* j, Member(object, where, key, required));
+  if (j == nullptr) return absl::OkStatus();
+  ASSIGN_OR_RETURN(*out, IntValue(*j, Field(where, key), min, max));
+  return absl::OkStatus();
+}
+
+absl::Status ReadNumber(const json& object, absl::string_view where,
+                        const char* key, double min, double max, double* out,
+                        bool required = true) {
+  ASSIGN_OR_RETURN(const json* j, Member(object, where, key, required));
+  if (j == nullptr) return absl::OkStatus();
+  if (!j->is_number()) return Bad(Field(where, key), "expected a number");
+  const double v = j->get<double>();
+  if (!(v >= min && v <= max)) {
+    return Bad(Field(where, key),
+               absl::StrCat(v, " is outside [", min, ", ", max, "]"));
+  }
+  *out = v;
+  return absl::OkStatus();
+}
+
+absl::Status ReadBool(const json& object, absl::string_view where,
+                      const char* key, bool* out, bool required = true) {
+  ASSIGN_OR_RETURN(const json* j, Member(object, where, key, required));
+  if (j == nullptr) return absl::OkStatus();
+  if (!j->is_boolean()) return Bad(Field(where, key), "expected true or false");
+  *out = j->get<bool>();
+  return absl::OkStatus();
+}
+
+// object[key] as an array of at most `max` elements; nullptr when it is
+// absent and not `required`.
+absl::StatusOr<const json*> ReadArray(const json& object,
+                                      absl::string_view where, const char* key,
+                                      size_t max, bool required = true) {
+  ASSIGN_OR_RETURN(const json* j, Member(object, where, key, required));
+  if (j == nullptr) return nullptr;
+  if (!j->is_array()) return Bad(Field(where, key), "expected an array");
+  if (j->size() > max) {
+    return Bad(
+        Field(where, key),
+        absl::StrCat(j->size(), " elements, more than the limit of ", max));
+  }
+  return j;
+}
+
+// `text` as a JSON object; DATA_LOSS "not a <what>: ..." otherwise.
+absl::StatusOr<json> ParseObject(absl::string_view text,
+                                 absl::string_view what) {
+  if (text.size() > kMaxFileBytes) {
+    return absl::DataLossError(absl::StrCat("not a ", what, ": ", text.size(),
+                                            " bytes, more than the limit of ",
+                                            kMaxFileBytes));
+  }
+  json j;
+  try {
+    j = json::parse(text);
+  } catch (const json::exception& e) {
+    return absl::DataLossError(
+        absl::StrCat("not a ", what, ": ", io::BoundedJsonError(e.what())));
+  }
+  if (!j.is_object()) {
+    return absl::DataLossError(absl::StrCat("not a ", what, ": not an object"));
+  }
+  return j;
+}
+
+// A field's error as DATA_LOSS "not a <what>: <field>: <why>".
+absl::Status NotA(absl::string_view what, const absl::Status& status) {
+  if (status.ok()) return status;
+  return absl::DataLossError(
+      absl::StrCat("not a ", what, ": ", status.message()));
+}
+
+// The bytes of a file of this kind, refused beyond kMaxFileBytes before
+// they are read; its absence is NOT_FOUND "<path>: no <what>".
+absl::StatusOr<std::string> ReadDocument(const fs::path& path,
+                                         absl::string_view what) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) {
+    return absl::NotFoundError(absl::StrCat(path.string(), ": no ", what));
+  }
+  const uintmax_t size = fs::file_size(path, ec);
+  if (!ec && size > kMaxFileBytes) {
+    return absl::DataLossError(
+        absl::StrCat(path.string(), ": not a ", what, ": ", size,
+                     " bytes, more than the limit of ", kMaxFileBytes));
+  }
+  return io::ReadFileBytes(path);
+}
+
+// `status` with the path of the file it is about in front.
+absl::Status InFile(const fs::path& path, const absl::Status& status) {
+  return absl::Status(status.code(),
+                      absl::StrCat(path.string(), ": ", status.message()));
+}
+
 json ArtifactToJson(const Artifact& a) {
   return json{{"step", a.step},     {"kind", a.kind},
               {"path", a.path},     {"params", a.params_json},
               {"sha256", a.sha256}, {"size_bytes", a.size_bytes}};
 }
 
-Artifact ArtifactFromJson(const json& j) {
+// Every field but the path may be absent (results written before it was
+// kept).
+absl::StatusOr<Artifact> ArtifactFromJson(const json& j,
+                                          absl::string_view where) {
   Artifact a;
-  a.step = j.value("step", "");
-  a.kind = j.value("kind", "");
-  a.path = j.value("path", "");
-  a.params_json = j.value("params", "");
-  a.sha256 = j.value("sha256", "");
-  a.size_bytes = j.value("size_bytes", int64_t{0});
+  RETURN_IF_ERROR(ReadString(j, where, "step", kMaxNameBytes, &a.step, false));
+  RETURN_IF_ERROR(ReadString(j, where, "kind", kMaxNameBytes, &a.kind, false));
+  RETURN_IF_ERROR(ReadPath(j, where, "path", &a.path));
+  RETURN_IF_ERROR(
+      ReadString(j, where, "params", kMaxTextBytes, &a.params_json, false));
+  RETURN_IF_ERROR(
+      ReadString(j, where, "sha256", kMaxNameBytes, &a.sha256, false));
+  RETURN_IF_ERROR(
+      ReadInt(j, where, "size_bytes", 0, INT64_MAX, &a.size_bytes, false));
   return a;
+}
+
+absl::StatusOr<std::vector<Artifact>> ArtifactsFromJson(const json& object,
+                                                        absl::string_view where,
+                                                        bool required) {
+  ASSIGN_OR_RETURN(const json* list, ReadArray(object, where, "artifacts",
+                                               kMaxArtifacts, required));
+  std::vector<Artifact> out;
+  if (list == nullptr) return out;
+  for (size_t i = 0; i < list->size(); ++i) {
+    ASSIGN_OR_RETURN(
+        Artifact a,
+        ArtifactFromJson((*list)[i], Index(Field(where, "artifacts"), i)));
+    out.push_back(std::move(a));
+  }
+  return out;
 }
 
 json MetricToJson(const Metric& m) {
@@ -51,18 +276,37 @@ json MetricToJson(const Metric& m) {
               {"coverage", m.coverage}};
 }
 
-Metric MetricFromJson(const json& j) {
+absl::StatusOr<Metric> MetricFromJson(const json& j, absl::string_view where) {
   Metric m;
-  m.method = j.value("method", "");
-  m.ground_truth = j.value("ground_truth", "");
-  m.rmse = j.value("rmse", 0.0);
-  m.mae = j.value("mae", 0.0);
-  m.bad_0_5 = j.value("bad_0_5", 0.0);
-  m.bad_1 = j.value("bad_1", 0.0);
-  m.bad_2 = j.value("bad_2", 0.0);
-  m.bad_4 = j.value("bad_4", 0.0);
-  m.coverage = j.value("coverage", 0.0);
+  RETURN_IF_ERROR(
+      ReadString(j, where, "method", kMaxNameBytes, &m.method, false));
+  RETURN_IF_ERROR(ReadString(j, where, "ground_truth", kMaxNameBytes,
+                             &m.ground_truth, false));
+  for (const auto& [key, value] :
+       {std::pair<const char*, double*>{"rmse", &m.rmse},
+        {"mae", &m.mae},
+        {"bad_0_5", &m.bad_0_5},
+        {"bad_1", &m.bad_1},
+        {"bad_2", &m.bad_2},
+        {"bad_4", &m.bad_4},
+        {"coverage", &m.coverage}}) {
+    RETURN_IF_ERROR(
+        ReadNumber(j, where, key, -kMaxNumber, kMaxNumber, value, false));
+  }
   return m;
+}
+
+absl::StatusOr<std::vector<Metric>> MetricsFromArray(const json& object,
+                                                     bool required) {
+  ASSIGN_OR_RETURN(const json* rows,
+                   ReadArray(object, "", "metrics", kMaxMetrics, required));
+  std::vector<Metric> out;
+  if (rows == nullptr) return out;
+  for (size_t i = 0; i < rows->size(); ++i) {
+    ASSIGN_OR_RETURN(Metric m, MetricFromJson((*rows)[i], Index("metrics", i)));
+    out.push_back(std::move(m));
+  }
+  return out;
 }
 
 }  // namespace
@@ -82,11 +326,13 @@ absl::StatusOr<SessionInput> DiscoverSession(const fs::path& session_dir) {
 }
 
 absl::StatusOr<JsonRunStore> JsonRunStore::Open(fs::path path) {
-  try {
-    return OpenOrThrow(std::move(path));
-  } catch (const json::exception& e) {
-    return absl::DataLossError(absl::StrCat("pipeline state file: ", e.what()));
-  }
+  std::error_code ec;
+  if (!fs::exists(path, ec)) return JsonRunStore(std::move(path));
+  ASSIGN_OR_RETURN(const std::string text,
+                   ReadDocument(path, "pipeline state file"));
+  absl::StatusOr<JsonRunStore> store = Parse(text, path);
+  if (!store.ok()) return InFile(path, store.status());
+  return store;
 }
 
 namespace {
@@ -159,33 +405,39 @@ absl::StatusOr<SessionInput> DiscoverSessionOrThrow(
 
 }  // namespace
 
-absl::StatusOr<JsonRunStore> JsonRunStore::OpenOrThrow(fs::path path) {
+absl::StatusOr<JsonRunStore> JsonRunStore::Parse(absl::string_view json_text,
+                                                 fs::path path) {
+  constexpr absl::string_view kWhat = "pipeline state file";
+  ASSIGN_OR_RETURN(const json j, ParseObject(json_text, kWhat));
   JsonRunStore store(std::move(path));
-  std::error_code ec;
-  if (!fs::exists(store.path_, ec)) return store;
-  ASSIGN_OR_RETURN(std::string text, io::ReadFileBytes(store.path_));
-  const json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded() || !j.is_object()) {
-    return absl::DataLossError(
-        absl::StrCat(store.path_.string(), ": not a pipeline state file"));
-  }
-  if (j.contains("steps") && j["steps"].is_object()) {
-    for (const auto& [step, entry] : j["steps"].items()) {
-      std::vector<Artifact> artifacts;
-      if (entry.contains("artifacts") && entry["artifacts"].is_array()) {
-        for (const json& a : entry["artifacts"]) {
-          artifacts.push_back(ArtifactFromJson(a));
-        }
+  auto parse = [&]() -> absl::Status {
+    ASSIGN_OR_RETURN(const json* steps, Member(j, "", "steps", false));
+    if (steps != nullptr) {
+      if (!steps->is_object()) return Bad("steps", "expected an object");
+      if (steps->size() > kMaxSteps) {
+        return Bad("steps",
+                   absl::StrCat(steps->size(),
+                                " steps, more than the limit of ", kMaxSteps));
       }
-      store.steps_[step] = {entry.value("input_hash", ""),
-                            std::move(artifacts)};
+      for (const auto& [step, entry] : steps->items()) {
+        if (step.size() > kMaxNameBytes) {
+          return Bad("steps", absl::StrCat("the step name ", QuoteInput(step),
+                                           " is longer than the limit of ",
+                                           kMaxNameBytes, " bytes"));
+        }
+        const std::string where = absl::StrCat("steps[", QuoteInput(step), "]");
+        std::string input_hash;
+        RETURN_IF_ERROR(ReadString(entry, where, "input_hash", kMaxNameBytes,
+                                   &input_hash, false));
+        ASSIGN_OR_RETURN(std::vector<Artifact> artifacts,
+                         ArtifactsFromJson(entry, where, false));
+        store.steps_[step] = {std::move(input_hash), std::move(artifacts)};
+      }
     }
-  }
-  if (j.contains("metrics") && j["metrics"].is_array()) {
-    for (const json& m : j["metrics"]) {
-      store.metrics_.push_back(MetricFromJson(m));
-    }
-  }
+    ASSIGN_OR_RETURN(store.metrics_, MetricsFromArray(j, false));
+    return absl::OkStatus();
+  };
+  RETURN_IF_ERROR(NotA(kWhat, parse()));
   return store;
 }
 
@@ -215,6 +467,12 @@ JsonRunStore::Entry(const std::string& step) const {
   return it->second;
 }
 
+std::vector<std::string> JsonRunStore::StepNames() const {
+  std::vector<std::string> names;
+  for (const auto& [step, entry] : steps_) names.push_back(step);
+  return names;
+}
+
 absl::Status JsonRunStore::Save() const {
   json steps = json::object();
   for (const auto& [step, entry] : steps_) {
@@ -236,19 +494,14 @@ std::string MetricsToJson(const std::vector<Metric>& metrics) {
   return json{{"metrics", rows}}.dump(2) + "\n";
 }
 
-absl::StatusOr<std::vector<Metric>> MetricsFromJson(const std::string& text) {
-  const json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded() || !j.is_object() || !j.contains("metrics") ||
-      !j["metrics"].is_array()) {
-    return absl::DataLossError("metrics.json: not a metrics file");
-  }
-  std::vector<Metric> out;
-  try {
-    for (const json& m : j["metrics"]) out.push_back(MetricFromJson(m));
-  } catch (const json::exception& e) {
-    return absl::DataLossError(absl::StrCat("metrics.json: ", e.what()));
-  }
-  return out;
+absl::StatusOr<std::vector<Metric>> MetricsFromJson(absl::string_view text) {
+  constexpr absl::string_view kWhat = "metrics file";
+  absl::StatusOr<json> j = ParseObject(text, kWhat);
+  absl::StatusOr<std::vector<Metric>> metrics =
+      j.ok() ? MetricsFromArray(*j, true) : j.status();
+  if (j.ok() && !metrics.ok()) metrics = NotA(kWhat, metrics.status());
+  if (!metrics.ok()) return InFile("metrics.json", metrics.status());
+  return metrics;
 }
 
 std::vector<Metric> SortMetrics(std::vector<Metric> metrics) {
@@ -301,19 +554,32 @@ json FrameToJson(const FrameInput& f) {
               {"sha256", f.sha256}};
 }
 
-absl::StatusOr<FrameInput> FrameFromJson(const json& j) {
+absl::StatusOr<FrameInput> FrameFromJson(const json& j,
+                                         absl::string_view where) {
   FrameInput f;
-  f.path = j.at("path").get<std::string>();
-  ASSIGN_OR_RETURN(
-      f.capture_kind,
-      io::ParseCaptureKind(j.at("capture_kind").get<std::string>()));
-  f.capture_id = j.at("capture_id").get<int64_t>();
-  ASSIGN_OR_RETURN(f.role, io::ParseFrameRole(j.at("role").get<std::string>()));
-  f.view_index = j.at("view_index").get<int>();
-  f.exposure_s = j.at("exposure_s").get<double>();
-  f.pattern = j.value("pattern", "");
-  f.inverse = j.value("inverse", false);
-  f.sha256 = j.value("sha256", "");
+  RETURN_IF_ERROR(ReadPath(j, where, "path", &f.path));
+  std::string name;
+  RETURN_IF_ERROR(ReadString(j, where, "capture_kind", kMaxNameBytes, &name));
+  absl::StatusOr<io::CaptureKind> kind = io::ParseCaptureKind(name);
+  if (!kind.ok())
+    return Bad(Field(where, "capture_kind"), kind.status().message());
+  f.capture_kind = *kind;
+  RETURN_IF_ERROR(ReadInt(j, where, "capture_id", 0, INT64_MAX, &f.capture_id));
+  RETURN_IF_ERROR(ReadString(j, where, "role", kMaxNameBytes, &name));
+  absl::StatusOr<io::FrameRole> role = io::ParseFrameRole(name);
+  if (!role.ok()) return Bad(Field(where, "role"), role.status().message());
+  f.role = *role;
+  int64_t view_index = 0;
+  RETURN_IF_ERROR(
+      ReadInt(j, where, "view_index", 0, kMaxViewIndex, &view_index));
+  f.view_index = static_cast<int>(view_index);
+  RETURN_IF_ERROR(
+      ReadNumber(j, where, "exposure_s", 0, kMaxNumber, &f.exposure_s));
+  RETURN_IF_ERROR(
+      ReadString(j, where, "pattern", kMaxNameBytes, &f.pattern, false));
+  RETURN_IF_ERROR(ReadBool(j, where, "inverse", &f.inverse, false));
+  RETURN_IF_ERROR(
+      ReadString(j, where, "sha256", kMaxNameBytes, &f.sha256, false));
   return f;
 }
 
@@ -328,50 +594,107 @@ absl::StatusCode ParseStatusCode(const std::string& name) {
   return absl::StatusCode::kUnknown;
 }
 
-absl::StatusOr<json> ReadJson(const fs::path& path, absl::string_view what) {
-  std::error_code ec;
-  if (!fs::exists(path, ec)) {
-    return absl::NotFoundError(absl::StrCat(path.string(), ": no ", what));
-  }
-  ASSIGN_OR_RETURN(std::string text, io::ReadFileBytes(path));
-  json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded() || !j.is_object()) {
-    return absl::DataLossError(absl::StrCat(path.string(), ": not a ", what));
-  }
-  return j;
-}
-
 absl::StatusOr<JobRequest> RequestFromJson(const json& j,
                                            const fs::path& session_dir) {
   JobRequest request;
   SessionInput& in = request.input;
   in.session_dir = session_dir;
-  in.session_name = j.at("session").get<std::string>();
-  for (const json& f : j.at("frames")) {
-    ASSIGN_OR_RETURN(FrameInput frame, FrameFromJson(f));
+  RETURN_IF_ERROR(
+      ReadString(j, "", "session", kMaxNameBytes, &in.session_name));
+  ASSIGN_OR_RETURN(const json* frames, ReadArray(j, "", "frames", kMaxFrames));
+  for (size_t i = 0; i < frames->size(); ++i) {
+    ASSIGN_OR_RETURN(FrameInput frame,
+                     FrameFromJson((*frames)[i], Index("frames", i)));
     in.frames.push_back(std::move(frame));
   }
-  in.baseline_mm = j.at("baseline_mm").get<double>();
-  if (j.contains("projector_size")) {
-    in.projector_size = std::make_pair(j["projector_size"].at(0).get<int>(),
-                                       j["projector_size"].at(1).get<int>());
+  RETURN_IF_ERROR(
+      ReadNumber(j, "", "baseline_mm", 0, kMaxNumber, &in.baseline_mm));
+  ASSIGN_OR_RETURN(const json* size,
+                   ReadArray(j, "", "projector_size", 2, false));
+  if (size != nullptr) {
+    // [width, height], each at most what a display can have.
+    if (size->size() != 2) {
+      return Bad("projector_size", "expected [width, height]");
+    }
+    int64_t side[2] = {0, 0};
+    for (int k = 0; k < 2; ++k) {
+      ASSIGN_OR_RETURN(side[k],
+                       IntValue((*size)[k], Index("projector_size", k), 1,
+                                structured_light::kMaxProjectorSide));
+    }
+    in.projector_size =
+        std::make_pair(static_cast<int>(side[0]), static_cast<int>(side[1]));
   }
-  for (const json& row : j.at("capture_summary")) {
-    in.capture_summary.emplace_back(row.at(0).get<std::string>(),
-                                    row.at(1).get<std::string>());
+  ASSIGN_OR_RETURN(const json* summary,
+                   ReadArray(j, "", "capture_summary", kMaxSummaryRows));
+  for (size_t i = 0; i < summary->size(); ++i) {
+    const std::string where = Index("capture_summary", i);
+    const json& row = (*summary)[i];
+    if (!row.is_array() || row.size() != 2) {
+      return Bad(where, "expected [key, value]");
+    }
+    for (int k = 0; k < 2; ++k) {
+      RETURN_IF_ERROR(CheckString(row[k], Index(where, k), kMaxTextBytes));
+    }
+    in.capture_summary.emplace_back(row[0].get<std::string>(),
+                                    row[1].get<std::string>());
   }
-  in.sim_truth_disparity = j.value("sim_truth_disparity", "");
-  in.sim_truth_nonoccluded = j.value("sim_truth_nonoccluded", "");
-  if (j.contains("intrinsics")) {
-    const json& k = j["intrinsics"];
-    in.intrinsics = SessionInput::Intrinsics{.fx = k.at("fx").get<double>(),
-                                             .fy = k.at("fy").get<double>(),
-                                             .cx = k.at("cx").get<double>(),
-                                             .cy = k.at("cy").get<double>()};
+  RETURN_IF_ERROR(ReadPath(j, "", "sim_truth_disparity",
+                           &in.sim_truth_disparity, /*optional=*/true));
+  RETURN_IF_ERROR(ReadPath(j, "", "sim_truth_nonoccluded",
+                           &in.sim_truth_nonoccluded, /*optional=*/true));
+  ASSIGN_OR_RETURN(const json* k, Member(j, "", "intrinsics", false));
+  if (k != nullptr) {
+    SessionInput::Intrinsics intrinsics;
+    for (const auto& [key, value] :
+         {std::pair<const char*, double*>{"fx", &intrinsics.fx},
+          {"fy", &intrinsics.fy},
+          {"cx", &intrinsics.cx},
+          {"cy", &intrinsics.cy}}) {
+      RETURN_IF_ERROR(
+          ReadNumber(*k, "intrinsics", key, -kMaxNumber, kMaxNumber, value));
+    }
+    in.intrinsics = intrinsics;
   }
-  request.steps = j.at("steps").get<std::vector<std::string>>();
-  request.force = j.at("force").get<bool>();
+  ASSIGN_OR_RETURN(const json* steps, ReadArray(j, "", "steps", kMaxSteps));
+  for (size_t i = 0; i < steps->size(); ++i) {
+    RETURN_IF_ERROR(CheckString((*steps)[i], Index("steps", i), kMaxNameBytes));
+    request.steps.push_back((*steps)[i].get<std::string>());
+  }
+  RETURN_IF_ERROR(ReadBool(j, "", "force", &request.force));
   return request;
+}
+
+absl::StatusOr<StepRecord> StepFromJson(const json& s,
+                                        absl::string_view where) {
+  StepRecord r;
+  RETURN_IF_ERROR(ReadString(s, where, "step", kMaxNameBytes, &r.step));
+  RETURN_IF_ERROR(
+      ReadString(s, where, "input_hash", kMaxNameBytes, &r.input_hash));
+  RETURN_IF_ERROR(ReadBool(s, where, "computed", &r.computed));
+  ASSIGN_OR_RETURN(r.artifacts, ArtifactsFromJson(s, where, true));
+  double seconds = 0;
+  ASSIGN_OR_RETURN(const json* has_seconds, Member(s, where, "seconds", false));
+  if (has_seconds != nullptr) {
+    RETURN_IF_ERROR(ReadNumber(s, where, "seconds", 0, kMaxNumber, &seconds));
+    r.seconds = seconds;
+  }
+  return r;
+}
+
+absl::StatusOr<JobResult> ResultFromJson(const json& j) {
+  JobResult result;
+  std::string code, message;
+  RETURN_IF_ERROR(ReadString(j, "", "code", kMaxNameBytes, &code));
+  RETURN_IF_ERROR(ReadString(j, "", "message", kMaxTextBytes, &message));
+  result.status = absl::Status(ParseStatusCode(code), message);
+  ASSIGN_OR_RETURN(const json* steps, ReadArray(j, "", "steps", kMaxSteps));
+  for (size_t i = 0; i < steps->size(); ++i) {
+    ASSIGN_OR_RETURN(StepRecord r,
+                     StepFromJson((*steps)[i], Index("steps", i)));
+    result.steps.push_back(std::move(r));
+  }
+  return result;
 }
 
 }  // namespace
@@ -406,16 +729,23 @@ absl::Status WriteJobRequest(const fs::path& job_dir,
   return io::WriteFileAtomically(job_dir / kJobRequestFile, j.dump(2) + "\n");
 }
 
+absl::StatusOr<JobRequest> ParseJobRequest(absl::string_view json_text,
+                                           const fs::path& session_dir) {
+  constexpr absl::string_view kWhat = "pipeline job request";
+  ASSIGN_OR_RETURN(const json j, ParseObject(json_text, kWhat));
+  absl::StatusOr<JobRequest> request = RequestFromJson(j, session_dir);
+  if (!request.ok()) return NotA(kWhat, request.status());
+  return request;
+}
+
 absl::StatusOr<JobRequest> ReadJobRequest(const fs::path& job_dir,
                                           const fs::path& session_dir) {
   const fs::path path = job_dir / kJobRequestFile;
-  ASSIGN_OR_RETURN(const json j, ReadJson(path, "pipeline job request"));
-  try {
-    return RequestFromJson(j, session_dir);
-  } catch (const json::exception& e) {
-    return absl::DataLossError(absl::StrCat(
-        path.string(), ": not a pipeline job request: ", e.what()));
-  }
+  ASSIGN_OR_RETURN(const std::string text,
+                   ReadDocument(path, "pipeline job request"));
+  absl::StatusOr<JobRequest> request = ParseJobRequest(text, session_dir);
+  if (!request.ok()) return InFile(path, request.status());
+  return request;
 }
 
 absl::Status WriteJobResult(const fs::path& job_dir, const JobResult& result) {
@@ -437,30 +767,21 @@ absl::Status WriteJobResult(const fs::path& job_dir, const JobResult& result) {
   return io::WriteFileAtomically(job_dir / kJobResultFile, j.dump(2) + "\n");
 }
 
+absl::StatusOr<JobResult> ParseJobResult(absl::string_view json_text) {
+  constexpr absl::string_view kWhat = "pipeline job result";
+  ASSIGN_OR_RETURN(const json j, ParseObject(json_text, kWhat));
+  absl::StatusOr<JobResult> result = ResultFromJson(j);
+  if (!result.ok()) return NotA(kWhat, result.status());
+  return result;
+}
+
 absl::StatusOr<JobResult> ReadJobResult(const fs::path& job_dir) {
   const fs::path path = job_dir / kJobResultFile;
-  ASSIGN_OR_RETURN(const json j, ReadJson(path, "pipeline job result"));
-  try {
-    JobResult result;
-    const absl::StatusCode code =
-        ParseStatusCode(j.at("code").get<std::string>());
-    result.status = absl::Status(code, j.at("message").get<std::string>());
-    for (const json& s : j.at("steps")) {
-      StepRecord r;
-      r.step = s.at("step").get<std::string>();
-      r.input_hash = s.at("input_hash").get<std::string>();
-      r.computed = s.at("computed").get<bool>();
-      for (const json& a : s.at("artifacts")) {
-        r.artifacts.push_back(ArtifactFromJson(a));
-      }
-      if (s.contains("seconds")) r.seconds = s.at("seconds").get<double>();
-      result.steps.push_back(std::move(r));
-    }
-    return result;
-  } catch (const json::exception& e) {
-    return absl::DataLossError(
-        absl::StrCat(path.string(), ": not a pipeline job result: ", e.what()));
-  }
+  ASSIGN_OR_RETURN(const std::string text,
+                   ReadDocument(path, "pipeline job result"));
+  absl::StatusOr<JobResult> result = ParseJobResult(text);
+  if (!result.ok()) return InFile(path, result.status());
+  return result;
 }
 
 absl::Status VerifyFrames(const SessionInput& input) {

@@ -17,6 +17,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
 #include "processing/pipeline/pipeline.h"
 
 namespace hdrstereo::pipeline {
@@ -34,13 +35,26 @@ namespace hdrstereo::pipeline {
 absl::StatusOr<SessionInput> DiscoverSession(
     const std::filesystem::path& session_dir);
 
+// The files of this header that a run elsewhere writes or reads (request,
+// result, pipeline state, metrics) are read as untrusted: at most 64 MiB,
+// bounded counts (100000 frames, artifacts of a step and metrics rows, 256
+// steps) and string lengths, every field of its JSON type, and every path
+// relative to the session folder (io::ValidateRelativePath); DATA_LOSS
+// "not a <document>: <field>: <why>" otherwise, the field named (e.g.
+// "steps[2].artifacts[0].path"), what it held quoted through QuoteInput.
+
 // A RunStore in one JSON file, rewritten atomically on every change:
 //   {"steps": {"<step>": {"input_hash": "...", "artifacts": [...]}},
 //    "metrics": [...]}
 class JsonRunStore : public RunStore {
  public:
-  // Reads `path` if it exists (a missing file is an empty store).
+  // Reads `path` if it exists (a missing file is an empty store); the
+  // errors of Parse, with the path in front.
   static absl::StatusOr<JsonRunStore> Open(std::filesystem::path path);
+  // The store that `path` holds when it holds `json_text` (nothing is read
+  // or written). DATA_LOSS "not a pipeline state file: ...".
+  static absl::StatusOr<JsonRunStore> Parse(absl::string_view json_text,
+                                            std::filesystem::path path);
 
   std::vector<Artifact> Lookup(const std::string& step,
                                const std::string& input_hash) override;
@@ -52,10 +66,11 @@ class JsonRunStore : public RunStore {
   // What was recorded for `step` (its input hash and artifacts), if any.
   std::optional<std::pair<std::string, std::vector<Artifact>>> Entry(
       const std::string& step) const;
+  // The steps with a record, in name order.
+  std::vector<std::string> StepNames() const;
 
  private:
   explicit JsonRunStore(std::filesystem::path path) : path_(std::move(path)) {}
-  static absl::StatusOr<JsonRunStore> OpenOrThrow(std::filesystem::path path);
   absl::Status Save() const;
 
   std::filesystem::path path_;
@@ -72,7 +87,8 @@ class JsonRunStore : public RunStore {
 absl::Status ApplyCalib(const std::filesystem::path& path, SessionInput* in);
 
 std::string MetricsToJson(const std::vector<Metric>& metrics);
-absl::StatusOr<std::vector<Metric>> MetricsFromJson(const std::string& text);
+// DATA_LOSS "metrics.json: not a metrics file: ...".
+absl::StatusOr<std::vector<Metric>> MetricsFromJson(absl::string_view text);
 
 // Sorted by ground truth, then RMSE (the order tables show them in).
 std::vector<Metric> SortMetrics(std::vector<Metric> metrics);
@@ -94,12 +110,16 @@ struct JobRequest {
 };
 
 // Both atomically. The reader sets input.session_dir to `session_dir`;
-// DATA_LOSS for a file that is not a request, NOT_FOUND when there is none.
+// DATA_LOSS for a file that is not a request (the errors of
+// ParseJobRequest, with the path in front), NOT_FOUND when there is none.
 absl::Status WriteJobRequest(const std::filesystem::path& job_dir,
                              const JobRequest& request);
 absl::StatusOr<JobRequest> ReadJobRequest(
     const std::filesystem::path& job_dir,
     const std::filesystem::path& session_dir);
+// request.json's text. DATA_LOSS "not a pipeline job request: ...".
+absl::StatusOr<JobRequest> ParseJobRequest(
+    absl::string_view json_text, const std::filesystem::path& session_dir);
 
 // What the run recorded for one step: computed by this run, or reused.
 struct StepRecord {
@@ -121,8 +141,12 @@ struct JobResult {
 absl::Status WriteJobResult(const std::filesystem::path& job_dir,
                             const JobResult& result);
 // NOT_FOUND when the run wrote no result (it never started or was killed);
-// DATA_LOSS for a file that is not a result.
+// DATA_LOSS for a file that is not a result (the errors of ParseJobResult,
+// with the path in front).
 absl::StatusOr<JobResult> ReadJobResult(const std::filesystem::path& job_dir);
+// result.json's text. DATA_LOSS "not a pipeline job result: ...", e.g. for
+// an artifact whose path leaves the session folder.
+absl::StatusOr<JobResult> ParseJobResult(absl::string_view json_text);
 
 // FAILED_PRECONDITION naming the first frame of `input` that is missing,
 // DATA_LOSS for one whose sha256 is not the one recorded (frames without a

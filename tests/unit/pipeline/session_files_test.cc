@@ -10,10 +10,13 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "processing/io/atomic_file.h"
+#include "processing/io/image.h"
 #include "processing/io/sha256.h"
 #include "tests/support/status_matchers.h"
 #include "tests/support/temp_dir.h"
@@ -24,6 +27,8 @@ namespace {
 using ::hdrstereo::testing::StatusIs;
 using ::hdrstereo::testing::TempDir;
 using ::testing::HasSubstr;
+using ::testing::StartsWith;
+using json = nlohmann::json;
 
 Artifact File(const std::string& path) {
   Artifact a;
@@ -243,6 +248,254 @@ TEST(MetricsJsonTest, RoundTripAndTheTableInOrder) {
   EXPECT_THAT(
       MetricsFromJson("{\"rows\": []}"),
       StatusIs(absl::StatusCode::kDataLoss, HasSubstr("not a metrics file")));
+}
+
+// A result.json as a node writes it: one step with one artifact at `path`.
+json ResultWithArtifact(const std::string& path) {
+  return json{{"code", "OK"},
+              {"message", ""},
+              {"steps", json::array({json{{"step", "hdr"},
+                                          {"input_hash", "h1"},
+                                          {"computed", true},
+                                          {"artifacts", json::array({json{
+                                                            {"step", "hdr"},
+                                                            {"kind", "hdr"},
+                                                            {"path", path},
+                                                            {"sha256", "ab"},
+                                                            {"size_bytes", 2},
+                                                        }})}}})}};
+}
+
+const char* const kOutside[] = {"../../etc/passwd", "/etc/passwd", "a/../../b"};
+
+std::string Why(const std::string& path) {
+  return path[0] == '/'
+             ? absl::StrCat("path \"", path,
+                            "\" is absolute (it must be relative)")
+             : absl::StrCat("path \"", path, "\" has a \"..\" component");
+}
+
+// A node must not name a file outside the session folder: the result that
+// does is refused as a whole, naming the field and the path, so that the
+// daemon records nothing of it (RunOnSlurm fails the job with this message).
+TEST(HostileSessionFilesTest, AResultNamingAPathOutsideTheSessionIsDataLoss) {
+  for (const std::string path : kOutside) {
+    const std::string text = ResultWithArtifact(path).dump();
+    EXPECT_THAT(
+        ParseJobResult(text),
+        StatusIs(absl::StatusCode::kDataLoss,
+                 absl::StrCat("not a pipeline job result: steps[0].artifacts[0]"
+                              ".path: ",
+                              Why(path))));
+    TempDir tmp;
+    ASSERT_OK(io::WriteFileAtomically(tmp / kJobResultFile, text));
+    EXPECT_THAT(ReadJobResult(tmp.path()),
+                StatusIs(absl::StatusCode::kDataLoss,
+                         absl::StrCat((tmp / kJobResultFile).string(),
+                                      ": not a pipeline job result: "
+                                      "steps[0].artifacts[0].path: ",
+                                      Why(path))));
+  }
+  // The same result inside the session is read.
+  ASSERT_OK_AND_ASSIGN(
+      const JobResult ok,
+      ParseJobResult(ResultWithArtifact("hdr/im0.pfm").dump()));
+  ASSERT_EQ(ok.steps.size(), 1u);
+  EXPECT_EQ(ok.steps[0].artifacts[0].path, "hdr/im0.pfm");
+}
+
+TEST(HostileSessionFilesTest, AStateFileNamingAPathOutsideTheSessionIsRefused) {
+  for (const std::string path : kOutside) {
+    const json state{
+        {"steps",
+         {{"hdr",
+           {{"input_hash", "h1"},
+            {"artifacts", json::array({json{{"path", "hdr/im0.pfm"}},
+                                       json{{"path", path}}})}}}}},
+        {"metrics", json::array()}};
+    EXPECT_THAT(JsonRunStore::Parse(state.dump(), "/s/pipeline_state.json"),
+                StatusIs(absl::StatusCode::kDataLoss,
+                         absl::StrCat("not a pipeline state file: "
+                                      "steps[\"hdr\"].artifacts[1].path: ",
+                                      Why(path))));
+    TempDir tmp;
+    const std::filesystem::path file = tmp / "pipeline_state.json";
+    ASSERT_OK(io::WriteFileAtomically(file, state.dump()));
+    EXPECT_THAT(
+        JsonRunStore::Open(file),
+        StatusIs(absl::StatusCode::kDataLoss,
+                 StartsWith(file.string() + ": not a pipeline state file: ")));
+    // Refused, not rewritten.
+    ASSERT_OK_AND_ASSIGN(const std::string kept, io::ReadFileBytes(file));
+    EXPECT_EQ(kept, state.dump());
+  }
+  ASSERT_OK_AND_ASSIGN(
+      const JsonRunStore store,
+      JsonRunStore::Parse(R"({"steps": {"hdr": {"input_hash": "h1",
+          "artifacts": [{"path": "hdr/im0.pfm"}]}}})",
+                          "/s/pipeline_state.json"));
+  EXPECT_THAT(store.StepNames(), ::testing::ElementsAre("hdr"));
+  EXPECT_EQ(store.Entry("hdr")->second[0].path, "hdr/im0.pfm");
+}
+
+// request.json is the daemon's, read back on the node: its frame and truth
+// paths are checked alike.
+TEST(HostileSessionFilesTest, ARequestNamingAPathOutsideTheSessionIsRefused) {
+  JobRequest request;
+  request.input.session_name = "s";
+  request.input.frames.emplace_back().path = "captures/1/left/stereo/e.png";
+  request.steps = {"hdr"};
+  TempDir tmp;
+  ASSERT_OK(WriteJobRequest(tmp.path(), request));
+  ASSERT_OK_AND_ASSIGN(std::string text,
+                       io::ReadFileBytes(tmp / kJobRequestFile));
+  const json good = json::parse(text);
+  ASSERT_OK(ParseJobRequest(text, "/s").status());
+  for (const std::string path : kOutside) {
+    json frame = good;
+    frame["frames"][0]["path"] = path;
+    EXPECT_THAT(ParseJobRequest(frame.dump(), "/s"),
+                StatusIs(absl::StatusCode::kDataLoss,
+                         absl::StrCat("not a pipeline job request: frames[0]"
+                                      ".path: ",
+                                      Why(path))));
+    json truth = good;
+    truth["sim_truth_disparity"] = path;
+    EXPECT_THAT(ParseJobRequest(truth.dump(), "/s"),
+                StatusIs(absl::StatusCode::kDataLoss,
+                         absl::StrCat("not a pipeline job request: "
+                                      "sim_truth_disparity: ",
+                                      Why(path))));
+  }
+  ASSERT_OK(io::WriteFileAtomically(tmp / kJobRequestFile, [&] {
+    json j = good;
+    j["frames"][0]["path"] = "/etc/shadow";
+    return j.dump();
+  }()));
+  EXPECT_THAT(
+      ReadJobRequest(tmp.path(), "/s"),
+      StatusIs(absl::StatusCode::kDataLoss,
+               HasSubstr(": not a pipeline job request: frames[0].path: "
+                         "path \"/etc/shadow\" is absolute (it must be "
+                         "relative)")));
+}
+
+// Every field of its JSON type and within its limit, the field named.
+TEST(HostileSessionFilesTest, WrongTypesAndSizesNameTheField) {
+  const json result = ResultWithArtifact("hdr/im0.pfm");
+  auto result_with = [&](const json::json_pointer& at, const json& value) {
+    json j = result;
+    j[at] = value;
+    return ParseJobResult(j.dump());
+  };
+  const std::pair<absl::StatusOr<JobResult>, std::string> results[] = {
+      {result_with("/code"_json_pointer, 3), "code: expected a string"},
+      {result_with("/steps"_json_pointer, json::object()),
+       "steps: expected an array"},
+      {result_with("/steps/0/computed"_json_pointer, "yes"),
+       "steps[0].computed: expected true or false"},
+      {result_with("/steps/0/artifacts/0/size_bytes"_json_pointer, "big"),
+       "steps[0].artifacts[0].size_bytes: expected an integer"},
+      {result_with("/steps/0/artifacts/0/size_bytes"_json_pointer, -1),
+       "steps[0].artifacts[0].size_bytes: -1 is outside [0, "},
+      {result_with("/steps/0/artifacts/0/path"_json_pointer, json()),
+       "steps[0].artifacts[0].path: expected a string"},
+      {result_with("/steps/0/seconds"_json_pointer, "slow"),
+       "steps[0].seconds: expected a number"},
+      {result_with("/steps/0"_json_pointer, 7), "steps[0]: expected an object"},
+      {result_with("/steps"_json_pointer, json(std::vector<int>(257, 1))),
+       "steps: 257 elements, more than the limit of 256"},
+      {result_with("/message"_json_pointer, std::string(70000, 'm')),
+       "message: \"mmmm"},
+      {ParseJobResult("[]"), "not a pipeline job result: not an object"},
+      {ParseJobResult("{\"code\": \"" + std::string(100000, 'c')),
+       "not a pipeline job result: [json.exception.parse_error.101]"},
+  };
+  for (const auto& [parsed, message] : results) {
+    EXPECT_THAT(parsed,
+                StatusIs(absl::StatusCode::kDataLoss, HasSubstr(message)));
+    EXPECT_LT(parsed.status().message().size(), 400u) << message;
+  }
+
+  JobRequest request;
+  request.input.session_name = "s";
+  request.input.frames.emplace_back().path = "captures/1/left/stereo/e.png";
+  request.input.projector_size = std::make_pair(1024, 768);
+  TempDir tmp;
+  ASSERT_OK(WriteJobRequest(tmp.path(), request));
+  ASSERT_OK_AND_ASSIGN(const std::string text,
+                       io::ReadFileBytes(tmp / kJobRequestFile));
+  const json good = json::parse(text);
+  auto request_with = [&](const json::json_pointer& at, const json& value) {
+    json j = good;
+    j[at] = value;
+    return ParseJobRequest(j.dump(), "/s");
+  };
+  const std::pair<absl::StatusOr<JobRequest>, std::string> requests[] = {
+      {request_with("/frames/0/view_index"_json_pointer, 99),
+       "frames[0].view_index: 99 is outside [0, 15]"},
+      {request_with("/frames/0/capture_id"_json_pointer,
+                    json::parse("18446744073709551615")),
+       "frames[0].capture_id: 18446744073709551615 is outside [0, "},
+      {request_with("/frames/0/role"_json_pointer, "lunch"),
+       "frames[0].role: "},
+      {request_with("/frames/0"_json_pointer, 1),
+       "frames[0]: expected an object"},
+      {request_with("/frames"_json_pointer,
+                    json(std::vector<json>(100001, json::object()))),
+       "frames: 100001 elements, more than the limit of 100000"},
+      {request_with("/projector_size"_json_pointer, json::array({0, 5})),
+       "projector_size[0]: 0 is outside [1, 16384]"},
+      {request_with("/projector_size"_json_pointer, json::array({5})),
+       "projector_size: expected [width, height]"},
+      {request_with("/capture_summary"_json_pointer,
+                    json::array({json::array({"a"})})),
+       "capture_summary[0]: expected [key, value]"},
+      {request_with("/capture_summary"_json_pointer,
+                    json::array({json::array({"a", 1})})),
+       "capture_summary[0][1]: expected a string"},
+      {request_with("/steps"_json_pointer, "hdr"), "steps: expected an array"},
+      {request_with("/force"_json_pointer, 1), "force: expected true or false"},
+      {request_with("/baseline_mm"_json_pointer, "far"),
+       "baseline_mm: expected a number"},
+  };
+  for (const auto& [parsed, message] : requests) {
+    EXPECT_THAT(parsed,
+                StatusIs(absl::StatusCode::kDataLoss,
+                         HasSubstr(absl::StrCat("not a pipeline job request: ",
+                                                message))));
+  }
+
+  const std::pair<std::string, std::string> states[] = {
+      {R"({"steps": []})", "steps: expected an object"},
+      {R"({"steps": {"hdr": {"artifacts": 5}}})",
+       "steps[\"hdr\"].artifacts: expected an array"},
+      {R"({"steps": {"hdr": {"input_hash": 5}}})",
+       "steps[\"hdr\"].input_hash: expected a string"},
+      {R"({"metrics": [{"rmse": "low"}]})",
+       "metrics[0].rmse: expected a number"},
+  };
+  for (const auto& [state, message] : states) {
+    EXPECT_THAT(JsonRunStore::Parse(state, "/s/state.json"),
+                StatusIs(absl::StatusCode::kDataLoss,
+                         absl::StrCat("not a pipeline state file: ", message)));
+  }
+  EXPECT_THAT(MetricsFromJson(R"({"metrics": [{"coverage": [1]}]})"),
+              StatusIs(absl::StatusCode::kDataLoss,
+                       "metrics.json: not a metrics file: metrics[0].coverage: "
+                       "expected a number"));
+}
+
+// A file too large to be one is refused before it is read.
+TEST(HostileSessionFilesTest, AHugeResultFileIsRefusedUnread) {
+  TempDir tmp;
+  const std::filesystem::path file = tmp / kJobResultFile;
+  ASSERT_OK(io::WriteFileAtomically(file, "{"));
+  std::filesystem::resize_file(file, (size_t{64} << 20) + 1);  // sparse
+  EXPECT_THAT(ReadJobResult(tmp.path()),
+              StatusIs(absl::StatusCode::kDataLoss,
+                       HasSubstr("not a pipeline job result: 67108865 bytes, "
+                                 "more than the limit of 67108864")));
 }
 
 }  // namespace
