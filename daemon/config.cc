@@ -2,15 +2,23 @@
 #include "daemon/config.h"
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
+#include <exception>
+#include <functional>
 #include <map>
+#include <sstream>
+#include <system_error>
 #include <vector>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
 #include "daemon/rpc/roles.h"
 #include "hdrstereo_version.h"
+#include "processing/base/input_limits.h"
 #include "processing/base/status_macros.h"
 
 namespace hdrstereo::daemon {
@@ -35,6 +43,68 @@ CLI::Validator OneOf(const std::map<std::string, Enum>& words) {
       "{" + list + "}");
 }
 
+absl::Status CheckConfigSize(size_t bytes) {
+  if (bytes > kMaxConfigBytes) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "the config is ", bytes, " bytes; the most is ", kMaxConfigBytes));
+  }
+  return absl::OkStatus();
+}
+
+// The config text CLI11's reader is given, within kMaxConfigBytes and
+// kMaxConfigSectionDepth: for every level a section opens and closes, the
+// reader copies the section's parents, so a deeply nested header costs the
+// square of its depth. Throws CLI::ConfigError, as the reader does.
+std::string ReadBoundedConfig(std::istream& input) {
+  std::string text;
+  char buffer[4096];
+  while (input.read(buffer, sizeof buffer) || input.gcount() > 0) {
+    text.append(buffer, static_cast<size_t>(input.gcount()));
+    if (text.size() > kMaxConfigBytes) {
+      throw CLI::ConfigError(
+          absl::StrCat("the config is more than ", kMaxConfigBytes, " bytes"));
+    }
+  }
+  int line_no = 0;
+  for (absl::string_view line : absl::StrSplit(text, '\n')) {
+    ++line_no;
+    line = absl::StripAsciiWhitespace(line);
+    // A section header, as CLI11 tells one.
+    if (line.size() < 3 || line.front() != '[' || line.back() != ']') continue;
+    const int64_t depth = std::count(line.begin(), line.end(), '.') + 1;
+    if (depth > kMaxConfigSectionDepth) {
+      throw CLI::ConfigError(absl::StrCat(
+          "config line ", line_no, ": section ", QuoteInput(line), " nests ",
+          depth, " deep; the most is ", kMaxConfigSectionDepth));
+    }
+  }
+  return text;
+}
+
+// Keys and values within kMaxConfigItemBytes (CLI11's messages repeat them).
+void CheckItemSizes(const CLI::ConfigItem& item) {
+  for (const std::string& key : item.parents) {
+    if (key.size() > kMaxConfigItemBytes) {
+      throw CLI::ConfigError(absl::StrCat(
+          "config: the section name ", QuoteInput(key), " is ", key.size(),
+          " bytes long; the most is ", kMaxConfigItemBytes));
+    }
+  }
+  if (item.name.size() > kMaxConfigItemBytes) {
+    throw CLI::ConfigError(absl::StrCat(
+        "config: the key ", QuoteInput(item.name), " is ", item.name.size(),
+        " bytes long; the most is ", kMaxConfigItemBytes));
+  }
+  for (const std::string& value : item.inputs) {
+    if (value.size() > kMaxConfigItemBytes) {
+      throw CLI::ConfigError(
+          absl::StrCat("config: ", item.fullname(), " = ", QuoteInput(value),
+                       ": the value is ", value.size(),
+                       " bytes long; the most is ", kMaxConfigItemBytes));
+    }
+  }
+}
+
 // CLI11's TOML reader maps sections to subcommands; hdrstereod has none, so
 // the [tls], [processing], [slurm] and [auth] sections are turned into the
 // options they stand for before CLI11 sees them: [tls] cert -> tls-cert
@@ -44,10 +114,12 @@ CLI::Validator OneOf(const std::map<std::string, Enum>& words) {
 class SectionedToml : public CLI::ConfigTOML {
  public:
   std::vector<CLI::ConfigItem> from_config(std::istream& input) const override {
+    std::istringstream bounded(ReadBoundedConfig(input));
     std::vector<CLI::ConfigItem> out;
     CLI::ConfigItem users;  // all of [auth.users] as one auth-user item
     users.name = "auth-user";
-    for (CLI::ConfigItem& item : CLI::ConfigTOML::from_config(input)) {
+    for (CLI::ConfigItem& item : CLI::ConfigTOML::from_config(bounded)) {
+      CheckItemSizes(item);
       const std::vector<std::string>& parents = item.parents;
       const bool prefixed =
           parents.size() == 1 &&
@@ -90,8 +162,8 @@ absl::Status ParseUsers(const std::vector<std::string>& entries,
     absl::StatusOr<rpc::Role> parsed = rpc::ParseRole(role);
     if (!parsed.ok() || *parsed == rpc::Role::kNone) {
       return absl::InvalidArgumentError(absl::StrCat(
-          "[auth.users] ", name, " = \"", role,
-          "\": the role must be \"viewer\", \"operator\" or \"admin\""));
+          "[auth.users] ", name, " = ", QuoteInput(role),
+          ": the role must be \"viewer\", \"operator\" or \"admin\""));
     }
     if (!users.emplace(name, role).second) {
       return absl::InvalidArgumentError(
@@ -146,23 +218,24 @@ absl::Status ValidateListenAddress(const std::string& address,
   size_t colon = address.rfind(':');
   if (colon == std::string::npos) {
     return absl::InvalidArgumentError(absl::StrCat(
-        "--listen \"", address, "\" must be HOST:PORT or unix:PATH"));
+        "--listen ", QuoteInput(address), " must be HOST:PORT or unix:PATH"));
   }
   std::string host = address.substr(0, colon);
   int port = 0;
   if (!absl::SimpleAtoi(address.substr(colon + 1), &port) || port < 0 ||
       port > 65535) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--listen \"", address, "\" has no valid port (0-65535)"));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--listen ", QuoteInput(address), " has no valid port (0-65535)"));
   }
   if (host.empty()) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "--listen \"", address, "\" has no host; use e.g. 0.0.0.0:", port));
+    return absl::InvalidArgumentError(
+        absl::StrCat("--listen ", QuoteInput(address),
+                     " has no host; use e.g. 0.0.0.0:", port));
   }
   if (IsLocalAddress(address) || tls.enabled()) return absl::OkStatus();
   return absl::InvalidArgumentError(absl::StrCat(
-      "--listen \"", address,
-      "\" is not a loopback address; remote access needs TLS: give "
+      "--listen ", QuoteInput(address),
+      " is not a loopback address; remote access needs TLS: give "
       "--tls-cert, --tls-key and --tls-client-ca (or [tls] in the config; "
       "deploy/make-certs.sh makes them), or listen on 127.0.0.1 or a unix "
       "socket"));
@@ -175,25 +248,31 @@ absl::Status ValidateMetricsAddress(const std::string& address) {
   if (colon == std::string::npos ||
       !absl::SimpleAtoi(address.substr(colon + 1), &port) || port < 0 ||
       port > 65535) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "--metrics-listen \"", address, "\" must be HOST:PORT (port 0-65535)"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("--metrics-listen ", QuoteInput(address),
+                     " must be HOST:PORT (port 0-65535)"));
   }
   if (absl::StartsWith(address, "unix:") || !IsLocalAddress(address)) {
     return absl::InvalidArgumentError(absl::StrCat(
-        "--metrics-listen \"", address,
-        "\" is not a loopback address; the metrics endpoint has no TLS or "
+        "--metrics-listen ", QuoteInput(address),
+        " is not a loopback address; the metrics endpoint has no TLS or "
         "authentication: listen on 127.0.0.1 and let a proxy expose it"));
   }
   return absl::OkStatus();
 }
 
-absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
+namespace {
+
+// The options parsed by `parse` (the command line, or a config text), then
+// checked together.
+absl::StatusOr<ParsedArgs> Parse(const std::function<void(CLI::App&)>& parse) {
   Config config;
   std::vector<std::string> users;
   CLI::App app{"hdrstereod: HDR stereo acquisition daemon", "hdrstereod"};
   app.set_version_flag("--version", HDRSTEREO_VERSION);
   app.set_config("--config", "", "Read options from a TOML file")
-      ->check(CLI::ExistingFile);
+      ->check(CLI::ExistingFile)
+      ->configurable(false);
   app.config_formatter(std::make_shared<SectionedToml>());
   app.allow_config_extras(false);
   app.add_option("--listen", config.listen,
@@ -369,14 +448,18 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
                  "NAME=ROLE: the role of a certificate's or key's principal "
                  "(repeatable; [auth.users] in the config)");
   try {
-    app.parse(argc, argv);
+    parse(app);
   } catch (const CLI::CallForVersion&) {
     return ParsedArgs(
         ExitWithText{absl::StrCat("hdrstereod ", HDRSTEREO_VERSION)});
   } catch (const CLI::Success&) {
     return ParsedArgs(ExitWithText{app.help()});
-  } catch (const CLI::ParseError& e) {
+  } catch (const CLI::Error& e) {
     return absl::InvalidArgumentError(e.what());
+  } catch (const std::exception& e) {
+    // E.g. std::bad_alloc: no exception leaves the parser.
+    return absl::InternalError(
+        absl::StrCat("reading the options failed: ", e.what()));
   }
   RETURN_IF_ERROR(ValidateTls(config.tls));
   for (const std::string& address : config.listen) {
@@ -398,13 +481,35 @@ absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
         "use it with --hardware real");
   }
   if (!config.slurm.cluster_data_root.empty()) {
-    config.slurm.local_data_root =
-        std::filesystem::absolute(config.data_root).lexically_normal().string();
+    std::error_code error;
+    const std::filesystem::path root =
+        std::filesystem::absolute(config.data_root, error);
+    if (error) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--data-root ", QuoteInput(config.data_root.string()),
+                       ": cannot make it absolute for --slurm-data-root: ",
+                       error.message()));
+    }
+    config.slurm.local_data_root = root.lexically_normal().string();
   }
   if (config.log_file.empty()) {
     config.log_file = config.data_root / "logs" / "hdrstereod.log";
   }
   return ParsedArgs(std::move(config));
+}
+
+}  // namespace
+
+absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv) {
+  return Parse([&](CLI::App& app) { app.parse(argc, argv); });
+}
+
+absl::StatusOr<ParsedArgs> ParseConfigText(absl::string_view toml_text) {
+  RETURN_IF_ERROR(CheckConfigSize(toml_text.size()));
+  return Parse([&](CLI::App& app) {
+    std::istringstream input{std::string(toml_text)};
+    app.parse_from_stream(input);
+  });
 }
 
 }  // namespace hdrstereo::daemon

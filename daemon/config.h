@@ -8,6 +8,8 @@
 #ifndef HDRSTEREO_DAEMON_CONFIG_H_
 #define HDRSTEREO_DAEMON_CONFIG_H_
 
+#include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <map>
 #include <string>
@@ -15,6 +17,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
 #include "daemon/processing/slurm_cli.h"
 #include "hardware/rig.h"
 
@@ -121,10 +124,23 @@ struct ExitWithText {
 };
 using ParsedArgs = std::variant<Config, ExitWithText>;
 
+// Limits on a config file (it may be a copy from elsewhere): its size, how
+// deep its sections nest ([auth.users] is 2), and the length of a key or a
+// value (PATH_MAX). The shipped config is 8 KB.
+inline constexpr size_t kMaxConfigBytes = size_t{1} << 20;
+inline constexpr int64_t kMaxConfigSectionDepth = 4;
+inline constexpr size_t kMaxConfigItemBytes = 4096;
+
 // INVALID_ARGUMENT with a one-line message for unknown flags, unknown config
-// keys, bad values, or a listen address that is not local while TLS is not
-// configured. (The TLS files themselves are checked when the server starts.)
+// keys, bad values, a config file beyond the limits above (a `config` key in
+// it too: a config file names no other), or a listen address that is not
+// local while TLS is not configured. (The TLS files themselves are checked
+// when the server starts.) Every CLI11 exception becomes a status.
 absl::StatusOr<ParsedArgs> ParseArgs(int argc, const char* const* argv);
+
+// The same as ParseArgs of `hdrstereod --config FILE` with FILE holding
+// `toml_text`, read from memory.
+absl::StatusOr<ParsedArgs> ParseConfigText(absl::string_view toml_text);
 
 // True for "unix:PATH" and loopback HOST:PORT (localhost, 127.x, [::1]).
 bool IsLocalAddress(const std::string& address);

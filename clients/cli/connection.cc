@@ -5,6 +5,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <vector>
@@ -14,63 +15,12 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
-#include "absl/strings/str_split.h"
 #include "processing/base/status_macros.h"
 
 namespace hdrstereo::cli {
 namespace {
 
 namespace fs = std::filesystem;
-
-constexpr absl::string_view kProfileSection = "profile.";
-
-// A TOML basic string ("..." with \" and \\ escapes), the whole value.
-absl::StatusOr<std::string> ParseString(absl::string_view value) {
-  if (value.size() < 2 || value.front() != '"' || value.back() != '"') {
-    return absl::InvalidArgumentError("the value must be a \"quoted string\"");
-  }
-  std::string out;
-  for (size_t i = 1; i + 1 < value.size(); ++i) {
-    char c = value[i];
-    if (c == '"') {
-      return absl::InvalidArgumentError("unexpected '\"' inside the string");
-    }
-    if (c == '\\') {
-      if (i + 2 >= value.size() ||
-          (value[i + 1] != '"' && value[i + 1] != '\\')) {
-        return absl::InvalidArgumentError(
-            "only \\\" and \\\\ escapes are supported");
-      }
-      c = value[++i];
-    }
-    out.push_back(c);
-  }
-  return out;
-}
-
-// The line without a comment ('#' outside a string).
-absl::string_view StripComment(absl::string_view line) {
-  bool quoted = false;
-  for (size_t i = 0; i < line.size(); ++i) {
-    if (line[i] == '\\' && quoted) {
-      ++i;
-    } else if (line[i] == '"') {
-      quoted = !quoted;
-    } else if (line[i] == '#' && !quoted) {
-      return line.substr(0, i);
-    }
-  }
-  return line;
-}
-
-std::string* ProfileField(Profile& profile, absl::string_view key) {
-  if (key == "server") return &profile.server;
-  if (key == "tls_ca") return &profile.tls_ca;
-  if (key == "tls_cert") return &profile.tls_cert;
-  if (key == "tls_key") return &profile.tls_key;
-  if (key == "api_key_file") return &profile.api_key_file;
-  return nullptr;
-}
 
 absl::StatusOr<std::string> ReadFile(const fs::path& path, const char* what) {
   std::ifstream in(path, std::ios::binary);
@@ -112,76 +62,6 @@ fs::path ProfilePath(const std::function<const char*(const char*)>& getenv) {
 
 }  // namespace
 
-absl::StatusOr<ProfileFile> ParseProfileFile(const std::string& path,
-                                             absl::string_view text) {
-  ProfileFile file;
-  Profile* section = nullptr;  // nullptr: the top level
-  std::string section_name;
-  int number = 0;
-  for (absl::string_view raw : absl::StrSplit(text, '\n')) {
-    ++number;
-    const absl::string_view line =
-        absl::StripAsciiWhitespace(StripComment(raw));
-    if (line.empty()) continue;
-    auto error = [&](absl::string_view message) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(path, ":", number, ": ", message));
-    };
-    if (line.front() == '[') {
-      if (line.back() != ']') return error("a section header ends with ']'");
-      section_name = std::string(
-          absl::StripAsciiWhitespace(line.substr(1, line.size() - 2)));
-      const std::string name = absl::StartsWith(section_name, kProfileSection)
-                                   ? section_name.substr(kProfileSection.size())
-                                   : "";
-      if (name.empty()) {
-        return error(absl::StrCat("unknown section [", section_name,
-                                  "]; profiles are [profile.NAME]"));
-      }
-      if (file.profiles.count(name) != 0) {
-        return error(absl::StrCat("[", section_name, "] appears twice"));
-      }
-      section = &file.profiles[name];
-      continue;
-    }
-    const size_t equals = line.find('=');
-    if (equals == absl::string_view::npos) {
-      return error("expected key = \"value\"");
-    }
-    const std::string key(absl::StripAsciiWhitespace(line.substr(0, equals)));
-    absl::StatusOr<std::string> value =
-        ParseString(absl::StripAsciiWhitespace(line.substr(equals + 1)));
-    if (!value.ok())
-      return error(absl::StrCat(key, ": ", value.status().message()));
-    std::string* field = nullptr;
-    if (section == nullptr) {
-      if (key != "default_profile") {
-        return error(absl::StrCat("unknown key \"", key,
-                                  "\" (the top level knows default_profile; "
-                                  "settings go in a [profile.NAME] section)"));
-      }
-      field = &file.default_profile;
-    } else {
-      field = ProfileField(*section, key);
-      if (field == nullptr) {
-        return error(absl::StrCat("unknown key \"", key, "\" in [",
-                                  section_name,
-                                  "]; known: server, tls_ca, tls_cert, "
-                                  "tls_key, api_key_file"));
-      }
-    }
-    if (!field->empty()) return error(absl::StrCat(key, " is set twice"));
-    *field = *std::move(value);
-  }
-  if (!file.default_profile.empty() &&
-      file.profiles.count(file.default_profile) == 0) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(path, ": default_profile \"", file.default_profile,
-                     "\" has no [profile.", file.default_profile, "] section"));
-  }
-  return file;
-}
-
 absl::StatusOr<Connection> ResolveConnection(
     const ConnectionOptions& flags,
     const std::function<const char*(const char*)>& getenv) {
@@ -197,9 +77,7 @@ absl::StatusOr<Connection> ResolveConnection(
   Connection out;
   std::error_code ec;
   if (fs::exists(file_path, ec)) {
-    ASSIGN_OR_RETURN(std::string text, ReadFile(file_path, "profile file"));
-    ASSIGN_OR_RETURN(ProfileFile file,
-                     ParseProfileFile(file_path.string(), text));
+    ASSIGN_OR_RETURN(ProfileFile file, LoadProfileFile(file_path));
     if (wanted.empty()) wanted = file.default_profile;
     if (!wanted.empty()) {
       auto it = file.profiles.find(wanted);

@@ -8,19 +8,9 @@
 // built-in default (localhost:50051, no TLS).
 //
 // Profiles live in ~/.config/hdrstereo/client.toml ($HDRSTEREO_CLIENT_CONFIG
-// overrides the path); the Python client reads the same file:
-//
-//   default_profile = "lab"            # optional
-//   [profile.lab]
-//   server = "labpc.example.org:50051"
-//   tls_ca = "lab-ca.pem"              # relative paths: to this file's folder
-//   tls_cert = "alice.pem"             # client certificate (PEM)
-//   tls_key = "alice.key"              # its key (PEM, mode 0600)
-//   api_key_file = "notebook.key"      # instead of cert and key (mode 0600)
-//
-// The profile is --profile, else $HDRSTEREO_PROFILE, else default_profile.
-// Unknown keys and sections are refused by name. TLS is used when a CA is
-// given; a certificate, key or API key without one is refused (they are
+// overrides the path; its format: profile_file.h). The profile is
+// --profile, else $HDRSTEREO_PROFILE, else default_profile. TLS is used when a
+// CA is given; a certificate, key or API key without one is refused (they are
 // never sent in the clear), and so is a private-key or API-key file that
 // group or others can read.
 #ifndef HDRSTEREO_CLIENTS_CLI_CONNECTION_H_
@@ -28,37 +18,16 @@
 
 #include <grpcpp/security/credentials.h>
 
-#include <filesystem>
 #include <functional>
-#include <map>
 #include <memory>
 #include <string>
 
 #include "absl/status/statusor.h"
-#include "absl/strings/string_view.h"
+#include "clients/cli/profile_file.h"
 
 namespace hdrstereo::cli {
 
 inline constexpr char kDefaultServer[] = "localhost:50051";
-
-// The connection settings of one profile, paths as written in the file.
-struct Profile {
-  std::string server;
-  std::string tls_ca;
-  std::string tls_cert;
-  std::string tls_key;
-  std::string api_key_file;
-};
-
-struct ProfileFile {
-  std::string default_profile;
-  std::map<std::string, Profile> profiles;
-};
-
-// Parses the text of a client.toml; INVALID_ARGUMENT naming `path`, the
-// line and the offending key or section.
-absl::StatusOr<ProfileFile> ParseProfileFile(const std::string& path,
-                                             absl::string_view text);
 
 // Settings as given on the command line; empty = not given.
 struct ConnectionOptions {

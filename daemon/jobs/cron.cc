@@ -8,6 +8,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
+#include "processing/base/input_limits.h"
 #include "processing/base/status_macros.h"
 
 namespace hdrstereo::jobs {
@@ -37,8 +38,8 @@ constexpr std::array<FieldSpec, 5> kFields = {{
 
 absl::Status Bad(const FieldSpec& field, absl::string_view token,
                  absl::string_view why) {
-  return absl::InvalidArgumentError(
-      absl::StrCat("cron ", field.name, " field: \"", token, "\" ", why));
+  return absl::InvalidArgumentError(absl::StrCat(
+      "cron ", field.name, " field: ", QuoteInput(token), " ", why));
 }
 
 absl::StatusOr<int> ParseValue(const FieldSpec& field, absl::string_view text,
@@ -141,27 +142,32 @@ absl::StatusOr<absl::TimeZone> LoadZone(absl::string_view name) {
   if (name.empty()) return zone;
   if (!absl::LoadTimeZone(std::string(name), &zone)) {
     return absl::InvalidArgumentError(
-        absl::StrCat("time zone \"", name,
-                     "\" is not a known IANA zone (e.g. Europe/Berlin, UTC)"));
+        absl::StrCat("time zone ", QuoteInput(name),
+                     " is not a known IANA zone (e.g. Europe/Berlin, UTC)"));
   }
   return zone;
 }
 
 absl::StatusOr<CronSchedule> CronSchedule::Parse(absl::string_view expression,
                                                  absl::TimeZone zone) {
+  if (expression.size() > kMaxExpressionBytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("cron ", QuoteInput(expression), " is ", expression.size(),
+                     " bytes long; the most is ", kMaxExpressionBytes));
+  }
   const absl::string_view expanded =
       ExpandMacro(absl::StripAsciiWhitespace(expression));
   if (!expanded.empty() && expanded[0] == '@') {
     return absl::InvalidArgumentError(absl::StrCat(
-        "cron \"", expanded,
-        "\" is not a known macro (@yearly, @monthly, @weekly, @daily, "
+        "cron ", QuoteInput(expanded),
+        " is not a known macro (@yearly, @monthly, @weekly, @daily, "
         "@hourly)"));
   }
   std::vector<absl::string_view> fields =
       absl::StrSplit(expanded, absl::ByAnyChar(" \t"), absl::SkipEmpty());
   if (fields.size() != 5) {
     return absl::InvalidArgumentError(absl::StrCat(
-        "cron \"", expression, "\" has ", fields.size(),
+        "cron ", QuoteInput(expression), " has ", fields.size(),
         " fields; it needs 5: minute hour day-of-month month day-of-week"));
   }
   CronSchedule cron;
@@ -180,9 +186,10 @@ absl::StatusOr<CronSchedule> CronSchedule::Parse(absl::string_view expression,
   cron.day_star_ = fields[2][0] == '*';
   cron.weekday_star_ = fields[4][0] == '*';
   if (!cron.NextAfter(absl::UnixEpoch()).has_value()) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "cron \"", expression, "\" is never due: day-of-month \"", fields[2],
-        "\" does not occur in month \"", fields[3], "\""));
+    return absl::InvalidArgumentError(
+        absl::StrCat("cron ", QuoteInput(expression),
+                     " is never due: day-of-month ", QuoteInput(fields[2]),
+                     " does not occur in month ", QuoteInput(fields[3])));
   }
   return cron;
 }
@@ -198,6 +205,9 @@ bool CronSchedule::DayMatches(absl::CivilDay day) const {
 }
 
 std::optional<absl::Time> CronSchedule::NextAfter(absl::Time t) const {
+  if (t == absl::InfiniteFuture() || t == absl::InfinitePast()) {
+    return std::nullopt;
+  }
   // Civil time is monotonic in absolute time under the DST rule above, so
   // the first matching civil minute whose instant is after `t` is the
   // answer. Start a day early: t may fall in a repeated hour.

@@ -23,6 +23,7 @@
 #define HDRSTEREO_DAEMON_JOBS_CRON_H_
 
 #include <bitset>
+#include <cstddef>
 #include <optional>
 #include <string>
 
@@ -37,19 +38,24 @@ absl::StatusOr<absl::TimeZone> LoadZone(absl::string_view name);
 
 class CronSchedule {
  public:
-  // INVALID_ARGUMENT naming the offending field and token for a malformed
-  // expression, and for one that is never due (e.g. "0 0 30 2 *").
+  // INVALID_ARGUMENT naming the offending field and token (quoted bounded)
+  // for a malformed expression, for one longer than kMaxExpressionBytes, and
+  // for one that is never due (e.g. "0 0 30 2 *").
   static absl::StatusOr<CronSchedule> Parse(absl::string_view expression,
                                             absl::TimeZone zone);
 
   // The first due time strictly after `t`; nullopt when none comes within
-  // kSearchYears (only for expressions that are never due).
+  // kSearchYears (only for expressions that are never due) and for an
+  // infinite `t`.
   std::optional<absl::Time> NextAfter(absl::Time t) const;
 
   const std::string& expression() const { return expression_; }
   absl::TimeZone zone() const { return zone_; }
 
   static constexpr int kSearchYears = 9;  // covers every Feb 29
+  // Every value of every field listed one by one ("0,1,...,59 ...") takes
+  // under 400 bytes.
+  static constexpr size_t kMaxExpressionBytes = 1024;
 
  private:
   CronSchedule() = default;

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "daemon/processing/slurm_cli.h"
 
+#include <algorithm>
 #include <map>
 #include <string>
 #include <vector>
@@ -13,9 +14,51 @@
 #include "absl/strings/str_replace.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
+#include "processing/base/input_limits.h"
 #include "processing/base/status_macros.h"
 
 namespace hdrstereo::slurm {
+namespace {
+
+absl::Status CheckOutputSize(absl::string_view tool, absl::string_view out) {
+  if (out.size() > kMaxOutputBytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(tool, " printed ", out.size(), " bytes; the most is ",
+                     kMaxOutputBytes));
+  }
+  return absl::OkStatus();
+}
+
+// The job's state from the fields a tool printed: a state, and each field
+// within kMaxFieldBytes.
+absl::StatusOr<JobState> MakeState(absl::string_view tool, int64_t job_id,
+                                   absl::string_view state,
+                                   absl::string_view reason,
+                                   absl::string_view nodes,
+                                   absl::string_view exit_code,
+                                   absl::string_view std_out) {
+  if (state.empty()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(tool, " printed no state for job ", job_id));
+  }
+  for (const auto& [name, value] :
+       {std::pair{"state", state}, std::pair{"reason", reason},
+        std::pair{"node list", nodes}, std::pair{"exit code", exit_code},
+        std::pair{"log path", std_out}}) {
+    if (value.size() > kMaxFieldBytes) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          tool, " printed a ", name, " of ", value.size(),
+          " bytes: ", QuoteInput(value), "; the most is ", kMaxFieldBytes));
+    }
+  }
+  return JobState{.state = std::string(state),
+                  .reason = std::string(reason),
+                  .nodes = std::string(nodes),
+                  .exit_code = std::string(exit_code),
+                  .std_out = std::string(std_out)};
+}
+
+}  // namespace
 
 absl::StatusOr<std::string> ToClusterPath(const SlurmOptions& options,
                                           absl::string_view path) {
@@ -86,13 +129,15 @@ absl::StatusOr<std::vector<std::string>> SbatchArgv(
 }
 
 absl::StatusOr<int64_t> ParseSbatchOutput(absl::string_view out) {
+  RETURN_IF_ERROR(CheckOutputSize("sbatch", out));
   absl::string_view line = absl::StripAsciiWhitespace(out);
   absl::string_view id = line.substr(0, line.find(';'));
   int64_t job_id = 0;
-  if (!absl::SimpleAtoi(id, &job_id) || job_id <= 0) {
+  if (!absl::SimpleAtoi(id, &job_id)) {
     return absl::InvalidArgumentError(
-        absl::StrCat("sbatch printed no job id: \"", line, "\""));
+        absl::StrCat("sbatch printed no job id: ", QuoteInput(line)));
   }
+  RETURN_IF_ERROR(CheckRange("sbatch job id", job_id, 1, kMaxJobId));
   return job_id;
 }
 
@@ -104,19 +149,17 @@ std::vector<std::string> SqueueArgv(int64_t job_id) {
 
 absl::StatusOr<JobState> ParseSqueueOutput(absl::string_view out,
                                            int64_t job_id) {
+  RETURN_IF_ERROR(CheckOutputSize("squeue", out));
   for (absl::string_view line : absl::StrSplit(out, '\n', absl::SkipEmpty())) {
-    std::vector<absl::string_view> fields = absl::StrSplit(line, '|');
-    if (fields.size() != 4) {
+    if (std::count(line.begin(), line.end(), '|') != 3) {
       return absl::InvalidArgumentError(
-          absl::StrCat("squeue line \"", line, "\" does not have 4 fields (",
-                       kSqueueFormat, ")"));
+          absl::StrCat("squeue line ", QuoteInput(line),
+                       " does not have 4 fields (", kSqueueFormat, ")"));
     }
+    std::vector<absl::string_view> fields = absl::StrSplit(line, '|');
     if (fields[0] != absl::StrCat(job_id)) continue;
-    return JobState{.state = std::string(fields[1]),
-                    .reason = std::string(fields[2]),
-                    .nodes = std::string(absl::StripAsciiWhitespace(fields[3])),
-                    .exit_code = "",
-                    .std_out = ""};
+    return MakeState("squeue", job_id, fields[1], fields[2],
+                     absl::StripAsciiWhitespace(fields[3]), "", "");
   }
   return absl::NotFoundError(
       absl::StrCat("Slurm job ", job_id, " is not in the queue"));
@@ -128,6 +171,7 @@ std::vector<std::string> ScontrolArgv(int64_t job_id) {
 
 absl::StatusOr<JobState> ParseScontrolOutput(absl::string_view out,
                                              int64_t job_id) {
+  RETURN_IF_ERROR(CheckOutputSize("scontrol", out));
   // Values hold no spaces in -o output except Command= and similar paths,
   // which this parser does not read.
   std::map<std::string, std::string, std::less<>> fields;
@@ -143,14 +187,11 @@ absl::StatusOr<JobState> ParseScontrolOutput(absl::string_view out,
   };
   if (get("JobId") != absl::StrCat(job_id) || get("JobState").empty()) {
     return absl::InvalidArgumentError(absl::StrCat(
-        "scontrol show job ", job_id, " printed no JobId/JobState: \"",
-        absl::StripAsciiWhitespace(out).substr(0, 200), "\""));
+        "scontrol show job ", job_id, " printed no JobId/JobState: ",
+        QuoteInput(absl::StripAsciiWhitespace(out))));
   }
-  return JobState{.state = get("JobState"),
-                  .reason = get("Reason"),
-                  .nodes = get("NodeList"),
-                  .exit_code = get("ExitCode"),
-                  .std_out = get("StdOut")};
+  return MakeState("scontrol", job_id, get("JobState"), get("Reason"),
+                   get("NodeList"), get("ExitCode"), get("StdOut"));
 }
 
 std::vector<std::string> SacctArgv(int64_t job_id) {
@@ -162,19 +203,17 @@ std::vector<std::string> SacctArgv(int64_t job_id) {
 
 absl::StatusOr<JobState> ParseSacctOutput(absl::string_view out,
                                           int64_t job_id) {
+  RETURN_IF_ERROR(CheckOutputSize("sacct", out));
   for (absl::string_view line : absl::StrSplit(out, '\n', absl::SkipEmpty())) {
-    std::vector<absl::string_view> fields = absl::StrSplit(line, '|');
-    if (fields.size() != 5) {
+    if (std::count(line.begin(), line.end(), '|') != 4) {
       return absl::InvalidArgumentError(
-          absl::StrCat("sacct line \"", line, "\" does not have 5 fields (",
-                       kSacctFormat, ")"));
+          absl::StrCat("sacct line ", QuoteInput(line),
+                       " does not have 5 fields (", kSacctFormat, ")"));
     }
+    std::vector<absl::string_view> fields = absl::StrSplit(line, '|');
     if (fields[0] != absl::StrCat(job_id)) continue;
-    return JobState{.state = std::string(fields[1]),
-                    .reason = std::string(fields[4]),
-                    .nodes = std::string(fields[3]),
-                    .exit_code = std::string(fields[2]),
-                    .std_out = ""};
+    return MakeState("sacct", job_id, fields[1], fields[4], fields[3],
+                     fields[2], "");
   }
   return absl::NotFoundError(
       absl::StrCat("Slurm's accounting has no record of job ", job_id));

@@ -9,6 +9,7 @@
 #ifndef HDRSTEREO_DAEMON_PROCESSING_SLURM_CLI_H_
 #define HDRSTEREO_DAEMON_PROCESSING_SLURM_CLI_H_
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -17,6 +18,15 @@
 #include "absl/strings/string_view.h"
 
 namespace hdrstereo::slurm {
+
+// Limits on what the tools print (their output is outside input: a
+// cluster's tools, or whatever stands in their place on the PATH). One job's
+// squeue, sacct or scontrol output is a line of at most a few KB.
+inline constexpr size_t kMaxOutputBytes = size_t{1} << 20;
+// A job id is a 32-bit unsigned number in Slurm.
+inline constexpr int64_t kMaxJobId = 4294967295;
+// A state, reason, node list, exit code or log path (PATH_MAX).
+inline constexpr size_t kMaxFieldBytes = 4096;
 
 // The [slurm] options of the daemon's config.
 struct SlurmOptions {
@@ -66,7 +76,13 @@ absl::StatusOr<std::vector<std::string>> SbatchArgv(
     const SlurmOptions& options, const PipelineSubmission& submission);
 
 // The job id from `sbatch --parsable` ("123" or "123;cluster").
-// INVALID_ARGUMENT quoting the output otherwise.
+// INVALID_ARGUMENT quoting the output otherwise, or naming an id outside
+// [1, kMaxJobId].
+//
+// Every parser here answers INVALID_ARGUMENT for output longer than
+// kMaxOutputBytes, for a field longer than kMaxFieldBytes (naming the
+// tool, the field and the limit) and for a job's line without a state, and
+// quotes what it received bounded (QuoteInput).
 absl::StatusOr<int64_t> ParseSbatchOutput(absl::string_view out);
 
 struct JobState {

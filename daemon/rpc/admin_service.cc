@@ -13,6 +13,7 @@
 #include "absl/time/clock.h"
 #include "daemon/notify/webhook_events.h"
 #include "daemon/rpc/pagination.h"
+#include "daemon/rpc/role_proto.h"
 #include "daemon/rpc/status.h"
 
 namespace hdrstereo::rpc {

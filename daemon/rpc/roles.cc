@@ -29,33 +29,6 @@ absl::StatusOr<Role> ParseRole(absl::string_view name) {
       "\"", name, "\" is not a role: use viewer, operator or admin"));
 }
 
-v1::Role ToProto(Role role) {
-  switch (role) {
-    case Role::kViewer:
-      return v1::ROLE_VIEWER;
-    case Role::kOperator:
-      return v1::ROLE_OPERATOR;
-    case Role::kAdmin:
-      return v1::ROLE_ADMIN;
-    case Role::kNone:
-      break;
-  }
-  return v1::ROLE_UNSPECIFIED;
-}
-
-Role FromProto(v1::Role role) {
-  switch (role) {
-    case v1::ROLE_VIEWER:
-      return Role::kViewer;
-    case v1::ROLE_OPERATOR:
-      return Role::kOperator;
-    case v1::ROLE_ADMIN:
-      return Role::kAdmin;
-    default:
-      return Role::kNone;
-  }
-}
-
 absl::Status ValidatePrincipalName(absl::string_view name,
                                    absl::string_view what) {
   if (name.empty() || name.size() > 64) {

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
 // Roles (viewer < operator < admin) and principal names, as the RPC edge
-// and the configuration spell them.
+// and the configuration spell them (on the wire: role_proto.h, apart, so
+// that the configuration reads roles without the protocol).
 #ifndef HDRSTEREO_DAEMON_RPC_ROLES_H_
 #define HDRSTEREO_DAEMON_RPC_ROLES_H_
 
@@ -9,7 +10,6 @@
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
-#include "hdrstereo/v1/common.pb.h"
 
 namespace hdrstereo::rpc {
 
@@ -21,9 +21,6 @@ enum class Role { kNone = 0, kViewer = 1, kOperator = 2, kAdmin = 3 };
 const char* RoleName(Role role);
 // The inverse of RoleName; INVALID_ARGUMENT for anything else.
 absl::StatusOr<Role> ParseRole(absl::string_view name);
-
-v1::Role ToProto(Role role);
-Role FromProto(v1::Role role);
 
 // A principal (user) name: 1-64 of letters, digits, '.', '_', '@', '-'.
 // INVALID_ARGUMENT naming `what` otherwise.

@@ -8,6 +8,7 @@
 #include <opencv2/core/utility.hpp>
 
 #include "absl/time/clock.h"
+#include "daemon/rpc/role_proto.h"
 #include "daemon/rpc/status.h"
 #include "hdrstereo_version.h"
 

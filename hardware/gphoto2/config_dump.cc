@@ -18,6 +18,7 @@
 #include "absl/strings/str_replace.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
+#include "processing/base/input_limits.h"
 #include "processing/base/status_macros.h"
 
 namespace hdrstereo::gphoto2 {
@@ -130,6 +131,26 @@ absl::Status Finish(const std::string& source, Entry& entry) {
   return absl::OkStatus();
 }
 
+// INVALID_ARGUMENT for a text or a line longer than the limits, checked on
+// the bytes as received (before invalid UTF-8 grows into U+FFFD).
+absl::Status CheckSizes(absl::string_view text, absl::string_view source) {
+  if (text.size() > kMaxDumpBytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(source, ": the dump is ", text.size(),
+                     " bytes; the most is ", kMaxDumpBytes));
+  }
+  int line_no = 0;
+  for (absl::string_view line : absl::StrSplit(text, '\n')) {
+    ++line_no;
+    if (line.size() > kMaxDumpLineBytes) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(source, ":", line_no, ": the line is ", line.size(),
+                       " bytes long; the most is ", kMaxDumpLineBytes));
+    }
+  }
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 std::string ValidUtf8(absl::string_view text) {
@@ -150,6 +171,7 @@ std::string ValidUtf8(absl::string_view text) {
 
 absl::StatusOr<CameraDump> ParseCameraDump(absl::string_view raw_text,
                                            absl::string_view source) {
+  RETURN_IF_ERROR(CheckSizes(raw_text, source));
   const std::string text = ValidUtf8(raw_text);
   CameraDump dump;
   dump.source = std::string(source);
@@ -157,6 +179,7 @@ absl::StatusOr<CameraDump> ParseCameraDump(absl::string_view raw_text,
   std::optional<Entry> entry;
   bool in_tree = false;
   int line_no = 0;
+  int64_t entries = 0;
   auto close = [&]() -> absl::Status {
     if (!entry.has_value()) return absl::OkStatus();
     if (!entry->has_type) {
@@ -178,12 +201,23 @@ absl::StatusOr<CameraDump> ParseCameraDump(absl::string_view raw_text,
     absl::ConsumeSuffix(&line, "\r");
     if (absl::StartsWith(line, "/main/")) {
       RETURN_IF_ERROR(close());
+      if (++entries > kMaxDumpEntries) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(dump.source, ":", line_no, ": more than ",
+                         kMaxDumpEntries, " config entries"));
+      }
+      // The path ends at the first blank (some dumps pad it with U+00A0).
+      const absl::string_view path =
+          line.substr(0, line.find_first_of(" \t\xC2"));
+      if (path.size() > kMaxWidgetPathBytes) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            dump.source, ":", line_no, ": the path ", QuoteInput(path), " is ",
+            path.size(), " bytes long; the most is ", kMaxWidgetPathBytes));
+      }
       in_tree = true;
       entry.emplace();
       entry->line = line_no;
-      // The path ends at the first blank (some dumps pad it with U+00A0).
-      const size_t end = line.find_first_of(" \t\xC2");
-      entry->widget.path = std::string(line.substr(0, end));
+      entry->widget.path = std::string(path);
       entry->widget.name =
           entry->widget.path.substr(entry->widget.path.rfind('/') + 1);
       continue;
@@ -216,8 +250,8 @@ absl::StatusOr<CameraDump> ParseCameraDump(absl::string_view raw_text,
           ParseType(absl::StripAsciiWhitespace(value));
       if (!type.has_value()) {
         return absl::InvalidArgumentError(
-            absl::StrCat(where, ": unknown widget Type \"", value,
-                         "\" (expected RADIO, MENU, RANGE, TEXT, TOGGLE, "
+            absl::StrCat(where, ": unknown widget Type ", QuoteInput(value),
+                         " (expected RADIO, MENU, RANGE, TEXT, TOGGLE, "
                          "DATE or BUTTON)"));
       }
       w.type = *type;
@@ -230,8 +264,12 @@ absl::StatusOr<CameraDump> ParseCameraDump(absl::string_view raw_text,
       int index = 0;
       if (!absl::SimpleAtoi(value.substr(0, space), &index)) {
         return absl::InvalidArgumentError(
-            absl::StrCat(where, ": malformed Choice line \"", line,
-                         "\" (expected \"Choice: <number> <text>\")"));
+            absl::StrCat(where, ": malformed Choice line ", QuoteInput(line),
+                         " (expected \"Choice: <number> <text>\")"));
+      }
+      if (static_cast<int64_t>(w.choices.size()) >= kMaxWidgetChoices) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            where, ": more than ", kMaxWidgetChoices, " Choice lines"));
       }
       w.choices.push_back(space == absl::string_view::npos
                               ? std::string()
@@ -278,6 +316,12 @@ absl::StatusOr<CameraDump> LoadCameraDump(const std::filesystem::path& path) {
   if (!std::filesystem::is_regular_file(path, ec)) {
     return absl::NotFoundError(
         absl::StrCat("camera dump not found: ", path.string()));
+  }
+  const uintmax_t size = std::filesystem::file_size(path, ec);
+  if (!ec && size > kMaxDumpBytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path.string(), ": the dump is ", size,
+                     " bytes; the most is ", kMaxDumpBytes));
   }
   std::ifstream in(path, std::ios::binary);
   std::ostringstream bytes;

@@ -23,6 +23,8 @@
 #ifndef HDRSTEREO_HARDWARE_GPHOTO2_CONFIG_DUMP_H_
 #define HDRSTEREO_HARDWARE_GPHOTO2_CONFIG_DUMP_H_
 
+#include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -32,6 +34,16 @@
 #include "hardware/gphoto2/gphoto2_api.h"
 
 namespace hdrstereo::gphoto2 {
+
+// Limits on what a dump may hold (it is a file from elsewhere); the real
+// dumps stay far below them (the largest is 0.8 MB, 415 entries, a widget of
+// 1122 choices, a line of 9 KB, a path of 127 bytes).
+inline constexpr size_t kMaxDumpBytes = size_t{16} << 20;
+inline constexpr size_t kMaxDumpLineBytes = size_t{64} << 10;
+inline constexpr int64_t kMaxDumpEntries = 8192;  // /main/... paths
+inline constexpr size_t kMaxWidgetPathBytes = 256;
+// A PTP enumeration's count is 16 bits.
+inline constexpr int64_t kMaxWidgetChoices = 65535;
 
 struct CameraDump {
   std::string source;  // the file (or name) it was read from, for messages
@@ -46,13 +58,16 @@ struct CameraDump {
 };
 
 // INVALID_ARGUMENT naming the line and the entry for an unknown Type, a
-// RANGE without numeric Bottom/Top/Step, or a malformed Choice line; a text
-// without any complete config entry is an error too ("no --list-all-config
-// tree"). Entries without a Type are skipped (CameraDump::skipped).
+// RANGE without finite numeric Bottom/Top/Step, a malformed Choice line, or
+// a text, line, path or count beyond the limits above (naming the limit); a
+// text without any complete config entry is an error too ("no
+// --list-all-config tree"). Entries without a Type are skipped
+// (CameraDump::skipped). Received text is quoted bounded (QuoteInput).
 absl::StatusOr<CameraDump> ParseCameraDump(absl::string_view text,
                                            absl::string_view source);
 
-// Reads and parses a dump file (NOT_FOUND when it does not exist).
+// Reads and parses a dump file (NOT_FOUND when it does not exist,
+// INVALID_ARGUMENT when it is larger than kMaxDumpBytes).
 absl::StatusOr<CameraDump> LoadCameraDump(const std::filesystem::path& path);
 
 // `text` with every invalid UTF-8 sequence replaced by U+FFFD.

@@ -2,11 +2,11 @@
 #include "hardware/zaber/protocol.h"
 
 #include "absl/strings/ascii.h"
-#include "absl/strings/escaping.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
+#include "processing/base/input_limits.h"
 
 namespace hdrstereo::zaber {
 
@@ -16,11 +16,16 @@ std::string FormatCommand(int device, int axis, absl::string_view command) {
 }
 
 absl::StatusOr<Reply> ParseReply(absl::string_view line) {
-  absl::string_view text = absl::StripTrailingAsciiWhitespace(line);
+  const absl::string_view received = absl::StripTrailingAsciiWhitespace(line);
   auto bad = [&](absl::string_view why) {
     return absl::InvalidArgumentError(absl::StrCat(
-        "malformed Zaber reply \"", absl::CHexEscape(text), "\": ", why));
+        "malformed Zaber reply ", QuoteInput(received), ": ", why));
   };
+  if (received.size() > kMaxReplyBytes) {
+    return bad(absl::StrCat("the reply is ", received.size(),
+                            " bytes long; the most is ", kMaxReplyBytes));
+  }
+  absl::string_view text = received;
   if (!absl::ConsumePrefix(&text, "@")) return bad("does not start with @");
   std::vector<absl::string_view> fields =
       absl::StrSplit(text, ' ', absl::SkipEmpty());
@@ -29,6 +34,14 @@ absl::StatusOr<Reply> ParseReply(absl::string_view line) {
   if (!absl::SimpleAtoi(fields[0], &reply.device) ||
       !absl::SimpleAtoi(fields[1], &reply.axis)) {
     return bad("device or axis is not a number");
+  }
+  if (reply.device < 1 || reply.device > kMaxDevice) {
+    return bad(absl::StrCat("device ", reply.device, " is outside [1, ",
+                            kMaxDevice, "]"));
+  }
+  if (reply.axis < 0 || reply.axis > kMaxAxis) {
+    return bad(
+        absl::StrCat("axis ", reply.axis, " is outside [0, ", kMaxAxis, "]"));
   }
   if (fields[2] == "OK") {
     reply.rejected = false;
@@ -53,11 +66,11 @@ absl::StatusOr<Reply> ParseReply(absl::string_view line) {
 
 std::vector<std::string> ParseWarningFlags(absl::string_view data) {
   std::vector<std::string> flags;
-  std::vector<absl::string_view> fields =
-      absl::StrSplit(data, ' ', absl::SkipEmpty());
-  // The first field is the count.
-  for (size_t i = 1; i < fields.size(); ++i) {
-    flags.emplace_back(fields[i]);
+  bool count = true;  // the first field is the count
+  for (absl::string_view field : absl::StrSplit(data, ' ', absl::SkipEmpty())) {
+    if (flags.size() == kMaxWarningFlags) break;
+    if (!count && field.size() == 2) flags.emplace_back(field);
+    count = false;
   }
   return flags;
 }

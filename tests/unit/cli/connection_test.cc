@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
-// The CLI's connection settings: the client.toml profile file (its fixed
-// shape; unknown keys refused by name), the precedence option > environment
-// > profile > default, paths relative to the profile file, and the refusal
-// of secrets that others can read or that would travel without TLS.
+// The CLI's connection settings: the precedence option > environment >
+// profile > default, paths relative to the profile file, and the refusal of
+// secrets that others can read or that would travel without TLS (the
+// profile file itself: profile_file_test.cc).
 #include "clients/cli/connection.h"
 
 #include <gmock/gmock.h>
@@ -26,58 +26,6 @@ using ::testing::HasSubstr;
 constexpr char kKey[] =
     "hs_0123456789ab_"
     "0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef";
-
-TEST(ProfileFileTest, ReadsTheDocumentedShape) {
-  ASSERT_OK_AND_ASSIGN(ProfileFile file, ParseProfileFile("client.toml", R"(
-# my lab
-default_profile = "lab"   # used when no --profile is given
-
-[profile.lab]
-server = "labpc.example.org:50051"
-tls_ca = "/home/alice/.config/hdrstereo/lab-ca.pem"
-tls_cert = "alice.pem"
-tls_key = "alice.key"
-
-[profile.notebook]
-server = "labpc:50051"
-tls_ca = "ca.pem"
-api_key_file = "with \"quotes\" and # hash"
-)"));
-  EXPECT_EQ(file.default_profile, "lab");
-  ASSERT_EQ(file.profiles.size(), 2u);
-  EXPECT_EQ(file.profiles["lab"].server, "labpc.example.org:50051");
-  EXPECT_EQ(file.profiles["lab"].tls_ca,
-            "/home/alice/.config/hdrstereo/lab-ca.pem");
-  EXPECT_EQ(file.profiles["lab"].tls_key, "alice.key");
-  EXPECT_EQ(file.profiles["notebook"].api_key_file,
-            "with \"quotes\" and # hash");
-}
-
-TEST(ProfileFileTest, RefusesWhatItDoesNotKnowByName) {
-  EXPECT_THAT(ParseProfileFile("c.toml", "[profile.lab]\ntls_crt = \"x\"\n"),
-              StatusIs(absl::StatusCode::kInvalidArgument,
-                       HasSubstr("c.toml:2: unknown key \"tls_crt\" in "
-                                 "[profile.lab]")));
-  EXPECT_THAT(ParseProfileFile("c.toml", "server = \"x\"\n"),
-              StatusIs(absl::StatusCode::kInvalidArgument,
-                       HasSubstr("c.toml:1: unknown key \"server\"")));
-  EXPECT_THAT(ParseProfileFile("c.toml", "[lab]\n"),
-              StatusIs(absl::StatusCode::kInvalidArgument,
-                       HasSubstr("unknown section [lab]")));
-  EXPECT_THAT(
-      ParseProfileFile("c.toml", "[profile.a]\nserver = x\n"),
-      StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("quoted string")));
-  EXPECT_THAT(ParseProfileFile("c.toml",
-                               "[profile.a]\nserver = \"x\"\nserver = \"y\"\n"),
-              StatusIs(absl::StatusCode::kInvalidArgument,
-                       HasSubstr("c.toml:3: server is set twice")));
-  EXPECT_THAT(
-      ParseProfileFile("c.toml", "[profile.a]\n[profile.a]\n"),
-      StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("appears twice")));
-  EXPECT_THAT(ParseProfileFile("c.toml", "default_profile = \"b\"\n"),
-              StatusIs(absl::StatusCode::kInvalidArgument,
-                       HasSubstr("has no [profile.b] section")));
-}
 
 class ResolveTest : public ::testing::Test {
  protected:

@@ -271,6 +271,120 @@ TEST(DeployTest, UnknownConfigKeyIsRefusedByName) {
   EXPECT_THAT(std::string(parsed.status().message()), HasSubstr("stage-prot"));
 }
 
+// ParseConfigText reads a config from memory as --config reads the file.
+TEST(DeployTest, ConfigTextParsesAsTheConfigFile) {
+  const std::string shipped = Read(kSource + "/deploy/config/hdrstereod.toml");
+  ASSERT_OK_AND_ASSIGN(daemon::ParsedArgs text,
+                       daemon::ParseConfigText(shipped));
+  ASSERT_OK_AND_ASSIGN(
+      daemon::ParsedArgs file,
+      Parse({"--config", kSource + "/deploy/config/hdrstereod.toml"}));
+  const auto& from_text = std::get<daemon::Config>(text);
+  const auto& from_file = std::get<daemon::Config>(file);
+  EXPECT_EQ(from_text.data_root, from_file.data_root);
+  EXPECT_EQ(from_text.listen, from_file.listen);
+  EXPECT_EQ(from_text.stage_port, from_file.stage_port);
+  EXPECT_EQ(from_text.log_file, from_file.log_file);
+  EXPECT_EQ(from_text.hardware, hardware::HardwareMode::kReal);
+
+  ASSERT_OK_AND_ASSIGN(daemon::ParsedArgs users,
+                       daemon::ParseConfigText("[auth.users]\nalice = "
+                                               "\"viewer\"\n[slurm]\ncpus-"
+                                               "per-task = 8\n"));
+  EXPECT_THAT(std::get<daemon::Config>(users).users,
+              ::testing::ElementsAre(::testing::Pair("alice", "viewer")));
+  EXPECT_EQ(std::get<daemon::Config>(users).slurm.cpus_per_task, 8);
+  EXPECT_THAT(daemon::ParseConfigText("stage-prot = \"/dev/ttyUSB1\"\n"),
+              testing::StatusIs(absl::StatusCode::kInvalidArgument,
+                                HasSubstr("stage-prot")));
+}
+
+// The limits on a config, from memory and from a file; a config names no
+// other config; what CLI11 or the file system throw becomes a status.
+TEST(DeployTest, ConfigsBeyondTheLimitsAreRefusedByName) {
+  testing::TempDir dir;
+  auto from_file = [&](const std::string& toml) {
+    const std::string path = (dir / "hostile.toml").string();
+    std::ofstream(path) << toml;
+    return Parse({"--config", path});
+  };
+  const std::string huge(daemon::kMaxConfigBytes + 1, '#');
+  EXPECT_THAT(daemon::ParseConfigText(huge),
+              testing::StatusIs(absl::StatusCode::kInvalidArgument,
+                                HasSubstr("the config is 1048577 bytes; the "
+                                          "most is 1048576")));
+  EXPECT_THAT(from_file(huge + huge),
+              testing::StatusIs(absl::StatusCode::kInvalidArgument,
+                                HasSubstr("the config is more than 1048576 "
+                                          "bytes")));
+  ASSERT_OK_AND_ASSIGN(daemon::ParsedArgs comments, from_file(huge.substr(1)));
+  EXPECT_EQ(std::get<daemon::Config>(comments).data_root, "data");
+
+  // Four levels pass the depth check (and are refused as unknown).
+  EXPECT_THAT(daemon::ParseConfigText("[a.b.c.d]\nx = 1\n"),
+              testing::StatusIs(absl::StatusCode::kInvalidArgument,
+                                HasSubstr("INI was not able to parse a.")));
+  std::string deep = "[a";
+  for (int i = 0; i < 20000; ++i) deep += ".a";
+  deep += "]\nx = 1\n";
+  for (const absl::StatusOr<daemon::ParsedArgs>& parsed :
+       {daemon::ParseConfigText("\n[a.b.c.d.e]\n"), from_file(deep)}) {
+    EXPECT_THAT(parsed, testing::StatusIs(absl::StatusCode::kInvalidArgument,
+                                          HasSubstr("deep; the most is 4")));
+    EXPECT_LT(parsed.status().message().size(), 200u);
+  }
+  EXPECT_THAT(daemon::ParseConfigText("\n[a.b.c.d.e]\n"),
+              testing::StatusIs(absl::StatusCode::kInvalidArgument,
+                                HasSubstr("config line 2: section "
+                                          "\"[a.b.c.d.e]\" nests 5 deep")));
+
+  const std::string value(daemon::kMaxConfigItemBytes + 1, 'v');
+  absl::StatusOr<daemon::ParsedArgs> long_value =
+      daemon::ParseConfigText("[slurm]\nmemory = \"" + value + "\"\n");
+  EXPECT_THAT(long_value,
+              testing::StatusIs(absl::StatusCode::kInvalidArgument,
+                                HasSubstr("config: slurm.memory = \"vvv")));
+  EXPECT_THAT(long_value,
+              testing::StatusIs(absl::StatusCode::kInvalidArgument,
+                                HasSubstr("\"... (4097 bytes): the value is "
+                                          "4097 bytes long; the most is "
+                                          "4096")));
+  EXPECT_LT(long_value.status().message().size(), 200u);
+  ASSERT_OK_AND_ASSIGN(daemon::ParsedArgs at_limit,
+                       daemon::ParseConfigText("[slurm]\nmemory = \"" +
+                                               value.substr(1) + "\"\n"));
+  EXPECT_EQ(std::get<daemon::Config>(at_limit).slurm.memory.size(),
+            daemon::kMaxConfigItemBytes);
+  EXPECT_THAT(daemon::ParseConfigText(value + " = 1\n"),
+              testing::StatusIs(absl::StatusCode::kInvalidArgument,
+                                HasSubstr("(4097 bytes) is 4097 bytes long; "
+                                          "the most is 4096")));
+
+  for (const absl::StatusOr<daemon::ParsedArgs>& parsed :
+       {daemon::ParseConfigText("config = \"/dev/zero\"\n"),
+        from_file("config = \"/dev/zero\"\n")}) {
+    EXPECT_THAT(parsed,
+                testing::StatusIs(absl::StatusCode::kInvalidArgument,
+                                  HasSubstr("config: This option is not "
+                                            "allowed in a configuration "
+                                            "file")));
+  }
+  // std::filesystem::absolute("") throws; the parser answers.
+  EXPECT_THAT(daemon::ParseConfigText("data-root = \"\"\n[slurm]\n"
+                                      "data-root = \"/cluster\"\n"),
+              testing::StatusIs(
+                  absl::StatusCode::kInvalidArgument,
+                  HasSubstr("--data-root \"\": cannot make it absolute")));
+  EXPECT_THAT(daemon::ParseConfigText(std::string("\0\xff[[[\n=\n\x01", 9)),
+              testing::StatusIs(absl::StatusCode::kInvalidArgument));
+  absl::StatusOr<daemon::ParsedArgs> role = daemon::ParseConfigText(
+      "[auth.users]\nalice = \"" + std::string(3000, 'r') + "\"\n");
+  EXPECT_THAT(role, testing::StatusIs(absl::StatusCode::kInvalidArgument,
+                                      HasSubstr("(3000 bytes): the role must "
+                                                "be")));
+  EXPECT_LT(role.status().message().size(), 300u);
+}
+
 TEST(DeployTest, EveryOptionIsDocumentedInTheShippedConfig) {
   absl::StatusOr<daemon::ParsedArgs> help = Parse({"--help"});
   ASSERT_TRUE(help.ok());

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "absl/strings/str_cat.h"
 #include "absl/strings/str_replace.h"
 #include "hardware/gphoto2/gphoto2_camera.h"
 #include "hardware/gphoto2/replay_api.h"
@@ -252,6 +253,97 @@ TEST(ConfigDumpTest, RepeatedPathsKeepTheFirstDump) {
   ASSERT_OK_AND_ASSIGN(CameraDump dump, ParseCameraDump(twice, "two.txt"));
   ASSERT_EQ(dump.widgets.size(), 1u);
   EXPECT_EQ(dump.widgets[0].value, "100");
+}
+
+// Each limit on what a dump may hold, at the limit and one beyond.
+TEST(ConfigDumpTest, DumpsBeyondTheLimitsAreRefusedNamingTheLimit) {
+  EXPECT_THAT(
+      ParseCameraDump(std::string(kMaxDumpBytes + 1, '\n'), "big.txt"),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("big.txt: the dump is 16777217 bytes; the most is "
+                         "16777216")));
+
+  const std::string entry = "/main/a/w\nType: TEXT\nLabel: ";
+  const std::string label(kMaxDumpLineBytes - 7, 'l');
+  EXPECT_THAT(ParseCameraDump(entry + label + "\n", "line.txt"), IsOk());
+  EXPECT_THAT(ParseCameraDump(entry + label + "l\n", "line.txt"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("line.txt:3: the line is 65537 bytes long; "
+                                 "the most is 65536")));
+
+  std::string entries;
+  for (int64_t i = 0; i < kMaxDumpEntries; ++i) {
+    absl::StrAppend(&entries, "/main/a/w", i, "\nType: TEXT\nCurrent: x\n");
+  }
+  ASSERT_OK_AND_ASSIGN(CameraDump many, ParseCameraDump(entries, "many.txt"));
+  EXPECT_EQ(many.widgets.size(), static_cast<size_t>(kMaxDumpEntries));
+  EXPECT_THAT(ParseCameraDump(entries + "/main/a/last\n", "many.txt"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("many.txt:24577: more than 8192 config "
+                                 "entries")));
+
+  const std::string path = "/main/" + std::string(kMaxWidgetPathBytes - 6, 'p');
+  EXPECT_THAT(ParseCameraDump(path + "\nType: TEXT\n", "path.txt"), IsOk());
+  absl::StatusOr<CameraDump> long_path =
+      ParseCameraDump(path + "p\nType: TEXT\n", "path.txt");
+  EXPECT_THAT(long_path,
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("\"... (257 bytes) is 257 bytes long; the "
+                                 "most is 256")));
+  EXPECT_LT(long_path.status().message().size(), 200u);
+
+  std::string choices = "/main/a/iso\nType: RADIO\n";
+  for (int64_t i = 0; i < kMaxWidgetChoices; ++i) {
+    absl::StrAppend(&choices, "Choice: ", i, " ", i, "\n");
+  }
+  ASSERT_OK_AND_ASSIGN(CameraDump radio, ParseCameraDump(choices, "c.txt"));
+  EXPECT_EQ(radio.widgets[0].choices.size(),
+            static_cast<size_t>(kMaxWidgetChoices));
+  EXPECT_THAT(ParseCameraDump(choices + "Choice: 0 x\n", "c.txt"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("c.txt:65538: /main/a/iso: more than 65535 "
+                                 "Choice lines")));
+}
+
+// What a dump holds is quoted bounded and escaped; a RANGE of absurd bounds
+// or step is kept as numbers (nothing loops or allocates per step), one
+// whose numbers are not finite floats is refused; NUL bytes are text.
+TEST(ConfigDumpTest, HostileValuesAreBoundedOrRefused) {
+  absl::StatusOr<CameraDump> type = ParseCameraDump(
+      "/main/a/w\nType: " + std::string(1000, '\x1b') + "\n", "t.txt");
+  EXPECT_THAT(type, StatusIs(absl::StatusCode::kInvalidArgument,
+                             HasSubstr("\\x1b\\x1b\"... (1000 bytes) "
+                                       "(expected RADIO")));
+  EXPECT_LT(type.status().message().size(), 400u);
+  EXPECT_THAT(
+      ParseCameraDump("/main/a/iso\nType: RADIO\nChoice: 99999999999 x\n", "o"),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("malformed Choice line \"Choice: 99999999999 x\"")));
+
+  ASSERT_OK_AND_ASSIGN(
+      CameraDump absurd,
+      ParseCameraDump("/main/a/ev\nType: RANGE\nCurrent: 1e38\nBottom: "
+                      "-3.4e38\nTop: 3.4e38\nStep: 1e-30\n",
+                      "r.txt"));
+  EXPECT_FLOAT_EQ(absurd.widgets[0].min, -3.4e38f);
+  EXPECT_FLOAT_EQ(absurd.widgets[0].step, 1e-30f);
+  EXPECT_EQ(absurd.widgets[0].value, "1e+38");
+  for (const char* step : {"1e39", "nan", "inf", "-"}) {
+    EXPECT_THAT(ParseCameraDump(absl::StrCat("/main/a/ev\nType: RANGE\n"
+                                             "Bottom: 0\nTop: 1\nStep: ",
+                                             step, "\n"),
+                                "r.txt"),
+                StatusIs(absl::StatusCode::kInvalidArgument,
+                         HasSubstr("/main/a/ev is a RANGE without numeric "
+                                   "Bottom, Top and Step")))
+        << step;
+  }
+
+  ASSERT_OK_AND_ASSIGN(
+      CameraDump nul,
+      ParseCameraDump(std::string("/main/a/w\nType: TEXT\nCurrent: a\0b\n", 34),
+                      "nul.txt"));
+  EXPECT_EQ(nul.widgets[0].value, std::string("a\0b", 3));
 }
 
 // The replay answers like a camera: choices, bounds, read-only widgets.

@@ -7,9 +7,13 @@
 #include <string>
 #include <vector>
 
+#include "absl/strings/str_cat.h"
+#include "tests/support/status_matchers.h"
+
 namespace hdrstereo::jobs {
 namespace {
 
+using ::hdrstereo::testing::StatusIs;
 using ::testing::HasSubstr;
 
 absl::TimeZone Zone(const std::string& name) {
@@ -185,6 +189,57 @@ TEST(CronTest, ErrorsNameTheOffendingToken) {
     EXPECT_THAT(std::string(cron.status().message()), HasSubstr(b.says))
         << b.cron;
   }
+}
+
+// Hostile expressions: a length limit, numbers and steps that overflow or
+// exceed their field, long lists; every one ends and says what is wrong, with
+// what it quotes bounded.
+TEST(CronTest, HostileExpressionsAreBoundedAndRefusedByName) {
+  // Every minute listed, and again: a list up to the limit is read.
+  std::string list = "0";
+  for (int m = 1; m < 60; ++m) absl::StrAppend(&list, ",", m);
+  while (list.size() + 3 + 8 <= CronSchedule::kMaxExpressionBytes) {
+    absl::StrAppend(&list, ",", list.size() % 60);
+  }
+  ASSERT_OK_AND_ASSIGN(
+      CronSchedule every,
+      CronSchedule::Parse(list + " * * * *", absl::UTCTimeZone()));
+  EXPECT_EQ(Fmt(*every.NextAfter(Utc("2026-03-01 10:00"))), "2026-03-01 10:01");
+
+  const std::string too_long(CronSchedule::kMaxExpressionBytes + 1, '*');
+  absl::StatusOr<CronSchedule> refused =
+      CronSchedule::Parse(too_long, absl::UTCTimeZone());
+  EXPECT_THAT(refused.status(),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("\"... (1025 bytes) is 1025 bytes long; the "
+                                 "most is 1024")));
+  EXPECT_LT(refused.status().message().size(), 200u);
+
+  struct Bad {
+    std::string cron;
+    std::string says;
+  };
+  for (const Bad& b : std::vector<Bad>{
+           {"*/99999999999 * * * *", "has a step that is not a number 1-59"},
+           {"*/60 * * * *", "has a step that is not a number 1-59"},
+           {"0-59/-1 * * * *", "has a step"},
+           {"99999999999 * * * *", "\"99999999999\" is not a number 0-59"},
+           {"0 0 1-99999999999 * *", "is not a number 1-31"},
+           {"0 0 * * 2147483647", "is out of range 0-7"},
+           {"--1 * * * *", "minute field: \"--1\" is not a number"},
+           {std::string("0\0 * * * *", 10), "\"0\\x00\" is not a number"},
+           {std::string(200, '1') + " * * * *",
+            "\"... (200 bytes) is not a number 0-59"},
+       }) {
+    absl::StatusOr<CronSchedule> cron =
+        CronSchedule::Parse(b.cron, absl::UTCTimeZone());
+    EXPECT_THAT(cron.status(),
+                StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr(b.says)))
+        << b.cron;
+    EXPECT_LT(cron.status().message().size(), 300u) << b.cron;
+  }
+  EXPECT_FALSE(every.NextAfter(absl::InfiniteFuture()).has_value());
+  EXPECT_FALSE(every.NextAfter(absl::InfinitePast()).has_value());
 }
 
 TEST(CronTest, UnknownZoneIsRefused) {

@@ -11,6 +11,7 @@
 #include <sstream>
 #include <string>
 
+#include "absl/strings/str_cat.h"
 #include "tests/support/status_matchers.h"
 
 namespace hdrstereo::slurm {
@@ -122,6 +123,109 @@ TEST(SlurmCliTest, ParsesSacctsParsableRecord) {
   EXPECT_THAT(ParseSacctOutput("77|FAILED|1:0\n", 77),
               StatusIs(absl::StatusCode::kInvalidArgument,
                        HasSubstr("does not have 5 fields")));
+}
+
+// Job ids as Slurm has them (32 bits); ids that overflow or are out of
+// range are refused by name.
+TEST(SlurmCliTest, SbatchJobIdsAreBounded) {
+  ASSERT_OK_AND_ASSIGN(int64_t largest, ParseSbatchOutput("4294967295\n"));
+  EXPECT_EQ(largest, kMaxJobId);
+  for (const char* out : {"4294967296", "0", "-3;cluster"}) {
+    EXPECT_THAT(ParseSbatchOutput(out),
+                StatusIs(absl::StatusCode::kInvalidArgument,
+                         HasSubstr("sbatch job id: ")))
+        << out;
+  }
+  EXPECT_THAT(ParseSbatchOutput("4294967296"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("sbatch job id: 4294967296 is outside [1, "
+                                 "4294967295]")));
+  EXPECT_THAT(ParseSbatchOutput("99999999999999999999999"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("sbatch printed no job id: "
+                                 "\"99999999999999999999999\"")));
+}
+
+// Output beyond kMaxOutputBytes, fields beyond kMaxFieldBytes, and long
+// garbage quoted as a bounded prefix.
+TEST(SlurmCliTest, OutputAndFieldsAreBounded) {
+  const std::string huge(kMaxOutputBytes + 1, '\n');
+  EXPECT_THAT(ParseSbatchOutput(huge),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("sbatch printed 1048577 bytes; the most is "
+                                 "1048576")));
+  EXPECT_THAT(ParseSqueueOutput(huge, 4),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("squeue printed 1048577 bytes")));
+  EXPECT_THAT(ParseScontrolOutput(huge, 4),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("scontrol printed 1048577 bytes")));
+  EXPECT_THAT(ParseSacctOutput(huge, 4),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("sacct printed 1048577 bytes")));
+
+  // Many other jobs' lines before this one's, within the limit.
+  std::string lines;
+  for (int i = 0; i < 50000; ++i) absl::StrAppend(&lines, i, "|R|r|n\n");
+  ASSERT_OK_AND_ASSIGN(
+      JobState found,
+      ParseSqueueOutput(lines + "77777|RUNNING|None|c1\n", 77777));
+  EXPECT_EQ(found.nodes, "c1");
+
+  const std::string longest(kMaxFieldBytes, 'N');
+  ASSERT_OK_AND_ASSIGN(JobState at_limit,
+                       ParseSqueueOutput("4|PENDING|" + longest + "|\n", 4));
+  EXPECT_EQ(at_limit.reason, longest);
+  absl::StatusOr<JobState> reason =
+      ParseSqueueOutput("4|PENDING|" + longest + "N|\n", 4);
+  EXPECT_THAT(reason, StatusIs(absl::StatusCode::kInvalidArgument,
+                               HasSubstr("squeue printed a reason of 4097 "
+                                         "bytes: \"NNN")));
+  EXPECT_THAT(reason, StatusIs(absl::StatusCode::kInvalidArgument,
+                               HasSubstr("\"... (4097 bytes); the most is "
+                                         "4096")));
+  EXPECT_LT(reason.status().message().size(), 200u);
+  EXPECT_THAT(
+      ParseScontrolOutput("JobId=4 JobState=RUNNING StdOut=/" + longest, 4),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("scontrol printed a log path of 4097 bytes")));
+  EXPECT_THAT(ParseSacctOutput("4|FAILED|1:0|" + longest + "x|None\n", 4),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("sacct printed a node list of 4097 bytes")));
+
+  const std::string garbage(10000, '\x07');
+  absl::StatusOr<JobState> squeue = ParseSqueueOutput(garbage, 4);
+  EXPECT_THAT(squeue, StatusIs(absl::StatusCode::kInvalidArgument,
+                               HasSubstr("\\x07\"... (10000 bytes) does not "
+                                         "have 4 fields")));
+  EXPECT_LT(squeue.status().message().size(), 400u);
+  absl::StatusOr<JobState> scontrol = ParseScontrolOutput(garbage, 4);
+  EXPECT_THAT(scontrol, StatusIs(absl::StatusCode::kInvalidArgument,
+                                 HasSubstr("printed no JobId/JobState")));
+  EXPECT_LT(scontrol.status().message().size(), 400u);
+  EXPECT_THAT(ParseSacctOutput(std::string(20000, '|'), 4),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("(20000 bytes) does not have 5 fields")));
+}
+
+// Found by slurm_output_fuzzer: a job's line with an empty state was a job
+// state Describe() could not say anything about (and never final).
+TEST(SlurmCliTest, ALineWithoutAStateIsRefused) {
+  EXPECT_THAT(ParseSacctOutput("4||0:0|c1|None\n", 4),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("sacct printed no state for job 4")));
+  EXPECT_THAT(ParseSqueueOutput("4||None|\n", 4),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("squeue printed no state for job 4")));
+  // The fuzzer's input, as it found it.
+  EXPECT_THAT(
+      ParseSacctOutput(std::string("4||\xff\xff\xff\xff\xff\xff\xff\xff"
+                                   "\xff\xff\xff\0\0JENING|Vsources|\n2|"
+                                   "\xed\xedR\xed",
+                                   39),
+                       4),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("sacct printed no state for job 4")));
 }
 
 TEST(SlurmCliTest, BuildsSbatchArgvWithOptionsAndPathMapping) {
