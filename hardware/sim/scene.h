@@ -292,7 +292,10 @@ struct Scene {
 
 // Parses a scene from JSON text. Errors are INVALID_ARGUMENT and name the
 // offending field, e.g. "objects[2].material.albedo: expected 3 numbers".
-// Unknown fields are errors too (they are usually typos).
+// Unknown fields are errors too (they are usually typos). Scenes are shared
+// between labs: the text (at most 1 MiB) and every size and count in it
+// are bounded before they are used (the limits and their reasons are in
+// scene.cc), and messages quote what they received bounded.
 absl::StatusOr<Scene> ParseScene(absl::string_view json_text);
 absl::StatusOr<Scene> LoadSceneFile(const std::filesystem::path& path);
 // The scenes compiled into the library: lab-lamp, textured, checkerboard,
