@@ -8,6 +8,8 @@ packages=(
   # build tools; clang parses the daemon for its thread-safety analysis
   # (deploy/check-thread-safety.sh)
   build-essential cmake ninja-build ccache pkg-config git clang-format clang
+  # the fuzz targets (tests/fuzz): clang's libFuzzer and sanitizer runtimes
+  libclang-rt-14-dev
   # wire contract
   libgrpc++-dev libgrpc-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
   libabsl-dev libssl-dev
