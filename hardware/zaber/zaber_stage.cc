@@ -9,6 +9,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/time/clock.h"
+#include "processing/base/input_limits.h"
 #include "processing/base/status_macros.h"
 
 namespace hdrstereo::zaber {
@@ -60,6 +61,14 @@ absl::StatusOr<std::string> ZaberStage::ReadLine(absl::Time deadline) {
       std::string line = pending_.substr(0, newline);
       pending_.erase(0, newline + 1);
       return line;
+    }
+    // A device that never ends its line is garbling, not replying: the
+    // buffer stays bounded and Command treats the line as garbage.
+    if (pending_.size() > kMaxReplyBytes) {
+      const std::string quoted = QuoteInput(pending_);
+      pending_.clear();
+      return absl::InvalidArgumentError(absl::StrCat(
+          "a reply line longer than ", kMaxReplyBytes, " bytes: ", quoted));
     }
     absl::Duration left = deadline - absl::Now();
     if (left <= absl::ZeroDuration()) {

@@ -18,13 +18,18 @@
 // change in these sequences fails loudly instead of hitting another command.
 #include "hardware/zaber/zaber_stage.h"
 
+#include <fcntl.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <stdlib.h>
+#include <unistd.h>
 
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <memory>
 #include <string>
+#include <thread>
 
 #include "absl/status/status.h"
 #include "absl/time/time.h"
@@ -409,6 +414,56 @@ TEST_F(ZaberStageTest, RejectedCommandsAreErrorsNamingTheReason) {
               StatusIs(absl::StatusCode::kUnavailable, HasSubstr("BADAXIS")));
   EXPECT_THAT(Message(other.status()), HasSubstr("rejected \"get maxspeed\""));
   EXPECT_THAT(Message(other.status()), HasSubstr("BADAXIS"));
+}
+
+// A device that sends bytes without ever ending the line (a wrong baud rate
+// or a broken cable can): the driver keeps at most a bounded line, calls it
+// garbage and resends, instead of buffering until the reply times out. The
+// test plays the device on a pseudo-terminal of its own.
+TEST(ZaberStageLineTest, AnEndlessReplyLineIsGarbageNotABuffer) {
+  const int device = ::posix_openpt(O_RDWR | O_NOCTTY);
+  ASSERT_GE(device, 0);
+  ASSERT_EQ(::grantpt(device), 0);
+  ASSERT_EQ(::unlockpt(device), 0);
+  ZaberOptions options;
+  options.port = ::ptsname(device);
+  options.microstep_um = kMicrostepUm;
+  options.travel_mm = 150.0;
+  options.reply_timeout = absl::Seconds(2);
+  options.retries = 2;
+  // The first command (get maxspeed) gets a proper reply, each later one
+  // 5000 bytes and no newline.
+  std::atomic<int> answered = 0;
+  std::thread responder([&] {
+    std::string in;
+    char buffer[256];
+    while (answered < 1 + options.retries + 1) {
+      const ssize_t n = ::read(device, buffer, sizeof buffer);
+      if (n <= 0) return;
+      in.append(buffer, static_cast<size_t>(n));
+      for (size_t newline; (newline = in.find('\n')) != std::string::npos;) {
+        in.erase(0, newline + 1);
+        const std::string reply = answered == 0 ? "@01 1 OK IDLE -- 153600\r\n"
+                                                : std::string(5000, 'x');
+        ASSERT_EQ(::write(device, reply.data(), reply.size()),
+                  static_cast<ssize_t>(reply.size()));
+        ++answered;
+      }
+    }
+  });
+  absl::StatusOr<std::unique_ptr<ZaberStage>> stage = ZaberStage::Open(options);
+  ASSERT_TRUE(stage.ok()) << stage.status();
+  const absl::Status status = (*stage)->Home();
+  responder.join();
+  EXPECT_EQ(status.code(), absl::StatusCode::kDataLoss) << status;
+  EXPECT_THAT(Message(status), HasSubstr("answered \"home\" with garbage: a "
+                                         "reply line longer than 1024 bytes: "
+                                         "\"xxxx"));
+  // The message quotes a bounded prefix, not the 5000 bytes.
+  EXPECT_LT(status.message().size(), 300u);
+  EXPECT_EQ(answered, 4);  // get maxspeed, then home three times
+  stage->reset();
+  ::close(device);
 }
 
 }  // namespace
