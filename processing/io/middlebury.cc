@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "processing/io/middlebury.h"
 
+#include <charconv>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -30,8 +31,18 @@ bool IsStandard(absl::string_view key) {
   return false;
 }
 
+// `v` in the fewest digits that read back as `v` exactly ("3997.684",
+// "150", "1e-07"): a calib.txt read and written again keeps its numbers.
+std::string Exact(double v) {
+  char buffer[32];
+  const std::to_chars_result end =
+      std::to_chars(buffer, buffer + sizeof buffer, v);
+  return std::string(buffer, end.ptr);
+}
+
 std::string Camera(double fx, double fy, double cx, double cy) {
-  return absl::StrFormat("[%.6f 0 %.6f; 0 %.6f %.6f; 0 0 1]", fx, cx, fy, cy);
+  return absl::StrCat("[", Exact(fx), " 0 ", Exact(cx), "; 0 ", Exact(fy), " ",
+                      Exact(cy), "; 0 0 1]");
 }
 
 bool ParseFinite(absl::string_view text, double* value) {
@@ -59,10 +70,10 @@ bool ParseCamera(absl::string_view text, Calib* calib) {
 
 std::string FormatCalib(const Calib& c) {
   std::string out = absl::StrFormat(
-      "cam0=%s\ncam1=%s\ndoffs=%g\nbaseline=%.6f\nwidth=%d\nheight=%d\n"
+      "cam0=%s\ncam1=%s\ndoffs=%s\nbaseline=%s\nwidth=%d\nheight=%d\n"
       "ndisp=%d\n",
       Camera(c.fx, c.fy, c.cx, c.cy), Camera(c.fx, c.fy, c.cx + c.doffs, c.cy),
-      c.doffs, c.baseline_mm, c.width, c.height, c.ndisp);
+      Exact(c.doffs), Exact(c.baseline_mm), c.width, c.height, c.ndisp);
   for (const auto& [key, value] : c.extra) {
     absl::StrAppend(&out, key, "=", value, "\n");
   }

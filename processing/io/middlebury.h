@@ -51,7 +51,9 @@ struct Calib {
 };
 
 // The file's text: cam0, cam1, doffs, baseline, width, height, ndisp, then
-// `extra`; intrinsics and baseline with 6 decimals.
+// `extra`; every number in the fewest digits that read back as the same
+// number, so that what ParseCalib accepts is written so that it reads back
+// the same.
 std::string FormatCalib(const Calib& calib);
 // INVALID_ARGUMENT naming the key that is missing or unreadable (cam0,
 // baseline, width, height, ndisp; doffs defaults to 0) and quoting a bounded

@@ -47,9 +47,9 @@ Calib Sample() {
 
 TEST(MiddleburyTest, CalibTextIsTheStandardKeysInOrder) {
   EXPECT_EQ(FormatCalib(Sample()),
-            "cam0=[800.500000 0 319.500000; 0 801.250000 239.500000; 0 0 1]\n"
-            "cam1=[800.500000 0 319.500000; 0 801.250000 239.500000; 0 0 1]\n"
-            "doffs=0\nbaseline=150.000000\nwidth=640\nheight=480\nndisp=64\n"
+            "cam0=[800.5 0 319.5; 0 801.25 239.5; 0 0 1]\n"
+            "cam1=[800.5 0 319.5; 0 801.25 239.5; 0 0 1]\n"
+            "doffs=0\nbaseline=150\nwidth=640\nheight=480\nndisp=64\n"
             "left_stage_mm=0.000000\n");
 }
 
@@ -95,8 +95,25 @@ TEST(MiddleburyTest, ReadsTheFormOfThe2014DataSets) {
   EXPECT_EQ(c.extra[4].first, "dymax");
   // Written again, cam1's principal point is cam0's + doffs.
   EXPECT_THAT(FormatCalib(c),
-              HasSubstr("cam1=[3997.684000 0 1307.839000; 0 3997.684000 "
-                        "1011.728000; 0 0 1]"));
+              HasSubstr("cam0=[3997.684 0 1176.728; 0 3997.684 1011.728; 0 0 "
+                        "1]\ncam1=[3997.684 0 1307.839"));
+}
+
+// Found by middlebury_calib_fuzzer: a focal length of 1e-7 px was read, then
+// written with 6 decimals as 0, which the reader refuses; doffs lost digits
+// after the sixth significant one. Every number now reads back exactly.
+TEST(MiddleburyTest, WhatIsReadIsWrittenSoThatItReadsBackTheSame) {
+  ASSERT_OK_AND_ASSIGN(
+      const Calib c,
+      ParseCalib("cam0=[1000 0 599.5; 0 .0000001 449.5; 0 0 1]\n"
+                 "doffs=1234.56789\nbaseline=0.0000003\nwidth=1200\n"
+                 "height=900\nndisp=192\n"));
+  const std::string text = FormatCalib(c);
+  ASSERT_OK_AND_ASSIGN(const Calib back, ParseCalib(text));
+  EXPECT_EQ(back.fy, 1e-7);
+  EXPECT_EQ(back.doffs, 1234.56789);
+  EXPECT_EQ(back.baseline_mm, 3e-7);
+  EXPECT_EQ(FormatCalib(back), text);
 }
 
 TEST(MiddleburyTest, BadCalibNamesTheKey) {
