@@ -41,7 +41,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       pipeline::JsonRunStore::Parse(text, "/session/pipeline_state.json");
   if (state.ok()) {
     for (const std::string& step : state->StepNames()) {
-      for (const pipeline::Artifact& artifact : state->Entry(step)->second) {
+      const auto entry = state->Entry(step);
+      FUZZ_CHECK(entry.has_value());
+      for (const pipeline::Artifact& artifact : entry->second) {
         CheckRelative(artifact.path);
       }
     }
