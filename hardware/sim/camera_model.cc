@@ -14,6 +14,17 @@
 #include "hardware/sim/noise.h"
 
 namespace hdrstereo::sim {
+namespace {
+
+// The signal as a fraction of full well, in [0, 1]: clipped at full well
+// (+inf included); a negative value (read noise) and NaN read as 0, so that
+// what indexes a table or is rounded to an integer is always in range.
+double WellFraction(float electrons, double full_well) {
+  const double x = electrons / full_well;
+  return x > 0 ? std::min(x, 1.0) : 0.0;
+}
+
+}  // namespace
 
 cv::Mat ExposeSensor(const cv::Mat& radiance, const SensorModel& sensor,
                      const ExposureSettings& settings, uint64_t noise_seed) {
@@ -51,7 +62,9 @@ cv::Mat ExposeSensor(const cv::Mat& radiance, const SensorModel& sensor,
             }
             for (int c = 0; c < 3; ++c) {
               double e = static_cast<double>(in[x][c]) * gain;
-              if (noisy) {
+              // Noise on an infinite signal (a point light touching a
+              // surface) would make it inf - inf = NaN: it stays saturated.
+              if (noisy && std::isfinite(e)) {
                 double sigma2 = sensor.read_noise_e * sensor.read_noise_e;
                 if (sensor.shot_noise) sigma2 += e;
                 e += std::sqrt(sigma2) * n[c];
@@ -90,7 +103,7 @@ cv::Mat Digitize(const cv::Mat& electrons, const SensorModel& sensor,
       uint8_t* o8 = out.ptr<uint8_t>(y);
       uint16_t* o16 = out.ptr<uint16_t>(y);
       for (int i = 0; i < n; ++i) {
-        const double x = std::clamp(in[i] / full_well, 0.0, 1.0);
+        const double x = WellFraction(in[i], full_well);
         const uint16_t v = lut[static_cast<int>(std::lround(x * kSteps))];
         if (bits == 8) {
           o8[i] = static_cast<uint8_t>(v);
@@ -112,8 +125,8 @@ cv::Mat MosaicBayer(const cv::Mat& electrons, const SensorModel& sensor) {
     for (int x = 0; x < electrons.cols; ++x) {
       // BGR channel index: red = 2, green = 1, blue = 0.
       const int c = (y % 2 == 0) ? (x % 2 == 0 ? 2 : 1) : (x % 2 == 0 ? 1 : 0);
-      const double v = std::clamp(in[x][c] / sensor.full_well_e, 0.0, 1.0) *
-                       sensor.raw_white_level;
+      const double v =
+          WellFraction(in[x][c], sensor.full_well_e) * sensor.raw_white_level;
       out[x] = static_cast<uint16_t>(std::lround(v));
     }
   }

@@ -26,19 +26,21 @@ struct ExposureSettings {
 };
 
 // Signal in electrons (CV_32FC3, BGR), noise included, not yet clipped.
-// `noise_seed` selects the noise realisation.
+// `noise_seed` selects the noise realisation; an infinite radiance stays
+// +inf (no noise is added to it).
 cv::Mat ExposeSensor(const cv::Mat& radiance, const SensorModel& sensor,
                      const ExposureSettings& settings, uint64_t noise_seed);
 
 // Full-well clipping, response curve and quantisation. bits == 8 uses
 // sensor.response (CV_8UC3); bits == 16 uses sensor.raw_response
-// (CV_16UC3, linear by default). A pixel at or above full well is exactly
-// 255 / 65535.
+// (CV_16UC3, linear by default). A pixel at or above full well (+inf
+// included) is exactly 255 / 65535; a value below 0 electrons (read noise)
+// or NaN is read as 0 electrons, as if no light had reached the pixel.
 cv::Mat Digitize(const cv::Mat& electrons, const SensorModel& sensor, int bits);
 
-// RGGB Bayer mosaic of the clipped electrons, linear, 0 .. raw_white_level
-// (CV_16UC1). Pixel (x, y) keeps red for even x and y, blue for odd x and y,
-// green otherwise.
+// RGGB Bayer mosaic of the electrons, clipped as Digitize clips them,
+// linear, 0 .. raw_white_level (CV_16UC1). Pixel (x, y) keeps red for even x
+// and y, blue for odd x and y, green otherwise.
 cv::Mat MosaicBayer(const cv::Mat& electrons, const SensorModel& sensor);
 
 // A DNG (uncompressed 16-bit CFA, RGGB, white level from the sensor), written

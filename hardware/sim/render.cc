@@ -267,6 +267,11 @@ Rgb Renderer::Shade(const Hit& hit, const Vec3& ray_dir,
   for (const PointLight& light : scene_.lights) {
     const Vec3 l = light.position - hit.point;
     const double d2 = l.dot(l);
+    // A light lying on the surface lies in its tangent plane: every point
+    // around it sees it at grazing incidence (cos theta = 0) and gets
+    // nothing from it, and so does the point under it, where the direction
+    // is 0/0 (NaN, which the test below would let through).
+    if (!(d2 > 0)) continue;
     const double cos_theta = n.dot(l) / std::sqrt(d2);
     if (cos_theta <= 0) continue;
     if (Blocked(origin, light.position, /*shadow_casters_only=*/true)) continue;

@@ -5,6 +5,7 @@
 #include <libraw/libraw.h>
 
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "hardware/sim/scene.h"
@@ -129,6 +130,62 @@ TEST(CameraModelTest, NoiseHasShotAndReadVariance) {
   const cv::Mat other = ExposeSensor(radiance, sensor, {0.01, 100}, 4);
   EXPECT_EQ(cv::norm(e, again, cv::NORM_INF), 0.0);
   EXPECT_GT(cv::norm(e, other, cv::NORM_INF), 0.0);
+}
+
+// Digitize and MosaicBayer take any float: below 0 electrons (read noise),
+// -inf and NaN read as 0 electrons, +inf as full well; nothing indexes the
+// response table or rounds out of range.
+TEST(CameraModelTest, NonFiniteAndNegativeElectronsDigitizeWithinRange) {
+  const SensorModel sensor = NoiseFree();
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  const float full_well = static_cast<float>(sensor.full_well_e);
+  // Pixel i holds values[i] in all three channels.
+  const std::vector<float> values = {std::numeric_limits<float>::quiet_NaN(),
+                                     -kInf,
+                                     -5.0f,
+                                     0.0f,
+                                     kInf,
+                                     2 * full_well};
+  const std::vector<int> expected_fraction = {0, 0, 0, 0, 1, 1};
+  cv::Mat e(1, static_cast<int>(values.size()), CV_32FC3);
+  for (size_t i = 0; i < values.size(); ++i) {
+    e.at<cv::Vec3f>(0, static_cast<int>(i)) = cv::Vec3f::all(values[i]);
+  }
+  for (int bits : {8, 16}) {
+    const int max_value = bits == 8 ? 255 : 65535;
+    cv::Mat v;
+    Digitize(e, sensor, bits).convertTo(v, CV_32S);
+    for (size_t i = 0; i < values.size(); ++i) {
+      EXPECT_EQ(v.at<cv::Vec3i>(0, static_cast<int>(i)),
+                cv::Vec3i::all(expected_fraction[i] * max_value))
+          << bits << " bits, electrons " << values[i];
+    }
+  }
+  const cv::Mat bayer = MosaicBayer(e, sensor);
+  for (size_t i = 0; i < values.size(); ++i) {
+    EXPECT_EQ(bayer.at<uint16_t>(0, static_cast<int>(i)),
+              expected_fraction[i] * sensor.raw_white_level)
+        << "electrons " << values[i];
+  }
+}
+
+// Noise on an infinite radiance would be inf - inf = NaN, a black pixel:
+// the pixel stays saturated.
+TEST(CameraModelTest, InfiniteRadianceSaturatesEvenWithNoise) {
+  SensorModel sensor;  // shot + read noise on
+  ASSERT_TRUE(sensor.shot_noise);
+  const cv::Mat radiance(
+      4, 4, CV_32FC3, cv::Scalar::all(std::numeric_limits<float>::infinity()));
+  const cv::Mat e = ExposeSensor(radiance, sensor, {1.0 / 125, 100}, 2);
+  cv::Mat v;
+  Digitize(e, sensor, 8).convertTo(v, CV_32S);
+  for (int y = 0; y < v.rows; ++y) {
+    for (int x = 0; x < v.cols; ++x) {
+      EXPECT_EQ(v.at<cv::Vec3i>(y, x), cv::Vec3i::all(255))
+          << "x=" << x << " y=" << y << " electrons "
+          << e.at<cv::Vec3f>(y, x)[0];
+    }
+  }
 }
 
 TEST(CameraModelTest, DngDecodesWithLibRawToTheSameMosaic) {

@@ -6,7 +6,9 @@
 #include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
+#include <string>
 
+#include "absl/strings/str_cat.h"
 #include "hardware/sim/sim_world.h"
 #include "tests/support/status_matchers.h"
 #include "tests/unit/sim/test_scenes.h"
@@ -218,6 +220,48 @@ TEST(RenderTest, ShadowedSceneHasProjectorShadowsInView) {
   const int n = on.rows * on.cols;
   EXPECT_GT(same, n / 50) << "at least 2% of the view in projector shadow";
   EXPECT_GT(brighter, n / 2) << "most of the view is lit by the projector";
+}
+
+// A point light lying on the wall, exactly where the centre pixel's ray
+// hits it (distance 0): the light meets the wall at grazing incidence
+// everywhere and adds nothing, not even at that point, where its direction
+// is 0/0. The frame is the ambient-only frame, finite, and digitizes to it.
+TEST(RenderTest, PointLightOnTheSurfaceAddsNothingAndStaysFinite) {
+  const auto scene_json = [](const std::string& lights) {
+    return absl::StrCat(
+        R"({"name": "touching", "seed": 5,
+            "camera": {"width": 161, "height": 121, "fx": 200, "fy": 200},
+            "ambient_lux": 50,
+            "objects": [{"name": "wall", "type": "plane",
+                         "center_mm": [0, 0, 1000], "normal": [0, 0, -1]}])",
+        lights, "}");
+  };
+  const Renderer touching(ParseOrDie(scene_json(
+      R"(, "lights": [{"position_mm": [0, 0, 1000], "intensity_cd": 1000}])")));
+  const Renderer ambient(ParseOrDie(scene_json("")));
+  ASSERT_EQ(touching.scene().lights.size(), 1u);
+  const View view = CameraView(touching.scene(), 0);
+  const RadianceFrame frame = touching.Render(view, cv::Mat());
+  ASSERT_EQ(frame.radiance.size(), cv::Size(161, 121));
+  // The centre pixel (cx = 80, cy = 60) sees the light's own position.
+  ASSERT_EQ(frame.object_id.at<uint16_t>(60, 80), 1);
+  ASSERT_EQ(frame.depth.at<float>(60, 80), 1000.0f);
+
+  cv::Point bad;
+  EXPECT_TRUE(cv::checkRange(frame.radiance, /*quiet=*/true, &bad))
+      << "non-finite radiance at x=" << bad.x << " y=" << bad.y;
+  const cv::Mat expected = ambient.Render(view, cv::Mat()).radiance;
+  EXPECT_EQ(cv::norm(frame.radiance, expected, cv::NORM_INF), 0.0);
+  // Lambertian: albedo 0.5 x 50 lux / pi.
+  EXPECT_NEAR(frame.radiance.at<cv::Vec3f>(60, 80)[1], 0.5 * 50 / M_PI, 1e-5);
+
+  const ExposureSettings settings{1.0 / 125, 100};
+  const cv::Mat image =
+      RenderFrame(touching, view, cv::Mat(), settings, /*noise_seed=*/1, 8);
+  const cv::Mat ambient_image =
+      RenderFrame(ambient, view, cv::Mat(), settings, /*noise_seed=*/1, 8);
+  EXPECT_EQ(cv::norm(image, ambient_image, cv::NORM_INF), 0.0);
+  EXPECT_GT(image.at<cv::Vec3b>(60, 80)[1], 0) << "the ambient light shows";
 }
 
 // The checkerboard scene is usable for calibration: OpenCV finds its 9 x 6
