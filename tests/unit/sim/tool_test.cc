@@ -57,7 +57,7 @@ TEST(ToolTest, RendersFrameAndTruthFiles) {
   }
   std::ifstream calib(dir / "out/calib.txt");
   std::string text((std::istreambuf_iterator<char>(calib)), {});
-  EXPECT_NE(text.find("baseline=100.0"), std::string::npos) << text;
+  EXPECT_NE(text.find("\nbaseline=100\n"), std::string::npos) << text;
 }
 
 TEST(ToolTest, BadSceneIsAUsageErrorNamingTheField) {
