@@ -2,8 +2,10 @@
 #include "processing/pipeline/session_files.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <system_error>
@@ -290,6 +292,13 @@ absl::StatusOr<Metric> MetricFromJson(const json& j, absl::string_view where) {
         {"bad_2", &m.bad_2},
         {"bad_4", &m.bad_4},
         {"coverage", &m.coverage}}) {
+    // JSON has no NaN or infinity: MetricsToJson writes a metric that could
+    // not be computed (NaN), or an infinite one, as null, read back as NaN.
+    ASSIGN_OR_RETURN(const json* number, Member(j, where, key, false));
+    if (number != nullptr && number->is_null()) {
+      *value = std::numeric_limits<double>::quiet_NaN();
+      continue;
+    }
     RETURN_IF_ERROR(
         ReadNumber(j, where, key, -kMaxNumber, kMaxNumber, value, false));
   }
@@ -507,8 +516,13 @@ absl::StatusOr<std::vector<Metric>> MetricsFromJson(absl::string_view text) {
 std::vector<Metric> SortMetrics(std::vector<Metric> metrics) {
   std::stable_sort(metrics.begin(), metrics.end(),
                    [](const Metric& a, const Metric& b) {
-                     return std::tie(a.ground_truth, a.rmse) <
-                            std::tie(b.ground_truth, b.rmse);
+                     // A NaN RMSE (not computed) goes last: compared as a
+                     // number it would break the strict weak order that
+                     // std::stable_sort needs.
+                     const bool a_nan = std::isnan(a.rmse);
+                     const bool b_nan = std::isnan(b.rmse);
+                     return std::tie(a.ground_truth, a_nan, a.rmse) <
+                            std::tie(b.ground_truth, b_nan, b.rmse);
                    });
   return metrics;
 }

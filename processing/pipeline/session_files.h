@@ -86,11 +86,14 @@ class JsonRunStore : public RunStore {
 // errors of io::ReadCalib, `in` unchanged.
 absl::Status ApplyCalib(const std::filesystem::path& path, SessionInput* in);
 
+// A NaN or infinite number is written as null (JSON has neither) and read
+// back as NaN: a metric that could not be computed.
 std::string MetricsToJson(const std::vector<Metric>& metrics);
 // DATA_LOSS "metrics.json: not a metrics file: ...".
 absl::StatusOr<std::vector<Metric>> MetricsFromJson(absl::string_view text);
 
-// Sorted by ground truth, then RMSE (the order tables show them in).
+// Sorted by ground truth, then RMSE (the order tables show them in), a NaN
+// RMSE last.
 std::vector<Metric> SortMetrics(std::vector<Metric> metrics);
 // The metrics as a Markdown table in SortMetrics order.
 std::string FormatMetrics(const std::vector<Metric>& metrics);

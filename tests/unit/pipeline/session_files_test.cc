@@ -10,7 +10,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -248,6 +250,64 @@ TEST(MetricsJsonTest, RoundTripAndTheTableInOrder) {
   EXPECT_THAT(
       MetricsFromJson("{\"rows\": []}"),
       StatusIs(absl::StatusCode::kDataLoss, HasSubstr("not a metrics file")));
+}
+
+// JSON has no NaN or infinity: a metric that could not be computed (NaN)
+// or an infinite one is written as null and read back as NaN, so that one
+// such number does not make the whole file unreadable. Infinity does not
+// come back as infinity.
+TEST(MetricsJsonTest, NonFiniteMetricsComeBackAsNaN) {
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  Metric odd = Row("ldr", "simulation", kNaN);
+  odd.mae = kInf;
+  odd.coverage = -kInf;
+  const std::vector<Metric> rows = {odd, Row("fused", "simulation", 0.75)};
+  const std::string text = MetricsToJson(rows);
+  EXPECT_THAT(text, HasSubstr("\"rmse\": null"));
+  EXPECT_THAT(text, HasSubstr("\"mae\": null"));
+  EXPECT_THAT(text, HasSubstr("\"coverage\": null"));
+  ASSERT_OK_AND_ASSIGN(const std::vector<Metric> back, MetricsFromJson(text));
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_EQ(back[0].method, "ldr");
+  EXPECT_TRUE(std::isnan(back[0].rmse)) << back[0].rmse;
+  EXPECT_TRUE(std::isnan(back[0].mae)) << back[0].mae;
+  EXPECT_TRUE(std::isnan(back[0].coverage)) << back[0].coverage;
+  EXPECT_DOUBLE_EQ(back[0].bad_1, 20);
+  EXPECT_DOUBLE_EQ(back[1].rmse, 0.75);
+  // Tables show them, the NaN RMSE last.
+  const std::vector<Metric> sorted = SortMetrics(back);
+  EXPECT_EQ(sorted[0].method, "fused");
+  EXPECT_EQ(sorted[1].method, "ldr");
+  EXPECT_THAT(FormatMetrics(back),
+              HasSubstr("| simulation | ldr | nan | nan | 40.0 | 20.0 | "
+                        "10.0 | 5.0 | nan |\n"));
+  // Any other type is still refused.
+  EXPECT_THAT(MetricsFromJson(R"({"metrics": [{"rmse": false}]})"),
+              StatusIs(absl::StatusCode::kDataLoss,
+                       "metrics.json: not a metrics file: metrics[0].rmse: "
+                       "expected a number"));
+}
+
+// A pipeline state file holding such a metric opens (it used to be
+// DATA_LOSS, which stopped every later run of the session).
+TEST(JsonRunStoreTest, AStateFileWithNonFiniteMetricsOpens) {
+  TempDir tmp;
+  const auto path = tmp / "state.json";
+  {
+    ASSERT_OK_AND_ASSIGN(JsonRunStore store, JsonRunStore::Open(path));
+    Metric odd =
+        Row("ldr", "simulation", std::numeric_limits<double>::quiet_NaN());
+    odd.bad_4 = std::numeric_limits<double>::infinity();
+    ASSERT_OK(store.RecordMetrics({odd}));
+  }
+  ASSERT_OK_AND_ASSIGN(const std::string text, io::ReadFileBytes(path));
+  EXPECT_THAT(text, HasSubstr("\"rmse\": null"));
+  ASSERT_OK_AND_ASSIGN(JsonRunStore store, JsonRunStore::Open(path));
+  ASSERT_EQ(store.metrics().size(), 1u);
+  EXPECT_TRUE(std::isnan(store.metrics()[0].rmse));
+  EXPECT_TRUE(std::isnan(store.metrics()[0].bad_4));
+  EXPECT_DOUBLE_EQ(store.metrics()[0].coverage, 99.5);
 }
 
 // A result.json as a node writes it: one step with one artifact at `path`.
