@@ -12,6 +12,7 @@
 #include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/ImfStdIO.h>
 #include <OpenEXR/ImfVersion.h>
+#include <stb_image.h>
 
 #include <algorithm>
 #include <bit>
@@ -20,6 +21,7 @@
 #include <cstring>
 #include <exception>
 #include <limits>
+#include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
@@ -455,22 +457,35 @@ absl::Status WriteRgbe(const std::filesystem::path& path,
 }
 
 absl::StatusOr<cv::Mat> ParseRgbe(absl::string_view bytes) {
-  if (!absl::StartsWith(bytes, "#?")) {
+  // stb_image, not OpenCV: OpenCV 4.6 decodes RGBE only from a temporary
+  // file and leaks that file's descriptor on every header or scanline error
+  // (one per malformed file, found by rgbe_fuzzer), which a long-running
+  // daemon cannot afford. stb_image reads from memory.
+  const auto* data = reinterpret_cast<const stbi_uc*>(bytes.data());
+  if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max()) ||
+      !stbi_is_hdr_from_memory(data, static_cast<int>(bytes.size()))) {
     return absl::InvalidArgumentError(
         absl::StrCat("not a Radiance RGBE file: it starts ",
                      QuoteInput(bytes.substr(0, 16))));
   }
-  absl::StatusOr<cv::Mat> img =
-      DecodeWithOpenCv(bytes, cv::IMREAD_ANYDEPTH | cv::IMREAD_COLOR);
-  if (!img.ok()) {
+  const int length = static_cast<int>(bytes.size());
+  int width = 0, height = 0, channels = 0;
+  if (!stbi_info_from_memory(data, length, &width, &height, &channels)) {
     return absl::InvalidArgumentError(
-        absl::StrCat("corrupt RGBE file: ", img.status().message()));
+        absl::StrCat("corrupt RGBE file: ", stbi_failure_reason()));
   }
-  if (img->depth() != CV_32F) {
+  RETURN_IF_ERROR(ImageBytes("RGBE", width, height, 3, sizeof(float)).status());
+  std::unique_ptr<float, decltype(&stbi_image_free)> pixels(
+      stbi_loadf_from_memory(data, length, &width, &height, &channels, 3),
+      &stbi_image_free);
+  if (pixels == nullptr) {
     return absl::InvalidArgumentError(
-        "corrupt RGBE file: OpenCV decoded it as another format");
+        absl::StrCat("corrupt RGBE file: ", stbi_failure_reason()));
   }
-  return img;
+  cv::Mat bgr;
+  cv::cvtColor(cv::Mat(height, width, CV_32FC3, pixels.get()), bgr,
+               cv::COLOR_RGB2BGR);
+  return bgr;
 }
 
 absl::StatusOr<cv::Mat> ReadRgbe(const std::filesystem::path& path) {

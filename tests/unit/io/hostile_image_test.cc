@@ -19,7 +19,9 @@
 
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <vector>
@@ -335,17 +337,48 @@ TEST(HostileExrTest, EveryPrefixOfAValidFileIsAnError) {
 
 // --- RGBE and the formats OpenCV decodes ------------------------------------
 
-TEST(HostileRgbeTest, OpenCvRefusesDimensionsAboveItsLimits) {
+TEST(HostileRgbeTest, DimensionsAboveTheLimitsAreRefusedBeforeDecoding) {
   const std::string hdr =
       "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2000000 +X 8\n" +
       std::string(64, '\x01');
   EXPECT_THAT(ParseRgbe(hdr),
-              StatusIs(kInvalid, AllOf(HasSubstr("corrupt RGBE file: cannot "
-                                                 "decode"),
-                                       HasSubstr("CV_IO_MAX_IMAGE_HEIGHT"))));
+              StatusIs(kInvalid, HasSubstr("RGBE height: 2000000 is outside "
+                                           "[1, 1048576]")));
   EXPECT_THAT(ParseRgbe("P6\n1 1\n255\n\x01\x02\x03"),
               StatusIs(kInvalid, HasSubstr("not a Radiance RGBE file: it "
                                            "starts \"P6\\n1 1")));
+}
+
+int OpenDescriptors() {
+  return static_cast<int>(
+      std::distance(std::filesystem::directory_iterator("/proc/self/fd"),
+                    std::filesystem::directory_iterator()));
+}
+
+// Found by rgbe_fuzzer: OpenCV 4.6 decoded RGBE through a temporary file
+// and leaked its descriptor on every malformed header or scanline, so a
+// daemon reading other labs' files ran out of descriptors. Malformed files
+// now cost nothing but their error.
+TEST(HostileRgbeTest, MalformedFilesLeakNoDescriptor) {
+  // A run-length encoded file: rows of 12 pixels or more are RLE in RGBE.
+  std::vector<uchar> encoded;
+  ASSERT_TRUE(cv::imencode(
+      ".hdr", cv::Mat(3, 12, CV_32FC3, cv::Scalar(1, 2, 3)), encoded));
+  const std::string good(encoded.begin(), encoded.end());
+  ASSERT_OK(ParseRgbe(good).status());
+  const std::string malformed[] = {
+      "#?RADIANCE\n\n-Y 3 +X 12\n" + std::string(40, '\0'),        // no FORMAT
+      good.substr(0, good.size() - 20) + std::string(20, '\xff'),  // scanline
+      good.substr(0, good.size() / 2),                             // truncated
+  };
+  const int before = OpenDescriptors();
+  for (int i = 0; i < 50; ++i) {
+    for (const std::string& bytes : malformed) {
+      EXPECT_THAT(ParseRgbe(bytes),
+                  StatusIs(kInvalid, HasSubstr("corrupt RGBE file")));
+    }
+  }
+  EXPECT_EQ(OpenDescriptors(), before);
 }
 
 // A PNG chunk with its CRC.
