@@ -14,6 +14,7 @@
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
 #include "daemon/processing/command_runner.h"
+#include "processing/base/input_limits.h"
 #include "processing/base/status_macros.h"
 
 namespace hdrstereo::slurm {
@@ -27,6 +28,9 @@ constexpr absl::Duration kCommandTimeout = absl::Seconds(30);
 // How long a scancelled job may take to leave the node.
 constexpr absl::Duration kCancelWait = absl::Seconds(60);
 constexpr size_t kLogTailBytes = 2000;
+// The most bytes of each output stream a failed command's error quotes: its
+// end, where a tool says what went wrong (RunCommand keeps up to 16 MiB).
+constexpr size_t kOutputTailBytes = 2000;
 
 // What squeue and scontrol say of a job id the controller does not know.
 bool Forgotten(const absl::Status& status) {
@@ -47,9 +51,17 @@ class Cluster {
     ASSIGN_OR_RETURN(process::CommandResult r,
                      process::RunCommand(argv, env, kCommandTimeout));
     if (r.exit_code != 0) {
-      return absl::UnavailableError(
-          absl::StrCat(argv[0], " failed (exit ", r.exit_code,
-                       "): ", absl::StripAsciiWhitespace(r.err + r.out)));
+      std::string message =
+          absl::StrCat(argv[0], " failed (exit ", r.exit_code, "): ",
+                       QuoteInputTail(absl::StripTrailingAsciiWhitespace(r.err),
+                                      kOutputTailBytes, r.err_dropped));
+      if (!r.out.empty()) {
+        absl::StrAppend(
+            &message, "; stdout: ",
+            QuoteInputTail(absl::StripTrailingAsciiWhitespace(r.out),
+                           kOutputTailBytes, r.out_dropped));
+      }
+      return absl::UnavailableError(message);
     }
     return r;
   }
@@ -242,6 +254,13 @@ absl::StatusOr<pipeline::JobResult> RunOnSlurm(
   }
 
   absl::StatusOr<pipeline::JobResult> result = pipeline::ReadJobResult(job_dir);
+  if (absl::IsDataLoss(result.status())) {
+    // There is a result, and it is not one we accept (damaged, or naming a
+    // file outside the session): nothing of it is recorded.
+    return absl::DataLossError(
+        absl::StrCat("Slurm job ", id, " ended ", Describe(state),
+                     "; its result was refused: ", result.status().message()));
+  }
   if (!result.ok()) {
     return absl::UnavailableError(
         absl::StrCat("Slurm job ", id, " ended ", Describe(state),

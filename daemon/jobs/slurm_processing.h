@@ -26,10 +26,14 @@ namespace hdrstereo::slurm {
 // are verified (DATA_LOSS otherwise). A run that failed returns its own
 // status and message; a batch job that ended without a result (killed,
 // cancelled on the cluster, out of time) is UNAVAILABLE with Slurm's state
-// and reason and the tail of the job's log. A cancelled job is scancelled
-// (CANCELLED); when the daemon stops (ABORTED) the batch job is left to
-// run and the next start re-attaches. A controller that cannot be reached
-// suspends the job until it answers again.
+// and reason and the tail of the job's log; one whose result is refused
+// (pipeline::ReadJobResult's DATA_LOSS: damaged, or naming a file outside
+// the session) is DATA_LOSS "Slurm job N ended STATE; its result was
+// refused: <why>". A Slurm tool that fails is UNAVAILABLE quoting the last
+// 2000 bytes of its stderr and stdout (QuoteInputTail). A cancelled job is
+// scancelled (CANCELLED); when the daemon stops (ABORTED) the batch job is
+// left to run and the next start re-attaches. A controller that cannot be
+// reached suspends the job until it answers again.
 absl::StatusOr<pipeline::JobResult> RunOnSlurm(
     const SlurmOptions& options, const pipeline::JobRequest& request,
     jobs::JobContext& context);

@@ -38,6 +38,15 @@ std::string QuoteInput(absl::string_view text) {
                       "\"... (", text.size(), " bytes)");
 }
 
+std::string QuoteInputTail(absl::string_view text, size_t max_bytes,
+                           uint64_t bytes_before) {
+  const size_t cut = text.size() > max_bytes ? text.size() - max_bytes : 0;
+  const std::string quoted =
+      absl::StrCat("\"", absl::CHexEscape(text.substr(cut)), "\"");
+  if (cut == 0 && bytes_before == 0) return quoted;
+  return absl::StrCat("(", bytes_before + cut, " bytes left out) ...", quoted);
+}
+
 absl::Status CheckRange(absl::string_view field, int64_t value, int64_t min,
                         int64_t max) {
   if (value < min || value > max) {

@@ -5,7 +5,7 @@
 // an explicit limit, with overflow-checked arithmetic, before anything is
 // allocated or copied, and the error names the field, its value and the
 // limit. Error messages quote what they received through QuoteInput, which
-// keeps only a bounded, escaped prefix.
+// keeps only a bounded, escaped prefix (QuoteInputTail: the end).
 //
 //   RETURN_IF_ERROR(CheckRange("PFM width", width, 1, kMaxImageSide));
 //   ASSIGN_OR_RETURN(size_t bytes,
@@ -44,6 +44,14 @@ inline constexpr size_t kMaxQuotedBytes = 64;
 // `text` for an error message: at most kMaxQuotedBytes of it, C-escaped, in
 // double quotes, followed by "... (N bytes)" when it was cut.
 std::string QuoteInput(absl::string_view text);
+
+// The end of `text`, for an error message about received text whose end is
+// what matters (a failed command's output): at most `max_bytes` of it,
+// C-escaped, in double quotes, preceded by "(N bytes left out) ..." when
+// anything was cut, N counting `bytes_before`: bytes that came before
+// `text` and were already dropped (e.g. by a reader that keeps a tail).
+std::string QuoteInputTail(absl::string_view text, size_t max_bytes,
+                           uint64_t bytes_before = 0);
 
 // INVALID_ARGUMENT "<field>: <value> is outside [<min>, <max>]" unless
 // min <= value <= max.

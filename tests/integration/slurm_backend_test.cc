@@ -4,8 +4,9 @@
 // Slurm cluster (tests/support/slurm_cluster.h): a simulated session
 // processed as a batch job records the artifacts a local run records (same
 // paths and sha256), `jobs cancel` scancels it and records nothing, a
-// daemon restart re-attaches to the batch job, and a frame missing on the
-// node fails the job with the pipeline's message, and `hdrstereo process
+// daemon restart re-attaches to the batch job, a frame missing on the
+// node fails the job with the pipeline's message, a node's result naming a
+// file outside the session is refused, and `hdrstereo process
 // --sessions GLOB --watch` reprocesses several sessions. Skips, saying why,
 // when not root or Slurm is not installed.
 #include <gmock/gmock.h>
@@ -70,6 +71,31 @@ class SlurmBackendTest : public ::hdrstereo::testing::DaemonFixture {
     const fs::path script = dir_ / "slow-hdrstereo-proc";
     std::ofstream(script) << "#!/bin/sh\nsleep " << delay_s << "\nexec "
                           << HDRSTEREO_PROC << " \"$@\"\n";
+    fs::permissions(script, fs::perms::owner_all | fs::perms::group_read |
+                                fs::perms::group_exec | fs::perms::others_read |
+                                fs::perms::others_exec);
+    return script.string();
+  }
+
+  // A hostile node: instead of running the pipeline it writes a result.json
+  // that names `artifact_path` as an artifact of a step that succeeded.
+  std::string ProcWritingAResultWith(const std::string& artifact_path) {
+    using json = nlohmann::json;
+    const json artifact{{"path", artifact_path}};
+    const json step{{"step", "hdr"},
+                    {"input_hash", "h1"},
+                    {"computed", true},
+                    {"artifacts", json::array({artifact})}};
+    const json result{
+        {"code", "OK"}, {"message", ""}, {"steps", json::array({step})}};
+    const fs::path script = dir_ / "hostile-hdrstereo-proc";
+    std::ofstream(script) << R"(#!/bin/sh
+while [ $# -gt 0 ]; do
+  if [ "$1" = --job-dir ]; then job_dir=$2; fi
+  shift
+done
+cat > "$job_dir/result.json" <<'EOF'
+)" << result.dump() << "\nEOF\n";
     fs::permissions(script, fs::perms::owner_all | fs::perms::group_read |
                                 fs::perms::group_exec | fs::perms::others_read |
                                 fs::perms::others_exec);
@@ -268,6 +294,31 @@ TEST_F(SlurmBackendTest, AFrameMissingOnTheNodeFailsWithThePipelinesMessage) {
   EXPECT_THAT(error, HasSubstr(absl::StrCat("frame ", frame, " is missing")));
   EXPECT_EQ(SlurmState(ClusterJobOf(job)), "FAILED");
   EXPECT_EQ(Sql("SELECT count(*) FROM artifacts"), "0");
+}
+
+// A node's result naming a file outside the session is refused, says so
+// (not "without a result"), and nothing of it is recorded.
+TEST_F(SlurmBackendTest, AResultNamingAPathOutsideTheSessionIsRefused) {
+  StartOn("slurm", ProcWritingAResultWith("../../etc/passwd"));
+  CaptureStereo("p");
+  const int64_t job = SubmitProcessing("p");
+  ASSERT_TRUE(WaitForJobState(job, "failed", kJobTimeout)) << Events(job);
+  const int64_t slurm_job = ClusterJobOf(job);
+  EXPECT_EQ(SlurmState(slurm_job), "COMPLETED");
+  const std::string error =
+      Sql(absl::StrCat("SELECT error FROM jobs WHERE id = ", job));
+  EXPECT_THAT(error, HasSubstr(absl::StrCat(
+                         "Slurm job ", slurm_job,
+                         " ended COMPLETED; its result was refused: ")));
+  EXPECT_THAT(error,
+              HasSubstr(absl::StrCat(
+                  "/jobs/", job,
+                  "/result.json: not a pipeline job result: "
+                  "steps[0].artifacts[0].path: path \"../../etc/passwd\" "
+                  "has a \"..\" component")));
+  EXPECT_THAT(error, Not(HasSubstr("without a result")));
+  EXPECT_EQ(Sql("SELECT count(*) FROM artifacts"), "0");
+  EXPECT_EQ(Sql("SELECT count(*) FROM metrics"), "0");
 }
 
 TEST_F(SlurmBackendTest, BatchReprocessingOfFourSessionsFromTheCli) {

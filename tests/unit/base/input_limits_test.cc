@@ -23,6 +23,26 @@ TEST(QuoteInputTest, LongTextKeepsABoundedPrefixAndItsSize) {
   EXPECT_EQ(quoted.substr(0, 5), "\"xxxx");
 }
 
+TEST(QuoteInputTailTest, ShortTextIsQuotedWholeAndEscaped) {
+  EXPECT_EQ(QuoteInputTail("error: \x1b[2J\n", 100), "\"error: \\x1b[2J\\n\"");
+  EXPECT_EQ(QuoteInputTail("", 100), "\"\"");
+}
+
+TEST(QuoteInputTailTest, LongTextKeepsABoundedTailAndSaysWhatWasLeftOut) {
+  const std::string huge = std::string(2'000'000, 'x') + "sbatch: error: ok";
+  const std::string quoted = QuoteInputTail(huge, 17);
+  EXPECT_EQ(quoted, "(2000000 bytes left out) ...\"sbatch: error: ok\"");
+  EXPECT_EQ(QuoteInputTail("abcdef", 0), "(6 bytes left out) ...\"\"");
+}
+
+TEST(QuoteInputTailTest, BytesAlreadyDroppedAreCounted) {
+  // A reader kept the last 4 bytes of a 1004-byte stream.
+  EXPECT_EQ(QuoteInputTail("tail", 100, 1000),
+            "(1000 bytes left out) ...\"tail\"");
+  EXPECT_EQ(QuoteInputTail("0123456789", 4, 1000),
+            "(1006 bytes left out) ...\"6789\"");
+}
+
 TEST(CheckRangeTest, NamesTheFieldTheValueAndTheLimits) {
   EXPECT_TRUE(CheckRange("width", 5, 1, 10).ok());
   const absl::Status s = CheckRange("PFM width", -3, 1, 1048576);
