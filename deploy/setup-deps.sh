@@ -19,7 +19,7 @@ packages=(
   libgphoto2-dev libserialport-dev libx11-dev libxrandr-dev
   # processing
   libopencv-dev libopencv-contrib-dev libraw-dev libtiff-dev libopenexr-dev
-  libmaxflow-dev zlib1g-dev libstb-dev
+  libmaxflow-dev zlib1g-dev
   # daemon and tools
   libsqlite3-dev sqlite3 libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev
   # Slurm processing backend: client tools; the tests' single-node cluster

@@ -12,7 +12,6 @@
 #include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/ImfStdIO.h>
 #include <OpenEXR/ImfVersion.h>
-#include <stb_image.h>
 
 #include <algorithm>
 #include <bit>
@@ -31,6 +30,7 @@
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
 #include "processing/base/input_limits.h"
 #include "processing/base/status_macros.h"
 #include "processing/io/atomic_file.h"
@@ -320,9 +320,9 @@ absl::StatusOr<cv::Mat> ParsePfm(absl::string_view bytes) {
   }
   ASSIGN_OR_RETURN(const size_t pixel_bytes,
                    ImageBytes("PFM", width, height, channels, sizeof(float)));
-  // Exactly one whitespace character ends the header.
-  if (at == bytes.size() ||
-      !std::isspace(static_cast<unsigned char>(bytes[at]))) {
+  // Exactly one whitespace character ends the header (NextToken stopped at
+  // it, or at the end of the data).
+  if (at == bytes.size()) {
     return BadPfm("the header does not end in whitespace");
   }
   ++at;
@@ -456,35 +456,135 @@ absl::Status WriteRgbe(const std::filesystem::path& path,
       absl::string_view(reinterpret_cast<const char*>(buf.data()), buf.size()));
 }
 
+// Why not a library: OpenCV 4.6 decodes RGBE only through a temporary file
+// and leaks that file's descriptor on every malformed header or scanline
+// (found by rgbe_fuzzer: a daemon reading other labs' files runs out of
+// descriptors), and Debian's stb_image loops forever on a run of length 0
+// and reads past the end of a flat file as zeros. The format is small.
 absl::StatusOr<cv::Mat> ParseRgbe(absl::string_view bytes) {
-  // stb_image, not OpenCV: OpenCV 4.6 decodes RGBE only from a temporary
-  // file and leaks that file's descriptor on every header or scanline error
-  // (one per malformed file, found by rgbe_fuzzer), which a long-running
-  // daemon cannot afford. stb_image reads from memory.
-  const auto* data = reinterpret_cast<const stbi_uc*>(bytes.data());
-  if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max()) ||
-      !stbi_is_hdr_from_memory(data, static_cast<int>(bytes.size()))) {
+  auto corrupt = [](absl::string_view why) {
+    return absl::InvalidArgumentError(absl::StrCat("corrupt RGBE file: ", why));
+  };
+  if (!absl::StartsWith(bytes, "#?")) {
     return absl::InvalidArgumentError(
         absl::StrCat("not a Radiance RGBE file: it starts ",
                      QuoteInput(bytes.substr(0, 16))));
   }
-  const int length = static_cast<int>(bytes.size());
-  int width = 0, height = 0, channels = 0;
-  if (!stbi_info_from_memory(data, length, &width, &height, &channels)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("corrupt RGBE file: ", stbi_failure_reason()));
+  // The header: lines up to an empty one, then the resolution line.
+  constexpr size_t kMaxHeaderBytes = 64 * 1024;
+  size_t at = 0;
+  bool format = false;
+  while (true) {
+    const size_t newline = bytes.find('\n', at);
+    if (newline == absl::string_view::npos || newline > kMaxHeaderBytes) {
+      return corrupt(absl::StrCat("no end of the header in its first ",
+                                  kMaxHeaderBytes, " bytes"));
+    }
+    const absl::string_view line = bytes.substr(at, newline - at);
+    at = newline + 1;
+    if (line.empty()) break;
+    if (absl::StartsWith(line, "FORMAT=")) {
+      if (line != "FORMAT=32-bit_rle_rgbe") {
+        return corrupt(absl::StrCat("unsupported ", QuoteInput(line)));
+      }
+      format = true;
+    }
+  }
+  if (!format) return corrupt("no FORMAT=32-bit_rle_rgbe in the header");
+  const size_t newline = bytes.find('\n', at);
+  const absl::string_view resolution =
+      bytes.substr(at, newline == absl::string_view::npos ? 64 : newline - at);
+  const std::vector<absl::string_view> parts =
+      absl::StrSplit(resolution, ' ', absl::SkipEmpty());
+  int64_t height = 0, width = 0;
+  if (newline == absl::string_view::npos || parts.size() != 4 ||
+      parts[0] != "-Y" || parts[2] != "+X" ||
+      !absl::SimpleAtoi(parts[1], &height) ||
+      !absl::SimpleAtoi(parts[3], &width)) {
+    return corrupt(absl::StrCat("the resolution line is not \"-Y H +X W\": ",
+                                QuoteInput(resolution)));
   }
   RETURN_IF_ERROR(ImageBytes("RGBE", width, height, 3, sizeof(float)).status());
-  std::unique_ptr<float, decltype(&stbi_image_free)> pixels(
-      stbi_loadf_from_memory(data, length, &width, &height, &channels, 3),
-      &stbi_image_free);
-  if (pixels == nullptr) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("corrupt RGBE file: ", stbi_failure_reason()));
+  const absl::string_view data = bytes.substr(newline + 1);
+  // The least a scanline takes: a run-length encoded one four 2-byte runs
+  // of at most 127 pixels per channel after its 4-byte mark; a flat one 4
+  // bytes a pixel. A file shorter than that for every scanline is refused
+  // before the image is allocated.
+  const bool encodable = width >= 8 && width <= 0x7fff;
+  const int64_t least =
+      encodable ? 4 + 4 * 2 * ((width + 126) / 127) : 4 * width;
+  if (static_cast<int64_t>(data.size()) / height < least) {
+    return corrupt(absl::StrCat("truncated: ", height, " scanlines of ", width,
+                                " pixels need at least ", least * height,
+                                " bytes, the file has ", data.size()));
   }
-  cv::Mat bgr;
-  cv::cvtColor(cv::Mat(height, width, CV_32FC3, pixels.get()), bgr,
-               cv::COLOR_RGB2BGR);
+  cv::Mat rgbe(static_cast<int>(height), static_cast<int>(width), CV_8UC4);
+  size_t pos = 0;
+  auto next = [&](uint8_t* out) {
+    if (pos >= data.size()) return false;
+    *out = static_cast<uint8_t>(data[pos++]);
+    return true;
+  };
+  bool flat = !encodable;
+  for (int y = 0; y < rgbe.rows; ++y) {
+    uint8_t* row = rgbe.ptr<uint8_t>(y);
+    if (!flat) {
+      uint8_t mark[4];
+      for (uint8_t& m : mark) {
+        if (!next(&m)) return corrupt(absl::StrCat("truncated at row ", y));
+      }
+      if (mark[0] != 2 || mark[1] != 2 || (mark[2] & 0x80) != 0) {
+        // Not run-length encoded: as Ward's reader, the rest is flat, and
+        // these four bytes are its first pixel.
+        flat = true;
+        pos -= 4;
+      } else if (((mark[2] << 8) | mark[3]) != width) {
+        return corrupt(absl::StrCat("row ", y, " has a scanline of ",
+                                    (mark[2] << 8) | mark[3], " pixels, not ",
+                                    width));
+      }
+    }
+    if (flat) {
+      if (data.size() - pos < static_cast<size_t>(4 * width)) {
+        return corrupt(absl::StrCat("truncated at row ", y));
+      }
+      std::memcpy(row, data.data() + pos, 4 * width);
+      pos += 4 * width;
+      continue;
+    }
+    for (int channel = 0; channel < 4; ++channel) {
+      for (int x = 0; x < width;) {
+        uint8_t count = 0, value = 0;
+        if (!next(&count)) return corrupt(absl::StrCat("truncated at row ", y));
+        // Above 128: a run of count - 128 copies of the next byte; else
+        // count bytes as they are.
+        const bool run = count > 128;
+        if (run) count -= 128;
+        if (count == 0 || count > width - x) {
+          return corrupt(absl::StrCat("row ", y, ": a run of ", int{count},
+                                      " at pixel ", x, " of ", width));
+        }
+        for (const int end = x + count; x < end; ++x) {
+          if ((!run || x == end - count) && !next(&value)) {
+            return corrupt(absl::StrCat("truncated at row ", y));
+          }
+          row[4 * x + channel] = value;
+        }
+      }
+    }
+  }
+  // RGBE to float as Ward's reader: mantissa x 2^(exponent - 136).
+  cv::Mat bgr(rgbe.size(), CV_32FC3);
+  for (int y = 0; y < rgbe.rows; ++y) {
+    const uint8_t* in = rgbe.ptr<uint8_t>(y);
+    float* out = bgr.ptr<float>(y);
+    for (int x = 0; x < rgbe.cols; ++x, in += 4, out += 3) {
+      const float f = in[3] == 0 ? 0.0f : std::ldexp(1.0f, in[3] - 136);
+      out[0] = in[2] * f;
+      out[1] = in[1] * f;
+      out[2] = in[0] * f;
+    }
+  }
   return bgr;
 }
 

@@ -47,7 +47,11 @@ absl::StatusOr<cv::Mat> ReadExr(const std::filesystem::path& path);
 
 // Radiance RGBE (.hdr). Colour (CV_32FC3) only; one channel is replicated.
 absl::Status WriteRgbe(const std::filesystem::path& path, const cv::Mat& image);
-// Decoded by OpenCV, which refuses dimensions above its limits.
+// Reads Ward's format as his reference reader does (a "#?" first line,
+// FORMAT=32-bit_rle_rgbe, "-Y H +X W", scanlines run-length encoded or
+// flat), returning BGR. The size is checked against the image limits, and
+// the data must be long enough to hold H such scanlines, before the image
+// is allocated; every run stays inside its scanline.
 absl::StatusOr<cv::Mat> ParseRgbe(absl::string_view bytes);
 absl::StatusOr<cv::Mat> ReadRgbe(const std::filesystem::path& path);
 

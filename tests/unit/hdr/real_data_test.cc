@@ -19,6 +19,7 @@
 #include <cmath>
 #include <filesystem>
 #include <iostream>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/photo.hpp>
 #include <vector>
@@ -187,6 +188,11 @@ TEST(RealDataTest, DebevecChurchResponseMergeAndAgreementWithDebevec) {
   ASSERT_OK_AND_ASSIGN(cv::Mat reference,
                        io::ReadRgbe(dir / "reference-radiance.hdr"));
   ASSERT_EQ(reference.size(), stack.images[0].size());
+  // Our RGBE reader against OpenCV's on Debevec's own file: the same floats.
+  const cv::Mat peer = cv::imread((dir / "reference-radiance.hdr").string(),
+                                  cv::IMREAD_ANYDEPTH | cv::IMREAD_COLOR);
+  ASSERT_EQ(peer.type(), CV_32FC3);
+  EXPECT_EQ(cv::norm(reference, peer, cv::NORM_INF), 0.0);
 
   // The registration border: pure blue, per image.
   cv::Mat use(stack.images[0].size(), CV_8U, cv::Scalar(255));

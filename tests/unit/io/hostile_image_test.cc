@@ -349,6 +349,106 @@ TEST(HostileRgbeTest, DimensionsAboveTheLimitsAreRefusedBeforeDecoding) {
                                            "starts \"P6\\n1 1")));
 }
 
+// OpenCV's RGBE decoder as the peer: on well-formed files, run-length
+// encoded (width 8 .. 32767) and flat (narrower), ours gives the same
+// floats exactly.
+TEST(RgbeReaderTest, DecodesWhatOpenCvDecodesIdentically) {
+  cv::RNG rng(7);
+  for (const cv::Size size :
+       {cv::Size(5, 4), cv::Size(12, 3), cv::Size(300, 7)}) {
+    cv::Mat radiance(size, CV_32FC3);
+    rng.fill(radiance, cv::RNG::UNIFORM, 0.0, 50.0);
+    radiance(cv::Rect(0, 0, size.width, 1)).setTo(cv::Scalar(2, 2, 2));  // runs
+    std::vector<uchar> encoded;
+    ASSERT_TRUE(cv::imencode(".hdr", radiance, encoded));
+    const cv::Mat peer =
+        cv::imdecode(encoded, cv::IMREAD_ANYDEPTH | cv::IMREAD_COLOR);
+    ASSERT_OK_AND_ASSIGN(
+        const cv::Mat ours,
+        ParseRgbe(std::string(encoded.begin(), encoded.end())));
+    ASSERT_EQ(ours.type(), CV_32FC3);
+    ASSERT_EQ(ours.size(), size);
+    EXPECT_EQ(cv::norm(ours, peer, cv::NORM_INF), 0.0) << size;
+  }
+}
+
+// Refused, each before anything of the image's size is allocated or read
+// past the end: what hung or overran Debian's stb_image, and what OpenCV
+// leaked a descriptor on.
+TEST(RgbeReaderTest, HostileFilesAreRefusedNamingWhy) {
+  std::vector<uchar> encoded;
+  ASSERT_TRUE(cv::imencode(
+      ".hdr", cv::Mat(3, 12, CV_32FC3, cv::Scalar(1, 2, 3)), encoded));
+  const std::string good(encoded.begin(), encoded.end());
+  const size_t data = good.find("+X 12\n") + 6;
+  // A count of 0 (stb_image loops forever on it).
+  std::string zero_run = good;
+  zero_run[data + 4] = '\0';
+  EXPECT_THAT(ParseRgbe(zero_run),
+              StatusIs(kInvalid, HasSubstr("row 0: a run of 0 at pixel 0")));
+  // A run longer than the rest of its scanline.
+  std::string long_run = good;
+  long_run[data + 4] = static_cast<char>(128 + 13);
+  EXPECT_THAT(ParseRgbe(long_run),
+              StatusIs(kInvalid, HasSubstr("a run of 13 at pixel 0 of 12")));
+  // A scanline mark naming another width.
+  std::string width = good;
+  width[data + 3] = 11;
+  EXPECT_THAT(ParseRgbe(width),
+              StatusIs(kInvalid, HasSubstr("scanline of 11 pixels, not 12")));
+  // A 60-byte flat file declaring 2^30 pixels (stb_image allocated 12 GiB
+  // and read zeros past the end).
+  EXPECT_THAT(
+      ParseRgbe("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 32768 +X 32768\n" +
+                std::string(16, '\x01')),
+      StatusIs(kInvalid, HasSubstr("truncated: 32768 scanlines of 32768 "
+                                   "pixels need at least")));
+  // Every prefix that cuts into the data is refused, none read past it.
+  for (size_t n = data; n < good.size(); ++n) {
+    EXPECT_THAT(ParseRgbe(good.substr(0, n)),
+                StatusIs(kInvalid, HasSubstr("truncated")))
+        << n;
+  }
+  EXPECT_THAT(
+      ParseRgbe("#?RADIANCE\nFORMAT=32-bit_rle_xyze\n\n-Y 1 +X 1\n"),
+      StatusIs(kInvalid, HasSubstr("unsupported \"FORMAT=32-bit_rle_xyze\"")));
+  EXPECT_THAT(
+      ParseRgbe("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n+Y 1 +X 1\n1234"),
+      StatusIs(kInvalid, HasSubstr("is not \"-Y H +X W\"")));
+  EXPECT_THAT(ParseRgbe("#?RADIANCE\n\n-Y 1 +X 1\n1234"),
+              StatusIs(kInvalid, HasSubstr("no FORMAT=32-bit_rle_rgbe")));
+}
+
+// OpenCV picks its decoder by content: RGBE or EXR bytes under a camera
+// file's name must not reach OpenCV's RGBE decoder (it leaks a descriptor
+// per malformed file) or its EXR decoder (which skips ParseExr's checks),
+// and neither may any other format cameras do not write.
+TEST(HostileOpenCvFormatTest, OnlyJpegPngAndTiffReachOpenCv) {
+  std::vector<uchar> hdr, bmp, png;
+  ASSERT_TRUE(
+      cv::imencode(".hdr", cv::Mat(3, 12, CV_32FC3, cv::Scalar(1)), hdr));
+  ASSERT_TRUE(cv::imencode(".bmp", cv::Mat(3, 3, CV_8UC3, cv::Scalar(9)), bmp));
+  ASSERT_TRUE(cv::imencode(".png", cv::Mat(3, 3, CV_8UC3, cv::Scalar(9)), png));
+  for (const auto& [bytes, starts] :
+       {std::pair{std::string(hdr.begin(), hdr.end()), "\"#?RADIAN\""},
+        std::pair{std::string(bmp.begin(), bmp.end()), "\"BM"}}) {
+    for (const char* name : {".png", ".jpg", ".tif"}) {
+      EXPECT_THAT(DecodeImageBytes(bytes, name),
+                  StatusIs(kInvalid, AllOf(HasSubstr("not a JPEG, PNG or TIFF "
+                                                     "file: it starts "),
+                                           HasSubstr(starts))))
+          << name;
+    }
+  }
+  // The same PNG decodes under any of the three names.
+  for (const char* name : {".png", ".jpg", ".tif"}) {
+    ASSERT_OK_AND_ASSIGN(
+        const DecodedImage image,
+        DecodeImageBytes(std::string(png.begin(), png.end()), name));
+    EXPECT_EQ(image.pixels.size(), cv::Size(3, 3));
+  }
+}
+
 int OpenDescriptors() {
   return static_cast<int>(
       std::distance(std::filesystem::directory_iterator("/proc/self/fd"),
@@ -435,6 +535,11 @@ TEST(HostileOpenCvFormatTest, InMemoryDecodingMatchesTheFile) {
               StatusIs(kInvalid, HasSubstr("(in memory): empty image file")));
   EXPECT_THAT(
       DecodeImageBytes("not an image", ".png"),
+      StatusIs(kInvalid, HasSubstr("(in memory): not a JPEG, PNG or "
+                                   "TIFF file: it starts \"not an i\"")));
+  // A PNG signature followed by garbage reaches OpenCV, which refuses it.
+  EXPECT_THAT(
+      DecodeImageBytes("\x89PNG\r\n\x1a\nnot an image", ".png"),
       StatusIs(kInvalid, HasSubstr("(in memory): cannot decode (corrupt or "
                                    "unsupported format)")));
 }
