@@ -154,20 +154,18 @@ absl::Status PersistFrame(JobContext& context, store::FrameRepository& frames,
                           const std::string& step) {
   if (record.format != hardware::ImageFormat::kRaw) {
     // A transfer that arrived damaged usually no longer decodes.
-    cv::Mat decoded =
-        cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1,
-                             const_cast<char*>(bytes.data())),
-                     cv::IMREAD_UNCHANGED);
-    if (decoded.empty()) {
+    absl::StatusOr<cv::Mat> decoded =
+        io::DecodeWithOpenCv(bytes, cv::IMREAD_UNCHANGED);
+    if (!decoded.ok()) {
       return store::WithEventKind(
           absl::DataLossError(absl::StrCat(
-              "frame ", record.path,
-              " arrived corrupt from the camera (it does "
-              "not decode); resubmit the capture to take it again")),
+              "frame ", record.path, " arrived corrupt from the camera (",
+              decoded.status().message(),
+              "); resubmit the capture to take it again")),
           store::EventKind::kCorrupt);
     }
-    record.width_px = decoded.cols;
-    record.height_px = decoded.rows;
+    record.width_px = decoded->cols;
+    record.height_px = decoded->rows;
   }
   RETURN_IF_ERROR(
       context.store().files().WriteSessionFile(session, record.path, bytes));

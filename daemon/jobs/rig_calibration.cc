@@ -13,6 +13,7 @@
 #include "daemon/store/calibration_repository.h"
 #include "processing/base/status_macros.h"
 #include "processing/io/atomic_file.h"
+#include "processing/io/image.h"
 #include "proto/hdrstereo/v1/capture_defaults.h"
 
 namespace hdrstereo::jobs {
@@ -44,13 +45,11 @@ calib::BoardSpec BoardOf(const v1::CalibrationPlan& plan) {
 std::string BoardMissing(const hardware::Frame& frame,
                          const calib::BoardSpec& board) {
   if (frame.format == hardware::ImageFormat::kRaw) return "";
-  const cv::Mat image =
-      cv::imdecode(cv::Mat(1, static_cast<int>(frame.bytes.size()), CV_8UC1,
-                           const_cast<char*>(frame.bytes.data())),
-                   cv::IMREAD_GRAYSCALE);
-  if (image.empty()) return "";  // PersistFrame says it is corrupt
+  absl::StatusOr<cv::Mat> image =
+      io::DecodeWithOpenCv(frame.bytes, cv::IMREAD_GRAYSCALE);
+  if (!image.ok()) return "";  // PersistFrame says it is corrupt
   absl::StatusOr<std::vector<cv::Point2f>> corners =
-      calib::FindChessboard(image, board.inner_corners, "the frame");
+      calib::FindChessboard(*image, board.inner_corners, "the frame");
   return corners.ok() ? "" : std::string(corners.status().message());
 }
 

@@ -16,6 +16,7 @@
 #include "daemon/rpc/status.h"
 #include "processing/base/status_macros.h"
 #include "processing/exposure/frame_statistics.h"
+#include "processing/io/image.h"
 #include "processing/structured_light/gray_code.h"
 
 namespace hdrstereo::rpc {
@@ -89,18 +90,13 @@ absl::StatusOr<std::pair<cv::Mat, std::string>> PatternFor(
     const v1::ShowPatternRequest& request, cv::Size size) {
   switch (request.pattern_case()) {
     case v1::ShowPatternRequest::kPng: {
-      const std::string& png = request.png();
-      cv::Mat image;
-      try {
-        image = cv::imdecode(cv::Mat(1, static_cast<int>(png.size()), CV_8UC1,
-                                     const_cast<char*>(png.data())),
-                             cv::IMREAD_UNCHANGED);
-      } catch (const cv::Exception&) {
-        image.release();
+      absl::StatusOr<cv::Mat> decoded =
+          io::DecodeWithOpenCv(request.png(), cv::IMREAD_UNCHANGED);
+      if (!decoded.ok()) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "png is not a decodable image: ", decoded.status().message()));
       }
-      if (image.empty()) {
-        return absl::InvalidArgumentError("png is not a decodable image");
-      }
+      cv::Mat image = *std::move(decoded);
       if (image.depth() != CV_8U ||
           (image.channels() != 1 && image.channels() != 3)) {
         return absl::InvalidArgumentError(
@@ -483,11 +479,10 @@ void HardwareService::GuideCalibration(v1::PreviewFrame* frame) {
   if (job_id == 0) return;
   absl::StatusOr<store::JobRecord> job = engine_.repository().Get(job_id);
   if (!job.ok() || job->state != store::JobState::kWaiting) return;
-  const std::string& jpeg = frame->jpeg();
+  // An undecodable frame is guided as an empty one (the board not found).
   const cv::Mat image =
-      cv::imdecode(cv::Mat(1, static_cast<int>(jpeg.size()), CV_8UC1,
-                           const_cast<char*>(jpeg.data())),
-                   cv::IMREAD_GRAYSCALE);
+      io::DecodeWithOpenCv(frame->jpeg(), cv::IMREAD_GRAYSCALE)
+          .value_or(cv::Mat());
   absl::StatusOr<std::optional<jobs::PoseGuide>> guide =
       guide_.Guide(*job, image);
   if (!guide.ok()) {

@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "processing/io/image.h"
 
 namespace hdrstereo::exposure {
 namespace {
@@ -78,19 +79,13 @@ absl::StatusOr<FrameStatistics> ComputeFrameStatistics(const cv::Mat& image) {
 
 absl::StatusOr<FrameStatistics> ComputeEncodedFrameStatistics(
     absl::string_view bytes) {
-  cv::Mat image;
-  try {
-    image = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1,
-                                 const_cast<char*>(bytes.data())),
-                         cv::IMREAD_COLOR);
-  } catch (const cv::Exception&) {
-    image.release();
-  }
-  if (image.empty()) {
+  absl::StatusOr<cv::Mat> image = io::DecodeWithOpenCv(bytes, cv::IMREAD_COLOR);
+  if (!image.ok()) {
     return absl::DataLossError(
-        absl::StrCat("a frame of ", bytes.size(), " bytes cannot be decoded"));
+        absl::StrCat("a frame of ", bytes.size(),
+                     " bytes cannot be decoded: ", image.status().message()));
   }
-  return ComputeFrameStatistics(image);
+  return ComputeFrameStatistics(*image);
 }
 
 }  // namespace hdrstereo::exposure

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cctype>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
@@ -14,6 +15,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "processing/base/input_limits.h"
 #include "processing/base/status_macros.h"
@@ -205,6 +207,20 @@ absl::StatusOr<cv::Mat> DecodeWithOpenCv(absl::string_view bytes, int flags) {
   RETURN_IF_ERROR(CheckRange("encoded image bytes",
                              static_cast<int64_t>(bytes.size()), 1,
                              std::numeric_limits<int>::max()));
+  // OpenCV picks its decoder by the bytes, not the file's name: only the
+  // formats cameras write reach it, so that bytes named .png cannot reach
+  // its RGBE or EXR decoder (ParseRgbe, ParseExr) or any other.
+  static constexpr absl::string_view kMagics[] = {
+      "\xff\xd8\xff", "\x89PNG\r\n\x1a\n", absl::string_view("II*\0", 4),
+      absl::string_view("MM\0*", 4)};
+  if (std::none_of(std::begin(kMagics), std::end(kMagics),
+                   [&](absl::string_view magic) {
+                     return absl::StartsWith(bytes, magic);
+                   })) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("not a JPEG, PNG or TIFF file: it starts ",
+                     QuoteInput(bytes.substr(0, 8))));
+  }
   // imdecode only reads the buffer; cv::Mat's constructor is not const.
   const cv::Mat buffer(1, static_cast<int>(bytes.size()), CV_8UC1,
                        const_cast<char*>(bytes.data()));

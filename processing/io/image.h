@@ -75,7 +75,8 @@ absl::StatusOr<DecodedImage> DecodeImageBytes(absl::string_view bytes,
 absl::StatusOr<DecodedImage> DecodeRawFile(const std::filesystem::path& path);
 absl::StatusOr<DecodedImage> DecodeRawBytes(absl::string_view bytes);
 
-// cv::imdecode of `bytes` (at most 2^31 - 1 of them, not copied) with
+// cv::imdecode of `bytes` (at most 2^31 - 1 of them, not copied; a JPEG,
+// PNG or TIFF file, by its first bytes) with
 // `flags`; INVALID_ARGUMENT "cannot decode ..." when OpenCV throws (as it
 // does for dimensions above its limits) or decodes nothing.
 absl::StatusOr<cv::Mat> DecodeWithOpenCv(absl::string_view bytes, int flags);
