@@ -555,7 +555,7 @@ void MiddleburyExportIsReadable() {
   EXPECT_GT(nonocc, mask.rows * mask.cols / 2);
   absl::StatusOr<std::string> calib = io::ReadFileBytes(p.dir / "calib.txt");
   ASSERT_TRUE(calib.ok());
-  for (const char* key : {"cam0=[", "cam1=[", "doffs=0\n", "baseline=150.0",
+  for (const char* key : {"cam0=[", "cam1=[", "doffs=0\n", "baseline=150\n",
                           "width=240\n", "height=180\n", "ndisp="}) {
     EXPECT_TRUE(absl::StrContains(*calib, key)) << key << " in " << *calib;
   }
