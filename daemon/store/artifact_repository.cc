@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "daemon/store/artifact_repository.h"
 
+#include <limits>
+
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
@@ -193,22 +195,30 @@ absl::StatusOr<std::vector<MetricRecord>> ArtifactRepository::Metrics(
   ASSIGN_OR_RETURN(Statement stmt, db.Prepare(R"sql(
 SELECT method, ground_truth, rmse, mae, bad_0_5, bad_1, bad_2, bad_4,
   coverage, coalesce(job_id, 0)
-FROM metrics WHERE session_id = ?1 ORDER BY ground_truth, rmse, method
+FROM metrics WHERE session_id = ?1
+ORDER BY ground_truth, rmse IS NULL, rmse, method
 )sql"));
   stmt.Bind(1, session_id);
   std::vector<MetricRecord> out;
   while (true) {
     ASSIGN_OR_RETURN(bool row, stmt.Step());
     if (!row) return out;
+    // SQLite stores a NaN (a metric that could not be computed) as NULL;
+    // it reads back as NaN, not as a perfect 0.
+    auto metric = [&](int column) {
+      return stmt.ColumnIsNull(column)
+                 ? std::numeric_limits<double>::quiet_NaN()
+                 : stmt.ColumnDouble(column);
+    };
     out.push_back(MetricRecord{.method = stmt.ColumnText(0),
                                .ground_truth = stmt.ColumnText(1),
-                               .rmse = stmt.ColumnDouble(2),
-                               .mae = stmt.ColumnDouble(3),
-                               .bad_0_5 = stmt.ColumnDouble(4),
-                               .bad_1 = stmt.ColumnDouble(5),
-                               .bad_2 = stmt.ColumnDouble(6),
-                               .bad_4 = stmt.ColumnDouble(7),
-                               .coverage = stmt.ColumnDouble(8),
+                               .rmse = metric(2),
+                               .mae = metric(3),
+                               .bad_0_5 = metric(4),
+                               .bad_1 = metric(5),
+                               .bad_2 = metric(6),
+                               .bad_4 = metric(7),
+                               .coverage = metric(8),
                                .job_id = stmt.ColumnInt(9)});
   }
 }

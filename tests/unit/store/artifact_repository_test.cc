@@ -8,6 +8,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -143,6 +145,30 @@ TEST_F(ArtifactRepositoryTest, MetricsAreReplacedAndOrderedByTruthThenRmse) {
   EXPECT_DOUBLE_EQ(rows[1].bad_1, 2.6);
   EXPECT_EQ(rows[2].ground_truth, "structured_light");
   EXPECT_EQ(rows[2].job_id, job.id);
+}
+
+// A metric that could not be computed is NaN; SQLite stores it as NULL.
+// It must read back as NaN, not as a perfect 0, and sort after the numbers.
+TEST_F(ArtifactRepositoryTest, AMetricThatCouldNotBeComputedStaysNaN) {
+  ASSERT_OK_AND_ASSIGN(const SessionRecord s, Session("lab"));
+  ASSERT_OK_AND_ASSIGN(const JobRecord job, Job("lab", JobKind::kProcessing));
+  ArtifactRepository artifacts(*store_);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  MetricRecord failed{.method = "fattal", .ground_truth = "simulation"};
+  failed.rmse = nan;
+  failed.bad_1 = nan;
+  MetricRecord fine{.method = "ldr", .ground_truth = "simulation"};
+  fine.rmse = 1.5;
+  ASSERT_OK(artifacts.ReplaceMetrics(s.id, job.id, {failed, fine}));
+  ASSERT_OK_AND_ASSIGN(const std::vector<MetricRecord> rows,
+                       artifacts.Metrics(s.id));
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_EQ(rows[0].method, "ldr");
+  EXPECT_DOUBLE_EQ(rows[0].rmse, 1.5);
+  EXPECT_EQ(rows[1].method, "fattal");
+  EXPECT_TRUE(std::isnan(rows[1].rmse));
+  EXPECT_TRUE(std::isnan(rows[1].bad_1));
+  EXPECT_DOUBLE_EQ(rows[1].mae, 0);  // stored as the number it was
 }
 
 }  // namespace
