@@ -199,8 +199,10 @@ absl::StatusOr<CommandResult> RunCommand(const std::vector<std::string>& argv,
   if (timed_out) {
     return absl::DeadlineExceededError(absl::StrCat(
         argv[0], " did not finish within ", absl::FormatDuration(timeout),
-        "; output so far: ", QuoteInput(result.out),
-        ", standard error: ", QuoteInput(result.err)));
+        "; the end of its output: ",
+        QuoteInputTail(result.out, kMaxQuotedBytes, result.out_dropped),
+        ", of its standard error: ",
+        QuoteInputTail(result.err, kMaxQuotedBytes, result.err_dropped)));
   }
   result.exit_code = code.value_or(-1);
   return result;

@@ -38,13 +38,16 @@ struct CommandResult {
 // Runs argv[0] (looked up in PATH unless it has a slash) with the daemon's
 // environment plus `env` ("NAME=value", replacing a variable of that
 // name), standard input /dev/null. Of each output stream the last
-// `max_output_bytes` are kept (memory stays under about three times that
-// per stream). After `timeout` the command is killed and DEADLINE_EXCEEDED
-// quotes the start of what it had printed; a command that cannot be started
-// is the errno's status naming it; a pipe that cannot be made is the
-// errno's status of "pipe" (EMFILE: RESOURCE_EXHAUSTED). Every descriptor
-// opened here is closed on every path. A non-zero exit is not an error
-// here: the caller reads exit_code.
+// `max_output_bytes` are kept: a stream's text grows to at most 1.5 times
+// that plus one 4 KiB read before its front is dropped, so its buffer
+// (grown by doubling) stays under 3 times that plus 8 KiB. After `timeout`
+// the command is killed and DEADLINE_EXCEEDED quotes the end of what it had
+// printed on each stream (QuoteInputTail: the last kMaxQuotedBytes, and how
+// many bytes came before); a command that cannot be started is the errno's
+// status naming it; a pipe that cannot be made is the errno's status of
+// "pipe" (EMFILE: RESOURCE_EXHAUSTED). Every descriptor opened here is
+// closed on every path. A non-zero exit is not an error here: the caller
+// reads exit_code.
 absl::StatusOr<CommandResult> RunCommand(
     const std::vector<std::string>& argv, const std::vector<std::string>& env,
     absl::Duration timeout, size_t max_output_bytes = kMaxCommandOutputBytes);
