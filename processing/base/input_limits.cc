@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "processing/base/input_limits.h"
 
+#include <algorithm>
 #include <cstdlib>
+#include <limits>
 
 #include "absl/strings/escaping.h"
 #include "absl/strings/numbers.h"
@@ -9,24 +11,24 @@
 #include "processing/base/status_macros.h"
 
 namespace hdrstereo {
-namespace {
 
-int64_t EnvOr(const char* name, int64_t fallback) {
-  const char* text = std::getenv(name);
+int64_t ImageLimitFromEnv(const char* text, int64_t fallback, int64_t max) {
   int64_t value = 0;
   if (text == nullptr || !absl::SimpleAtoi(text, &value) || value <= 0) {
     return fallback;
   }
-  return value;
+  return std::min(value, max);
 }
 
-}  // namespace
-
 const ImageLimits& DecodedImageLimits() {
+  constexpr int64_t kIntMax = std::numeric_limits<int>::max();
   static const ImageLimits limits = {
-      EnvOr("OPENCV_IO_MAX_IMAGE_WIDTH", int64_t{1} << 20),
-      EnvOr("OPENCV_IO_MAX_IMAGE_HEIGHT", int64_t{1} << 20),
-      EnvOr("OPENCV_IO_MAX_IMAGE_PIXELS", int64_t{1} << 30)};
+      ImageLimitFromEnv(std::getenv("OPENCV_IO_MAX_IMAGE_WIDTH"),
+                        int64_t{1} << 20, kIntMax),
+      ImageLimitFromEnv(std::getenv("OPENCV_IO_MAX_IMAGE_HEIGHT"),
+                        int64_t{1} << 20, kIntMax),
+      ImageLimitFromEnv(std::getenv("OPENCV_IO_MAX_IMAGE_PIXELS"),
+                        int64_t{1} << 30, std::numeric_limits<int64_t>::max())};
   return limits;
 }
 

@@ -35,6 +35,12 @@ struct ImageLimits {
   int64_t max_pixels;
 };
 const ImageLimits& DecodedImageLimits();
+// One of those limits as an environment variable's value `text` sets it
+// (nullptr: unset): a whole number above 0, at most `max` (a larger one is
+// `max`: readers build cv::Mat sides from a width and a height, which are
+// int, so those are at most INT_MAX); `fallback` when unset or not such a
+// number.
+int64_t ImageLimitFromEnv(const char* text, int64_t fallback, int64_t max);
 // cv::Mat holds at most 512 channels (CV_CN_MAX).
 inline constexpr int64_t kMaxImageChannels = 512;
 

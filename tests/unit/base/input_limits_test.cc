@@ -4,6 +4,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cstdint>
+#include <limits>
 #include <string>
 
 namespace hdrstereo {
@@ -60,6 +62,26 @@ TEST(CheckedMultiplyTest, RefusesOverflowAndProductsAboveTheLimit) {
   const auto wraps =
       CheckedMultiply("n", uint64_t{1} << 32, uint64_t{1} << 32, UINT64_MAX);
   EXPECT_EQ(wraps.status().code(), absl::StatusCode::kInvalidArgument);
+}
+
+// OPENCV_IO_MAX_IMAGE_* as DecodedImageLimits reads them: a value above
+// INT_MAX is INT_MAX for a width or height (cv::Mat's sides are int), and
+// anything but a whole number above 0 is the default.
+TEST(ImageLimitFromEnvTest, ClampsToTheMaximumAndFallsBackOnNonsense) {
+  constexpr int64_t kIntMax = std::numeric_limits<int>::max();
+  EXPECT_EQ(ImageLimitFromEnv("4096", 1 << 20, kIntMax), 4096);
+  EXPECT_EQ(ImageLimitFromEnv("2147483647", 1 << 20, kIntMax), kIntMax);
+  EXPECT_EQ(ImageLimitFromEnv("2147483648", 1 << 20, kIntMax), kIntMax);
+  EXPECT_EQ(ImageLimitFromEnv("9223372036854775807", 1 << 20, kIntMax),
+            kIntMax);
+  for (const char* nonsense : {static_cast<const char*>(nullptr), "", "0", "-5",
+                               "12x", "1MB", "99999999999999999999"}) {
+    EXPECT_EQ(ImageLimitFromEnv(nonsense, 1 << 20, kIntMax), 1 << 20)
+        << (nonsense == nullptr ? "unset" : nonsense);
+  }
+  EXPECT_EQ(ImageLimitFromEnv("9223372036854775807", int64_t{1} << 30,
+                              std::numeric_limits<int64_t>::max()),
+            std::numeric_limits<int64_t>::max());
 }
 
 // The suite runs with OpenCV's default limits (no OPENCV_IO_MAX_IMAGE_*).
