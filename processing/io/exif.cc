@@ -132,12 +132,6 @@ std::optional<double> EntryNumber(const TiffReader& r, const Entry& e) {
   }
 }
 
-// Cameras write 0 for a field they do not know (e.g. ExposureTime 0/1000000).
-std::optional<double> Positive(std::optional<double> v) {
-  if (v.has_value() && *v > 0) return v;
-  return std::nullopt;
-}
-
 // An ASCII value up to its first NUL, at most kMaxExifString bytes, without
 // trailing spaces.
 std::string EntryString(const TiffReader& r, const Entry& e) {
@@ -175,25 +169,25 @@ void ReadIfd(const TiffReader& r, size_t ifd, Fields& fields, ExifInfo& info) {
         fields.exif_ifd = static_cast<size_t>(EntryNumber(r, *e).value_or(0));
         break;
       case 0x829A:
-        info.exposure_s = Positive(EntryNumber(r, *e));
+        info.exposure_s = PositiveFinite(EntryNumber(r, *e));
         break;
       case 0x829D:
-        info.aperture = Positive(EntryNumber(r, *e));
+        info.aperture = PositiveFinite(EntryNumber(r, *e));
         break;
       case 0x8827:
-        fields.iso = Positive(EntryNumber(r, *e));
+        fields.iso = PositiveFinite(EntryNumber(r, *e));
         break;
       case 0x8830:
         fields.sensitivity_type = EntryNumber(r, *e);
         break;
       case 0x8831:
-        fields.sos = Positive(EntryNumber(r, *e));
+        fields.sos = PositiveFinite(EntryNumber(r, *e));
         break;
       case 0x8832:
-        fields.rei = Positive(EntryNumber(r, *e));
+        fields.rei = PositiveFinite(EntryNumber(r, *e));
         break;
       case 0x8833:
-        fields.iso_speed = Positive(EntryNumber(r, *e));
+        fields.iso_speed = PositiveFinite(EntryNumber(r, *e));
         break;
       case 0x9003:
         info.date_time_original = EntryString(r, *e);
@@ -304,6 +298,11 @@ std::pair<uint32_t, uint32_t> ExposureRational(double seconds) {
 
 }  // namespace
 
+std::optional<double> PositiveFinite(std::optional<double> value) {
+  if (value.has_value() && std::isfinite(*value) && *value > 0) return value;
+  return std::nullopt;
+}
+
 std::optional<int64_t> ExifCaptureTimeMs(const ExifInfo& info) {
   const std::string& t = info.date_time_original;
   int y, mo, d, h, mi, s;
@@ -341,9 +340,11 @@ ExifInfo ReadRawMetadata(absl::string_view file_bytes) {
     return info;
   }
   const libraw_imgother_t& other = raw->imgdata.other;
-  if (other.shutter > 0) info.exposure_s = other.shutter;
-  if (other.iso_speed > 0) info.iso = other.iso_speed;
-  if (other.aperture > 0) info.aperture = other.aperture;
+  // LibRaw passes on what the file says: 0, a negative number, NaN or
+  // infinity leave the field as the EXIF had it.
+  if (auto v = PositiveFinite(other.shutter)) info.exposure_s = v;
+  if (auto v = PositiveFinite(other.iso_speed)) info.iso = v;
+  if (auto v = PositiveFinite(other.aperture)) info.aperture = v;
   const std::string make = raw->imgdata.idata.make;
   const std::string model = raw->imgdata.idata.model;
   info.camera = make.empty()    ? model

@@ -30,6 +30,11 @@ struct ExifInfo {
   std::string subsec_time_original;
 };
 
+// `value` when it is a finite number above 0, else nullopt: how the readers
+// keep a number (cameras write 0 for a field they do not know, e.g.
+// ExposureTime 0/1000000; LibRaw passes on a RAW file's infinity or NaN).
+std::optional<double> PositiveFinite(std::optional<double> value);
+
 // DateTimeOriginal (+ SubSecTimeOriginal) read as UTC, in Unix milliseconds
 // (the camera's clock has no zone: use it to compare frames of one camera,
 // not as wall time). nullopt when absent or malformed.

@@ -9,7 +9,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -234,6 +236,23 @@ TEST(ExifHostileTest, StringsAreBounded) {
   const std::string nul =
       Tiff({{0x0110, 2, 8, AfterIfd0(1)}}, std::string("TG-4\0xyz", 8));
   EXPECT_EQ(ParseExifTiff(nul).camera, "TG-4");
+}
+
+// What LibRaw reports of a RAW file that is not a TIFF (CR3, RAF, ...) goes
+// through PositiveFinite: an infinite shutter, ISO or aperture is unknown,
+// as 0, negatives and NaN are.
+TEST(ExifHostileTest, OnlyFinitePositiveNumbersAreKept) {
+  EXPECT_EQ(PositiveFinite(0.004), 0.004);
+  EXPECT_EQ(PositiveFinite(1e-300), 1e-300);
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  for (const double v : {0.0, -0.0, -1.0, kInf, -kInf,
+                         std::numeric_limits<double>::quiet_NaN()}) {
+    EXPECT_EQ(PositiveFinite(v), std::nullopt) << v;
+  }
+  EXPECT_EQ(PositiveFinite(std::nullopt), std::nullopt);
+  // LibRaw's fields are float.
+  EXPECT_EQ(PositiveFinite(std::numeric_limits<float>::infinity()),
+            std::nullopt);
 }
 
 TEST(ExifHostileTest, ContainerLengthsOutsideTheFileAreIgnored) {
