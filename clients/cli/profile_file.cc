@@ -102,11 +102,12 @@ absl::StatusOr<ProfileFile> ParseProfileFile(const std::string& path,
                                    ? section_name.substr(kProfileSection.size())
                                    : "";
       if (name.empty()) {
-        return error(absl::StrCat("unknown section [", section_name,
-                                  "]; profiles are [profile.NAME]"));
+        return error(absl::StrCat("unknown section ", QuoteInput(section_name),
+                                  "; profiles are [profile.NAME]"));
       }
       if (file.profiles.count(name) != 0) {
-        return error(absl::StrCat("[", section_name, "] appears twice"));
+        return error(absl::StrCat("section ", QuoteInput(section_name),
+                                  " appears twice"));
       }
       section = &file.profiles[name];
       continue;
@@ -119,7 +120,8 @@ absl::StatusOr<ProfileFile> ParseProfileFile(const std::string& path,
     absl::StatusOr<std::string> value =
         ParseString(absl::StripAsciiWhitespace(line.substr(equals + 1)));
     if (!value.ok())
-      return error(absl::StrCat(key, ": ", value.status().message()));
+      return error(
+          absl::StrCat(QuoteInput(key), ": ", value.status().message()));
     std::string* field = nullptr;
     if (section == nullptr) {
       if (key != "default_profile") {
@@ -131,9 +133,9 @@ absl::StatusOr<ProfileFile> ParseProfileFile(const std::string& path,
     } else {
       field = ProfileField(*section, key);
       if (field == nullptr) {
-        return error(absl::StrCat("unknown key ", QuoteInput(key), " in [",
-                                  section_name,
-                                  "]; known: server, tls_ca, tls_cert, "
+        return error(absl::StrCat("unknown key ", QuoteInput(key),
+                                  " in section ", QuoteInput(section_name),
+                                  "; known: server, tls_ca, tls_cert, "
                                   "tls_key, api_key_file"));
       }
     }
@@ -144,7 +146,8 @@ absl::StatusOr<ProfileFile> ParseProfileFile(const std::string& path,
       file.profiles.count(file.default_profile) == 0) {
     return absl::InvalidArgumentError(absl::StrCat(
         path, ": default_profile ", QuoteInput(file.default_profile),
-        " has no [profile.", file.default_profile, "] section"));
+        " has no section ",
+        QuoteInput(absl::StrCat(kProfileSection, file.default_profile))));
   }
   return file;
 }

@@ -2,7 +2,9 @@
 #include "daemon/rpc/roles.h"
 
 #include "absl/strings/ascii.h"
+#include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
+#include "processing/base/input_limits.h"
 
 namespace hdrstereo::rpc {
 
@@ -26,7 +28,7 @@ absl::StatusOr<Role> ParseRole(absl::string_view name) {
     if (name == RoleName(role)) return role;
   }
   return absl::InvalidArgumentError(absl::StrCat(
-      "\"", name, "\" is not a role: use viewer, operator or admin"));
+      QuoteInput(name), " is not a role: use viewer, operator or admin"));
 }
 
 absl::Status ValidatePrincipalName(absl::string_view name,
@@ -38,9 +40,10 @@ absl::Status ValidatePrincipalName(absl::string_view name,
   for (char c : name) {
     if (!absl::ascii_isalnum(c) && c != '.' && c != '_' && c != '@' &&
         c != '-') {
-      return absl::InvalidArgumentError(absl::StrCat(
-          what, ": user name \"", name, "\" contains '", std::string(1, c),
-          "'; use letters, digits, '.', '_', '@' and '-'"));
+      return absl::InvalidArgumentError(
+          absl::StrCat(what, ": user name ", QuoteInput(name), " contains '",
+                       absl::CHexEscape(absl::string_view(&c, 1)),
+                       "'; use letters, digits, '.', '_', '@' and '-'"));
     }
   }
   return absl::OkStatus();

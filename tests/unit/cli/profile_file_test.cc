@@ -51,13 +51,14 @@ TEST(ProfileFileTest, RefusesWhatItDoesNotKnowByName) {
   EXPECT_THAT(ParseProfileFile("c.toml", "[profile.lab]\ntls_crt = \"x\"\n"),
               StatusIs(absl::StatusCode::kInvalidArgument,
                        HasSubstr("c.toml:2: unknown key \"tls_crt\" in "
-                                 "[profile.lab]")));
+                                 "section \"profile.lab\"")));
   EXPECT_THAT(ParseProfileFile("c.toml", "server = \"x\"\n"),
               StatusIs(absl::StatusCode::kInvalidArgument,
                        HasSubstr("c.toml:1: unknown key \"server\"")));
   EXPECT_THAT(ParseProfileFile("c.toml", "[lab]\n"),
               StatusIs(absl::StatusCode::kInvalidArgument,
-                       HasSubstr("unknown section [lab]")));
+                       HasSubstr("c.toml:1: unknown section \"lab\"; "
+                                 "profiles are [profile.NAME]")));
   EXPECT_THAT(
       ParseProfileFile("c.toml", "[profile.a]\nserver = x\n"),
       StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("quoted string")));
@@ -65,12 +66,14 @@ TEST(ProfileFileTest, RefusesWhatItDoesNotKnowByName) {
                                "[profile.a]\nserver = \"x\"\nserver = \"y\"\n"),
               StatusIs(absl::StatusCode::kInvalidArgument,
                        HasSubstr("c.toml:3: server is set twice")));
-  EXPECT_THAT(
-      ParseProfileFile("c.toml", "[profile.a]\n[profile.a]\n"),
-      StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("appears twice")));
+  EXPECT_THAT(ParseProfileFile("c.toml", "[profile.a]\n[profile.a]\n"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("c.toml:2: section \"profile.a\" appears "
+                                 "twice")));
   EXPECT_THAT(ParseProfileFile("c.toml", "default_profile = \"b\"\n"),
               StatusIs(absl::StatusCode::kInvalidArgument,
-                       HasSubstr("has no [profile.b] section")));
+                       HasSubstr("c.toml: default_profile \"b\" has no "
+                                 "section \"profile.b\"")));
 }
 
 TEST(ProfileFileTest, LimitsTheFileAndItsLines) {
@@ -108,13 +111,46 @@ TEST(ProfileFileTest, MessagesQuoteABoundedPrefix) {
   absl::StatusOr<ProfileFile> file =
       ParseProfileFile("c.toml", "[profile.a]\n" + key + " = \"x\"\n");
   EXPECT_THAT(file, StatusIs(absl::StatusCode::kInvalidArgument,
-                             HasSubstr("... (5000 bytes) in [profile.a]")));
+                             HasSubstr("... (5000 bytes) in section "
+                                       "\"profile.a\"")));
   EXPECT_LT(file.status().message().size(), 300u);
   EXPECT_THAT(ParseProfileFile("c.toml", "[profile.a]\nse\x01rver = \"x\"\n" +
                                              std::string("\0\xff", 2)),
               StatusIs(absl::StatusCode::kInvalidArgument,
                        AllOf(HasSubstr("unknown key \"se\\x01rver\""),
                              Not(HasSubstr("\x01")))));
+}
+
+// Section names, keys and the default profile reach messages escaped and
+// bounded: no control character of the file reaches the terminal.
+TEST(ProfileFileTest, MessagesEscapeSectionsKeysAndTheDefaultProfile) {
+  const struct {
+    std::string text;
+    std::string message;
+  } cases[] = {
+      {"[\x1b[2J]\n", "c.toml:1: unknown section \"\\x1b[2J\""},
+      {"[profile.\x1b]\n[profile.\x1b]\n",
+       "c.toml:2: section \"profile.\\x1b\" appears twice"},
+      {"[profile.a]\nk\a = x\n",
+       "c.toml:2: \"k\\x07\": the value must be a \"quoted string\""},
+      {"[profile.\x1b]\nport = \"1\"\n",
+       "c.toml:2: unknown key \"port\" in section \"profile.\\x1b\""},
+      {"default_profile = \"\x1b[2J\"\n",
+       "c.toml: default_profile \"\\x1b[2J\" has no section "
+       "\"profile.\\x1b[2J\""},
+  };
+  for (const auto& [text, message] : cases) {
+    EXPECT_THAT(ParseProfileFile("c.toml", text),
+                StatusIs(absl::StatusCode::kInvalidArgument,
+                         AllOf(HasSubstr(message), Not(HasSubstr("\x1b")),
+                               Not(HasSubstr("\a")))))
+        << text;
+  }
+  const absl::StatusOr<ProfileFile> file =
+      ParseProfileFile("c.toml", "[" + std::string(5000, 'n') + "]\n");
+  EXPECT_THAT(file, StatusIs(absl::StatusCode::kInvalidArgument,
+                             HasSubstr("\"... (5000 bytes); profiles are")));
+  EXPECT_LT(file.status().message().size(), 300u);
 }
 
 }  // namespace

@@ -66,6 +66,20 @@ TEST(ProgressLineTest, TheStepIsCutAt40Bytes) {
   EXPECT_THAT(line, ::testing::Not(HasSubstr(std::string(41, 's'))));
 }
 
+// A step name from the cluster's log reaches the terminal without its
+// control characters: an escape sequence, a carriage return that would
+// redraw the line, a bell, and bytes beyond ASCII are each '?'.
+TEST(ProgressLineTest, TheStepShowsOnlyPrintableAscii) {
+  const std::string line =
+      ProgressLine(1, 2, 0.0, "st\x1b[2Jep\r\a\x7f caf\xc3\xa9 done");
+  EXPECT_THAT(line, HasSubstr("  st?[2Jep??? caf?? done"));
+  for (const char c : line) {
+    EXPECT_TRUE(c >= ' ' && c <= '~') << static_cast<int>(c);
+  }
+  // Padded to its 40 bytes.
+  EXPECT_EQ(line.size(), ProgressLine(1, 2, 0.0, "").size());
+}
+
 TEST(FormatDurationTest, HoursMinutesSecondsOrDashes) {
   EXPECT_EQ(FormatDuration(0), "0:00:00");
   EXPECT_EQ(FormatDuration(3725.4), "1:02:05");
