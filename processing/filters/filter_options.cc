@@ -4,6 +4,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "absl/strings/str_format.h"
 #include "processing/base/options.h"
 #include "processing/filters/domain_transform.h"
 #include "processing/filters/guided_filter.h"
@@ -40,9 +41,11 @@ void to_json(nlohmann::json& j, const GuidedFilterOptions& o) {
 
 absl::Status DomainTransformOptions::Validate() const {
   RETURN_IF_ERROR(RequireField(sigma_s >= kMinSigmaS && std::isfinite(sigma_s),
-                               "sigma_s", sigma_s, ">= 1 (pixels)"));
-  RETURN_IF_ERROR(RequireField(sigma_r >= kMinSigmaR && std::isfinite(sigma_r),
-                               "sigma_r", sigma_r, ">= 0.01 (guide units)"));
+                               "sigma_s", sigma_s,
+                               absl::StrFormat(">= %g (pixels)", kMinSigmaS)));
+  RETURN_IF_ERROR(RequireField(
+      sigma_r >= kMinSigmaR && std::isfinite(sigma_r), "sigma_r", sigma_r,
+      absl::StrFormat(">= %g (guide units)", kMinSigmaR)));
   return RequireField(iterations >= 1, "iterations", iterations, ">= 1");
 }
 
