@@ -29,7 +29,9 @@ constexpr absl::Duration kCommandTimeout = absl::Seconds(30);
 constexpr absl::Duration kCancelWait = absl::Seconds(60);
 constexpr size_t kLogTailBytes = 2000;
 // The most bytes of each output stream a failed command's error quotes: its
-// end, where a tool says what went wrong (RunCommand keeps up to 16 MiB).
+// end, where a tool says what went wrong. RunCommand keeps one byte more
+// than the parsers take, so that an oversized output is refused by them
+// rather than parsed from a cut-off tail.
 constexpr size_t kOutputTailBytes = 2000;
 
 // What squeue and scontrol say of a job id the controller does not know.
@@ -48,8 +50,9 @@ class Cluster {
     if (!options_.conf.empty()) {
       env.push_back(absl::StrCat("SLURM_CONF=", options_.conf));
     }
-    ASSIGN_OR_RETURN(process::CommandResult r,
-                     process::RunCommand(argv, env, kCommandTimeout));
+    ASSIGN_OR_RETURN(
+        process::CommandResult r,
+        process::RunCommand(argv, env, kCommandTimeout, kMaxOutputBytes + 1));
     if (r.exit_code != 0) {
       std::string message =
           absl::StrCat(argv[0], " failed (exit ", r.exit_code, "): ",
@@ -108,33 +111,6 @@ std::string ReadTail(const fs::path& path, size_t bytes) {
   std::string out(static_cast<size_t>(size - start), '\0');
   in.read(out.data(), static_cast<std::streamsize>(out.size()));
   return out;
-}
-
-struct LogProgress {
-  int64_t done = 0;
-  int64_t total = 0;
-  std::string what;
-  bool operator==(const LogProgress&) const = default;
-};
-
-// The last "[done/total] what" line hdrstereo-proc printed to the log.
-std::optional<LogProgress> LastProgress(const std::string& log) {
-  std::optional<LogProgress> last;
-  for (absl::string_view line : absl::StrSplit(log, '\n')) {
-    if (!absl::ConsumePrefix(&line, "[")) continue;
-    const size_t close = line.find("] ");
-    if (close == absl::string_view::npos) continue;
-    std::pair<absl::string_view, absl::string_view> counts =
-        absl::StrSplit(line.substr(0, close), absl::MaxSplits('/', 1));
-    LogProgress p;
-    if (!absl::SimpleAtoi(counts.first, &p.done) ||
-        !absl::SimpleAtoi(counts.second, &p.total)) {
-      continue;
-    }
-    p.what = std::string(line.substr(close + 2));
-    last = p;
-  }
-  return last;
 }
 
 absl::StatusOr<int64_t> Submit(const Cluster& cluster,

@@ -248,4 +248,24 @@ std::string Describe(const JobState& s) {
   return absl::StrCat(s.state, " (", absl::StrJoin(details, ", "), ")");
 }
 
+std::optional<LogProgress> LastProgress(absl::string_view log) {
+  std::optional<LogProgress> last;
+  for (absl::string_view line : absl::StrSplit(log, '\n')) {
+    if (!absl::ConsumePrefix(&line, "[")) continue;
+    const size_t close = line.find("] ");
+    if (close == absl::string_view::npos) continue;
+    std::pair<absl::string_view, absl::string_view> counts =
+        absl::StrSplit(line.substr(0, close), absl::MaxSplits('/', 1));
+    LogProgress p;
+    if (!absl::SimpleAtoi(counts.first, &p.done) ||
+        !absl::SimpleAtoi(counts.second, &p.total) || p.done < 0 ||
+        p.total < 0) {
+      continue;
+    }
+    p.what = std::string(line.substr(close + 2, kMaxFieldBytes));
+    last = std::move(p);
+  }
+  return last;
+}
+
 }  // namespace hdrstereo::slurm

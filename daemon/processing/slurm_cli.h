@@ -11,6 +11,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -119,6 +120,18 @@ absl::StatusOr<JobState> ParseSacctOutput(absl::string_view out,
                                           int64_t job_id);
 
 std::vector<std::string> ScancelArgv(int64_t job_id);
+
+// Progress that `hdrstereo-proc pipeline` prints to the job's log, one
+// "[done/total] what" line per step.
+struct LogProgress {
+  int64_t done = 0;
+  int64_t total = 0;
+  std::string what;  // at most kMaxFieldBytes
+  bool operator==(const LogProgress&) const = default;
+};
+// The last well-formed progress line of `log` (a tail of the log: lines
+// of other programs and a cut first line are skipped); nullopt when none.
+std::optional<LogProgress> LastProgress(absl::string_view log);
 
 // Whether Slurm will not change `state` any more.
 bool IsFinal(absl::string_view state);

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-// What Slurm's tools print (sbatch --parsable, squeue, scontrol, sacct).
+// What Slurm's tools print (sbatch --parsable, squeue, scontrol, sacct),
+// and the progress lines of a job's log on the shared file system.
 #include "daemon/processing/slurm_cli.h"
 #include "tests/fuzz/fuzz_support.h"
 
@@ -24,5 +25,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   CheckState(slurm::ParseSqueueOutput(out, kJob));
   CheckState(slurm::ParseScontrolOutput(out, kJob));
   CheckState(slurm::ParseSacctOutput(out, kJob));
+  // The same bytes as the tail of a job's log.
+  const std::optional<slurm::LogProgress> progress = slurm::LastProgress(out);
+  FUZZ_CHECK(!progress || (progress->done >= 0 && progress->total >= 0 &&
+                           progress->what.size() <= slurm::kMaxFieldBytes));
   return 0;
 }

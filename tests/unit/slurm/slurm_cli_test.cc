@@ -304,5 +304,21 @@ TEST(SlurmCliTest, AJobFolderCarriesTheRequestInsteadOfStepsAndForce) {
                HasSubstr("slurm.local_data_root")));
 }
 
+// The node's log as the daemon reads its tail: other programs' lines, a
+// line cut at the tail's start, a cluster log counting more steps done than
+// planned ("[7/3]", which the CLI's progress bar once threw on).
+TEST(SlurmCliTest, LastProgressIsTheLastWellFormedLine) {
+  EXPECT_EQ(LastProgress("srun: job 4 queued\n"), std::nullopt);
+  EXPECT_EQ(LastProgress("2/9] tonemap\n[3/9] stereo\n[x/9] bad\n[4/-1] no\n"
+                         "slurmstepd: done\n"),
+            (LogProgress{.done = 3, .total = 9, .what = "stereo"}));
+  EXPECT_EQ(LastProgress("[7/3] fusion"),
+            (LogProgress{.done = 7, .total = 3, .what = "fusion"}));
+  const std::optional<LogProgress> long_step =
+      LastProgress("[1/2] " + std::string(100000, 's'));
+  ASSERT_TRUE(long_step.has_value());
+  EXPECT_EQ(long_step->what.size(), kMaxFieldBytes);
+}
+
 }  // namespace
 }  // namespace hdrstereo::slurm
