@@ -10,6 +10,8 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "tests/support/status_matchers.h"
+
 namespace hdrstereo::io {
 namespace {
 
@@ -32,6 +34,23 @@ TEST(JsonErrorTest, AnUnterminatedStringIsQuotedBounded) {
                                  "\"\\\"aaaa"));
   EXPECT_THAT(message, HasSubstr("\"... (100001 bytes)"));
   EXPECT_LT(message.size(), 300u);
+}
+
+// The token is received text: "'; expected " inside it is not where it
+// ends, so the rest of the file is still quoted bounded.
+TEST(JsonErrorTest, ATokenHoldingExpectedIsQuotedBounded) {
+  const std::string message =
+      ParseError("[\"'; expected " + std::string(100000, 'a'));
+  EXPECT_THAT(message, HasSubstr("missing closing quote; last read: "
+                                 "\"\\\"\\'; expected aaaa"));
+  EXPECT_THAT(message, HasSubstr("\"... (100013 bytes)"));
+  EXPECT_LT(message.size(), 300u);
+  // Made to end like nlohmann's own tail: the tail is kept, the token
+  // before it still quoted bounded.
+  const std::string tail =
+      ParseError("[\"" + std::string(100000, 'a') + "'; expected ']");
+  EXPECT_THAT(tail, HasSubstr("\"... (100001 bytes); expected ']'"));
+  EXPECT_LT(tail.size(), 300u);
 }
 
 TEST(JsonErrorTest, WhatWasExpectedIsKept) {
@@ -58,6 +77,31 @@ TEST(JsonInt64Test, ReadsIntegersWithoutWrapping) {
   EXPECT_EQ(JsonInt64(json::parse("-9223372036854775808")), INT64_MIN);
   EXPECT_EQ(JsonInt64(json::parse("1.5")), std::nullopt);
   EXPECT_EQ(JsonInt64(json::parse("\"1\"")), std::nullopt);
+}
+
+TEST(JsonIntInRangeTest, NamesTheFieldTheValueAndTheRange) {
+  using ::hdrstereo::testing::StatusIs;
+  using nlohmann::json;
+  ASSERT_OK_AND_ASSIGN(const int64_t bits,
+                       JsonIntInRange(json::parse("16"), "bits", 1, 16));
+  EXPECT_EQ(bits, 16);
+  EXPECT_THAT(JsonIntInRange(json::parse("17"), "bits", 1, 16),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       "bits: 17 is outside [1, 16]"));
+  EXPECT_THAT(
+      JsonIntInRange(json::parse("-9223372036854775808"), "bits", 1, 16),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               "bits: -9223372036854775808 is outside [1, 16]"));
+  // 2^64 - 1 is held as uint64 and would read as -1.
+  EXPECT_THAT(JsonIntInRange(json::parse("18446744073709551615"), "n", -1, 1),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       "n: 18446744073709551615 is outside [-1, 1]"));
+  for (const char* not_integer : {"1.0", "\"1\"", "[1]", "null"}) {
+    EXPECT_THAT(JsonIntInRange(json::parse(not_integer), "bits", 1, 16),
+                StatusIs(absl::StatusCode::kInvalidArgument,
+                         "bits: expected an integer"))
+        << not_integer;
+  }
 }
 
 TEST(JsonErrorTest, OtherMessagesAreUnchanged) {
