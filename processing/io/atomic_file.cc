@@ -2,12 +2,15 @@
 #include "processing/io/atomic_file.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdint>
 #include <cstring>
 #include <random>
+#include <string>
 #include <system_error>
 
 #include "absl/status/statusor.h"
@@ -148,6 +151,51 @@ absl::Status WriteFileAtomically(const std::filesystem::path& path,
   ASSIGN_OR_RETURN(AtomicFileWriter writer, AtomicFileWriter::Open(path));
   RETURN_IF_ERROR(writer.Append(data));
   return writer.Commit();
+}
+
+absl::StatusOr<std::string> ReadFileBytes(const std::filesystem::path& path,
+                                          size_t max_bytes,
+                                          absl::string_view what) {
+  // O_NONBLOCK: a FIFO is refused below instead of blocking the open until a
+  // writer comes; reads of a regular file ignore it.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  if (fd < 0) return FileError(errno, "cannot open", path);
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st;
+  if (::fstat(fd, &st) != 0) return FileError(errno, "cannot stat", path);
+  if (!S_ISREG(st.st_mode)) {
+    return absl::FailedPreconditionError(
+        absl::StrCat(path.string(), " is not a regular file"));
+  }
+  const uint64_t size = static_cast<uint64_t>(st.st_size);
+  if (size > max_bytes) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        path.string(), ": ", what, " of ", size,
+        " bytes, more than the limit of ", max_bytes, "; not read"));
+  }
+  // The file may grow after fstat: read at most one byte beyond the limit.
+  std::string bytes;
+  bytes.reserve(size);
+  char chunk[16 << 10];
+  for (;;) {
+    const size_t room = max_bytes - bytes.size();
+    const size_t want = room < sizeof(chunk) ? room + 1 : sizeof(chunk);
+    const ssize_t n = ::read(fd, chunk, want);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return FileError(errno, "cannot read", path);
+    }
+    if (n == 0) return bytes;
+    bytes.append(chunk, static_cast<size_t>(n));
+    if (bytes.size() > max_bytes) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(path.string(), ": ", what, " grew beyond the limit of ",
+                       max_bytes, " bytes while it was read"));
+    }
+  }
 }
 
 absl::Status SyncDirectory(const std::filesystem::path& dir) {

@@ -4,9 +4,14 @@
 // folder, is fsynced, renamed over the target and the folder is fsynced.
 // A reader therefore sees either the old file or the complete new one, never
 // a partial write, even after a power cut or kill -9.
+//
+// And the bounded read of a file received from others (ReadFileBytes with
+// a limit), here because this library is light enough for every reader of
+// such files: the CLI and the gphoto2 driver as well as processing.
 #ifndef HDRSTEREO_PROCESSING_IO_ATOMIC_FILE_H_
 #define HDRSTEREO_PROCESSING_IO_ATOMIC_FILE_H_
 
+#include <cstddef>
 #include <filesystem>
 #include <string>
 
@@ -72,6 +77,20 @@ bool IsDiskFull(const absl::Status& status);
 // `path` and leaves no temporary file.
 absl::Status WriteFileAtomically(const std::filesystem::path& path,
                                  absl::string_view data);
+
+// The bytes of a file received from others (a layout, a scene, a camera
+// dump, a cluster node's result), refused by its size before anything is
+// read or allocated: INVALID_ARGUMENT "<path>: <what> of N bytes, more than
+// the limit of <max_bytes>; not read" (or, for a file that grows past the
+// limit while it is read, "<path>: <what> grew beyond the limit of
+// <max_bytes> bytes while it was read"). Those are the only INVALID_ARGUMENT
+// errors it returns, so that a caller may give them its own code. A file
+// that cannot be opened or read is FileError's status (NOT_FOUND when it
+// does not exist), one that is not a regular file (a folder, a FIFO, a
+// device) FAILED_PRECONDITION.
+absl::StatusOr<std::string> ReadFileBytes(const std::filesystem::path& path,
+                                          size_t max_bytes,
+                                          absl::string_view what);
 
 // fsyncs a folder so that a rename or new entry in it is durable.
 absl::Status SyncDirectory(const std::filesystem::path& dir);

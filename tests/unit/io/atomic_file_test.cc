@@ -3,10 +3,13 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdint>
+#include <cstring>
 #include <string>
 
 #include "tests/support/status_matchers.h"
@@ -161,6 +164,54 @@ TEST(AtomicFileTest, OnlyNoSpaceAndAFullQuotaAreDiskFull) {
   EXPECT_THAT(FileError(ENOENT, "cannot open", path),
               StatusIs(absl::StatusCode::kNotFound,
                        HasSubstr("No such file or directory")));
+}
+
+TEST(ReadFileBytesTest, ReadsAFileUpToTheLimit) {
+  TempDir dir;
+  ASSERT_OK(WriteFileAtomically(dir / "f", "12345"));
+  ASSERT_OK_AND_ASSIGN(const std::string bytes,
+                       ReadFileBytes(dir / "f", 5, "test file"));
+  EXPECT_EQ(bytes, "12345");
+  ASSERT_OK(WriteFileAtomically(dir / "empty", ""));
+  ASSERT_OK_AND_ASSIGN(const std::string none,
+                       ReadFileBytes(dir / "empty", 0, "test file"));
+  EXPECT_EQ(none, "");
+  EXPECT_THAT(ReadFileBytes(dir / "f", 4, "test file"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       (dir / "f").string() +
+                           ": test file of 5 bytes, more than the limit of 4; "
+                           "not read"));
+}
+
+// The size is refused before anything is read or allocated: a sparse file
+// of 1 TiB takes no disk and would take 1 TiB of memory.
+TEST(ReadFileBytesTest, AHugeFileIsRefusedUnread) {
+  TempDir dir;
+  const std::filesystem::path file = dir / "huge";
+  ASSERT_OK(WriteFileAtomically(file, ""));
+  std::filesystem::resize_file(file, uint64_t{1} << 40);
+  EXPECT_THAT(ReadFileBytes(file, 1 << 20, "test file"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       file.string() +
+                           ": test file of 1099511627776 bytes, more than the "
+                           "limit of 1048576; not read"));
+}
+
+TEST(ReadFileBytesTest, WhatIsNotARegularFileIsNotRead) {
+  TempDir dir;
+  EXPECT_THAT(ReadFileBytes(dir / "none", 10, "test file"),
+              StatusIs(absl::StatusCode::kNotFound,
+                       "cannot open " + (dir / "none").string() +
+                           ": No such file or directory"));
+  EXPECT_THAT(ReadFileBytes(dir.path(), 10, "test file"),
+              StatusIs(absl::StatusCode::kFailedPrecondition,
+                       dir.path().string() + " is not a regular file"));
+  // A FIFO without a writer would block an open for reading.
+  const std::filesystem::path fifo = dir / "fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0) << std::strerror(errno);
+  EXPECT_THAT(ReadFileBytes(fifo, 10, "test file"),
+              StatusIs(absl::StatusCode::kFailedPrecondition,
+                       fifo.string() + " is not a regular file"));
 }
 
 }  // namespace
