@@ -304,6 +304,11 @@ absl::StatusOr<FrameLayout> ParseFrameLayout(absl::string_view text) {
       }
     }
   }
+  // An unpadded {frame} gains digits with the frame number: the names of
+  // the last frame are the longest (the views loop checked frame 0).
+  for (const std::string& view : layout.views) {
+    RETURN_IF_ERROR(layout.FileName(*used.rbegin(), view).status());
+  }
   return layout;
 }
 

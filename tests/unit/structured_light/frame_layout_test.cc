@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -282,6 +283,37 @@ TEST(FrameLayoutTest, FilesStayInsideTheCaptureFolder) {
         StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr(message)))
         << files;
   }
+}
+
+// An unpadded {frame} gains a digit from frame 10 on: a name of exactly
+// PATH_MAX bytes at frame 0 is too long at frame 10, so the names of the
+// last frame the layout uses are checked when it is parsed, not only when
+// that frame is loaded.
+TEST(FrameLayoutTest, TheNamesOfTheLastFrameAreCheckedWhenParsed) {
+  const std::string view(46, 'a');
+  std::string files;
+  for (int i = 0; i < 89; ++i) files += "{view}";
+  files += "{frame}{frame}";
+  ASSERT_EQ(files.size(), 548u);
+  FrameLayout unparsed;
+  unparsed.files = files;
+  ASSERT_OK_AND_ASSIGN(const std::string first, unparsed.FileName(0, view));
+  EXPECT_EQ(first.size(), 4096u);
+  EXPECT_THAT(unparsed.FileName(10, view),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("(4098 bytes) is longer than the limit of "
+                                 "4096 bytes")));
+
+  std::string text = kLayout;
+  text.replace(text.find("[\"a\"]"), 5, "[\"" + view + "\"]");
+  text.replace(text.find(kFiles), std::strlen(kFiles), "\"" + files + "\"");
+  const absl::StatusOr<FrameLayout> layout = ParseFrameLayout(text);
+  EXPECT_THAT(layout, StatusIs(absl::StatusCode::kInvalidArgument,
+                               HasSubstr("structured-light layout: files: ")));
+  EXPECT_THAT(layout, StatusIs(absl::StatusCode::kInvalidArgument,
+                               HasSubstr("(4098 bytes) is longer than the "
+                                         "limit of 4096 bytes")));
+  EXPECT_LT(layout.status().message().size(), 400u);
 }
 
 TEST(FrameLayoutTest, TheTemplateHasOnlyItsPlaceholders) {
