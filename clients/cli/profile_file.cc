@@ -1,17 +1,12 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "clients/cli/profile_file.h"
 
-#include <cerrno>
-#include <cstring>
-#include <fstream>
-#include <sstream>
-#include <system_error>
-
 #include "absl/strings/ascii.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "processing/base/input_limits.h"
+#include "processing/io/atomic_file.h"
 
 namespace hdrstereo::cli {
 namespace {
@@ -153,22 +148,10 @@ absl::StatusOr<ProfileFile> ParseProfileFile(const std::string& path,
 }
 
 absl::StatusOr<ProfileFile> LoadProfileFile(const std::filesystem::path& path) {
-  std::error_code ec;
-  const uintmax_t size = std::filesystem::file_size(path, ec);
-  if (!ec && size > kMaxProfileFileBytes) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(path.string(), ": the file is ", size,
-                     " bytes; the most is ", kMaxProfileFileBytes));
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    return absl::InvalidArgumentError(absl::StrCat("cannot read profile file ",
-                                                   path.string(), ": ",
-                                                   std::strerror(errno)));
-  }
-  std::stringstream text;
-  text << in.rdbuf();
-  return ParseProfileFile(path.string(), text.str());
+  absl::StatusOr<std::string> text =
+      io::ReadFileBytes(path, kMaxProfileFileBytes, "profile file");
+  if (!text.ok()) return absl::InvalidArgumentError(text.status().message());
+  return ParseProfileFile(path.string(), *text);
 }
 
 }  // namespace hdrstereo::cli

@@ -53,7 +53,8 @@ absl::StatusOr<ProfileFile> ParseProfileFile(const std::string& path,
                                              absl::string_view text);
 
 // Reads and parses the file at `path` (INVALID_ARGUMENT when it cannot be
-// read or is larger than kMaxProfileFileBytes).
+// read or is larger than kMaxProfileFileBytes, refused by its size before
+// it is read).
 absl::StatusOr<ProfileFile> LoadProfileFile(const std::filesystem::path& path);
 
 }  // namespace hdrstereo::cli

@@ -24,7 +24,6 @@
 #include "daemon/store/session_repository.h"
 #include "processing/base/status_macros.h"
 #include "processing/io/capture_layout.h"
-#include "processing/io/image.h"
 #include "processing/io/middlebury.h"
 #include "processing/pipeline/pipeline.h"
 #include "processing/pipeline/session_files.h"
@@ -325,10 +324,8 @@ absl::Status RecordResult(const pipeline::JobResult& result,
     RETURN_IF_ERROR(store.Record(step.step, step.input_hash, step.artifacts));
     for (const pipeline::Artifact& a : step.artifacts) {
       if (a.kind != "metrics") continue;
-      ASSIGN_OR_RETURN(const std::string text,
-                       io::ReadFileBytes(session_dir / a.path));
       ASSIGN_OR_RETURN(std::vector<pipeline::Metric> metrics,
-                       pipeline::MetricsFromJson(text));
+                       pipeline::ReadMetricsFile(session_dir / a.path));
       RETURN_IF_ERROR(store.RecordMetrics(metrics));
     }
   }

@@ -3,11 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <optional>
 #include <set>
-#include <sstream>
-#include <system_error>
 
 #include "absl/status/status.h"
 #include "absl/strings/ascii.h"
@@ -20,6 +17,7 @@
 #include "absl/strings/strip.h"
 #include "processing/base/input_limits.h"
 #include "processing/base/status_macros.h"
+#include "processing/io/atomic_file.h"
 
 namespace hdrstereo::gphoto2 {
 namespace {
@@ -312,24 +310,9 @@ absl::StatusOr<CameraDump> ParseCameraDump(absl::string_view raw_text,
 }
 
 absl::StatusOr<CameraDump> LoadCameraDump(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    return absl::NotFoundError(
-        absl::StrCat("camera dump not found: ", path.string()));
-  }
-  const uintmax_t size = std::filesystem::file_size(path, ec);
-  if (!ec && size > kMaxDumpBytes) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(path.string(), ": the dump is ", size,
-                     " bytes; the most is ", kMaxDumpBytes));
-  }
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream bytes;
-  bytes << in.rdbuf();
-  if (!in.good() && !in.eof()) {
-    return absl::DataLossError(absl::StrCat("cannot read ", path.string()));
-  }
-  return ParseCameraDump(bytes.str(), path.string());
+  ASSIGN_OR_RETURN(const std::string text,
+                   io::ReadFileBytes(path, kMaxDumpBytes, "camera dump"));
+  return ParseCameraDump(text, path.string());
 }
 
 }  // namespace hdrstereo::gphoto2

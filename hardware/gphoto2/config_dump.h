@@ -67,7 +67,8 @@ absl::StatusOr<CameraDump> ParseCameraDump(absl::string_view text,
                                            absl::string_view source);
 
 // Reads and parses a dump file (NOT_FOUND when it does not exist,
-// INVALID_ARGUMENT when it is larger than kMaxDumpBytes).
+// INVALID_ARGUMENT when it is larger than kMaxDumpBytes, refused by its size
+// before it is read).
 absl::StatusOr<CameraDump> LoadCameraDump(const std::filesystem::path& path);
 
 // `text` with every invalid UTF-8 sequence replaced by U+FFFD.

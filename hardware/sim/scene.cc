@@ -3,11 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
-#include <sstream>
 #include <stdexcept>
 
 #include "absl/status/status.h"
@@ -15,7 +13,11 @@
 #include "absl/strings/str_join.h"
 #include "hardware/sim/bundled_scenes.h"
 #include "processing/base/input_limits.h"
+#include "processing/base/status_macros.h"
+#include "processing/io/atomic_file.h"
+#include "processing/io/image.h"
 #include "processing/io/json_input.h"
+#include "processing/io/relative_path.h"
 
 namespace hdrstereo::sim {
 namespace {
@@ -37,10 +39,9 @@ constexpr double kMinFeatureMm = 1e-3;
 //   (a 61 MP sensor is 9504 x 6336): the renderer keeps 18 bytes a pixel
 //   besides the images;
 constexpr int64_t kMaxCameraPixels = int64_t{1} << 26;
-// - the projector at most 16384 pixels each way (the largest frame buffer
-//   a display offers) and 2^27 pixels (a 16K display is 15360 x 8640): its
-//   pattern is rendered as 12 bytes a pixel;
-constexpr int kMaxProjectorSide = 16384;
+// - the projector at most kMaxProjectorSide pixels each way (the largest
+//   frame buffer a display offers) and 2^27 pixels (a 16K display is
+//   15360 x 8640): its pattern is rendered as 12 bytes a pixel;
 constexpr int64_t kMaxProjectorPixels = int64_t{1} << 27;
 // - every pixel is traced against every object and towards every light
 //   (and object ids are 16-bit);
@@ -49,9 +50,9 @@ constexpr size_t kMaxLights = 16;
 // - a fault trigger lists a few call numbers, each an int.
 constexpr size_t kMaxTriggerCalls = 1000;
 constexpr int kMaxCallNumber = 1000000000;
-constexpr size_t kMaxNameBytes = 256;
+// - names at most kMaxNameBytes, a description 4 KB, paths PATH_MAX
+//   (io::kMaxRelativePathBytes).
 constexpr size_t kMaxDescriptionBytes = 4096;
-constexpr size_t kMaxPathBytes = 4096;  // PATH_MAX
 // Calibration poses a capture asks for.
 constexpr size_t kMaxBoardPoses = 64;
 
@@ -121,17 +122,18 @@ double GetNumber(const Json& obj, const std::string& path,
 // Reads obj[key] if present; checks 0 < v <= hi.
 double GetPositive(const Json& obj, const std::string& path,
                    const std::string& key, double fallback, double hi) {
-  double v = GetNumber(obj, path, key, fallback, 0, hi);
-  if (!(v > 0)) Fail(Join(path, key), absl::StrCat("must be > 0, got ", v));
+  if (!obj.contains(key)) return fallback;
+  const std::string p = Join(path, key);
+  double v = Number(obj.at(key), p);
+  if (!(v > 0 && v <= hi)) {
+    Fail(p, absl::StrCat("must be in (0, ", hi, "], got ", v));
+  }
   return v;
 }
 
 int Int(const Json& j, const std::string& path, int lo, int hi) {
-  const std::optional<int64_t> v = io::JsonInt64(j);
-  if (!j.is_number_integer()) Fail(path, "expected an integer");
-  if (!v.has_value() || *v < lo || *v > hi) {
-    Fail(path, absl::StrCat("must be in [", lo, ", ", hi, "], got ", j.dump()));
-  }
+  const absl::StatusOr<int64_t> v = io::JsonIntInRange(j, path, lo, hi);
+  Check(v.status());
   return static_cast<int>(*v);
 }
 
@@ -616,14 +618,14 @@ Scene ParseSceneJson(const Json& root) {
       s.camera_faults.disconnect_failed_reopens =
           GetInt(c, p, "disconnect_failed_reopens", -1, -1, 1000000);
       s.camera_faults.absent_until_file =
-          GetString(c, p, "absent_until_file", "", kMaxPathBytes);
+          GetString(c, p, "absent_until_file", "", io::kMaxRelativePathBytes);
       s.camera_faults.corrupt = ParseTrigger(c, p, "corrupt");
       s.camera_faults.previous_file = ParseTrigger(c, p, "previous_file");
       s.camera_faults.wrong_exposure = ParseTrigger(c, p, "wrong_exposure");
       s.camera_faults.card_target = ParseTrigger(c, p, "card_target");
       s.camera_faults.hold = ParseTrigger(c, p, "hold");
       s.camera_faults.hold_fifo =
-          GetString(c, p, "hold_fifo", "", kMaxPathBytes);
+          GetString(c, p, "hold_fifo", "", io::kMaxRelativePathBytes);
       if (s.camera_faults.hold.enabled() && s.camera_faults.hold_fifo.empty()) {
         Fail(p + ".hold_fifo", "required with hold (the FIFO it waits on)");
       }
@@ -804,26 +806,9 @@ absl::StatusOr<Scene> ParseScene(absl::string_view json_text) {
 }
 
 absl::StatusOr<Scene> LoadSceneFile(const std::filesystem::path& path) {
-  std::error_code ec;
-  const uintmax_t size = std::filesystem::file_size(path, ec);
-  if (!ec && size > kMaxSceneBytes) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(path.string(), ": scene: ", size,
-                     " bytes, more than the limit of ", kMaxSceneBytes));
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (ec || !in) {
-    return absl::NotFoundError(
-        absl::StrCat("cannot read scene file ", path.string()));
-  }
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  absl::StatusOr<Scene> scene = ParseScene(buffer.str());
-  if (!scene.ok()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(path.string(), ": ", scene.status().message()));
-  }
-  return scene;
+  ASSIGN_OR_RETURN(const std::string text,
+                   io::ReadFileBytes(path, kMaxSceneBytes, "scene file"));
+  return io::WithSource(path.string(), ParseScene(text));
 }
 
 std::vector<std::string> BundledSceneNames() {

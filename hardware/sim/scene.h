@@ -297,6 +297,8 @@ struct Scene {
 // are bounded before they are used (the limits and their reasons are in
 // scene.cc), and messages quote what they received bounded.
 absl::StatusOr<Scene> ParseScene(absl::string_view json_text);
+// The same for a file, refused by its size before it is read, its path in
+// front of the errors (NOT_FOUND when there is none).
 absl::StatusOr<Scene> LoadSceneFile(const std::filesystem::path& path);
 // The scenes compiled into the library: lab-lamp, textured, checkerboard,
 // shadowed.

@@ -44,6 +44,16 @@ int64_t ImageLimitFromEnv(const char* text, int64_t fallback, int64_t max);
 // cv::Mat holds at most 512 channels (CV_CN_MAX).
 inline constexpr int64_t kMaxImageChannels = 512;
 
+// The largest frame buffer a display offers, each way (X11's and GPUs'
+// largest framebuffer and texture side; an 8K projector is 8192 wide): the
+// most a projector's size may be in a layout, a scene or a job request.
+inline constexpr int kMaxProjectorSide = 16384;
+
+// The longest name a file from others gives something (a step, a method, a
+// scene object, a hash, a status code): names are short, and this bounds
+// what a message or a lookup key holds (longer than a file name's 255).
+inline constexpr size_t kMaxNameBytes = 256;
+
 // The most bytes of received text an error message quotes.
 inline constexpr size_t kMaxQuotedBytes = 64;
 

@@ -280,9 +280,8 @@ absl::StatusOr<RunSummary> Run(const SessionInput& input,
         .push_back(step);
   }
   if (std::find(steps.begin(), steps.end(), "evaluate") != steps.end()) {
-    ASSIGN_OR_RETURN(const std::string text,
-                     io::ReadFileBytes(input.session_dir / kMetricsFile));
-    ASSIGN_OR_RETURN(summary.metrics, MetricsFromJson(text));
+    ASSIGN_OR_RETURN(summary.metrics,
+                     ReadMetricsFile(input.session_dir / kMetricsFile));
   }
   if (std::find(steps.begin(), steps.end(), "report") != steps.end()) {
     summary.report_path = "report/index.html";

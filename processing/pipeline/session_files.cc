@@ -24,7 +24,6 @@
 #include "processing/io/middlebury.h"
 #include "processing/io/relative_path.h"
 #include "processing/io/sha256.h"
-#include "processing/structured_light/frame_layout.h"
 
 namespace hdrstereo::pipeline {
 namespace fs = std::filesystem;
@@ -45,9 +44,8 @@ constexpr size_t kMaxSteps = 256;
 constexpr size_t kMaxArtifacts = 100000;
 constexpr size_t kMaxMetrics = 100000;
 constexpr size_t kMaxSummaryRows = 1000;
-// - A name, hash or kind; and a longer text (a step's parameters as JSON, a
-//   status message, a summary value).
-constexpr size_t kMaxNameBytes = 256;
+// - A name, hash or kind: kMaxNameBytes; and a longer text (a step's
+//   parameters as JSON, a status message, a summary value).
 constexpr size_t kMaxTextBytes = 64 << 10;
 // - Views of a rig (daemon/jobs/capture_plan.h: at most 16).
 constexpr int64_t kMaxViewIndex = 15;
@@ -120,23 +118,12 @@ absl::Status ReadPath(const json& object, absl::string_view where,
   return absl::OkStatus();
 }
 
-absl::StatusOr<int64_t> IntValue(const json& j, absl::string_view field,
-                                 int64_t min, int64_t max) {
-  const std::optional<int64_t> v = io::JsonInt64(j);
-  if (!j.is_number_integer()) return Bad(field, "expected an integer");
-  if (!v.has_value() || *v < min || *v > max) {
-    return Bad(field,
-               absl::StrCat(j.dump(), " is outside [", min, ", ", max, "]"));
-  }
-  return *v;
-}
-
 absl::Status ReadInt(const json& object, absl::string_view where,
                      const char* key, int64_t min, int64_t max, int64_t* out,
                      bool required = true) {
   ASSIGN_OR_RETURN(const json* j, Member(object, where, key, required));
   if (j == nullptr) return absl::OkStatus();
-  ASSIGN_OR_RETURN(*out, IntValue(*j, Field(where, key), min, max));
+  ASSIGN_OR_RETURN(*out, io::JsonIntInRange(*j, Field(where, key), min, max));
   return absl::OkStatus();
 }
 
@@ -209,26 +196,19 @@ absl::Status NotA(absl::string_view what, const absl::Status& status) {
 }
 
 // The bytes of a file of this kind, refused beyond kMaxFileBytes before
-// they are read; its absence is NOT_FOUND "<path>: no <what>".
+// they are read (DATA_LOSS "<path>: <what> of N bytes, more than the limit
+// of ...; not read"); its absence is NOT_FOUND "<path>: no <what>".
 absl::StatusOr<std::string> ReadDocument(const fs::path& path,
                                          absl::string_view what) {
-  std::error_code ec;
-  if (!fs::exists(path, ec)) {
+  absl::StatusOr<std::string> text =
+      io::ReadFileBytes(path, kMaxFileBytes, what);
+  if (absl::IsNotFound(text.status())) {
     return absl::NotFoundError(absl::StrCat(path.string(), ": no ", what));
   }
-  const uintmax_t size = fs::file_size(path, ec);
-  if (!ec && size > kMaxFileBytes) {
-    return absl::DataLossError(
-        absl::StrCat(path.string(), ": not a ", what, ": ", size,
-                     " bytes, more than the limit of ", kMaxFileBytes));
+  if (absl::IsInvalidArgument(text.status())) {
+    return absl::DataLossError(text.status().message());
   }
-  return io::ReadFileBytes(path);
-}
-
-// `status` with the path of the file it is about in front.
-absl::Status InFile(const fs::path& path, const absl::Status& status) {
-  return absl::Status(status.code(),
-                      absl::StrCat(path.string(), ": ", status.message()));
+  return text;
 }
 
 json ArtifactToJson(const Artifact& a) {
@@ -339,9 +319,7 @@ absl::StatusOr<JsonRunStore> JsonRunStore::Open(fs::path path) {
   if (!fs::exists(path, ec)) return JsonRunStore(std::move(path));
   ASSIGN_OR_RETURN(const std::string text,
                    ReadDocument(path, "pipeline state file"));
-  absl::StatusOr<JsonRunStore> store = Parse(text, path);
-  if (!store.ok()) return InFile(path, store.status());
-  return store;
+  return io::WithSource(path.string(), Parse(text, path));
 }
 
 namespace {
@@ -503,14 +481,27 @@ std::string MetricsToJson(const std::vector<Metric>& metrics) {
   return json{{"metrics", rows}}.dump(2) + "\n";
 }
 
-absl::StatusOr<std::vector<Metric>> MetricsFromJson(absl::string_view text) {
-  constexpr absl::string_view kWhat = "metrics file";
-  absl::StatusOr<json> j = ParseObject(text, kWhat);
-  absl::StatusOr<std::vector<Metric>> metrics =
-      j.ok() ? MetricsFromArray(*j, true) : j.status();
-  if (j.ok() && !metrics.ok()) metrics = NotA(kWhat, metrics.status());
-  if (!metrics.ok()) return InFile("metrics.json", metrics.status());
+namespace {
+
+constexpr char kMetricsWhat[] = "metrics file";
+
+// A metrics file's text; DATA_LOSS "not a metrics file: ...".
+absl::StatusOr<std::vector<Metric>> ParseMetrics(absl::string_view text) {
+  ASSIGN_OR_RETURN(const json j, ParseObject(text, kMetricsWhat));
+  absl::StatusOr<std::vector<Metric>> metrics = MetricsFromArray(j, true);
+  if (!metrics.ok()) return NotA(kMetricsWhat, metrics.status());
   return metrics;
+}
+
+}  // namespace
+
+absl::StatusOr<std::vector<Metric>> MetricsFromJson(absl::string_view text) {
+  return io::WithSource("metrics.json", ParseMetrics(text));
+}
+
+absl::StatusOr<std::vector<Metric>> ReadMetricsFile(const fs::path& path) {
+  ASSIGN_OR_RETURN(const std::string text, ReadDocument(path, kMetricsWhat));
+  return io::WithSource(path.string(), ParseMetrics(text));
 }
 
 std::vector<Metric> SortMetrics(std::vector<Metric> metrics) {
@@ -632,9 +623,9 @@ absl::StatusOr<JobRequest> RequestFromJson(const json& j,
     }
     int64_t side[2] = {0, 0};
     for (int k = 0; k < 2; ++k) {
-      ASSIGN_OR_RETURN(side[k],
-                       IntValue((*size)[k], Index("projector_size", k), 1,
-                                structured_light::kMaxProjectorSide));
+      ASSIGN_OR_RETURN(
+          side[k], io::JsonIntInRange((*size)[k], Index("projector_size", k), 1,
+                                      kMaxProjectorSide));
     }
     in.projector_size =
         std::make_pair(static_cast<int>(side[0]), static_cast<int>(side[1]));
@@ -757,9 +748,7 @@ absl::StatusOr<JobRequest> ReadJobRequest(const fs::path& job_dir,
   const fs::path path = job_dir / kJobRequestFile;
   ASSIGN_OR_RETURN(const std::string text,
                    ReadDocument(path, "pipeline job request"));
-  absl::StatusOr<JobRequest> request = ParseJobRequest(text, session_dir);
-  if (!request.ok()) return InFile(path, request.status());
-  return request;
+  return io::WithSource(path.string(), ParseJobRequest(text, session_dir));
 }
 
 absl::Status WriteJobResult(const fs::path& job_dir, const JobResult& result) {
@@ -793,9 +782,7 @@ absl::StatusOr<JobResult> ReadJobResult(const fs::path& job_dir) {
   const fs::path path = job_dir / kJobResultFile;
   ASSIGN_OR_RETURN(const std::string text,
                    ReadDocument(path, "pipeline job result"));
-  absl::StatusOr<JobResult> result = ParseJobResult(text);
-  if (!result.ok()) return InFile(path, result.status());
-  return result;
+  return io::WithSource(path.string(), ParseJobResult(text));
 }
 
 absl::Status VerifyFrames(const SessionInput& input) {

@@ -36,12 +36,13 @@ absl::StatusOr<SessionInput> DiscoverSession(
     const std::filesystem::path& session_dir);
 
 // The files of this header that a run elsewhere writes or reads (request,
-// result, pipeline state, metrics) are read as untrusted: at most 64 MiB,
-// bounded counts (100000 frames, artifacts of a step and metrics rows, 256
-// steps) and string lengths, every field of its JSON type, and every path
-// relative to the session folder (io::ValidateRelativePath); DATA_LOSS
-// "not a <document>: <field>: <why>" otherwise, the field named (e.g.
-// "steps[2].artifacts[0].path"), what it held quoted through QuoteInput.
+// result, pipeline state, metrics) are read as untrusted: at most 64 MiB
+// (a larger file is refused by its size before it is read), bounded counts
+// (100000 frames, artifacts of a step and metrics rows, 256 steps) and string
+// lengths, every field of its JSON type, and every path relative to the session
+// folder (io::ValidateRelativePath); DATA_LOSS "not a <document>: <field>:
+// <why>" otherwise, the field named (e.g. "steps[2].artifacts[0].path"), what
+// it held quoted through QuoteInput.
 
 // A RunStore in one JSON file, rewritten atomically on every change:
 //   {"steps": {"<step>": {"input_hash": "...", "artifacts": [...]}},
@@ -91,6 +92,13 @@ absl::Status ApplyCalib(const std::filesystem::path& path, SessionInput* in);
 std::string MetricsToJson(const std::vector<Metric>& metrics);
 // DATA_LOSS "metrics.json: not a metrics file: ...".
 absl::StatusOr<std::vector<Metric>> MetricsFromJson(absl::string_view text);
+// The metrics file at `path` (a run's metrics/metrics.json, or one a cluster
+// node names), read as untrusted like the files below: refused by its size
+// before it is read (DATA_LOSS "<path>: metrics file of N bytes, more than
+// the limit of ...; not read"), NOT_FOUND "<path>: no metrics file", else
+// MetricsFromJson's errors with `path` in front instead of "metrics.json".
+absl::StatusOr<std::vector<Metric>> ReadMetricsFile(
+    const std::filesystem::path& path);
 
 // Sorted by ground truth, then RMSE (the order tables show them in), a NaN
 // RMSE last.

@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <optional>
 #include <set>
-#include <system_error>
 #include <utility>
 
 #include "absl/status/status.h"
@@ -17,6 +16,7 @@
 #include "nlohmann/json.hpp"
 #include "processing/base/input_limits.h"
 #include "processing/base/status_macros.h"
+#include "processing/io/atomic_file.h"
 #include "processing/io/image.h"
 #include "processing/io/json_input.h"
 #include "processing/io/relative_path.h"
@@ -40,12 +40,6 @@ constexpr size_t kMaxViewNameBytes = 64;
 absl::Status Bad(absl::string_view key, absl::string_view why) {
   return absl::InvalidArgumentError(
       absl::StrCat("structured-light layout: ", key, ": ", why));
-}
-
-absl::Status TooLarge(uintmax_t bytes) {
-  return absl::InvalidArgumentError(
-      absl::StrCat("structured-light layout: ", bytes,
-                   " bytes, more than the limit of ", kMaxLayoutBytes));
 }
 
 absl::Status BadFiles(absl::string_view files, absl::string_view why) {
@@ -133,12 +127,11 @@ absl::StatusOr<int> Int(const json& object, const std::string& key,
     if (fallback.has_value()) return *fallback;
     return Bad(path, "missing");
   }
-  const json& value = object[key];
-  const std::optional<int64_t> v = io::JsonInt64(value);
-  if (!value.is_number_integer()) return Bad(path, "must be an integer");
-  if (!v.has_value() || *v < min || *v > max) {
-    return Bad(path, absl::StrFormat("%s is outside [%d, %d]", value.dump(),
-                                     min, max));
+  const absl::StatusOr<int64_t> v =
+      io::JsonIntInRange(object[key], path, min, max);
+  if (!v.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("structured-light layout: ", v.status().message()));
   }
   return static_cast<int>(*v);
 }
@@ -211,7 +204,11 @@ absl::StatusOr<std::string> FrameLayout::FileName(
 }
 
 absl::StatusOr<FrameLayout> ParseFrameLayout(absl::string_view text) {
-  if (text.size() > kMaxLayoutBytes) return TooLarge(text.size());
+  if (text.size() > kMaxLayoutBytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("structured-light layout: ", text.size(),
+                     " bytes, more than the limit of ", kMaxLayoutBytes));
+  }
   json root;
   try {
     root = json::parse(text);
@@ -313,17 +310,10 @@ absl::StatusOr<FrameLayout> ParseFrameLayout(absl::string_view text) {
 }
 
 absl::StatusOr<FrameLayout> LoadFrameLayout(const std::filesystem::path& path) {
-  auto in_file = [&](const absl::Status& status) {
-    return absl::Status(status.code(),
-                        absl::StrCat(path.string(), ": ", status.message()));
-  };
-  std::error_code ec;
-  const uintmax_t size = std::filesystem::file_size(path, ec);
-  if (!ec && size > kMaxLayoutBytes) return in_file(TooLarge(size));
-  ASSIGN_OR_RETURN(std::string text, io::ReadFileBytes(path));
-  absl::StatusOr<FrameLayout> layout = ParseFrameLayout(text);
-  if (!layout.ok()) return in_file(layout.status());
-  return layout;
+  ASSIGN_OR_RETURN(
+      const std::string text,
+      io::ReadFileBytes(path, kMaxLayoutBytes, "structured-light layout"));
+  return io::WithSource(path.string(), ParseFrameLayout(text));
 }
 
 absl::StatusOr<ViewFrames> LoadLayoutView(

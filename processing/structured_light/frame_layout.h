@@ -26,7 +26,8 @@
 //   braces.
 // - "white", "black", "first_frame": frame numbers, from 0 or 1 up to the
 //   layout's frame count (2 + 2 x the bits of both codes), each used once.
-// - "projector": at most kMaxProjectorSide pixels each way.
+// - "projector": at most kMaxProjectorSide (processing/base/input_limits.h)
+//   pixels each way.
 // - "columns"/"rows": `bits` bit planes, each projected as a pattern and its
 //   inverse, starting at frame `first_frame`. "interleaved": bit, inverse,
 //   next bit, ...; "blocked": every bit, then every inverse. "msb-first":
@@ -50,9 +51,6 @@
 
 namespace hdrstereo::structured_light {
 
-// The largest frame buffer a display offers (X11 and GPUs' largest
-// framebuffer and texture side; an 8K projector is 8192 wide).
-inline constexpr int kMaxProjectorSide = 16384;
 // The most frames a layout can use: white, black, and 16-bit column and
 // row codes whose bits each have an inverse.
 inline constexpr int kMaxLayoutFrames = 2 + 2 * 2 * 16;
@@ -85,8 +83,11 @@ struct FrameLayout {
 };
 
 // Parses a layout file's text. INVALID_ARGUMENT naming the key for a
-// missing or bad field (e.g. "columns.bits: 12 bits cannot code ... ").
+// missing or bad field (e.g. "columns.bits: 12 bits cannot code ... "),
+// also for a template that gives any frame the layout uses a bad file name.
 absl::StatusOr<FrameLayout> ParseFrameLayout(absl::string_view json);
+// The same for a file (at most 1 MiB, refused by its size before it is
+// read), its path in front of the errors.
 absl::StatusOr<FrameLayout> LoadFrameLayout(const std::filesystem::path& path);
 
 // Loads one view's frames under `capture_dir` in the order Decode expects

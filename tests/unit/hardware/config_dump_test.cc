@@ -11,6 +11,8 @@
 #include <gphoto2/gphoto2-result.h>
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
@@ -22,6 +24,7 @@
 #include "hardware/gphoto2/widgets.h"
 #include "hardware/reconnecting_camera.h"
 #include "tests/support/status_matchers.h"
+#include "tests/support/temp_dir.h"
 
 namespace hdrstereo::gphoto2 {
 namespace {
@@ -224,6 +227,20 @@ TEST(ConfigDumpTest, ErrorsNameTheLineAndTheWidget) {
   EXPECT_THAT(LoadCameraDump("/nonexistent/dump.txt"),
               StatusIs(absl::StatusCode::kNotFound,
                        HasSubstr("/nonexistent/dump.txt")));
+}
+
+// Refused by the file's size before it is read (a sparse file: no disk
+// used), not by ParseCameraDump's check of the text.
+TEST(ConfigDumpTest, AHugeDumpFileIsRefusedUnread) {
+  ::hdrstereo::testing::TempDir dir;
+  const std::filesystem::path file = dir / "dump.txt";
+  { std::ofstream(file) << "/main/a/w\n"; }
+  std::filesystem::resize_file(file, kMaxDumpBytes + 1);
+  EXPECT_THAT(
+      LoadCameraDump(file),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               file.string() + ": camera dump of 16777217 bytes, more than the "
+                               "limit of 16777216; not read"));
 }
 
 // Older and odder dumps: tab-indented fields, a blank line and U+00A0

@@ -547,15 +547,46 @@ TEST(HostileSessionFilesTest, WrongTypesAndSizesNameTheField) {
 }
 
 // A file too large to be one is refused before it is read.
+// Refused by the file's size before it is read (a sparse file: no disk
+// used), not by the parser's check of the text.
 TEST(HostileSessionFilesTest, AHugeResultFileIsRefusedUnread) {
   TempDir tmp;
   const std::filesystem::path file = tmp / kJobResultFile;
   ASSERT_OK(io::WriteFileAtomically(file, "{"));
-  std::filesystem::resize_file(file, (size_t{64} << 20) + 1);  // sparse
-  EXPECT_THAT(ReadJobResult(tmp.path()),
+  std::filesystem::resize_file(file, (size_t{64} << 20) + 1);
+  EXPECT_THAT(
+      ReadJobResult(tmp.path()),
+      StatusIs(absl::StatusCode::kDataLoss,
+               file.string() + ": pipeline job result of 67108865 bytes, more "
+                               "than the limit of 67108864; not read"));
+}
+
+// A metrics file that a node names (or the evaluate step wrote) is read as
+// the other files are: bounded before it is read, named in its errors.
+TEST(HostileSessionFilesTest, AMetricsFileIsReadBoundedAndNamed) {
+  TempDir tmp;
+  const std::filesystem::path file = tmp / "metrics.json";
+  ASSERT_OK(io::WriteFileAtomically(
+      file, MetricsToJson({Row("fused", "simulation", 0.75)})));
+  ASSERT_OK_AND_ASSIGN(const std::vector<Metric> rows, ReadMetricsFile(file));
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_DOUBLE_EQ(rows[0].rmse, 0.75);
+
+  ASSERT_OK(io::WriteFileAtomically(file, R"({"metrics": [{"rmse": "x"}]})"));
+  EXPECT_THAT(ReadMetricsFile(file),
               StatusIs(absl::StatusCode::kDataLoss,
-                       HasSubstr("not a pipeline job result: 67108865 bytes, "
-                                 "more than the limit of 67108864")));
+                       file.string() +
+                           ": not a metrics file: metrics[0].rmse: expected a "
+                           "number"));
+  std::filesystem::resize_file(file, (size_t{64} << 20) + 1);
+  EXPECT_THAT(ReadMetricsFile(file),
+              StatusIs(absl::StatusCode::kDataLoss,
+                       file.string() +
+                           ": metrics file of 67108865 bytes, more than the "
+                           "limit of 67108864; not read"));
+  EXPECT_THAT(ReadMetricsFile(tmp / "none.json"),
+              StatusIs(absl::StatusCode::kNotFound,
+                       (tmp / "none.json").string() + ": no metrics file"));
 }
 
 }  // namespace

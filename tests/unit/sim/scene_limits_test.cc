@@ -47,13 +47,13 @@ TEST(SceneLimitsTest, TheCameraIsWithinOpenCVsImageLimits) {
   ExpectRefused(
       SmallSceneJson(
           kPlane, R"("camera": {"width": 1000000000, "height": 1000000000})"),
-      "camera.width: must be in [8, 1048576], got 1000000000");
+      "camera.width: 1000000000 is outside [8, 1048576]");
   ExpectRefused(
       SmallSceneJson(kPlane, R"("camera": {"width": 16000, "height": 16000})"),
       "camera pixels (width x height): 16000 x 16000 is more than the limit "
       "of 67108864");
   ExpectRefused(SmallSceneJson(kPlane, R"("camera": {"fx": 1e300})"),
-                "camera.fx: must be in [0, 1e+07], got 1e+300");
+                "camera.fx: must be in (0, 1e+07], got 1e+300");
   // A 61 MP sensor fits.
   EXPECT_OK(ParseScene(
       SmallSceneJson(kPlane, R"("camera": {"width": 9504, "height": 6336})")));
@@ -61,7 +61,7 @@ TEST(SceneLimitsTest, TheCameraIsWithinOpenCVsImageLimits) {
 
 TEST(SceneLimitsTest, TheProjectorIsAtMostWhatADisplayCanBe) {
   ExpectRefused(SmallSceneJson(kPlane, R"("projector": {"width": 100000})"),
-                "projector.width: must be in [2, 16384], got 100000");
+                "projector.width: 100000 is outside [2, 16384]");
   ExpectRefused(
       SmallSceneJson(kPlane,
                      R"("projector": {"width": 16384, "height": 16384})"),
@@ -101,13 +101,13 @@ TEST(SceneLimitsTest, CallNumbersDoNotWrap) {
       SmallSceneJson(
           kPlane,
           R"("faults": {"camera": {"timeout": {"calls": [4294967297]}}})"),
-      "faults.camera.timeout.calls[0]: must be in [1, 1000000000], got "
-      "4294967297");
+      "faults.camera.timeout.calls[0]: 4294967297 is outside [1, "
+      "1000000000]");
   ExpectRefused(SmallSceneJson(kPlane,
                                R"("faults": {"camera": {"busy_first_calls":
                                               18446744073709551615}})"),
-                "faults.camera.busy_first_calls: must be in [0, 1000000], got "
-                "18446744073709551615");
+                "faults.camera.busy_first_calls: 18446744073709551615 is "
+                "outside [0, 1000000]");
 }
 
 // Lengths within 10 km and features of at least 1 um keep the renderer's
@@ -128,13 +128,13 @@ TEST(SceneLimitsTest, LengthsAndFeatureSizesAreBounded) {
       "1e-300");
   ExpectRefused(SmallSceneJson(R"({"type": "sphere", "center_mm": [0, 0, 1],
                          "radius_mm": 1e12})"),
-                "objects[0].radius_mm: must be in [0, 1e+07], got 1e+12");
+                "objects[0].radius_mm: must be in (0, 1e+07], got 1e+12");
   ExpectRefused(
       SmallSceneJson(kPlane, R"("timing": {"stage_speed_mm_s": 1e-300})"),
       "timing.stage_speed_mm_s: must be in [0.001, 1e+06], got "
       "1e-300");
   ExpectRefused(SmallSceneJson(kPlane, R"("sensor": {"full_well_e": 1e300})"),
-                "sensor.full_well_e: must be in [0, 1e+09], got 1e+300");
+                "sensor.full_well_e: must be in (0, 1e+09], got 1e+300");
 }
 
 // A number beyond double is not a parse_error but an out_of_range: it
@@ -166,15 +166,42 @@ TEST(SceneLimitsTest, StringsAndTheirQuotesAreBounded) {
                 "scene is not valid JSON");
 }
 
+// Refused by the file's size before it is read (a sparse file: no disk
+// used), not by ParseScene's check of the text.
 TEST(SceneLimitsTest, AHugeSceneFileIsRefusedUnread) {
   ::hdrstereo::testing::TempDir dir;
   const std::filesystem::path file = dir / "scene.json";
   ASSERT_OK(io::WriteFileAtomically(file, "{"));
-  std::filesystem::resize_file(file, 2 << 20);  // sparse
+  std::filesystem::resize_file(file, 2 << 20);
   EXPECT_THAT(LoadSceneFile(file),
               StatusIs(absl::StatusCode::kInvalidArgument,
-                       HasSubstr("scene: 2097152 bytes, more than the limit "
-                                 "of 1048576")));
+                       file.string() +
+                           ": scene file of 2097152 bytes, more than the limit "
+                           "of 1048576; not read"));
+}
+
+// Zero is not a positive number, and the range the message gives says so.
+TEST(SceneLimitsTest, PositiveNumbersRefuseZero) {
+  ExpectRefused(SmallSceneJson(kPlane, R"("camera": {"fx": 0})"),
+                "camera.fx: must be in (0, 1e+07], got 0");
+  ExpectRefused(SmallSceneJson(kPlane, R"("camera": {"fx": -5})"),
+                "camera.fx: must be in (0, 1e+07], got -5");
+  EXPECT_OK(ParseScene(SmallSceneJson(kPlane, R"("camera": {"fx": 1e7})")));
+}
+
+// A file is named in front of the parser's errors; a missing one is
+// NOT_FOUND.
+TEST(SceneLimitsTest, AFileIsNamedInItsErrors) {
+  ::hdrstereo::testing::TempDir dir;
+  const std::filesystem::path file = dir / "scene.json";
+  ASSERT_OK(io::WriteFileAtomically(file, R"({"objects": 3})"));
+  EXPECT_THAT(LoadSceneFile(file),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       file.string() + ": scene: objects: expected an array"));
+  EXPECT_THAT(LoadSceneFile(dir / "none.json"),
+              StatusIs(absl::StatusCode::kNotFound,
+                       "cannot open " + (dir / "none.json").string() +
+                           ": No such file or directory"));
 }
 
 }  // namespace

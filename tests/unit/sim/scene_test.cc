@@ -148,11 +148,11 @@ TEST(SceneTest, FaultWindowsAreReadAndTheirErrorsNameTheField) {
 
   const std::pair<const char*, const char*> bad[] = {
       {R"("camera": {"low_battery": {"calls": [0]}})",
-       "faults.camera.low_battery.calls[0]: must be in [1, 1000000000], got 0"},
+       "faults.camera.low_battery.calls[0]: 0 is outside [1, 1000000000]"},
       {R"("camera": {"low_battery": {"lasts": 0}})",
-       "faults.camera.low_battery.lasts: must be in [1, 1000000], got 0"},
+       "faults.camera.low_battery.lasts: 0 is outside [1, 1000000]"},
       {R"("camera": {"low_battery": {"percent": 101}})",
-       "faults.camera.low_battery.percent: must be in [0, 100], got 101"},
+       "faults.camera.low_battery.percent: 101 is outside [0, 100]"},
       {R"("camera": {"low_battery": {"level": 3}})",
        "faults.camera.low_battery: unknown field \"level\""},
       {R"("stage": {"warning_window": {"flag": "--"}})",
@@ -162,7 +162,7 @@ TEST(SceneTest, FaultWindowsAreReadAndTheirErrorsNameTheField) {
       {R"("stage": {"warning_window": {"probability": 2}})",
        "faults.stage.warning_window.probability: must be in [0, 1], got 2"},
       {R"("projector": {"lost": {"lasts": -3}})",
-       "faults.projector.lost.lasts: must be in [1, 1000000], got -3"},
+       "faults.projector.lost.lasts: -3 is outside [1, 1000000]"},
       {R"("projector": {"lost": {"percent": 3}})",
        "faults.projector.lost: unknown field \"percent\""},
       {R"("projector": {"gone": {}})",
