@@ -183,9 +183,8 @@ absl::Status RunReport(const eval::EvalOptions& error_options, StepContext& c) {
     r.disparities.push_back({experiment::MethodName(m), d});
   }
   r.error_options = error_options;
-  ASSIGN_OR_RETURN(const std::string metrics,
-                   io::ReadFileBytes(c.dir() / kMetricsFile));
-  ASSIGN_OR_RETURN(const std::vector<Metric> rows, MetricsFromJson(metrics));
+  ASSIGN_OR_RETURN(const std::vector<Metric> rows,
+                   ReadMetricsFile(c.dir() / kMetricsFile));
   r.metrics = MetricsTable(rows);
 
   ASSIGN_OR_RETURN(const report::SessionReport page,
