@@ -32,11 +32,11 @@ const ImageLimits& DecodedImageLimits() {
   return limits;
 }
 
-std::string QuoteInput(absl::string_view text) {
-  if (text.size() <= kMaxQuotedBytes) {
+std::string QuoteInput(absl::string_view text, size_t max_bytes) {
+  if (text.size() <= max_bytes) {
     return absl::StrCat("\"", absl::CHexEscape(text), "\"");
   }
-  return absl::StrCat("\"", absl::CHexEscape(text.substr(0, kMaxQuotedBytes)),
+  return absl::StrCat("\"", absl::CHexEscape(text.substr(0, max_bytes)),
                       "\"... (", text.size(), " bytes)");
 }
 

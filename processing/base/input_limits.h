@@ -57,9 +57,10 @@ inline constexpr size_t kMaxNameBytes = 256;
 // The most bytes of received text an error message quotes.
 inline constexpr size_t kMaxQuotedBytes = 64;
 
-// `text` for an error message: at most kMaxQuotedBytes of it, C-escaped, in
+// `text` for an error message: at most `max_bytes` of it, C-escaped, in
 // double quotes, followed by "... (N bytes)" when it was cut.
-std::string QuoteInput(absl::string_view text);
+std::string QuoteInput(absl::string_view text,
+                       size_t max_bytes = kMaxQuotedBytes);
 
 // The end of `text`, for an error message about received text whose end is
 // what matters (a failed command's output): at most `max_bytes` of it,

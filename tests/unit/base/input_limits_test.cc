@@ -25,6 +25,13 @@ TEST(QuoteInputTest, LongTextKeepsABoundedPrefixAndItsSize) {
   EXPECT_EQ(quoted.substr(0, 5), "\"xxxx");
 }
 
+TEST(QuoteInputTest, AnotherBoundKeepsThatMany) {
+  EXPECT_EQ(QuoteInput("abcdef", 4), "\"abcd\"... (6 bytes)");
+  EXPECT_EQ(QuoteInput("abcdef", 6), "\"abcdef\"");
+  EXPECT_EQ(QuoteInput(std::string(300, 'x'), 256),
+            "\"" + std::string(256, 'x') + "\"... (300 bytes)");
+}
+
 TEST(QuoteInputTailTest, ShortTextIsQuotedWholeAndEscaped) {
   EXPECT_EQ(QuoteInputTail("error: \x1b[2J\n", 100), "\"error: \\x1b[2J\\n\"");
   EXPECT_EQ(QuoteInputTail("", 100), "\"\"");
