@@ -13,7 +13,8 @@
 #   --tls-from DIR  install the daemon's TLS files from DIR, a folder of
 #                deploy/make-certs.sh (server.pem, server.key, ca.pem, crl/),
 #                into /etc/hdrstereo/tls, 0640 root:hdrstereo; then set
-#                [tls] and listen in the config (see its comments)
+#                [tls] and listen (gRPC) or http-listen (HTTP: browsers,
+#                curl) in the config (see its comments)
 #   --uninstall  stop and remove the service, binaries, unit and udev rules;
 #                keeps the config, user and data unless --purge
 #   --purge      with --uninstall: also remove config, user and data root
@@ -137,8 +138,9 @@ if [[ -n "$tls_from" ]]; then
     [[ -e "$crl" ]] && install -m 0640 -o root -g "$user" "$crl" \
                          "$config_dir/tls/crl/"
   done
-  echo "install.sh: TLS files in $config_dir/tls; set [tls] and listen in" \
-       "$config_dir/hdrstereod.toml, then systemctl restart hdrstereod"
+  echo "install.sh: TLS files in $config_dir/tls; set [tls] and listen (gRPC)" \
+       "or http-listen (HTTP) in $config_dir/hdrstereod.toml, then" \
+       "systemctl restart hdrstereod"
 fi
 
 # 5. udev rules: the stage symlink, and libgphoto2's camera rules when its

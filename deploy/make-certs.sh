@@ -9,6 +9,7 @@
 #   DIR/ca.pem ca.key       the lab CA (ca.key: 0600, keep it offline)
 #   DIR/server.pem .key     hdrstereod's certificate (key 0640)
 #   DIR/USER.pem USER.key   a client certificate (key 0600) for USER
+#   DIR/USER.p12            the same, with the CA, for a browser (0600)
 #   DIR/crl/<hash>.r0       the CA's CRL, as hdrstereod --tls-crl-dir reads it
 #
 # Usage: deploy/make-certs.sh DIR ca [--days N]
@@ -16,18 +17,24 @@
 #        deploy/make-certs.sh DIR client USER [--days N]
 #                                 [--start YYYYMMDDHHMMSSZ --end YYYYMMDDHHMMSSZ]
 #        deploy/make-certs.sh DIR revoke USER
+#        deploy/make-certs.sh DIR p12 USER
 #
 # `server` takes the host names and IP addresses clients use to reach the
 # daemon (they become its subjectAltNames), e.g. labpc labpc.example.org
-# 192.168.1.20 127.0.0.1. A client certificate names its user twice: SAN
-# URI hdrstereo://user/USER and CN=USER; hdrstereod gives the role from its
-# [auth.users], not from the certificate. --start/--end set explicit
+# 192.168.1.20 127.0.0.1; the one certificate serves gRPC and the HTTP edge
+# (--http-listen), so name every host browsers use too. A client
+# certificate names its user twice: SAN URI hdrstereo://user/USER and
+# CN=USER; hdrstereod gives the role from its [auth.users], not from the
+# certificate. --start/--end set explicit
 # validity dates (tests use them for expired and not-yet-valid ones).
 # `revoke` marks USER's certificate revoked and renews the CRL; restart
-# hdrstereod to load it.
+# hdrstereod to load it. `p12` packs USER's certificate, key and the lab CA
+# into DIR/USER.p12 (PKCS#12) for importing into a browser, to sign in to
+# the HTTP edge with the certificate; its password comes from the variable
+# HDRSTEREO_P12_PASSWORD, else openssl asks for it (there is no default).
 set -euo pipefail
 
-usage() { sed -n '4,30p' "$0" >&2; exit 2; }
+usage() { sed -n '4,34p' "$0" >&2; exit 2; }
 [[ $# -ge 2 ]] || usage
 dir=$(realpath -m "$1")
 what=$2
@@ -177,6 +184,27 @@ CNF
     renew_crl
     echo "revoked $dir/${args[0]}.pem; CRL renewed in $dir/crl (restart" \
          "hdrstereod to load it)"
+    ;;
+  p12)
+    need_ca
+    [[ ${#args[@]} -eq 1 ]] || usage
+    user=${args[0]}
+    [[ -f "$dir/$user.pem" && -f "$dir/$user.key" ]] || {
+      echo "make-certs.sh: no certificate $dir/$user.pem and .key" \
+           "(make it with: $0 $dir client $user)" >&2; exit 2; }
+    passout=()
+    if [[ -n "${HDRSTEREO_P12_PASSWORD+set}" ]]; then
+      [[ -n "$HDRSTEREO_P12_PASSWORD" ]] || {
+        echo "make-certs.sh: HDRSTEREO_P12_PASSWORD is empty" >&2; exit 2; }
+      passout=(-passout env:HDRSTEREO_P12_PASSWORD)
+    fi
+    # No 2>"$log" here: openssl's password prompt goes to the terminal.
+    openssl pkcs12 -export -in "$dir/$user.pem" -inkey "$dir/$user.key" \
+      -certfile "$dir/ca.pem" -name "hdrstereo $user" \
+      -out "$dir/$user.p12" "${passout[@]}"
+    chmod 0600 "$dir/$user.p12"
+    echo "browser certificate: $dir/$user.p12 (0600) for user $user; import" \
+         "it, and $dir/ca.pem as a trusted authority, into the browser"
     ;;
   *) usage ;;
 esac

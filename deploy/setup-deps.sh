@@ -24,6 +24,11 @@ packages=(
   libsqlite3-dev sqlite3 libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev
   # Slurm processing backend: client tools; the tests' single-node cluster
   slurm-wlm munge
+  # HTTP edge (daemon/http): Boost.Beast, header-only in libboost-dev
+  libboost-dev
+  # the README's curl walkthrough (tests/integration/readme_http_walkthrough.sh
+  # runs it as printed): curl, and jq to read the JSON answers
+  curl jq
   # metrics endpoint; libcurl sends webhooks (and scrapes metrics in tests);
   # civetweb is the tests' webhook receiver
   prometheus-cpp-dev libcurl4-openssl-dev libcivetweb-dev
