@@ -17,7 +17,6 @@
 #include "absl/time/clock.h"
 #include "daemon/jobs/capture_job.h"
 #include "daemon/jobs/processing_job.h"
-#include "daemon/rpc/audit_interceptor.h"
 #include "daemon/rpc/call_guard.h"
 #include "daemon/rpc/method_roles.h"
 #include "daemon/rpc/server_credentials.h"
@@ -122,7 +121,8 @@ Server::Server(std::unique_ptr<store::Store> store,
                std::unique_ptr<Hardware> hardware,
                std::unique_ptr<jobs::RigLock> rig_lock,
                std::unique_ptr<rpc::ApiKeyStore> api_keys,
-               notify::WebhookSigner signer, const Config& config)
+               notify::WebhookSigner signer, rpc::EdgeStamp edge_stamp,
+               const Config& config)
     : store_(std::move(store)),
       hardware_(std::move(hardware)),
       rig_lock_(std::move(rig_lock)),
@@ -133,6 +133,7 @@ Server::Server(std::unique_ptr<store::Store> store,
           rpc::ParseRole(config.local_role).value_or(rpc::Role::kNone),
           *api_keys_),
       audit_log_(*store_),
+      edge_stamp_(std::move(edge_stamp)),
       engine_(
           *store_,
           [rig = hardware_->rig.get(),
@@ -161,11 +162,11 @@ Server::Server(std::unique_ptr<store::Store> store,
                   {.margin_bytes = config.disk_margin_mb << 20,
                    .processing_headroom = 1.0,
                    .frame_bytes_guess = config.frame_bytes_guess_mb << 20}),
-      server_service_(*store_, disk_guard_, authenticator_,
+      server_service_(*store_, disk_guard_, call_decisions_,
                       hardware::HardwareModeName(config.hardware), absl::Now()),
-      sessions_service_(*store_),
-      hardware_service_(*hardware_->rig, *rig_lock_, authenticator_, engine_),
-      jobs_service_(engine_, *hardware_->rig, disk_guard_, authenticator_),
+      sessions_service_(*store_, call_decisions_),
+      hardware_service_(*hardware_->rig, *rig_lock_, call_decisions_, engine_),
+      jobs_service_(engine_, *hardware_->rig, disk_guard_, call_decisions_),
       scheduler_(
           *store_,
           [this](absl::string_view session, const v1::CapturePlan& plan,
@@ -188,9 +189,9 @@ Server::Server(std::unique_ptr<store::Store> store,
             return job.id;
           },
           SchedulerOptionsFor(config, *rig_lock_)),
-      schedules_service_(scheduler_, *hardware_->rig, authenticator_),
-      admin_service_(authenticator_, *api_keys_, audit_log_, *store_,
-                     webhook_signer_) {}
+      schedules_service_(scheduler_, *hardware_->rig, call_decisions_),
+      admin_service_(call_decisions_, authenticator_, *api_keys_, audit_log_,
+                     *store_, webhook_signer_) {}
 
 absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
   if (std::vector<std::string> missing =
@@ -217,9 +218,10 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
                    rpc::ApiKeyStore::Load(*store));
   ASSIGN_OR_RETURN(notify::WebhookSigner signer,
                    notify::WebhookSigner::Open(store->files().root()));
-  std::unique_ptr<Server> server(
-      new Server(std::move(store), std::move(hardware), std::move(rig_lock),
-                 std::move(api_keys), std::move(signer), config));
+  ASSIGN_OR_RETURN(rpc::EdgeStamp edge_stamp, rpc::EdgeStamp::Create());
+  std::unique_ptr<Server> server(new Server(
+      std::move(store), std::move(hardware), std::move(rig_lock),
+      std::move(api_keys), std::move(signer), std::move(edge_stamp), config));
   // Before the jobs start: a taken metrics port fails the start, naming it.
   if (!config.metrics_listen.empty()) {
     ASSIGN_OR_RETURN(
@@ -251,8 +253,10 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
   std::vector<
       std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>>
       interceptors;
-  interceptors.push_back(std::make_unique<rpc::AuditInterceptorFactory>(
-      server->authenticator_, server->audit_log_));
+  // The guard every call runs, in-process calls too; CallGuard above also
+  // guards the network ports' health and reflection services.
+  interceptors.push_back(std::make_unique<rpc::CallGuardInterceptorFactory>(
+      guard, server->edge_stamp_, server->audit_log_, server->call_decisions_));
   builder.experimental().SetInterceptorCreators(std::move(interceptors));
   builder.RegisterService(&server->server_service_);
   builder.RegisterService(&server->sessions_service_);
@@ -311,6 +315,11 @@ void Server::Shutdown() {
                          std::chrono::seconds(10));
   grpc_server_->Wait();
   grpc_server_.reset();
+}
+
+std::shared_ptr<grpc::Channel> Server::InProcessChannel() {
+  if (grpc_server_ == nullptr) return nullptr;
+  return grpc_server_->InProcessChannel(grpc::ChannelArguments());
 }
 
 Server::~Server() { Shutdown(); }

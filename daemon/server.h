@@ -24,6 +24,8 @@
 #include "daemon/rpc/api_keys.h"
 #include "daemon/rpc/audit_log.h"
 #include "daemon/rpc/authenticator.h"
+#include "daemon/rpc/call_guard_interceptor.h"
+#include "daemon/rpc/edge_stamp.h"
 #include "daemon/rpc/hardware_service.h"
 #include "daemon/rpc/jobs_service.h"
 #include "daemon/rpc/schedules_service.h"
@@ -50,12 +52,25 @@ class Server {
   // then releases the hardware and closes the database.
   void Shutdown();
 
+  // For the HTTP edge. A channel to the services inside this process (one
+  // per call of this function; null after Shutdown): its calls run no
+  // AuthMetadataProcessor, so the guard admits them only with the stamp of
+  // edge_stamp() (rpc/call_guard_interceptor.h).
+  std::shared_ptr<grpc::Channel> InProcessChannel();
+  // This boot's stamp.
+  const rpc::EdgeStamp& edge_stamp() const { return edge_stamp_; }
+  rpc::ApiKeyStore& api_keys() { return *api_keys_; }
+  rpc::Authenticator& authenticator() { return authenticator_; }
+  rpc::AuditLog& audit_log() { return audit_log_; }
+  store::Store& store() { return *store_; }
+
  private:
   Server(std::unique_ptr<store::Store> store,
          std::unique_ptr<Hardware> hardware,
          std::unique_ptr<jobs::RigLock> rig_lock,
          std::unique_ptr<rpc::ApiKeyStore> api_keys,
-         notify::WebhookSigner signer, const Config& config);
+         notify::WebhookSigner signer, rpc::EdgeStamp edge_stamp,
+         const Config& config);
 
   // Declaration order is destruction order reversed: the services and the
   // engine go before the hardware and the store they use.
@@ -66,6 +81,10 @@ class Server {
   notify::WebhookSigner webhook_signer_;
   rpc::Authenticator authenticator_;
   rpc::AuditLog audit_log_;
+  const rpc::EdgeStamp edge_stamp_;
+  // The guard's decision on each call in flight, which every handler's
+  // prologue reads.
+  rpc::CallDecisions call_decisions_;
   jobs::JobEngine engine_;
   notify::WebhookDispatcher webhooks_;
   jobs::DiskGuard disk_guard_;

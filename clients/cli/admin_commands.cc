@@ -256,12 +256,13 @@ int RunAudit(const Client& client, const Args& args) {
           std::cout << "no audit entries\n";
           return;
         }
-        Table table({"TIME", "PRINCIPAL", "ROLE", "AUTH", "PEER", "METHOD",
-                     "SUBJECT", "STATUS", "MESSAGE"});
+        Table table({"TIME", "PRINCIPAL", "ROLE", "AUTH", "TRANSPORT", "PEER",
+                     "METHOD", "SUBJECT", "STATUS", "MESSAGE"});
         for (const v1::AuditEntry& e : r.entries()) {
           table.AddRow({FormatTime(e.time()), Dash(e.principal()),
                         RoleName(e.role()), Dash(e.auth_method()),
-                        Dash(e.peer()), e.method(), Dash(e.subject()),
+                        Dash(e.transport()), Dash(e.peer()), e.method(),
+                        Dash(e.subject()),
                         absl::StatusCodeToString(
                             static_cast<absl::StatusCode>(e.status_code())),
                         e.message()});

@@ -90,6 +90,8 @@ absl::Status ValidateWebhookId(int64_t id) {
 grpc::Status AdminService::CreateApiKey(grpc::ServerContext* context,
                                         const v1::CreateApiKeyRequest* request,
                                         v1::CreateApiKeyResponse* response) {
+  Caller caller;
+  if (grpc::Status s = calls_.Admit(*context, &caller); !s.ok()) return s;
   if (absl::Status s = ValidatePrincipalName(request->user(), "user");
       !s.ok()) {
     return ToGrpcStatus(s);
@@ -113,22 +115,21 @@ grpc::Status AdminService::CreateApiKey(grpc::ServerContext* context,
                      request->user(), " can be at most ", RoleName(owner),
                      ", not ", RoleName(role)));
   }
-  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
-  if (!caller.ok()) return ToGrpcStatus(caller.status());
   absl::StatusOr<NewApiKey> key =
       keys_.Create(request->user(), role, absl::Seconds(request->ttl_s()),
-                   request->note(), caller->name);
+                   request->note(), caller.principal.name);
   if (!key.ok()) return ToGrpcStatus(key.status());
   spdlog::info("API key {} created for {} ({}) by {}", key->record.id,
-               key->record.user, key->record.role, caller->name);
+               key->record.user, key->record.role, caller.principal.name);
   ToProto(key->record, response->mutable_key());
   response->set_api_key(key->token);
   return grpc::Status::OK;
 }
 
-grpc::Status AdminService::ListApiKeys(grpc::ServerContext*,
+grpc::Status AdminService::ListApiKeys(grpc::ServerContext* context,
                                        const v1::ListApiKeysRequest* request,
                                        v1::ListApiKeysResponse* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (!request->user().empty()) {
     if (absl::Status s = ValidatePrincipalName(request->user(), "user");
         !s.ok()) {
@@ -160,6 +161,8 @@ grpc::Status AdminService::ListApiKeys(grpc::ServerContext*,
 grpc::Status AdminService::RevokeApiKey(grpc::ServerContext* context,
                                         const v1::RevokeApiKeyRequest* request,
                                         v1::ApiKey* response) {
+  Caller caller;
+  if (grpc::Status s = calls_.Admit(*context, &caller); !s.ok()) return s;
   const std::string& id = request->id();
   if (id.size() != 12 || !std::all_of(id.begin(), id.end(), [](char c) {
         return absl::ascii_isdigit(c) || (c >= 'a' && c <= 'f');
@@ -169,19 +172,19 @@ grpc::Status AdminService::RevokeApiKey(grpc::ServerContext* context,
         "\" is not a key id (12 hex digits, as `hdrstereo admin key list` "
         "shows)"));
   }
-  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
-  if (!caller.ok()) return ToGrpcStatus(caller.status());
-  absl::StatusOr<store::ApiKeyRecord> revoked = keys_.Revoke(id, caller->name);
+  absl::StatusOr<store::ApiKeyRecord> revoked =
+      keys_.Revoke(id, caller.principal.name);
   if (!revoked.ok()) return ToGrpcStatus(revoked.status());
   spdlog::info("API key {} of {} revoked by {}", id, revoked->user,
-               caller->name);
+               caller.principal.name);
   ToProto(*revoked, response);
   return grpc::Status::OK;
 }
 
-grpc::Status AdminService::ListAuditLog(grpc::ServerContext*,
+grpc::Status AdminService::ListAuditLog(grpc::ServerContext* context,
                                         const v1::ListAuditLogRequest* request,
                                         v1::ListAuditLogResponse* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   store::AuditFilter filter;
   if (!request->principal().empty()) {
     if (absl::Status s =
@@ -230,6 +233,7 @@ grpc::Status AdminService::ListAuditLog(grpc::ServerContext*,
     out->set_role(ToProto(role.ok() ? *role : Role::kNone));
     out->set_auth_method(row.auth_method);
     out->set_peer(row.peer);
+    out->set_transport(row.transport);
     out->set_method(row.method);
     out->set_subject(row.subject);
     out->set_status_code(row.status_code);
@@ -241,6 +245,8 @@ grpc::Status AdminService::ListAuditLog(grpc::ServerContext*,
 grpc::Status AdminService::CreateWebhook(
     grpc::ServerContext* context, const v1::CreateWebhookRequest* request,
     v1::CreateWebhookResponse* response) {
+  Caller caller;
+  if (grpc::Status s = calls_.Admit(*context, &caller); !s.ok()) return s;
   if (absl::Status s = notify::ValidateWebhookUrl(request->url()); !s.ok()) {
     return ToGrpcStatus(s);
   }
@@ -251,8 +257,6 @@ grpc::Status AdminService::CreateWebhook(
     return InvalidArgument(
         absl::StrCat("note is longer than ", kMaxWebhookNoteBytes, " bytes"));
   }
-  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
-  if (!caller.ok()) return ToGrpcStatus(caller.status());
   absl::StatusOr<std::string> salt = notify::WebhookSigner::NewSalt();
   if (!salt.ok()) return ToGrpcStatus(salt.status());
   absl::StatusOr<std::string> secret = signer_.SecretFor(*salt);
@@ -262,20 +266,21 @@ grpc::Status AdminService::CreateWebhook(
   record.events = *std::move(events);
   record.salt_hex = *salt;
   record.note = request->note();
-  record.created_by = caller->name;
+  record.created_by = caller.principal.name;
   record.create_time_ms = absl::ToUnixMillis(absl::Now());
   absl::StatusOr<store::WebhookRecord> hook = webhooks_.Create(record);
   if (!hook.ok()) return ToGrpcStatus(hook.status());
   spdlog::info("webhook {} to {} created by {}", hook->id,
-               notify::UrlOrigin(hook->url), caller->name);
+               notify::UrlOrigin(hook->url), caller.principal.name);
   ToProto(*hook, response->mutable_webhook());
   response->set_secret(*secret);
   return grpc::Status::OK;
 }
 
-grpc::Status AdminService::ListWebhooks(grpc::ServerContext*,
+grpc::Status AdminService::ListWebhooks(grpc::ServerContext* context,
                                         const v1::ListWebhooksRequest*,
                                         v1::ListWebhooksResponse* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   absl::StatusOr<std::vector<store::WebhookRecord>> hooks = webhooks_.List();
   if (!hooks.ok()) return ToGrpcStatus(hooks.status());
   for (const store::WebhookRecord& hook : *hooks) {
@@ -287,23 +292,25 @@ grpc::Status AdminService::ListWebhooks(grpc::ServerContext*,
 grpc::Status AdminService::DeleteWebhook(
     grpc::ServerContext* context, const v1::DeleteWebhookRequest* request,
     v1::Webhook* response) {
+  Caller caller;
+  if (grpc::Status s = calls_.Admit(*context, &caller); !s.ok()) return s;
   if (absl::Status s = ValidateWebhookId(request->id()); !s.ok()) {
     return ToGrpcStatus(s);
   }
-  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
-  if (!caller.ok()) return ToGrpcStatus(caller.status());
   absl::StatusOr<store::WebhookRecord> deleted =
       webhooks_.Delete(request->id());
   if (!deleted.ok()) return ToGrpcStatus(deleted.status());
   spdlog::info("webhook {} to {} deleted by {}", deleted->id,
-               notify::UrlOrigin(deleted->url), caller->name);
+               notify::UrlOrigin(deleted->url), caller.principal.name);
   ToProto(*deleted, response);
   return grpc::Status::OK;
 }
 
 grpc::Status AdminService::ListWebhookDeliveries(
-    grpc::ServerContext*, const v1::ListWebhookDeliveriesRequest* request,
+    grpc::ServerContext* context,
+    const v1::ListWebhookDeliveriesRequest* request,
     v1::ListWebhookDeliveriesResponse* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (absl::Status s = ValidateWebhookId(request->webhook_id()); !s.ok()) {
     return ToGrpcStatus(s);
   }

@@ -6,6 +6,7 @@
 #include "daemon/rpc/api_keys.h"
 #include "daemon/rpc/audit_log.h"
 #include "daemon/rpc/authenticator.h"
+#include "daemon/rpc/call_guard_interceptor.h"
 #include "daemon/store/webhook_repository.h"
 #include "hdrstereo/v1/admin.grpc.pb.h"
 
@@ -15,9 +16,11 @@ namespace hdrstereo::rpc {
 // method_roles.cc).
 class AdminService final : public v1::Admin::Service {
  public:
-  AdminService(Authenticator& authenticator, ApiKeyStore& keys, AuditLog& audit,
-               store::Store& store, const notify::WebhookSigner& signer)
-      : authenticator_(authenticator),
+  AdminService(const CallDecisions& calls, Authenticator& authenticator,
+               ApiKeyStore& keys, AuditLog& audit, store::Store& store,
+               const notify::WebhookSigner& signer)
+      : calls_(calls),
+        authenticator_(authenticator),
         keys_(keys),
         audit_(audit),
         webhooks_(store),
@@ -50,7 +53,8 @@ class AdminService final : public v1::Admin::Service {
       v1::ListWebhookDeliveriesResponse* response) override;
 
  private:
-  Authenticator& authenticator_;
+  const CallDecisions& calls_;
+  Authenticator& authenticator_;  // for the roles of [auth.users]
   ApiKeyStore& keys_;
   AuditLog& audit_;
   store::WebhookRepository webhooks_;

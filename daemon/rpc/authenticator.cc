@@ -108,20 +108,4 @@ absl::Status Authenticator::Authenticate(
   return absl::OkStatus();
 }
 
-absl::StatusOr<Principal> Authenticator::Identify(
-    const grpc::ServerContextBase& context) {
-  std::optional<absl::string_view> authorization;
-  const auto& metadata = context.client_metadata();
-  if (auto it = metadata.find("authorization"); it != metadata.end()) {
-    authorization = absl::string_view(it->second.data(), it->second.size());
-  }
-  std::shared_ptr<const grpc::AuthContext> connection = context.auth_context();
-  if (connection == nullptr) {
-    return absl::UnauthenticatedError("the call has no security context");
-  }
-  Principal principal;
-  RETURN_IF_ERROR(Authenticate(*connection, authorization, &principal));
-  return principal;
-}
-
 }  // namespace hdrstereo::rpc

@@ -18,7 +18,6 @@
 #define HDRSTEREO_DAEMON_RPC_AUTHENTICATOR_H_
 
 #include <grpcpp/security/auth_context.h>
-#include <grpcpp/server_context.h>
 
 #include <map>
 #include <optional>
@@ -57,9 +56,6 @@ class Authenticator {
   absl::Status Authenticate(const grpc::AuthContext& connection,
                             std::optional<absl::string_view> authorization,
                             Principal* principal);
-  // The caller of a call that CallGuard let through, from its context (for
-  // handlers that record who did something).
-  absl::StatusOr<Principal> Identify(const grpc::ServerContextBase& context);
 
   // The role [auth.users] gives `user` (kNone when it names no such user).
   Role RoleOf(absl::string_view user) const;

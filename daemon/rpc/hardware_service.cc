@@ -291,9 +291,10 @@ void HardwareService::FillProjector(v1::ProjectorStatus* out) {
   out->set_showing(showing_);
 }
 
-grpc::Status HardwareService::GetStatus(grpc::ServerContext*,
+grpc::Status HardwareService::GetStatus(grpc::ServerContext* context,
                                         const v1::GetHardwareStatusRequest*,
                                         v1::HardwareStatus* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   response->set_hardware_mode(hardware::HardwareModeName(rig_.config().mode));
   // Never long: a live-view frame is waited for, a capture or a probe is
   // reported instead of querying the devices.
@@ -325,8 +326,9 @@ grpc::Status HardwareService::GetStatus(grpc::ServerContext*,
 }
 
 grpc::Status HardwareService::GetCameraSettings(
-    grpc::ServerContext*, const v1::GetCameraSettingsRequest*,
+    grpc::ServerContext* context, const v1::GetCameraSettingsRequest*,
     v1::CameraSettings* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (rig_.camera() == nullptr) return Missing("camera", rig_.camera_error());
   absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane(false);
   if (!lane.ok()) return ToGrpcStatus(lane.status());
@@ -338,8 +340,9 @@ grpc::Status HardwareService::GetCameraSettings(
 }
 
 grpc::Status HardwareService::SetCameraSettings(
-    grpc::ServerContext*, const v1::SetCameraSettingsRequest* request,
+    grpc::ServerContext* context, const v1::SetCameraSettingsRequest* request,
     v1::CameraSettings* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (!request->has_settings()) {
     return InvalidArgument("settings is required");
   }
@@ -385,9 +388,10 @@ grpc::Status HardwareService::SetCameraSettings(
   return grpc::Status::OK;
 }
 
-grpc::Status HardwareService::HomeStage(grpc::ServerContext*,
+grpc::Status HardwareService::HomeStage(grpc::ServerContext* context,
                                         const v1::HomeStageRequest*,
                                         v1::StageStatus* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (rig_.stage() == nullptr) return Missing("stage", rig_.stage_error());
   absl::StatusOr<std::unique_lock<std::mutex>> lane = TakeLane(false);
   if (!lane.ok()) return ToGrpcStatus(lane.status());
@@ -396,9 +400,10 @@ grpc::Status HardwareService::HomeStage(grpc::ServerContext*,
   return grpc::Status::OK;
 }
 
-grpc::Status HardwareService::MoveStage(grpc::ServerContext*,
+grpc::Status HardwareService::MoveStage(grpc::ServerContext* context,
                                         const v1::MoveStageRequest* request,
                                         v1::StageStatus* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (rig_.stage() == nullptr) return Missing("stage", rig_.stage_error());
   const double travel = rig_.stage()->travel_mm();
   if (!std::isfinite(request->position_mm()) || request->position_mm() < 0 ||
@@ -416,9 +421,10 @@ grpc::Status HardwareService::MoveStage(grpc::ServerContext*,
   return grpc::Status::OK;
 }
 
-grpc::Status HardwareService::ShowPattern(grpc::ServerContext*,
+grpc::Status HardwareService::ShowPattern(grpc::ServerContext* context,
                                           const v1::ShowPatternRequest* request,
                                           v1::ProjectorStatus* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (rig_.projector() == nullptr) {
     return Missing("projector", rig_.projector_error());
   }
@@ -438,9 +444,10 @@ grpc::Status HardwareService::ShowPattern(grpc::ServerContext*,
   return grpc::Status::OK;
 }
 
-grpc::Status HardwareService::BlankProjector(grpc::ServerContext*,
+grpc::Status HardwareService::BlankProjector(grpc::ServerContext* context,
                                              const v1::BlankProjectorRequest*,
                                              v1::ProjectorStatus* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (rig_.projector() == nullptr) {
     return Missing("projector", rig_.projector_error());
   }
@@ -508,6 +515,7 @@ void HardwareService::GuideCalibration(v1::PreviewFrame* frame) {
 grpc::Status HardwareService::StreamPreview(
     grpc::ServerContext* context, const v1::StreamPreviewRequest* request,
     grpc::ServerWriter<v1::PreviewMessage>* writer) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   const double max_fps = request->max_fps();
   if (!std::isfinite(max_fps) || max_fps < 0) {
     return InvalidArgument(absl::StrFormat(
@@ -582,6 +590,7 @@ grpc::Status HardwareService::StreamPreview(
 grpc::Status HardwareService::ProbeProjector(
     grpc::ServerContext* context, const v1::ProbeProjectorRequest* request,
     v1::ProjectorProbe* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   absl::StatusOr<jobs::ProbeOptions> options =
       jobs::ProbeOptionsFrom(request->options(), "options");
   if (!options.ok()) return ToGrpcStatus(options.status());
@@ -639,13 +648,13 @@ grpc::Status HardwareService::ProbeProjector(
 grpc::Status HardwareService::Lock(grpc::ServerContext* context,
                                    const v1::LockRequest* request,
                                    v1::RigLock* response) {
-  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
-  if (!caller.ok()) return ToGrpcStatus(caller.status());
+  Caller caller;
+  if (grpc::Status s = calls_.Admit(*context, &caller); !s.ok()) return s;
   absl::StatusOr<jobs::RigLockState> state = lock_.Acquire(
-      caller->name, request->note(), absl::Seconds(request->ttl_s()));
+      caller.principal.name, request->note(), absl::Seconds(request->ttl_s()));
   if (!state.ok()) return ToGrpcStatus(state.status());
-  spdlog::info("rig locked by {} for {} s: {}", caller->name, request->ttl_s(),
-               request->note());
+  spdlog::info("rig locked by {} for {} s: {}", caller.principal.name,
+               request->ttl_s(), request->note());
   ToProto(*state, response);
   return grpc::Status::OK;
 }
@@ -653,27 +662,29 @@ grpc::Status HardwareService::Lock(grpc::ServerContext* context,
 grpc::Status HardwareService::Unlock(grpc::ServerContext* context,
                                      const v1::UnlockRequest* request,
                                      v1::RigLock* response) {
-  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
-  if (!caller.ok()) return ToGrpcStatus(caller.status());
-  if (request->force() && caller->role < Role::kAdmin) {
+  Caller caller;
+  if (grpc::Status s = calls_.Admit(*context, &caller); !s.ok()) return s;
+  if (request->force() && caller.principal.role < Role::kAdmin) {
     return grpc::Status(
         grpc::StatusCode::PERMISSION_DENIED,
-        absl::StrCat("force-unlocking needs role admin; ", caller->name,
-                     " has ", RoleName(caller->role),
+        absl::StrCat("force-unlocking needs role admin; ",
+                     caller.principal.name, " has ",
+                     RoleName(caller.principal.role),
                      " (without force, one can unlock one's own lock)"));
   }
   absl::StatusOr<jobs::RigLockState> released =
-      lock_.Release(caller->name, request->force());
+      lock_.Release(caller.principal.name, request->force());
   if (!released.ok()) return ToGrpcStatus(released.status());
-  spdlog::info("rig unlocked by {}{} (was locked by {})", caller->name,
+  spdlog::info("rig unlocked by {}{} (was locked by {})", caller.principal.name,
                request->force() ? " (force)" : "", released->holder);
   response->set_locked(false);
   return grpc::Status::OK;
 }
 
-grpc::Status HardwareService::GetLock(grpc::ServerContext*,
+grpc::Status HardwareService::GetLock(grpc::ServerContext* context,
                                       const v1::GetLockRequest*,
                                       v1::RigLock* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (std::optional<jobs::RigLockState> state = lock_.Current()) {
     ToProto(*state, response);
   }

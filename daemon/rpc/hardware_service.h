@@ -11,7 +11,7 @@
 #include "daemon/jobs/job_engine.h"
 #include "daemon/jobs/rig_calibration.h"
 #include "daemon/jobs/rig_lock.h"
-#include "daemon/rpc/authenticator.h"
+#include "daemon/rpc/call_guard_interceptor.h"
 #include "hardware/rig.h"
 #include "hdrstereo/v1/hardware.grpc.pb.h"
 
@@ -20,7 +20,7 @@ namespace hdrstereo::rpc {
 // Direct control of the rig, live view and its lock. Every request is
 // validated before any device is touched; calls that act on a device are
 // refused, naming the job, while a capture job runs on the hardware lane
-// (and, by CallGuard, while another principal holds the rig lock). They
+// (and, by the guard, while another principal holds the rig lock). They
 // take the lane for each device call only, so they wait for one another
 // (and for a live-view frame) rather than fail.
 class HardwareService final : public v1::Hardware::Service {
@@ -34,10 +34,10 @@ class HardwareService final : public v1::Hardware::Service {
   static constexpr absl::Duration kLaneWait = absl::Seconds(15);
 
   HardwareService(hardware::Rig& rig, jobs::RigLock& lock,
-                  Authenticator& authenticator, jobs::JobEngine& engine)
+                  const CallDecisions& calls, jobs::JobEngine& engine)
       : rig_(rig),
         lock_(lock),
-        authenticator_(authenticator),
+        calls_(calls),
         engine_(engine),
         guide_(engine.store()) {}
 
@@ -104,7 +104,7 @@ class HardwareService final : public v1::Hardware::Service {
 
   hardware::Rig& rig_;
   jobs::RigLock& lock_;
-  Authenticator& authenticator_;
+  const CallDecisions& calls_;
   jobs::JobEngine& engine_;
   jobs::CalibrationGuide guide_;
   absl::Mutex showing_mutex_;

@@ -141,21 +141,24 @@ grpc::Status Reply(const absl::StatusOr<store::JobRecord>& job,
 grpc::Status JobsService::SubmitCapture(grpc::ServerContext* context,
                                         const v1::SubmitCaptureRequest* request,
                                         v1::Job* response) {
+  Caller caller;
+  if (grpc::Status s = calls_.Admit(*context, &caller); !s.ok()) return s;
   if (absl::Status s = store::ValidateName(request->session(), "session");
       !s.ok()) {
     return ToGrpcStatus(s);
   }
   if (!request->has_plan()) return InvalidArgument("plan is required");
-  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
-  if (!caller.ok()) return ToGrpcStatus(caller.status());
-  return Reply(jobs::SubmitCapture(engine_, rig_, request->session(),
-                                   request->plan(), caller->name, &disk_),
-               response);
+  return Reply(
+      jobs::SubmitCapture(engine_, rig_, request->session(), request->plan(),
+                          caller.principal.name, &disk_),
+      response);
 }
 
 grpc::Status JobsService::SubmitProcessing(
     grpc::ServerContext* context, const v1::SubmitProcessingRequest* request,
     v1::Job* response) {
+  Caller caller;
+  if (grpc::Status s = calls_.Admit(*context, &caller); !s.ok()) return s;
   if (absl::Status s = store::ValidateName(request->session(), "session");
       !s.ok()) {
     return ToGrpcStatus(s);
@@ -165,16 +168,17 @@ grpc::Status JobsService::SubmitProcessing(
                                         " entries; at most ", kMaxSteps,
                                         " are allowed"));
   }
-  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
-  if (!caller.ok()) return ToGrpcStatus(caller.status());
-  return Reply(jobs::SubmitProcessing(engine_, rig_, *request, caller->name),
-               response);
+  return Reply(
+      jobs::SubmitProcessing(engine_, rig_, *request, caller.principal.name),
+      response);
 }
 
 grpc::Status JobsService::SubmitProcessingBatch(
     grpc::ServerContext* context,
     const v1::SubmitProcessingBatchRequest* request,
     v1::SubmitProcessingBatchResponse* response) {
+  Caller caller;
+  if (grpc::Status s = calls_.Admit(*context, &caller); !s.ok()) return s;
   if (request->steps_size() > kMaxSteps) {
     return InvalidArgument(absl::StrCat("steps has ", request->steps_size(),
                                         " entries; at most ", kMaxSteps,
@@ -185,10 +189,8 @@ grpc::Status JobsService::SubmitProcessingBatch(
         "sessions has ", request->sessions_size(), " entries; at most ",
         kMaxSelectors, " are allowed (use a glob)"));
   }
-  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
-  if (!caller.ok()) return ToGrpcStatus(caller.status());
-  absl::StatusOr<jobs::BatchSubmission> batch =
-      jobs::SubmitProcessingBatch(engine_, rig_, *request, caller->name);
+  absl::StatusOr<jobs::BatchSubmission> batch = jobs::SubmitProcessingBatch(
+      engine_, rig_, *request, caller.principal.name);
   if (!batch.ok()) return ToGrpcStatus(batch.status());
   for (const store::JobRecord& job : batch->jobs) {
     ToProto(job, response->add_jobs());
@@ -202,9 +204,10 @@ grpc::Status JobsService::SubmitProcessingBatch(
   return grpc::Status::OK;
 }
 
-grpc::Status JobsService::Get(grpc::ServerContext*,
+grpc::Status JobsService::Get(grpc::ServerContext* context,
                               const v1::GetJobRequest* request,
                               v1::Job* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (grpc::Status s = CheckJobId(request->job_id()); !s.ok()) return s;
   if (grpc::Status s =
           Reply(engine_.repository().Get(request->job_id()), response);
@@ -243,9 +246,10 @@ grpc::Status JobsService::Get(grpc::ServerContext*,
   return grpc::Status::OK;  // or not metered yet
 }
 
-grpc::Status JobsService::List(grpc::ServerContext*,
+grpc::Status JobsService::List(grpc::ServerContext* context,
                                const v1::ListJobsRequest* request,
                                v1::ListJobsResponse* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   store::JobFilter filter;
   if (!request->session().empty()) {
     if (absl::Status s = store::ValidateName(request->session(), "session");
@@ -276,6 +280,7 @@ grpc::Status JobsService::List(grpc::ServerContext*,
 grpc::Status JobsService::Watch(grpc::ServerContext* context,
                                 const v1::WatchJobRequest* request,
                                 grpc::ServerWriter<v1::JobEvent>* writer) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (grpc::Status s = CheckJobId(request->job_id()); !s.ok()) return s;
   if (request->after_sequence() < 0) {
     return InvalidArgument(
@@ -325,30 +330,34 @@ grpc::Status JobsService::Watch(grpc::ServerContext* context,
   return grpc::Status::OK;
 }
 
-grpc::Status JobsService::Pause(grpc::ServerContext*,
+grpc::Status JobsService::Pause(grpc::ServerContext* context,
                                 const v1::PauseJobRequest* request,
                                 v1::Job* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (grpc::Status s = CheckJobId(request->job_id()); !s.ok()) return s;
   return Reply(engine_.Pause(request->job_id()), response);
 }
 
-grpc::Status JobsService::Resume(grpc::ServerContext*,
+grpc::Status JobsService::Resume(grpc::ServerContext* context,
                                  const v1::ResumeJobRequest* request,
                                  v1::Job* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (grpc::Status s = CheckJobId(request->job_id()); !s.ok()) return s;
   return Reply(engine_.Resume(request->job_id()), response);
 }
 
-grpc::Status JobsService::Cancel(grpc::ServerContext*,
+grpc::Status JobsService::Cancel(grpc::ServerContext* context,
                                  const v1::CancelJobRequest* request,
                                  v1::Job* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (grpc::Status s = CheckJobId(request->job_id()); !s.ok()) return s;
   return Reply(engine_.Cancel(request->job_id()), response);
 }
 
-grpc::Status JobsService::Continue(grpc::ServerContext*,
+grpc::Status JobsService::Continue(grpc::ServerContext* context,
                                    const v1::ContinueJobRequest* request,
                                    v1::Job* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (grpc::Status s = CheckJobId(request->job_id()); !s.ok()) return s;
   return Reply(engine_.Continue(request->job_id()), response);
 }

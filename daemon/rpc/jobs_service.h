@@ -4,7 +4,7 @@
 
 #include "daemon/jobs/disk_guard.h"
 #include "daemon/jobs/job_engine.h"
-#include "daemon/rpc/authenticator.h"
+#include "daemon/rpc/call_guard_interceptor.h"
 #include "hardware/rig.h"
 #include "hdrstereo/v1/jobs.grpc.pb.h"
 
@@ -15,11 +15,8 @@ namespace hdrstereo::rpc {
 class JobsService final : public v1::Jobs::Service {
  public:
   JobsService(jobs::JobEngine& engine, hardware::Rig& rig,
-              const jobs::DiskGuard& disk, Authenticator& authenticator)
-      : engine_(engine),
-        rig_(rig),
-        disk_(disk),
-        authenticator_(authenticator) {}
+              const jobs::DiskGuard& disk, const CallDecisions& calls)
+      : engine_(engine), rig_(rig), disk_(disk), calls_(calls) {}
 
   grpc::Status SubmitCapture(grpc::ServerContext* context,
                              const v1::SubmitCaptureRequest* request,
@@ -57,7 +54,7 @@ class JobsService final : public v1::Jobs::Service {
   jobs::JobEngine& engine_;
   hardware::Rig& rig_;
   const jobs::DiskGuard& disk_;
-  Authenticator& authenticator_;
+  const CallDecisions& calls_;
 };
 
 }  // namespace hdrstereo::rpc

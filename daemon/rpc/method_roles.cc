@@ -58,6 +58,7 @@ const std::map<std::string, MethodRule, std::less<>>& MethodRules() {
           {"/hdrstereo.v1.Sessions/ListFrames", kRead},
           {"/hdrstereo.v1.Sessions/ListArtifacts", kRead},
           {"/hdrstereo.v1.Sessions/DownloadArtifact", kRead},
+          {"/hdrstereo.v1.Sessions/DownloadFrame", kRead},
           {"/hdrstereo.v1.Sessions/ListMetrics", kRead},
           {"/hdrstereo.v1.Sessions/Create", kOperate},
           {"/hdrstereo.v1.Sessions/Delete", kAdminister},

@@ -59,6 +59,8 @@ void SchedulesService::ToProto(const store::ScheduleRecord& record,
 grpc::Status SchedulesService::Create(grpc::ServerContext* context,
                                       const v1::CreateScheduleRequest* request,
                                       v1::Schedule* response) {
+  Caller caller;
+  if (grpc::Status s = calls_.Admit(*context, &caller); !s.ok()) return s;
   if (!request->has_schedule()) return InvalidArgument("schedule is required");
   const v1::Schedule& schedule = request->schedule();
   if (absl::Status s = store::ValidateName(schedule.name(), "schedule.name");
@@ -93,10 +95,8 @@ grpc::Status SchedulesService::Create(grpc::ServerContext* context,
       !s.ok()) {
     return ToGrpcStatus(s);
   }
-  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
-  if (!caller.ok()) return ToGrpcStatus(caller.status());
   store::ScheduleRecord record;
-  record.created_by = caller->name;
+  record.created_by = caller.principal.name;
   record.name = schedule.name();
   record.cron = schedule.cron();
   record.time_zone = schedule.time_zone();
@@ -124,9 +124,10 @@ grpc::Status SchedulesService::Create(grpc::ServerContext* context,
   return grpc::Status::OK;
 }
 
-grpc::Status SchedulesService::List(grpc::ServerContext*,
+grpc::Status SchedulesService::List(grpc::ServerContext* context,
                                     const v1::ListSchedulesRequest* request,
                                     v1::ListSchedulesResponse* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   absl::StatusOr<Page> page = ParsePage(request->page());
   if (!page.ok()) return ToGrpcStatus(page.status());
   absl::StatusOr<std::vector<store::ScheduleRecord>> schedules =
@@ -142,9 +143,10 @@ grpc::Status SchedulesService::List(grpc::ServerContext*,
   return grpc::Status::OK;
 }
 
-grpc::Status SchedulesService::Delete(grpc::ServerContext*,
+grpc::Status SchedulesService::Delete(grpc::ServerContext* context,
                                       const v1::DeleteScheduleRequest* request,
                                       v1::DeleteScheduleResponse*) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (grpc::Status s = CheckName(request->name()); !s.ok()) return s;
   return ToGrpcStatus(scheduler_.repository().Delete(request->name()));
 }
@@ -152,13 +154,13 @@ grpc::Status SchedulesService::Delete(grpc::ServerContext*,
 grpc::Status SchedulesService::SetEnabled(
     grpc::ServerContext* context, const v1::SetScheduleEnabledRequest* request,
     v1::Schedule* response) {
+  Caller caller;
+  if (grpc::Status s = calls_.Admit(*context, &caller); !s.ok()) return s;
   if (grpc::Status s = CheckName(request->name()); !s.ok()) return s;
-  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
-  if (!caller.ok()) return ToGrpcStatus(caller.status());
   absl::StatusOr<store::ScheduleRecord> record =
       scheduler_.repository().SetEnabled(request->name(), request->enabled(),
                                          absl::ToUnixMillis(scheduler_.Now()),
-                                         caller->name);
+                                         caller.principal.name);
   if (!record.ok()) return ToGrpcStatus(record.status());
   scheduler_.Wake();
   ToProto(*record, response);
@@ -166,8 +168,9 @@ grpc::Status SchedulesService::SetEnabled(
 }
 
 grpc::Status SchedulesService::ListRuns(
-    grpc::ServerContext*, const v1::ListScheduleRunsRequest* request,
+    grpc::ServerContext* context, const v1::ListScheduleRunsRequest* request,
     v1::ListScheduleRunsResponse* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (grpc::Status s = CheckName(request->name()); !s.ok()) return s;
   absl::StatusOr<IdPage> page = ParseIdPage(request->page());
   if (!page.ok()) return ToGrpcStatus(page.status());

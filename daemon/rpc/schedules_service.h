@@ -6,7 +6,7 @@
 #define HDRSTEREO_DAEMON_RPC_SCHEDULES_SERVICE_H_
 
 #include "daemon/jobs/scheduler.h"
-#include "daemon/rpc/authenticator.h"
+#include "daemon/rpc/call_guard_interceptor.h"
 #include "hardware/rig.h"
 #include "hdrstereo/v1/schedules.grpc.pb.h"
 
@@ -15,8 +15,8 @@ namespace hdrstereo::rpc {
 class SchedulesService final : public v1::Schedules::Service {
  public:
   SchedulesService(jobs::Scheduler& scheduler, const hardware::Rig& rig,
-                   Authenticator& authenticator)
-      : scheduler_(scheduler), rig_(rig), authenticator_(authenticator) {}
+                   const CallDecisions& calls)
+      : scheduler_(scheduler), rig_(rig), calls_(calls) {}
 
   grpc::Status Create(grpc::ServerContext* context,
                       const v1::CreateScheduleRequest* request,
@@ -39,7 +39,7 @@ class SchedulesService final : public v1::Schedules::Service {
 
   jobs::Scheduler& scheduler_;
   const hardware::Rig& rig_;
-  Authenticator& authenticator_;
+  const CallDecisions& calls_;
 };
 
 }  // namespace hdrstereo::rpc

@@ -14,9 +14,10 @@
 
 namespace hdrstereo::rpc {
 
-grpc::Status ServerService::GetInfo(grpc::ServerContext*,
+grpc::Status ServerService::GetInfo(grpc::ServerContext* context,
                                     const v1::GetServerInfoRequest*,
                                     v1::ServerInfo* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   response->set_version(HDRSTEREO_VERSION);
   response->set_schema_version(store_.schema_version());
   response->set_data_root(store_.files().root().string());
@@ -37,17 +38,17 @@ grpc::Status ServerService::GetInfo(grpc::ServerContext*,
 grpc::Status ServerService::WhoAmI(grpc::ServerContext* context,
                                    const v1::WhoAmIRequest*,
                                    v1::Identity* response) {
-  absl::StatusOr<Principal> caller = authenticator_.Identify(*context);
-  if (!caller.ok()) return ToGrpcStatus(caller.status());
-  response->set_principal(caller->name);
-  response->set_role(ToProto(caller->role));
-  response->set_auth_method(caller->auth_method);
-  if (caller->key_expire_time.has_value()) {
+  Caller caller;
+  if (grpc::Status s = calls_.Admit(*context, &caller); !s.ok()) return s;
+  response->set_principal(caller.principal.name);
+  response->set_role(ToProto(caller.principal.role));
+  response->set_auth_method(caller.principal.auth_method);
+  if (caller.principal.key_expire_time.has_value()) {
     *response->mutable_key_expire_time() =
         google::protobuf::util::TimeUtil::MillisecondsToTimestamp(
-            absl::ToUnixMillis(*caller->key_expire_time));
+            absl::ToUnixMillis(*caller.principal.key_expire_time));
   }
-  response->set_peer(context->peer());
+  response->set_peer(caller.peer);
   return grpc::Status::OK;
 }
 

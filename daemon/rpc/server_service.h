@@ -6,23 +6,23 @@
 
 #include "absl/time/time.h"
 #include "daemon/jobs/disk_guard.h"
-#include "daemon/rpc/authenticator.h"
+#include "daemon/rpc/call_guard_interceptor.h"
 #include "daemon/store/store.h"
 #include "hdrstereo/v1/server.grpc.pb.h"
 
 namespace hdrstereo::rpc {
 
 // Server.GetInfo: versions, data root and its free space, hardware mode,
-// uptime; WhoAmI: the
-// caller as the daemon sees it.
+// uptime; WhoAmI: the caller as the daemon's guard decided it (for a call
+// through the HTTP edge, the peer is the HTTP client's address).
 class ServerService final : public v1::Server::Service {
  public:
   ServerService(store::Store& store, const jobs::DiskGuard& disk,
-                Authenticator& authenticator, std::string hardware_mode,
+                const CallDecisions& calls, std::string hardware_mode,
                 absl::Time start_time)
       : store_(store),
         disk_(disk),
-        authenticator_(authenticator),
+        calls_(calls),
         hardware_mode_(std::move(hardware_mode)),
         start_time_(start_time) {}
 
@@ -36,7 +36,7 @@ class ServerService final : public v1::Server::Service {
  private:
   store::Store& store_;
   const jobs::DiskGuard& disk_;
-  Authenticator& authenticator_;
+  const CallDecisions& calls_;
   std::string hardware_mode_;
   absl::Time start_time_;
 };

@@ -8,6 +8,9 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
@@ -19,7 +22,99 @@
 
 namespace hdrstereo::rpc {
 
+namespace {
+
 using google::protobuf::util::TimeUtil;
+
+// Chunks well under gRPC's default 4 MiB message limit.
+constexpr int64_t kChunkBytes = 1 << 20;
+
+// A download's range as the request gives it, before anything is looked up.
+grpc::Status CheckRangeFields(int64_t offset, int64_t length) {
+  if (offset < 0) return InvalidArgument("offset_bytes must not be negative");
+  if (length < 0) {
+    return InvalidArgument(
+        "length_bytes must not be negative (0 = to the end of the file)");
+  }
+  return grpc::Status::OK;
+}
+
+// A recorded file of a session to download.
+struct DownloadedFile {
+  std::filesystem::path path;
+  std::string shown;  // its path in the session folder, for messages
+  // The size the store recorded; nullopt when it recorded none (a frame's
+  // file): the size on disk is the file's.
+  std::optional<int64_t> recorded_size;
+  std::string sha256;  // of the whole file, sent on every chunk
+  const char* remedy;  // what a person can do when the file is gone
+};
+
+// Streams bytes [offset, offset + length) of `file` (length 0: to its end)
+// in chunks: FAILED_PRECONDITION when the file is missing, DATA_LOSS when
+// its size on disk is not the recorded one or it cannot be read through,
+// OUT_OF_RANGE when the range ends beyond the file.
+grpc::Status StreamFile(grpc::ServerContext& context,
+                        const DownloadedFile& file, int64_t offset,
+                        int64_t length,
+                        grpc::ServerWriter<v1::ArtifactChunk>& writer) {
+  std::ifstream in(file.path, std::ios::binary);
+  std::error_code ec;
+  const std::uintmax_t on_disk = std::filesystem::file_size(file.path, ec);
+  if (!in || ec) {
+    return grpc::Status(
+        grpc::StatusCode::FAILED_PRECONDITION,
+        absl::StrCat(file.shown, " is missing on disk; ", file.remedy));
+  }
+  const int64_t size = static_cast<int64_t>(on_disk);
+  if (file.recorded_size.has_value() && size != *file.recorded_size) {
+    return grpc::Status(
+        grpc::StatusCode::DATA_LOSS,
+        absl::StrCat(file.shown, " has ", size, " bytes on disk but ",
+                     *file.recorded_size, " were recorded; ", file.remedy));
+  }
+  if (offset > size) {
+    return grpc::Status(
+        grpc::StatusCode::OUT_OF_RANGE,
+        absl::StrCat("offset_bytes ", offset, " is beyond the end of ",
+                     file.shown, " (", size, " bytes)"));
+  }
+  if (length > size - offset) {
+    return grpc::Status(
+        grpc::StatusCode::OUT_OF_RANGE,
+        absl::StrCat("offset_bytes ", offset, " + length_bytes ", length,
+                     " is beyond the end of ", file.shown, " (", size,
+                     " bytes)"));
+  }
+  const int64_t end = length == 0 ? size : offset + length;
+  std::string buffer(std::min(kChunkBytes, end - offset), '\0');
+  in.seekg(offset);
+  // At least one chunk, so that an empty range still says the size and
+  // the sha256.
+  do {
+    if (context.IsCancelled()) {
+      return grpc::Status(grpc::StatusCode::CANCELLED, "download cancelled");
+    }
+    const int64_t want = std::min(kChunkBytes, end - offset);
+    in.read(buffer.data(), want);
+    if (in.gcount() != want) {
+      return grpc::Status(grpc::StatusCode::DATA_LOSS,
+                          absl::StrCat("cannot read ", file.shown));
+    }
+    v1::ArtifactChunk chunk;
+    chunk.set_offset_bytes(offset);
+    chunk.set_data(buffer.data(), want);
+    chunk.set_total_size_bytes(size);
+    chunk.set_sha256(file.sha256);
+    if (!writer.Write(chunk)) {
+      return grpc::Status(grpc::StatusCode::CANCELLED, "the client went away");
+    }
+    offset += want;
+  } while (offset < end);
+  return grpc::Status::OK;
+}
+
+}  // namespace
 
 void SessionsService::ToProto(const store::SessionRecord& record,
                               v1::Session* out) const {
@@ -33,9 +128,10 @@ void SessionsService::ToProto(const store::SessionRecord& record,
   out->set_artifact_count(record.artifact_count);
 }
 
-grpc::Status SessionsService::Create(grpc::ServerContext*,
+grpc::Status SessionsService::Create(grpc::ServerContext* context,
                                      const v1::CreateSessionRequest* request,
                                      v1::Session* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   absl::StatusOr<store::SessionRecord> record =
       sessions_.Create(request->name(), request->note());
   if (!record.ok()) return ToGrpcStatus(record.status());
@@ -44,18 +140,20 @@ grpc::Status SessionsService::Create(grpc::ServerContext*,
   return grpc::Status::OK;
 }
 
-grpc::Status SessionsService::Get(grpc::ServerContext*,
+grpc::Status SessionsService::Get(grpc::ServerContext* context,
                                   const v1::GetSessionRequest* request,
                                   v1::Session* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   absl::StatusOr<store::SessionRecord> record = sessions_.Get(request->name());
   if (!record.ok()) return ToGrpcStatus(record.status());
   ToProto(*record, response);
   return grpc::Status::OK;
 }
 
-grpc::Status SessionsService::List(grpc::ServerContext*,
+grpc::Status SessionsService::List(grpc::ServerContext* context,
                                    const v1::ListSessionsRequest* request,
                                    v1::ListSessionsResponse* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   absl::StatusOr<Page> page = ParsePage(request->page());
   if (!page.ok()) return ToGrpcStatus(page.status());
   absl::StatusOr<store::SessionPage> result =
@@ -68,9 +166,10 @@ grpc::Status SessionsService::List(grpc::ServerContext*,
   return grpc::Status::OK;
 }
 
-grpc::Status SessionsService::Delete(grpc::ServerContext*,
+grpc::Status SessionsService::Delete(grpc::ServerContext* context,
                                      const v1::DeleteSessionRequest* request,
                                      v1::DeleteSessionResponse* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   absl::StatusOr<store::DeletedSession> deleted =
       sessions_.Delete(request->name());
   if (!deleted.ok()) return ToGrpcStatus(deleted.status());
@@ -82,8 +181,9 @@ grpc::Status SessionsService::Delete(grpc::ServerContext*,
 }
 
 grpc::Status SessionsService::ListArtifacts(
-    grpc::ServerContext*, const v1::ListArtifactsRequest* request,
+    grpc::ServerContext* context, const v1::ListArtifactsRequest* request,
     v1::ListArtifactsResponse* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (absl::Status s = store::ValidateName(request->session(), "session");
       !s.ok()) {
     return ToGrpcStatus(s);
@@ -118,6 +218,7 @@ grpc::Status SessionsService::ListArtifacts(
 grpc::Status SessionsService::DownloadArtifact(
     grpc::ServerContext* context, const v1::DownloadArtifactRequest* request,
     grpc::ServerWriter<v1::ArtifactChunk>* writer) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (absl::Status s = store::ValidateName(request->session(), "session");
       !s.ok()) {
     return ToGrpcStatus(s);
@@ -125,68 +226,67 @@ grpc::Status SessionsService::DownloadArtifact(
   if (request->artifact_id() <= 0) {
     return InvalidArgument("artifact_id must be a positive artifact id");
   }
-  if (request->offset_bytes() < 0) {
-    return InvalidArgument("offset_bytes must not be negative");
+  if (grpc::Status s =
+          CheckRangeFields(request->offset_bytes(), request->length_bytes());
+      !s.ok()) {
+    return s;
   }
   absl::StatusOr<store::ArtifactRecord> artifact =
       store::ArtifactRepository(store_).Get(request->session(),
                                             request->artifact_id());
   if (!artifact.ok()) return ToGrpcStatus(artifact.status());
-  if (request->offset_bytes() > artifact->size_bytes) {
-    return grpc::Status(grpc::StatusCode::OUT_OF_RANGE,
-                        absl::StrCat("offset_bytes ", request->offset_bytes(),
-                                     " is beyond the end of ", artifact->path,
-                                     " (", artifact->size_bytes, " bytes)"));
-  }
-  const std::filesystem::path path =
-      store_.files().SessionDir(request->session()) / artifact->path;
-  std::ifstream in(path, std::ios::binary);
-  std::error_code ec;
-  const auto size = std::filesystem::file_size(path, ec);
-  if (!in || ec) {
-    return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION,
-                        absl::StrCat(artifact->path,
-                                     " is missing on disk; process the "
-                                     "session again to recreate it"));
-  }
-  if (static_cast<int64_t>(size) != artifact->size_bytes) {
-    return grpc::Status(
-        grpc::StatusCode::DATA_LOSS,
-        absl::StrCat(artifact->path, " has ", size, " bytes on disk but ",
-                     artifact->size_bytes,
-                     " were recorded; process the session again"));
-  }
-  // Chunks well under gRPC's default 4 MiB message limit.
-  constexpr int64_t kChunkBytes = 1 << 20;
-  std::string buffer(kChunkBytes, '\0');
-  int64_t offset = request->offset_bytes();
-  in.seekg(offset);
-  do {
-    if (context->IsCancelled()) {
-      return grpc::Status(grpc::StatusCode::CANCELLED, "download cancelled");
-    }
-    const int64_t want = std::min(kChunkBytes, artifact->size_bytes - offset);
-    in.read(buffer.data(), want);
-    if (in.gcount() != want) {
-      return grpc::Status(grpc::StatusCode::DATA_LOSS,
-                          absl::StrCat("cannot read ", artifact->path));
-    }
-    v1::ArtifactChunk chunk;
-    chunk.set_offset_bytes(offset);
-    chunk.set_data(buffer.data(), want);
-    chunk.set_total_size_bytes(artifact->size_bytes);
-    chunk.set_sha256(artifact->sha256);
-    if (!writer->Write(chunk)) {
-      return grpc::Status(grpc::StatusCode::CANCELLED, "the client went away");
-    }
-    offset += want;
-  } while (offset < artifact->size_bytes);
-  return grpc::Status::OK;
+  return StreamFile(
+      *context,
+      {.path = store_.files().SessionDir(request->session()) / artifact->path,
+       .shown = artifact->path,
+       .recorded_size = artifact->size_bytes,
+       .sha256 = artifact->sha256,
+       .remedy = "process the session again to recreate it"},
+      request->offset_bytes(), request->length_bytes(), *writer);
 }
 
-grpc::Status SessionsService::ListMetrics(grpc::ServerContext*,
+grpc::Status SessionsService::DownloadFrame(
+    grpc::ServerContext* context, const v1::DownloadFrameRequest* request,
+    grpc::ServerWriter<v1::ArtifactChunk>* writer) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
+  if (absl::Status s = store::ValidateName(request->session(), "session");
+      !s.ok()) {
+    return ToGrpcStatus(s);
+  }
+  if (request->frame_id() <= 0) {
+    return InvalidArgument("frame_id must be a positive frame id");
+  }
+  if (grpc::Status s =
+          CheckRangeFields(request->offset_bytes(), request->length_bytes());
+      !s.ok()) {
+    return s;
+  }
+  // The session's first frame from frame_id on: the frame, if it is one of
+  // the session's.
+  absl::StatusOr<std::vector<store::FrameRecord>> frames =
+      store::FrameRepository(store_).FramesOfSession(
+          request->session(), 0, request->frame_id() - 1, 1);
+  if (!frames.ok()) return ToGrpcStatus(frames.status());
+  if (frames->empty() || frames->front().id != request->frame_id()) {
+    return grpc::Status(grpc::StatusCode::NOT_FOUND,
+                        absl::StrCat("session ", request->session(),
+                                     " has no frame ", request->frame_id()));
+  }
+  const store::FrameRecord& frame = frames->front();
+  return StreamFile(
+      *context,
+      {.path = store_.files().SessionDir(request->session()) / frame.path,
+       .shown = frame.path,
+       .recorded_size = std::nullopt,
+       .sha256 = frame.sha256,
+       .remedy = "take the capture again"},
+      request->offset_bytes(), request->length_bytes(), *writer);
+}
+
+grpc::Status SessionsService::ListMetrics(grpc::ServerContext* context,
                                           const v1::ListMetricsRequest* request,
                                           v1::ListMetricsResponse* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (absl::Status s = store::ValidateName(request->session(), "session");
       !s.ok()) {
     return ToGrpcStatus(s);
@@ -213,9 +313,10 @@ grpc::Status SessionsService::ListMetrics(grpc::ServerContext*,
   return grpc::Status::OK;
 }
 
-grpc::Status SessionsService::ListFrames(grpc::ServerContext*,
+grpc::Status SessionsService::ListFrames(grpc::ServerContext* context,
                                          const v1::ListFramesRequest* request,
                                          v1::ListFramesResponse* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
   if (absl::Status s = store::ValidateName(request->session(), "session");
       !s.ok()) {
     return ToGrpcStatus(s);

@@ -2,17 +2,19 @@
 #ifndef HDRSTEREO_DAEMON_RPC_SESSIONS_SERVICE_H_
 #define HDRSTEREO_DAEMON_RPC_SESSIONS_SERVICE_H_
 
+#include "daemon/rpc/call_guard_interceptor.h"
 #include "daemon/store/session_repository.h"
 #include "hdrstereo/v1/sessions.grpc.pb.h"
 
 namespace hdrstereo::rpc {
 
 // Sessions: create, read and delete sessions; list their frames, the
-// artifacts and metrics processing recorded; stream an artifact's bytes.
+// artifacts and metrics processing recorded; stream an artifact's or a
+// frame's bytes.
 class SessionsService final : public v1::Sessions::Service {
  public:
-  explicit SessionsService(store::Store& store)
-      : store_(store), sessions_(store) {}
+  SessionsService(store::Store& store, const CallDecisions& calls)
+      : store_(store), calls_(calls), sessions_(store) {}
 
   grpc::Status Create(grpc::ServerContext* context,
                       const v1::CreateSessionRequest* request,
@@ -32,6 +34,9 @@ class SessionsService final : public v1::Sessions::Service {
   grpc::Status DownloadArtifact(
       grpc::ServerContext* context, const v1::DownloadArtifactRequest* request,
       grpc::ServerWriter<v1::ArtifactChunk>* writer) override;
+  grpc::Status DownloadFrame(
+      grpc::ServerContext* context, const v1::DownloadFrameRequest* request,
+      grpc::ServerWriter<v1::ArtifactChunk>* writer) override;
   grpc::Status ListMetrics(grpc::ServerContext* context,
                            const v1::ListMetricsRequest* request,
                            v1::ListMetricsResponse* response) override;
@@ -43,6 +48,7 @@ class SessionsService final : public v1::Sessions::Service {
   void ToProto(const store::SessionRecord& record, v1::Session* out) const;
 
   store::Store& store_;
+  const CallDecisions& calls_;
   store::SessionRepository sessions_;
 };
 

@@ -14,8 +14,8 @@ absl::Status AuditRepository::Append(const std::vector<AuditRecord>& records) {
     ASSIGN_OR_RETURN(
         Statement insert,
         db.Prepare("INSERT INTO audit (time_ms, principal, role, auth_method, "
-                   "peer, method, subject, status_code, message) "
-                   "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)"));
+                   "peer, method, subject, status_code, message, transport) "
+                   "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)"));
     RETURN_IF_ERROR(insert.Bind(1, r.time_ms)
                         .Bind(2, r.principal)
                         .Bind(3, r.role)
@@ -25,6 +25,7 @@ absl::Status AuditRepository::Append(const std::vector<AuditRecord>& records) {
                         .Bind(7, r.subject)
                         .Bind(8, int64_t{r.status_code})
                         .Bind(9, r.message)
+                        .Bind(10, r.transport)
                         .Run());
   }
   return tx.Commit();
@@ -35,7 +36,7 @@ absl::StatusOr<std::vector<AuditRecord>> AuditRepository::List(
   absl::MutexLock lock(&store_.db().mutex());
   ASSIGN_OR_RETURN(Statement stmt, store_.db().Prepare(R"sql(
 SELECT id, time_ms, principal, role, auth_method, peer, method, subject,
-       status_code, message
+       status_code, message, transport
 FROM audit
 WHERE (?1 = '' OR principal = ?1) AND (?2 = '' OR instr(method, ?2) > 0)
   AND (?3 = 0 OR time_ms >= ?3) AND (?4 = 0 OR time_ms < ?4)
@@ -56,6 +57,7 @@ ORDER BY id DESC LIMIT ?6)sql"));
                    .principal = stmt.ColumnText(2),
                    .role = stmt.ColumnText(3),
                    .auth_method = stmt.ColumnText(4),
+                   .transport = stmt.ColumnText(10),
                    .peer = stmt.ColumnText(5),
                    .method = stmt.ColumnText(6),
                    .subject = stmt.ColumnText(7),

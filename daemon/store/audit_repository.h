@@ -20,7 +20,11 @@ struct AuditRecord {
   std::string principal;
   std::string role;
   std::string auth_method;
-  std::string peer;
+  // How the call came: "grpc" (a network port), "http" (the HTTP edge,
+  // through the daemon's in-process channel), "in-process" (an in-process
+  // call without the edge's stamp); "" for the audit log's own notes.
+  std::string transport;
+  std::string peer;  // for "http", the HTTP client's address
   std::string method;
   std::string subject;
   int status_code = 0;  // gRPC / absl canonical code

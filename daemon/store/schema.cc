@@ -15,7 +15,7 @@ namespace {
 
 // Append only: a released migration is never edited. Times are Unix
 // milliseconds (UTC); lengths in millimetres; exposures in seconds.
-constexpr std::array<absl::string_view, 13> kMigrations = {
+constexpr std::array<absl::string_view, 14> kMigrations = {
     // 1: the tables of DESIGN.md.
     R"sql(
 CREATE TABLE rigs (
@@ -322,6 +322,14 @@ CREATE TABLE rig_calibrations (
   coverage_right REAL NOT NULL,
   create_time_ms INTEGER NOT NULL
 );
+)sql",
+    // 14: the HTTP edge. How each audited call came: 'grpc' (a network
+    // port: every row written before this version), 'http' (the daemon's
+    // HTTP edge, whose peer is the HTTP client's address) or 'in-process'
+    // (an in-process call without the edge's stamp, refused); '' for the
+    // audit log's own notes.
+    R"sql(
+ALTER TABLE audit ADD COLUMN transport TEXT NOT NULL DEFAULT 'grpc';
 )sql",
 };
 

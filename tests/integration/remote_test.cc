@@ -20,12 +20,15 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "absl/time/clock.h"
+#include "daemon/rpc/edge_stamp.h"
 #include "daemon/rpc/method_roles.h"
 #include "hdrstereo/v1/admin.grpc.pb.h"
 #include "hdrstereo/v1/hardware.grpc.pb.h"
 #include "hdrstereo/v1/server.grpc.pb.h"
+#include "hdrstereo/v1/sessions.grpc.pb.h"
 #include "tests/integration/remote_fixture.h"
 #include "tests/support/proto_methods.h"
+#include "tests/support/role_outcomes.h"
 
 namespace hdrstereo {
 namespace {
@@ -218,36 +221,16 @@ TEST_F(RemoteTest, EveryMethodIsGuardedBeforeItsHandler) {
     const std::string& name = method.full_name;
     grpc::Status none = Call(anonymous, name);
     EXPECT_EQ(none.error_code(), grpc::StatusCode::UNAUTHENTICATED) << name;
-    grpc::Status no_role = Call(dave, name);
-    if (name == "/hdrstereo.v1.Server/WhoAmI") {
-      EXPECT_TRUE(no_role.ok()) << no_role.error_message();
-    } else {
-      EXPECT_EQ(no_role.error_code(), grpc::StatusCode::PERMISSION_DENIED)
-          << name;
-      EXPECT_THAT(no_role.error_message(), HasSubstr("dave has no role"));
-    }
-    const rpc::MethodRule* rule = rpc::FindMethodRule(name);
-    ASSERT_NE(rule, nullptr) << name;
+    testing::ExpectRoleOutcome(name, "dave", rpc::Role::kNone,
+                               Call(dave, name));
     // An allowed stream (live view) goes on until its deadline: a unary
     // call reads one message of it.
     const absl::Duration deadline = method.descriptor->server_streaming()
                                         ? absl::Seconds(3)
                                         : absl::Seconds(20);
     for (const auto& [user, role] : roles) {
-      grpc::Status status = Call(channels[user], name, nullptr, deadline);
-      if (rule->min_role > role) {
-        EXPECT_EQ(status.error_code(), grpc::StatusCode::PERMISSION_DENIED)
-            << name << " as " << user;
-        EXPECT_THAT(status.error_message(),
-                    HasSubstr(absl::StrCat(
-                        name, " needs role ", rpc::RoleName(rule->min_role),
-                        "; ", user, " has ", rpc::RoleName(role))));
-      } else {
-        EXPECT_NE(status.error_code(), grpc::StatusCode::PERMISSION_DENIED)
-            << name << " as " << user << ": " << status.error_message();
-        EXPECT_NE(status.error_code(), grpc::StatusCode::UNAUTHENTICATED)
-            << name << " as " << user << ": " << status.error_message();
-      }
+      testing::ExpectRoleOutcome(name, user, role,
+                                 Call(channels[user], name, nullptr, deadline));
     }
   }
   // Nothing was created by the refused calls (empty requests would be
@@ -255,6 +238,55 @@ TEST_F(RemoteTest, EveryMethodIsGuardedBeforeItsHandler) {
   EXPECT_EQ(Sql("SELECT count(*) FROM sessions"), "0");
   EXPECT_EQ(Sql("SELECT count(*) FROM api_keys"), "0");
   EXPECT_EQ(Sql("SELECT count(*) FROM rig_lock"), "0");
+  EXPECT_EQ(StopDaemon(), 0);
+}
+
+// The HTTP edge's stamp names the caller of an in-process call only: a call
+// over the network carrying its metadata is refused before any handler,
+// even with an admin's valid client certificate or on the local port, and
+// each refusal is audited once, naming who tried.
+TEST_F(RemoteTest, ANetworkCallCarryingTheHttpEdgesStampIsRefused) {
+  StartTlsDaemon({}, /*local_port=*/true);
+  const std::vector<std::pair<std::string, std::shared_ptr<grpc::Channel>>>
+      callers = {
+          {"carol", TlsChannel("carol")},
+          {"local", grpc::CreateChannel(local_address(),
+                                        grpc::InsecureChannelCredentials())}};
+  // Well formed: a stamp-sized value and carol as admin, base64 fields.
+  const std::string stamp(64, 'a');
+  const std::string caller = "Y2Fyb2w.YWRtaW4.Y2VydA.aXB2NDoxLjIuMy40OjU.";
+  int refused = 0;
+  for (const auto& [who, channel] : callers) {
+    for (const bool with_stamp : {true, false}) {
+      grpc::ClientContext context;
+      if (with_stamp) context.AddMetadata(rpc::kEdgeStampKey, stamp);
+      context.AddMetadata(rpc::kEdgeCallerKey, caller);
+      v1::CreateSessionRequest request;
+      request.set_name("smuggled");
+      v1::Session session;
+      grpc::Status status =
+          v1::Sessions::NewStub(channel)->Create(&context, request, &session);
+      ++refused;
+      EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAUTHENTICATED) << who;
+      EXPECT_THAT(status.error_message(),
+                  HasSubstr("x-hdrstereo-edge-stamp and "
+                            "x-hdrstereo-edge-caller are set only by "
+                            "hdrstereod's own HTTP edge"))
+          << who;
+    }
+  }
+  EXPECT_EQ(Sql("SELECT count(*) FROM sessions"), "0");
+  int audited = 0;
+  for (const nlohmann::json& e :
+       Audit({"--method", "/hdrstereo.v1.Sessions/Create"})) {
+    ++audited;
+    EXPECT_EQ(e.value("status_code", -1), kUnauthenticated);
+    EXPECT_EQ(e.value("transport", ""), "grpc");
+    EXPECT_THAT(e.value("message", ""),
+                HasSubstr("set only by hdrstereod's own HTTP edge"));
+    EXPECT_THAT(e.value("principal", ""), ::testing::AnyOf("carol", "local"));
+  }
+  EXPECT_EQ(audited, refused);
   EXPECT_EQ(StopDaemon(), 0);
 }
 

@@ -739,4 +739,6 @@ VERBS: dict[str, str] = {
 RAW_ONLY: frozenset[str] = frozenset({
     "Schedules.Create", "Schedules.List", "Schedules.Delete",
     "Schedules.SetEnabled", "Schedules.ListRuns",
+    # A recorded frame's bytes (what the HTTP edge serves frames from).
+    "Sessions.DownloadFrame",
 })

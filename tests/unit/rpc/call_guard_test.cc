@@ -13,6 +13,7 @@
 
 #include <map>
 
+#include "daemon/rpc/edge_stamp.h"
 #include "tests/support/fake_auth_context.h"
 #include "tests/support/status_matchers.h"
 #include "tests/support/temp_dir.h"
@@ -235,10 +236,71 @@ TEST_F(CallGuardTest, EveryRefusalIsAudited) {
   EXPECT_EQ(rows[1].principal, "alice");
   EXPECT_EQ(rows[1].role, "viewer");
   EXPECT_EQ(rows[1].auth_method, "cert");
+  EXPECT_EQ(rows[1].transport, "grpc");
   EXPECT_EQ(rows[1].method, kCapture);
   EXPECT_EQ(rows[1].status_code,
             static_cast<int>(absl::StatusCode::kPermissionDenied));
   EXPECT_THAT(rows[1].message, HasSubstr("needs role operator"));
+}
+
+// Only in-process calls may carry the HTTP edge's stamp: on a network port
+// either of its keys gets the call refused, whoever makes it, and audited
+// naming who tried.
+TEST_F(CallGuardTest, TheHttpEdgesStampIsRefusedOnTheNetwork) {
+  grpc::AuthMetadataProcessor::OutputMetadata consumed, response;
+  FakeConnection carol = Cert("carol");
+  FakeConnection local = FakeConnection::Local();
+  for (const char* key : {kEdgeStampKey, kEdgeCallerKey}) {
+    for (FakeConnection* connection : {&carol, &local}) {
+      grpc::AuthMetadataProcessor::InputMetadata metadata;
+      metadata.emplace(":path", kWhoAmI);
+      metadata.emplace(key, "forged");
+      grpc::Status refused =
+          guard_->Process(metadata, connection, &consumed, &response);
+      EXPECT_EQ(refused.error_code(), grpc::StatusCode::UNAUTHENTICATED) << key;
+      EXPECT_THAT(refused.error_message(),
+                  HasSubstr("are set only by hdrstereod's own HTTP edge"));
+      Principal who;
+      EXPECT_THAT(
+          guard_->CheckNetworkCall(kWhoAmI, *connection, metadata, &who),
+          StatusIs(absl::StatusCode::kUnauthenticated,
+                   HasSubstr("a call over the network may not carry "
+                             "them")));
+    }
+  }
+  audit_->Flush();
+  ASSERT_OK_AND_ASSIGN(std::vector<store::AuditRecord> rows,
+                       audit_->repository().List({}));
+  ASSERT_EQ(rows.size(), 4u);
+  EXPECT_EQ(rows[3].principal, "carol");
+  EXPECT_EQ(rows[3].auth_method, "cert");
+  EXPECT_EQ(rows[2].principal, "local");
+  for (const store::AuditRecord& row : rows) {
+    EXPECT_EQ(row.transport, "grpc");
+    EXPECT_EQ(row.method, kWhoAmI);
+    EXPECT_EQ(row.status_code,
+              static_cast<int>(absl::StatusCode::kUnauthenticated));
+  }
+}
+
+// What the guard's interceptor asks for a caller the HTTP edge stamped:
+// the role table and the rig lock, as for any other caller.
+TEST_F(CallGuardTest, AuthorizeAppliesTheRoleTableAndTheRigLock) {
+  const Principal bob = {.name = "bob",
+                         .role = Role::kOperator,
+                         .auth_method = "key:0a1b2c3d4e5f",
+                         .key_expire_time = std::nullopt};
+  EXPECT_THAT(guard_->Authorize(kMove, bob), IsOk());
+  EXPECT_THAT(guard_->Authorize(kDelete, bob),
+              StatusIs(absl::StatusCode::kPermissionDenied,
+                       HasSubstr("/hdrstereo.v1.Sessions/Delete needs role "
+                                 "admin; bob has operator")));
+  EXPECT_THAT(guard_->Authorize("/hdrstereo.v1.Jobs/Explode", bob),
+              StatusIs(absl::StatusCode::kUnimplemented));
+  ASSERT_THAT(lock_->Acquire("erin", "focusing", absl::Hours(1)), IsOk());
+  EXPECT_THAT(guard_->Authorize(kMove, bob),
+              StatusIs(absl::StatusCode::kFailedPrecondition,
+                       HasSubstr("locked by erin until ")));
 }
 
 }  // namespace

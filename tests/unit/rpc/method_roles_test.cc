@@ -72,6 +72,7 @@ TEST(MethodRolesTest, RolesAreTheOnesTheIssueGives) {
       {"/hdrstereo.v1.Hardware/GetStatus", Role::kViewer, false, false},
       {"/hdrstereo.v1.Hardware/GetCameraSettings", Role::kViewer, false, false},
       {"/hdrstereo.v1.Sessions/DownloadArtifact", Role::kViewer, false, false},
+      {"/hdrstereo.v1.Sessions/DownloadFrame", Role::kViewer, false, false},
       {"/hdrstereo.v1.Jobs/Watch", Role::kViewer, false, false},
       {"/hdrstereo.v1.Schedules/ListRuns", Role::kViewer, false, false},
       {"/hdrstereo.v1.Sessions/Create", Role::kOperator, true, false},

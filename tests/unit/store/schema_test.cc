@@ -8,6 +8,7 @@
 #include <set>
 #include <string>
 
+#include "daemon/store/audit_repository.h"
 #include "daemon/store/device_time_repository.h"
 #include "daemon/store/frame_repository.h"
 #include "daemon/store/job_repository.h"
@@ -201,6 +202,52 @@ VALUES (1, 1, 0, 'failed', 0, 17, 'error', 'failed: camera timed out');
   EXPECT_EQ(after.events_by_kind.at(EventKind::kPreviousFile), 1);
   EXPECT_EQ(after.events_by_kind.at(EventKind::kCameraTimeout), 0);
   EXPECT_EQ(after.device_seconds.at(Device::kStage), std::vector<double>{1.25});
+}
+
+// A database written before the HTTP edge (version 13) with an audit row:
+// migration 14 says it came over gRPC (the only transport then), and new
+// rows keep the transport they are given.
+TEST(SchemaTest, MigrationToTransportsCallsEarlierAuditRowsGrpc) {
+  constexpr int kBeforeTransport = 13;
+  TempDir dir;
+  {
+    ASSERT_OK_AND_ASSIGN(std::unique_ptr<Database> db,
+                         Database::Open(dir / "hdrstereo.db"));
+    ASSERT_OK_AND_ASSIGN(int version, Migrate(*db, kBeforeTransport));
+    ASSERT_EQ(version, kBeforeTransport);
+    Transaction tx(*db);
+    ASSERT_OK(tx.status());
+    ASSERT_OK(db->Exec(R"sql(
+INSERT INTO audit (time_ms, principal, role, auth_method, peer, method,
+                   status_code)
+VALUES (5, 'bob', 'operator', 'cert', 'ipv4:10.0.0.9:4000',
+        '/hdrstereo.v1.Sessions/Create', 0);
+)sql"));
+    EXPECT_THAT(db->Prepare("SELECT transport FROM audit").status(),
+                StatusIs(absl::StatusCode::kInternal, HasSubstr("transport")));
+    ASSERT_OK(tx.Commit());
+  }
+  ASSERT_OK_AND_ASSIGN(std::unique_ptr<Store> store, Store::Open(dir.path()));
+  EXPECT_EQ(store->schema_version(), LatestSchemaVersion());
+  AuditRepository audit(*store);
+  AuditRecord row;
+  row.time_ms = 6;
+  row.principal = "alice";
+  row.role = "viewer";
+  row.auth_method = "key:0a1b2c3d4e5f";
+  row.transport = "http";
+  row.peer = "ipv6:[::1]:8443";
+  row.method = "/hdrstereo.v1.Sessions/Delete";
+  row.status_code = 7;
+  ASSERT_OK(audit.Append({row}));
+  ASSERT_OK_AND_ASSIGN(std::vector<AuditRecord> rows, audit.List({}));
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_EQ(rows[0].principal, "alice");
+  EXPECT_EQ(rows[0].transport, "http");
+  EXPECT_EQ(rows[0].peer, "ipv6:[::1]:8443");
+  EXPECT_EQ(rows[1].principal, "bob");
+  EXPECT_EQ(rows[1].transport, "grpc");
+  EXPECT_EQ(rows[1].peer, "ipv4:10.0.0.9:4000");
 }
 
 }  // namespace
