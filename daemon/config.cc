@@ -10,6 +10,7 @@
 #include <system_error>
 #include <vector>
 
+#include "absl/algorithm/container.h"
 #include "absl/strings/ascii.h"
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
@@ -241,6 +242,24 @@ absl::Status ValidateListenAddress(const std::string& address,
       "socket"));
 }
 
+absl::Status ValidateHttpAddress(const std::string& address,
+                                 const TlsConfig& tls) {
+  const size_t colon = address.rfind(':');
+  int port = -1;
+  if (absl::StartsWith(address, "unix:") || colon == std::string::npos ||
+      colon == 0 || !absl::SimpleAtoi(address.substr(colon + 1), &port) ||
+      port < 0 || port > 65535) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--http-listen ", QuoteInput(address), " must be HOST:PORT"));
+  }
+  if (IsLocalAddress(address) || tls.enabled()) return absl::OkStatus();
+  return absl::InvalidArgumentError(absl::StrCat(
+      "--http-listen ", QuoteInput(address),
+      " is not a loopback address: HTTP off loopback needs TLS (--tls-cert "
+      "and --tls-key; deploy/make-certs.sh makes them), or listen on "
+      "127.0.0.1"));
+}
+
 absl::Status ValidateMetricsAddress(const std::string& address) {
   if (address.empty()) return absl::OkStatus();
   size_t colon = address.rfind(':');
@@ -355,6 +374,33 @@ absl::StatusOr<ParsedArgs> Parse(const std::function<void(CLI::App&)>& parse) {
   app.add_option("--metrics-listen", config.metrics_listen,
                  "Serve Prometheus metrics on this loopback HOST:PORT "
                  "(e.g. 127.0.0.1:9464) [default: off]");
+  app.add_option("--http-listen", config.http_listen,
+                 "Serve the API over HTTP (browsers, curl, MATLAB) on "
+                 "HOST:PORT, may be given several times; loopback without "
+                 "TLS, any other address only with TLS; every request needs "
+                 "credentials [default: off]");
+  app.add_option("--http-host", config.http_hosts,
+                 "A host name the HTTP edge answers to (the Host header), "
+                 "besides its listen addresses and localhost; may be given "
+                 "several times");
+  app.add_option("--http-session-idle-minutes",
+                 config.http_session_idle_minutes,
+                 "A browser session ends after this long without a request")
+      ->check(CLI::Range(1.0, 24.0 * 60))
+      ->capture_default_str();
+  app.add_option("--http-session-lifetime-hours",
+                 config.http_session_lifetime_hours,
+                 "A browser session ends this long after sign-in")
+      ->check(CLI::Range(0.1, 24.0 * 31))
+      ->capture_default_str();
+  app.add_option("--http-max-connections", config.http_max_connections,
+                 "HTTP connections served at once; more are refused (503)")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  app.add_option("--http-max-body-kb", config.http_max_body_kb,
+                 "The largest HTTP request body, in KiB")
+      ->check(CLI::Range(int64_t{1}, int64_t{64} << 10))
+      ->capture_default_str();
   app.add_option("--webhook-max-attempts", config.webhook_max_attempts,
                  "Attempts at each webhook event before giving up")
       ->check(CLI::Range(1, 100))
@@ -467,6 +513,19 @@ absl::StatusOr<ParsedArgs> Parse(const std::function<void(CLI::App&)>& parse) {
   }
   RETURN_IF_ERROR(ParseUsers(users, config.users));
   RETURN_IF_ERROR(ValidateMetricsAddress(config.metrics_listen));
+  for (const std::string& address : config.http_listen) {
+    RETURN_IF_ERROR(ValidateHttpAddress(address, config.tls));
+  }
+  for (const std::string& host : config.http_hosts) {
+    if (host.empty() || host.size() > 253 || !absl::c_all_of(host, [](char c) {
+          return absl::ascii_isalnum(c) || c == '-' || c == '.' || c == '_' ||
+                 c == '[' || c == ']' || c == ':';
+        })) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "--http-host ", QuoteInput(host),
+          " is not a host name (letters, digits, '-', '.', or an IP)"));
+    }
+  }
   if (config.camera_reconnect_first_s > config.camera_reconnect_max_s) {
     return absl::InvalidArgumentError(absl::StrCat(
         "--camera-reconnect-first-s ", config.camera_reconnect_first_s,

@@ -67,6 +67,19 @@ struct Config {
   // The Prometheus endpoint (daemon/metrics): loopback HOST:PORT, empty =
   // off. It has no TLS or authentication, hence loopback only.
   std::string metrics_listen;
+  // The HTTP edge (daemon/http): HOST:PORT each, empty = off; loopback
+  // addresses may be plain HTTP, any other needs the [tls] files. Every HTTP
+  // request needs credentials, also on loopback.
+  std::vector<std::string> http_listen;
+  // Host names the HTTP edge answers to besides its listen addresses' own.
+  std::vector<std::string> http_hosts;
+  // Browser sessions end after this long without a request, and this long
+  // after sign-in at the latest.
+  double http_session_idle_minutes = 30;
+  double http_session_lifetime_hours = 12;
+  // HTTP connections served at once, and the largest request body.
+  int http_max_connections = 256;
+  int64_t http_max_body_kb = 4096;
   // Webhook delivery (daemon/notify): attempts per event, the delay before
   // the first retry (doubling, at most 10 min), one request's time limit.
   int webhook_max_attempts = 8;
@@ -148,6 +161,9 @@ bool IsLocalAddress(const std::string& address);
 // OK for "unix:PATH" and HOST:PORT; a non-local address needs `tls`.
 absl::Status ValidateListenAddress(const std::string& address,
                                    const TlsConfig& tls);
+// OK for HOST:PORT; a non-local address needs `tls`.
+absl::Status ValidateHttpAddress(const std::string& address,
+                                 const TlsConfig& tls);
 // INVALID_ARGUMENT unless `address` is empty (metrics off) or a loopback
 // HOST:PORT.
 absl::Status ValidateMetricsAddress(const std::string& address);

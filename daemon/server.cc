@@ -107,6 +107,18 @@ jobs::ProcessingEnvironment ProcessingEnvironmentFor(const Config& config) {
   return environment;
 }
 
+http::HttpEdgeOptions HttpOptionsFor(const Config& config) {
+  http::HttpEdgeOptions options;
+  options.listen = config.http_listen;
+  options.hosts = config.http_hosts;
+  options.sessions.idle_timeout =
+      absl::Minutes(config.http_session_idle_minutes);
+  options.sessions.lifetime = absl::Hours(config.http_session_lifetime_hours);
+  options.max_connections = static_cast<size_t>(config.http_max_connections);
+  options.max_body_bytes = static_cast<size_t>(config.http_max_body_kb) << 10;
+  return options;
+}
+
 notify::WebhookDispatcherOptions WebhookOptionsFor(const Config& config) {
   notify::WebhookDispatcherOptions options;
   options.retry.max_attempts = config.webhook_max_attempts;
@@ -291,10 +303,31 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
             : absl::StrCat(server->addresses_.back(), " (TLS)"));
   }
   spdlog::info("serving gRPC on {}", absl::StrJoin(described, ", "));
+  std::vector<std::string> ready = server->addresses_;
+  if (!config.http_listen.empty()) {
+    absl::StatusOr<std::unique_ptr<http::HttpEdge>> edge =
+        http::HttpEdge::Start(HttpOptionsFor(config), tls ? &*tls : nullptr,
+                              {.channel = server->InProcessChannel(),
+                               .stamp = &server->edge_stamp_,
+                               .keys = server->api_keys_.get(),
+                               .authenticator = &server->authenticator_,
+                               .audit = &server->audit_log_});
+    if (!edge.ok()) {
+      server->Shutdown();
+      return edge.status();
+    }
+    server->http_ = std::move(*edge);
+    const char* scheme = tls ? "https://" : "http://";
+    for (const std::string& address : server->http_->addresses()) {
+      ready.push_back(absl::StrCat(scheme, address));
+    }
+    spdlog::info("serving HTTP on {} (every request needs credentials)",
+                 absl::StrJoin(server->http_->addresses(), ", "));
+  }
   if (!config.ready_file.empty()) {
+    // The gRPC addresses, then the HTTP edge's base URLs.
     if (absl::Status s = io::WriteFileAtomically(
-            config.ready_file,
-            absl::StrCat(absl::StrJoin(server->addresses_, "\n"), "\n"));
+            config.ready_file, absl::StrCat(absl::StrJoin(ready, "\n"), "\n"));
         !s.ok()) {
       server->Shutdown();
       return s;
@@ -314,6 +347,8 @@ void Server::Shutdown() {
   grpc_server_->Shutdown(std::chrono::system_clock::now() +
                          std::chrono::seconds(10));
   grpc_server_->Wait();
+  // After the services: the in-process calls it made have ended with them.
+  if (http_ != nullptr) http_->Stop();
   grpc_server_.reset();
 }
 

@@ -13,6 +13,7 @@
 #include "absl/status/statusor.h"
 #include "daemon/config.h"
 #include "daemon/hardware_setup.h"
+#include "daemon/http/http_edge.h"
 #include "daemon/jobs/disk_guard.h"
 #include "daemon/jobs/job_engine.h"
 #include "daemon/jobs/rig_lock.h"
@@ -97,6 +98,7 @@ class Server {
   rpc::SchedulesService schedules_service_;
   rpc::AdminService admin_service_;
   std::unique_ptr<grpc::Server> grpc_server_;
+  std::unique_ptr<http::HttpEdge> http_;  // null when --http-listen is off
   std::vector<std::string> addresses_;
 };
 

@@ -133,6 +133,59 @@ absl::StatusOr<NewApiKey> ApiKeyStore::Create(absl::string_view user, Role role,
                    .token = absl::StrCat(kPrefix, id, "_", secret)};
 }
 
+absl::StatusOr<VerifiedApiKey> ApiKeyStore::Use(
+    store::ApiKeyRecord& key, absl::Time now, std::string* persist_last_used) {
+  if (key.revoke_time_ms.has_value()) {
+    return absl::UnauthenticatedError(absl::StrCat(
+        "API key ", key.id, " was revoked at ", FormatTime(*key.revoke_time_ms),
+        "; ask an admin for a new one"));
+  }
+  if (absl::ToUnixMillis(now) >= key.expire_time_ms) {
+    return absl::UnauthenticatedError(absl::StrCat(
+        "API key ", key.id, " expired at ", FormatTime(key.expire_time_ms),
+        "; ask an admin for a new one"));
+  }
+  absl::StatusOr<Role> role = ParseRole(key.role);
+  const int64_t now_ms = absl::ToUnixMillis(now);
+  if (!key.last_used_time_ms.has_value() ||
+      now_ms - *key.last_used_time_ms >=
+          absl::ToInt64Milliseconds(kLastUsedResolution)) {
+    key.last_used_time_ms = now_ms;
+    *persist_last_used = key.id;
+  }
+  return VerifiedApiKey{
+      .id = key.id,
+      .user = key.user,
+      .role = role.ok() ? *role : Role::kNone,
+      .expire_time = absl::FromUnixMillis(key.expire_time_ms)};
+}
+
+void ApiKeyStore::PersistLastUsed(const std::string& id, absl::Time now) {
+  if (id.empty()) return;
+  if (absl::Status s = repository_.SetLastUsed(id, absl::ToUnixMillis(now));
+      !s.ok()) {
+    spdlog::warn("API key {}: cannot record its last use: {}", id,
+                 std::string(s.message()));
+  }
+}
+
+absl::StatusOr<VerifiedApiKey> ApiKeyStore::Active(absl::string_view id) {
+  const absl::Time now = clock_();
+  std::string persist_last_used;
+  VerifiedApiKey verified;
+  {
+    absl::MutexLock lock(&mutex_);
+    auto it = keys_.find(id);
+    if (it == keys_.end()) {
+      return absl::UnauthenticatedError(
+          absl::StrCat("API key ", id, " is unknown"));
+    }
+    ASSIGN_OR_RETURN(verified, Use(it->second, now, &persist_last_used));
+  }
+  PersistLastUsed(persist_last_used, now);
+  return verified;
+}
+
 absl::StatusOr<VerifiedApiKey> ApiKeyStore::Verify(absl::string_view token) {
   const std::string id = ApiKeyIdOf(token);
   if (id.empty()) {
@@ -162,39 +215,9 @@ absl::StatusOr<VerifiedApiKey> ApiKeyStore::Verify(absl::string_view token) {
                        " is unknown or its secret is wrong; ask an admin "
                        "for a key (hdrstereo admin key create)"));
     }
-    store::ApiKeyRecord& key = it->second;
-    if (key.revoke_time_ms.has_value()) {
-      return absl::UnauthenticatedError(absl::StrCat(
-          "API key ", id, " was revoked at ", FormatTime(*key.revoke_time_ms),
-          "; ask an admin for "
-          "a new one"));
-    }
-    if (absl::ToUnixMillis(now) >= key.expire_time_ms) {
-      return absl::UnauthenticatedError(absl::StrCat(
-          "API key ", id, " expired at ", FormatTime(key.expire_time_ms),
-          "; ask an admin for a new one"));
-    }
-    absl::StatusOr<Role> role = ParseRole(key.role);
-    verified = {.id = id,
-                .user = key.user,
-                .role = role.ok() ? *role : Role::kNone,
-                .expire_time = absl::FromUnixMillis(key.expire_time_ms)};
-    const int64_t now_ms = absl::ToUnixMillis(now);
-    if (!key.last_used_time_ms.has_value() ||
-        now_ms - *key.last_used_time_ms >=
-            absl::ToInt64Milliseconds(kLastUsedResolution)) {
-      key.last_used_time_ms = now_ms;
-      persist_last_used = id;
-    }
+    ASSIGN_OR_RETURN(verified, Use(it->second, now, &persist_last_used));
   }
-  if (!persist_last_used.empty()) {
-    if (absl::Status s =
-            repository_.SetLastUsed(persist_last_used, absl::ToUnixMillis(now));
-        !s.ok()) {
-      spdlog::warn("API key {}: cannot record its last use: {}",
-                   persist_last_used, std::string(s.message()));
-    }
-  }
+  PersistLastUsed(persist_last_used, now);
   return verified;
 }
 

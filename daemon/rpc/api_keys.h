@@ -59,6 +59,11 @@ class ApiKeyStore {
   // UNAUTHENTICATED, with a message a person can act on and without the
   // secret, for a malformed, unknown, wrong, expired or revoked key.
   absl::StatusOr<VerifiedApiKey> Verify(absl::string_view token);
+  // The key with id `id` if it is still in force (neither revoked nor
+  // expired), without its secret: for a browser session signed in with the
+  // key, checked again on every request so that revoking the key ends its
+  // sessions at once. UNAUTHENTICATED otherwise.
+  absl::StatusOr<VerifiedApiKey> Active(absl::string_view id);
   // NOT_FOUND for an unknown id; FAILED_PRECONDITION if already revoked.
   absl::StatusOr<store::ApiKeyRecord> Revoke(absl::string_view id,
                                              absl::string_view by);
@@ -70,6 +75,14 @@ class ApiKeyStore {
  private:
   ApiKeyStore(store::Store& store, std::function<absl::Time()> clock)
       : repository_(store), clock_(std::move(clock)) {}
+
+  // The key as verified at `now` (UNAUTHENTICATED when revoked or expired);
+  // sets `persist_last_used` to its id when its last use is due to be
+  // written.
+  absl::StatusOr<VerifiedApiKey> Use(store::ApiKeyRecord& key, absl::Time now,
+                                     std::string* persist_last_used)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mutex_);
+  void PersistLastUsed(const std::string& id, absl::Time now);
 
   store::ApiKeyRepository repository_;
   std::function<absl::Time()> clock_;

@@ -22,20 +22,28 @@ std::string FirstProperty(const grpc::AuthContext& context,
   return std::string(values[0].data(), values[0].size());
 }
 
-// The principal a verified client certificate names: its SAN URI
-// hdrstereo://user/NAME, else its CN.
-std::string CertificatePrincipal(const grpc::AuthContext& context) {
+std::string PrincipalOfConnection(const grpc::AuthContext& context) {
+  std::vector<std::string> names;
   for (const grpc::string_ref& san :
        context.FindPropertyValues("x509_subject_alternative_name")) {
-    absl::string_view value(san.data(), san.size());
-    if (absl::StartsWith(value, kUserUri)) {
-      return std::string(value.substr(kUserUri.size()));
-    }
+    names.emplace_back(san.data(), san.size());
   }
-  return FirstProperty(context, "x509_common_name");
+  return CertificatePrincipal(names,
+                              FirstProperty(context, "x509_common_name"));
 }
 
 }  // namespace
+
+std::string CertificatePrincipal(
+    const std::vector<std::string>& subject_alternative_names,
+    absl::string_view common_name) {
+  for (absl::string_view name : subject_alternative_names) {
+    if (absl::StartsWith(name, kUserUri)) {
+      return std::string(name.substr(kUserUri.size()));
+    }
+  }
+  return std::string(common_name);
+}
 
 Role Authenticator::RoleOf(absl::string_view user) const {
   auto it = users_.find(user);
@@ -90,7 +98,7 @@ absl::Status Authenticator::Authenticate(
           "and --tls-key signed by the lab CA, or --api-key-file");
     }
     principal->auth_method = "cert";
-    principal->name = CertificatePrincipal(connection);
+    principal->name = PrincipalOfConnection(connection);
     if (absl::Status s =
             ValidatePrincipalName(principal->name, "the client certificate");
         !s.ok()) {

@@ -22,9 +22,9 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "absl/status/status.h"
-#include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "absl/time/time.h"
 #include "daemon/rpc/api_keys.h"
@@ -43,6 +43,12 @@ struct Principal {
   std::string auth_method;  // "cert", "key:<id>", "local"; "" for none
   std::optional<absl::Time> key_expire_time;
 };
+
+// The principal a verified client certificate names, the one rule for
+// gRPC and HTTP: its SAN URI hdrstereo://user/NAME, else its CN.
+std::string CertificatePrincipal(
+    const std::vector<std::string>& subject_alternative_names,
+    absl::string_view common_name);
 
 class Authenticator {
  public:

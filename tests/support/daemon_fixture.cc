@@ -9,6 +9,7 @@
 #include <set>
 
 #include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_replace.h"
 #include "absl/strings/str_split.h"
@@ -64,8 +65,15 @@ void DaemonFixture::StartDaemon(const std::vector<std::string>& extra) {
   ASSERT_TRUE(process.ok()) << process.status();
   daemon_.emplace(*std::move(process));
   ASSERT_TRUE(WaitForFile(ready, absl::Seconds(60))) << daemon_log();
-  addresses_ =
-      absl::StrSplit(absl::StripAsciiWhitespace(ReadFileOrDie(ready)), '\n');
+  // gRPC addresses, then the HTTP edge's URLs.
+  addresses_.clear();
+  http_urls_.clear();
+  const std::string lines = ReadFileOrDie(ready);
+  for (absl::string_view line :
+       absl::StrSplit(absl::StripAsciiWhitespace(lines), '\n')) {
+    (absl::StartsWith(line, "http") ? http_urls_ : addresses_)
+        .emplace_back(line);
+  }
   address_ = absl::StrReplaceAll(addresses_[0], {{"0.0.0.0:", "127.0.0.1:"}});
 }
 

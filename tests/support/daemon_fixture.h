@@ -106,7 +106,10 @@ class DaemonFixture : public ::testing::Test {
   std::optional<Process> daemon_;
   std::string address_;                 // what the CLI connects to
   std::vector<std::string> addresses_;  // every address the daemon serves
-  std::vector<std::string> cli_args_;   // given to every CLI call
+  // The HTTP edge's base URLs ("https://127.0.0.1:PORT"), in --http-listen
+  // order.
+  std::vector<std::string> http_urls_;
+  std::vector<std::string> cli_args_;  // given to every CLI call
 };
 
 }  // namespace hdrstereo::testing

@@ -1,0 +1,1275 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "daemon/http/http_edge.h"
+
+#include <openssl/ssl.h>
+#include <openssl/x509.h>
+#include <openssl/x509v3.h>
+#include <spdlog/spdlog.h>
+
+#include <atomic>
+#include <boost/asio.hpp>
+#include <boost/asio/ssl.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/beast/ssl.hpp>
+#include <deque>
+#include <list>
+#include <optional>
+#include <thread>
+#include <type_traits>
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
+#include "absl/strings/strip.h"
+#include "absl/synchronization/mutex.h"
+#include "daemon/http/connect_protocol.h"
+#include "daemon/http/request_checks.h"
+#include "daemon/http/rpc_bridge.h"
+#include "hdrstereo/v1/sessions.pb.h"
+#include "nlohmann/json.hpp"
+#include "processing/base/input_limits.h"
+#include "processing/base/status_macros.h"
+
+namespace hdrstereo::http {
+namespace {
+
+namespace net = boost::asio;
+namespace beast = boost::beast;
+namespace bhttp = beast::http;
+namespace ssl = net::ssl;
+using tcp = net::ip::tcp;
+
+using Request = bhttp::request<bhttp::string_body>;
+using StringResponse = bhttp::response<bhttp::string_body>;
+
+constexpr char kSessionCookie[] = "hdrstereo_session";
+// Under TLS the __Host- prefix makes browsers refuse the cookie unless it
+// is Secure, for this host only, path /.
+constexpr char kTlsSessionCookie[] = "__Host-hdrstereo_session";
+// The one stream whose messages are snapshots: a viewer that falls behind
+// gets the newest frame, the older ones are dropped.
+constexpr char kLatestOnlyMethod[] = "hdrstereo.v1.Hardware.StreamPreview";
+// Connections beyond max_connections still get their 503 (plain HTTP)
+// while fewer than this many are being refused; more are closed at once.
+constexpr size_t kMaxRefusing = 64;
+// Sign-in bodies are tiny; the key is 80 characters.
+constexpr size_t kMaxSignInBodyBytes = 4096;
+
+// Beast's string_view as absl's (Debian's absl has its own type).
+absl::string_view Sv(beast::string_view text) {
+  return absl::string_view(text.data(), text.size());
+}
+
+std::chrono::steady_clock::duration Chrono(absl::Duration d) {
+  return absl::ToChronoNanoseconds(d);
+}
+
+void AddSecurityHeaders(bhttp::fields& fields) {
+  fields.set("Content-Security-Policy",
+             "default-src 'self'; img-src 'self' blob: data:; "
+             "object-src 'none'; base-uri 'none'; form-action 'self'; "
+             "frame-ancestors 'none'");
+  fields.set("X-Content-Type-Options", "nosniff");
+  fields.set("Referrer-Policy", "no-referrer");
+  fields.set("X-Frame-Options", "DENY");
+}
+
+StringResponse JsonResponse(unsigned version, int status, std::string body) {
+  StringResponse response(static_cast<bhttp::status>(status), version);
+  AddSecurityHeaders(response.base());
+  response.set(bhttp::field::content_type, "application/json");
+  response.set(bhttp::field::cache_control, "no-store");
+  response.body() = std::move(body);
+  response.prepare_payload();
+  return response;
+}
+
+StringResponse ErrorResponse(unsigned version, const absl::Status& status) {
+  return JsonResponse(version, HttpStatusOf(status.code()), ErrorJson(status));
+}
+
+std::string PeerName(const tcp::endpoint& endpoint) {
+  const net::ip::address address = endpoint.address();
+  return address.is_v6()
+             ? absl::StrCat("ipv6:[", address.to_string(),
+                            "]:", endpoint.port())
+             : absl::StrCat("ipv4:", address.to_string(), ":", endpoint.port());
+}
+
+// The principal a verified client certificate names, by the gRPC edge's
+// rule (rpc::CertificatePrincipal): its SAN URI hdrstereo://user/NAME,
+// else its CN.
+std::string PrincipalOfCertificate(X509* cert) {
+  std::vector<std::string> uris;
+  auto* names = static_cast<GENERAL_NAMES*>(
+      X509_get_ext_d2i(cert, NID_subject_alt_name, nullptr, nullptr));
+  if (names != nullptr) {
+    for (int i = 0; i < sk_GENERAL_NAME_num(names); ++i) {
+      const GENERAL_NAME* name = sk_GENERAL_NAME_value(names, i);
+      if (name->type != GEN_URI) continue;
+      const ASN1_IA5STRING* uri = name->d.uniformResourceIdentifier;
+      uris.emplace_back(
+          reinterpret_cast<const char*>(ASN1_STRING_get0_data(uri)),
+          static_cast<size_t>(ASN1_STRING_length(uri)));
+    }
+    GENERAL_NAMES_free(names);
+  }
+  std::string common_name;
+  X509_NAME* subject = X509_get_subject_name(cert);
+  const int index = X509_NAME_get_index_by_NID(subject, NID_commonName, -1);
+  if (index >= 0) {
+    const ASN1_STRING* data =
+        X509_NAME_ENTRY_get_data(X509_NAME_get_entry(subject, index));
+    common_name.assign(
+        reinterpret_cast<const char*>(ASN1_STRING_get0_data(data)),
+        static_cast<size_t>(ASN1_STRING_length(data)));
+  }
+  return rpc::CertificatePrincipal(uris, common_name);
+}
+
+absl::StatusOr<std::unique_ptr<ssl::context>> TlsContext(
+    const rpc::TlsMaterial& tls) {
+  auto context = std::make_unique<ssl::context>(ssl::context::tls_server);
+  boost::system::error_code ec;
+  context->set_options(ssl::context::default_workarounds |
+                           ssl::context::no_sslv2 | ssl::context::no_sslv3 |
+                           ssl::context::no_tlsv1 | ssl::context::no_tlsv1_1,
+                       ec);
+  context->use_certificate_chain(net::buffer(tls.cert_chain), ec);
+  if (!ec) {
+    context->use_private_key(net::buffer(tls.private_key), ssl::context::pem,
+                             ec);
+  }
+  if (!ec && !tls.client_ca.empty()) {
+    context->add_certificate_authority(net::buffer(tls.client_ca), ec);
+    // Asked for, not required: a browser without one signs in with a key.
+    if (!ec) context->set_verify_mode(ssl::verify_peer, ec);
+  }
+  if (ec) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("the HTTP edge cannot use the TLS files: ", ec.message()));
+  }
+  if (!tls.crl_dir.empty()) {
+    X509_STORE* store = SSL_CTX_get_cert_store(context->native_handle());
+    X509_LOOKUP* lookup = X509_STORE_add_lookup(store, X509_LOOKUP_hash_dir());
+    if (lookup == nullptr ||
+        X509_LOOKUP_add_dir(lookup, tls.crl_dir.c_str(), X509_FILETYPE_PEM) !=
+            1 ||
+        X509_STORE_set_flags(store, X509_V_FLAG_CRL_CHECK) != 1) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "the HTTP edge cannot use the revocation lists in ", tls.crl_dir));
+    }
+  }
+  return context;
+}
+
+// A Content-Type for a downloaded file, by its extension; anything that a
+// browser could run (HTML, SVG, scripts) is an attachment.
+std::string FileContentType(absl::string_view path) {
+  const size_t dot = path.rfind('.');
+  const std::string extension =
+      dot == path.npos ? "" : absl::AsciiStrToLower(path.substr(dot + 1));
+  if (extension == "png") return "image/png";
+  if (extension == "jpg" || extension == "jpeg") return "image/jpeg";
+  if (extension == "tif" || extension == "tiff") return "image/tiff";
+  if (extension == "json") return "application/json";
+  if (extension == "csv") return "text/csv";
+  return "application/octet-stream";
+}
+
+}  // namespace
+
+// What the whole edge shares: options, the bridge into the services, the
+// sessions, the I/O threads, and the calls in flight.
+class HttpEdge::Impl {
+ public:
+  Impl(const HttpEdgeOptions& options, HttpEdgeServices services)
+      : options_(options),
+        services_(std::move(services)),
+        bridge_(services_.channel, *services_.stamp),
+        sessions_(options.sessions),
+        throttle_(options.sign_in),
+        io_(options.threads) {}
+
+  absl::Status Listen(const rpc::TlsMaterial* tls);
+  void Run();
+  void Stop();
+
+  // Who the request is from: Authorization: Bearer, else the session
+  // cookie, else the client certificate. UNAUTHENTICATED saying how to sign
+  // in.
+  absl::StatusOr<rpc::EdgeCaller> Authenticate(
+      const Request& request, const std::string& cookie_name, bool key_allowed,
+      const std::string& cert_principal, const std::string& peer);
+  // An audit row for what the edge itself decided (sign-in, sign-out,
+  // requests refused before any call).
+  void Audit(const rpc::Principal& principal, const std::string& peer,
+             absl::string_view route, const absl::Status& status);
+
+  // Calls in flight into the services: Stop() waits for them, since their
+  // callbacks post to the I/O context.
+  void CallStarted() { in_flight_.fetch_add(1); }
+  void CallEnded() { in_flight_.fetch_sub(1); }
+  // Streams to cancel when the edge stops.
+  void Track(const std::shared_ptr<StreamCall>& call);
+
+  const HttpEdgeOptions options_;
+  const HttpEdgeServices services_;
+  RpcBridge bridge_;
+  BrowserSessions sessions_;
+  SignInThrottle throttle_;
+  net::io_context io_;
+  std::atomic<size_t> connections_{0};
+  std::atomic<size_t> refusing_{0};
+  std::vector<std::string> addresses_;
+
+ private:
+  struct Listener;
+  void Accept(Listener& listener);
+
+  std::unique_ptr<ssl::context> tls_;
+  std::list<Listener> listeners_;
+  std::vector<std::thread> threads_;
+  std::atomic<int> in_flight_{0};
+  absl::Mutex streams_mutex_;
+  std::list<std::weak_ptr<StreamCall>> streams_ ABSL_GUARDED_BY(streams_mutex_);
+  bool stopped_ = false;
+};
+
+// What a connection knows of the address it came in on.
+struct ListenInfo {
+  bool tls = false;
+  bool loopback = false;
+  std::vector<std::string> served_names;
+  std::string cookie_name;
+};
+
+struct HttpEdge::Impl::Listener {
+  Listener(net::io_context& io, ListenInfo listen_info)
+      : acceptor(net::make_strand(io)), info(std::move(listen_info)) {}
+  tcp::acceptor acceptor;
+  ListenInfo info;
+};
+
+namespace {
+
+// One HTTP/1.1 connection, plain or TLS: reads requests one at a time and
+// answers each, unary responses kept alive, streams and downloads closed
+// after their end. Every step runs on the connection's strand.
+template <class Stream>
+class Connection : public std::enable_shared_from_this<Connection<Stream>> {
+ public:
+  static constexpr bool kTls =
+      std::is_same_v<Stream, beast::ssl_stream<beast::tcp_stream>>;
+
+  Connection(HttpEdge::Impl& edge, const ListenInfo& info, Stream stream,
+             std::string peer, bool refuse)
+      : edge_(edge),
+        info_(info),
+        stream_(std::move(stream)),
+        peer_(std::move(peer)),
+        refuse_(refuse) {
+    (refuse_ ? edge_.refusing_ : edge_.connections_).fetch_add(1);
+  }
+  ~Connection() {
+    (refuse_ ? edge_.refusing_ : edge_.connections_).fetch_sub(1);
+    if (call_ != nullptr) call_->Cancel();
+  }
+
+  void Start() {
+    net::dispatch(stream_.get_executor(),
+                  [self = this->shared_from_this()] { self->Handshake(); });
+  }
+
+ private:
+  beast::tcp_stream& Tcp() { return beast::get_lowest_layer(stream_); }
+
+  void Handshake() {
+    Tcp().expires_after(Chrono(edge_.options_.header_timeout));
+    if constexpr (kTls) {
+      stream_.async_handshake(
+          ssl::stream_base::server,
+          [self = this->shared_from_this()](beast::error_code ec) {
+            if (ec) return self->Close();
+            self->ReadCertificate();
+            self->ReadHeader();
+          });
+    } else {
+      ReadHeader();
+    }
+  }
+
+  void ReadCertificate() {
+    if constexpr (kTls) {
+      X509* cert = SSL_get1_peer_certificate(stream_.native_handle());
+      if (cert == nullptr) return;
+      // The handshake verified it against the lab CA (and its CRLs).
+      if (SSL_get_verify_result(stream_.native_handle()) == X509_V_OK) {
+        cert_principal_ = PrincipalOfCertificate(cert);
+      }
+      X509_free(cert);
+    }
+  }
+
+  void ReadHeader() {
+    if (refuse_) {
+      // Beyond the connection limit: say so and close.
+      return Send(ErrorResponse(
+                      11, absl::UnavailableError(absl::StrCat(
+                              "hdrstereod serves at most ",
+                              edge_.options_.max_connections,
+                              " HTTP connections at once; try again shortly"))),
+                  /*close=*/true);
+    }
+    parser_.emplace();
+    parser_->header_limit(
+        static_cast<uint32_t>(edge_.options_.max_header_bytes));
+    parser_->body_limit(edge_.options_.max_body_bytes);
+    Tcp().expires_after(Chrono(requests_ == 0 ? edge_.options_.header_timeout
+                                              : edge_.options_.idle_timeout));
+    bhttp::async_read_header(
+        stream_, buffer_, *parser_,
+        [self = this->shared_from_this()](beast::error_code ec, size_t) {
+          self->OnHeader(ec);
+        });
+  }
+
+  void OnHeader(beast::error_code ec) {
+    if (ec) return RefuseUnreadable(ec);
+    ++requests_;
+    Tcp().expires_after(Chrono(edge_.options_.body_timeout));
+    if (absl::EqualsIgnoreCase(Sv(parser_->get()[bhttp::field::expect]),
+                               "100-continue")) {
+      // curl waits for this before it sends a larger body.
+      auto proceed = std::make_shared<bhttp::response<bhttp::empty_body>>(
+          bhttp::status::continue_, parser_->get().version());
+      return bhttp::async_write(stream_, *proceed,
+                                [self = this->shared_from_this(), proceed](
+                                    beast::error_code ec, size_t) {
+                                  if (ec) return self->Close();
+                                  self->ReadBody();
+                                });
+    }
+    ReadBody();
+  }
+
+  void ReadBody() {
+    bhttp::async_read(
+        stream_, buffer_, *parser_,
+        [self = this->shared_from_this()](beast::error_code ec, size_t) {
+          if (ec) return self->RefuseUnreadable(ec);
+          self->request_ = self->parser_->release();
+          self->Dispatch();
+        });
+  }
+
+  // A request that could not be read: a clear answer where HTTP allows
+  // one, else the connection closes.
+  void RefuseUnreadable(beast::error_code ec) {
+    if (ec == bhttp::error::body_limit) {
+      return Send(
+          ErrorResponse(11, absl::ResourceExhaustedError(absl::StrCat(
+                                "the request body is larger than the "
+                                "limit of ",
+                                edge_.options_.max_body_bytes, " bytes"))),
+          true, 413);
+    }
+    if (ec == bhttp::error::header_limit) {
+      return Send(
+          ErrorResponse(11, absl::ResourceExhaustedError(absl::StrCat(
+                                "the request headers are larger than the "
+                                "limit of ",
+                                edge_.options_.max_header_bytes, " bytes"))),
+          true, 431);
+    }
+    // Beast's parse errors (a bad method, target, header or chunk) get a
+    // 400; a timeout or a hang-up just closes.
+    if (ec != bhttp::error::end_of_stream &&
+        ec != bhttp::error::partial_message &&
+        ec.category() ==
+            beast::error_code(bhttp::error::bad_method).category()) {
+      return Send(
+          ErrorResponse(11, absl::InvalidArgumentError(absl::StrCat(
+                                "malformed HTTP request: ", ec.message()))),
+          true);
+    }
+    Close();
+  }
+
+  void Dispatch() {
+    const std::string target(request_.target());
+    const absl::string_view path =
+        absl::string_view(target).substr(0, target.find('?'));
+    const unsigned version = request_.version();
+    if (absl::Status host =
+            CheckHost(Sv(request_[bhttp::field::host]), info_.served_names);
+        !host.ok()) {
+      edge_.Audit(rpc::Principal(), peer_, "host", host);
+      return Send(ErrorResponse(version, host), true);
+    }
+    const bhttp::verb verb = request_.method();
+    if (path == "/auth/sign-in" || path == "/auth/sign-out") {
+      if (verb != bhttp::verb::post) return MethodNotAllowed("POST");
+      return path == "/auth/sign-in" ? SignIn() : SignOut();
+    }
+    if (absl::StartsWith(path, "/files/")) {
+      if (verb != bhttp::verb::get && verb != bhttp::verb::head) {
+        return MethodNotAllowed("GET, HEAD");
+      }
+      return Download(path);
+    }
+    absl::StatusOr<RpcMethod> method = FindRpcMethod(path);
+    if (!method.ok() && absl::IsNotFound(method.status())) {
+      return Send(ErrorResponse(version, method.status()));
+    }
+    if (verb != bhttp::verb::post) return MethodNotAllowed("POST");
+    if (!method.ok()) return Send(ErrorResponse(version, method.status()));
+    Rpc(*method);
+  }
+
+  void MethodNotAllowed(const char* allowed) {
+    StringResponse response =
+        ErrorResponse(request_.version(),
+                      absl::InvalidArgumentError(absl::StrCat(
+                          "method ", std::string(request_.method_string()),
+                          " is not served here; use ", allowed)));
+    response.result(bhttp::status::method_not_allowed);
+    response.set(bhttp::field::allow, allowed);
+    Send(std::move(response));
+  }
+
+  // A mutation's checks: a content type no form can send, and an Origin,
+  // when there is one, that is the edge's own (always there for a session
+  // cookie: browsers send it on every POST).
+  absl::Status CheckMutation(bool session_cookie) {
+    const auto origin = request_.find(bhttp::field::origin);
+    if (origin == request_.end()) {
+      if (session_cookie) {
+        return absl::PermissionDeniedError(
+            "a request signed in by a session cookie must carry the Origin "
+            "header");
+      }
+      return absl::OkStatus();
+    }
+    return CheckOrigin(Sv(origin->value()), info_.tls ? "https" : "http",
+                       Sv(request_[bhttp::field::host]));
+  }
+
+  bool HasSessionCookie() const {
+    return CookieValue(Sv(request_[bhttp::field::cookie]), info_.cookie_name)
+        .has_value();
+  }
+
+  absl::StatusOr<rpc::EdgeCaller> Caller() {
+    return edge_.Authenticate(request_, info_.cookie_name,
+                              info_.tls || info_.loopback, cert_principal_,
+                              peer_);
+  }
+
+  void SignIn() {
+    const unsigned version = request_.version();
+    const std::string address = peer_.substr(0, peer_.rfind(':'));
+    rpc::Principal principal;
+    absl::Status status = [&]() -> absl::Status {
+      RETURN_IF_ERROR(edge_.throttle_.Check(address));
+      std::optional<ContentType> type =
+          ParseContentType(Sv(request_[bhttp::field::content_type]));
+      if (!type.has_value() || type->codec != Codec::kJson || type->streaming) {
+        return absl::InvalidArgumentError(
+            "sign in with Content-Type: application/json and the body "
+            "{\"apiKey\": \"hs_...\"}");
+      }
+      RETURN_IF_ERROR(CheckMutation(false));
+      if (!info_.tls && !info_.loopback) {
+        return absl::UnauthenticatedError(
+            "API keys are accepted over TLS only");
+      }
+      if (request_.body().size() > kMaxSignInBodyBytes) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "a sign-in body is at most ", kMaxSignInBodyBytes, " bytes"));
+      }
+      const nlohmann::json body =
+          nlohmann::json::parse(request_.body(), nullptr, false);
+      if (!body.is_object() || !body.contains("apiKey") ||
+          !body["apiKey"].is_string()) {
+        return absl::InvalidArgumentError(
+            "apiKey: expected the body {\"apiKey\": \"hs_...\"}");
+      }
+      const std::string token = body["apiKey"].get<std::string>();
+      principal.auth_method = absl::StrCat("key:", rpc::ApiKeyIdOf(token));
+      absl::StatusOr<rpc::VerifiedApiKey> key =
+          edge_.services_.keys->Verify(token);
+      if (!key.ok()) {
+        edge_.throttle_.RecordFailure(address);
+        return key.status();
+      }
+      principal.name = key->user;
+      principal.role =
+          std::min(key->role, edge_.services_.authenticator->RoleOf(key->user));
+      ASSIGN_OR_RETURN(std::string session, edge_.sessions_.Start(key->id));
+      const absl::Time expiry = std::min(
+          key->expire_time, absl::Now() + edge_.sessions_.options().lifetime);
+      StringResponse response = JsonResponse(
+          version, 200,
+          nlohmann::json{
+              {"user", principal.name},
+              {"role", rpc::RoleName(principal.role)},
+              {"expireTime", absl::FormatTime(absl::RFC3339_sec, expiry,
+                                              absl::UTCTimeZone())}}
+              .dump());
+      response.set(bhttp::field::set_cookie,
+                   absl::StrCat(info_.cookie_name, "=", session,
+                                "; Path=/; HttpOnly; SameSite=Strict",
+                                info_.tls ? "; Secure" : ""));
+      edge_.Audit(principal, peer_, "/auth/sign-in", absl::OkStatus());
+      Send(std::move(response));
+      return absl::OkStatus();
+    }();
+    if (status.ok()) return;
+    edge_.Audit(principal, peer_, "/auth/sign-in", status);
+    Send(ErrorResponse(version, status));
+  }
+
+  void SignOut() {
+    const unsigned version = request_.version();
+    std::optional<std::string> token =
+        CookieValue(Sv(request_[bhttp::field::cookie]), info_.cookie_name);
+    absl::Status status = CheckMutation(token.has_value());
+    rpc::Principal principal;
+    if (status.ok()) {
+      absl::StatusOr<rpc::EdgeCaller> caller = Caller();
+      if (caller.ok()) principal = caller->principal;
+      if (!token.has_value() || !edge_.sessions_.End(*token)) {
+        status = absl::FailedPreconditionError("no browser session to end");
+      }
+    }
+    edge_.Audit(principal, peer_, "/auth/sign-out", status);
+    StringResponse response = status.ok() ? JsonResponse(version, 200, "{}")
+                                          : ErrorResponse(version, status);
+    // The cookie goes in any case.
+    response.set(bhttp::field::set_cookie,
+                 absl::StrCat(info_.cookie_name,
+                              "=; Path=/; Max-Age=0; HttpOnly; SameSite=Strict",
+                              info_.tls ? "; Secure" : ""));
+    Send(std::move(response));
+  }
+
+  void Rpc(const RpcMethod& method) {
+    const unsigned version = request_.version();
+    std::optional<ContentType> type =
+        ParseContentType(Sv(request_[bhttp::field::content_type]));
+    const bool streaming = method.descriptor->server_streaming();
+    const bool sse = streaming && type.has_value() && !type->streaming &&
+                     type->codec == Codec::kJson &&
+                     absl::StrContains(Sv(request_[bhttp::field::accept]),
+                                       "text/event-stream");
+    if (!type.has_value() || (type->streaming != streaming && !sse)) {
+      StringResponse response = ErrorResponse(
+          version,
+          absl::InvalidArgumentError(absl::StrCat(
+              method.grpc_path, " takes Content-Type ",
+              streaming ? "application/connect+json or "
+                          "application/connect+proto (or application/json "
+                          "with Accept: text/event-stream)"
+                        : "application/json or application/proto")));
+      response.result(bhttp::status::unsupported_media_type);
+      return Send(std::move(response));
+    }
+    const Framing framing = sse ? Framing::kSse : Framing::kConnect;
+    // Refused before any call: a unary call's error response, or (Connect's
+    // rule for streams) a stream that is only its end message.
+    auto refuse = [&](const absl::Status& status) {
+      if (!streaming) return Send(ErrorResponse(version, status));
+      StartStream(framing, *type);
+      EndStream(status);
+    };
+    absl::StatusOr<rpc::EdgeCaller> caller =
+        [&]() -> absl::StatusOr<rpc::EdgeCaller> {
+      RETURN_IF_ERROR(CheckMutation(HasSessionCookie()));
+      return Caller();
+    }();
+    if (!caller.ok()) {
+      edge_.Audit(rpc::Principal(), peer_, method.grpc_path, caller.status());
+      return refuse(caller.status());
+    }
+    absl::Duration timeout =
+        streaming ? absl::InfiniteDuration() : edge_.options_.unary_timeout;
+    if (const auto header = request_.find("Connect-Timeout-Ms");
+        header != request_.end()) {
+      absl::StatusOr<absl::Duration> asked =
+          ParseTimeoutMs(Sv(header->value()));
+      if (!asked.ok()) return refuse(asked.status());
+      timeout = *asked;
+    }
+    absl::StatusOr<absl::string_view> body = request_.body();
+    if (type->streaming) {
+      body =
+          ParseRequestEnvelope(request_.body(), edge_.options_.max_body_bytes);
+    }
+    absl::StatusOr<std::string> bytes =
+        body.ok() ? RequestBytes(method, type->codec, *body) : body.status();
+    if (!bytes.ok()) return refuse(bytes.status());
+    if (streaming) {
+      method_ = method;
+      StartStream(framing, *type);
+      return CallStream(method, std::move(*bytes), *caller, timeout,
+                        method.descriptor->full_name() == kLatestOnlyMethod);
+    }
+    edge_.CallStarted();
+    edge_.bridge_.Unary(
+        method, std::move(*bytes), *caller, timeout,
+        [self = this->shared_from_this(), method, codec = type->codec,
+         version](absl::StatusOr<std::string> response) {
+          net::post(self->stream_.get_executor(), [self, method, codec, version,
+                                                   response =
+                                                       std::move(response)] {
+            absl::StatusOr<std::string> body =
+                response.ok() ? ResponseBody(method, codec, *response)
+                              : response.status();
+            if (!body.ok()) {
+              return self->Send(ErrorResponse(version, body.status()));
+            }
+            StringResponse ok(bhttp::status::ok, version);
+            AddSecurityHeaders(ok.base());
+            ok.set(bhttp::field::content_type, ContentTypeName({codec, false}));
+            ok.set(bhttp::field::cache_control, "no-store");
+            ok.body() = std::move(*body);
+            ok.prepare_payload();
+            self->Send(std::move(ok));
+          });
+          self->edge_.CallEnded();
+        });
+  }
+
+  // ----- streamed responses: Connect streams, SSE, downloads -----
+
+  enum class Framing { kConnect, kSse, kDownload };
+
+  // Starts a chunked 200 response (Connect or SSE).
+  void StartStream(Framing framing, ContentType type) {
+    framing_ = framing;
+    codec_ = type.codec;
+    auto header = std::make_shared<bhttp::response<bhttp::empty_body>>(
+        bhttp::status::ok, request_.version());
+    AddSecurityHeaders(header->base());
+    header->set(bhttp::field::content_type,
+                framing == Framing::kSse ? std::string("text/event-stream")
+                                         : ContentTypeName({type.codec, true}));
+    header->set(bhttp::field::cache_control, "no-store");
+    header->chunked(true);
+    header->keep_alive(false);
+    WriteHeader(std::move(header));
+  }
+
+  template <class Body>
+  void WriteHeader(std::shared_ptr<bhttp::response<Body>> header) {
+    auto serializer =
+        std::make_shared<bhttp::response_serializer<Body>>(*header);
+    writing_ = true;
+    Tcp().expires_after(Chrono(edge_.options_.write_timeout));
+    bhttp::async_write_header(
+        stream_, *serializer,
+        [self = this->shared_from_this(), header, serializer](
+            beast::error_code ec, size_t) { self->OnWritten(ec); });
+    WatchForHangUp();
+  }
+
+  void CallStream(const RpcMethod& method, std::string request,
+                  const rpc::EdgeCaller& caller, absl::Duration timeout,
+                  bool latest_only) {
+    latest_only_ = latest_only;
+    edge_.CallStarted();
+    auto weak = this->weak_from_this();
+    call_ = edge_.bridge_.Stream(
+        method, std::move(request), caller, timeout,
+        [self = this->shared_from_this()](std::string message) {
+          net::post(self->stream_.get_executor(),
+                    [self, message = std::move(message)]() mutable {
+                      self->OnMessage(std::move(message));
+                    });
+        },
+        [self = this->shared_from_this()](absl::Status status) {
+          net::post(self->stream_.get_executor(),
+                    [self, status] { self->EndStream(status); });
+          self->edge_.CallEnded();
+        });
+    edge_.Track(call_);
+  }
+
+  void OnMessage(std::string message) {
+    if (closed_) return;
+    std::string piece = Frame(message);
+    if (latest_only_) {
+      // Only the newest unsent frame is kept; the call reads on.
+      if (!pending_.empty()) pending_.pop_back();
+      pending_.push_back(std::move(piece));
+      call_->RequestNext();
+    } else {
+      pending_.push_back(std::move(piece));
+    }
+    WriteNext();
+  }
+
+  // One message as its framing writes it.
+  std::string Frame(const std::string& message) {
+    if (framing_ == Framing::kDownload) return message;
+    absl::StatusOr<std::string> body = ResponseBody(method_, codec_, message);
+    if (!body.ok()) return "";
+    if (framing_ == Framing::kSse) return absl::StrCat("data: ", *body, "\n\n");
+    return Envelope(0, *body);
+  }
+
+  void EndStream(absl::Status status) {
+    if (ended_) return;
+    ended_ = true;
+    if (closed_) return;
+    if (framing_ == Framing::kConnect) {
+      pending_.push_back(Envelope(kEnvelopeEndStream, EndStreamJson(status)));
+    } else if (framing_ == Framing::kSse) {
+      pending_.push_back(
+          absl::StrCat("event: end\ndata: ", EndStreamJson(status), "\n\n"));
+    } else if (!status.ok() && !absl::IsCancelled(status)) {
+      // A download cut short: the client sees fewer bytes than announced.
+      spdlog::warn("HTTP download for {} ended early: {}", peer_,
+                   std::string(status.message()));
+    }
+    WriteNext();
+  }
+
+  void WriteNext() {
+    if (writing_ || closed_) return;
+    if (pending_.empty()) {
+      if (!ended_) return;
+      if (framing_ == Framing::kDownload) return Close();
+      // The last chunk, then the connection closes.
+      writing_ = true;
+      Tcp().expires_after(Chrono(edge_.options_.write_timeout));
+      net::async_write(stream_, bhttp::make_chunk_last(),
+                       [self = this->shared_from_this()](
+                           beast::error_code, size_t) { self->Close(); });
+      return;
+    }
+    auto piece = std::make_shared<std::string>(std::move(pending_.front()));
+    pending_.pop_front();
+    writing_ = true;
+    Tcp().expires_after(Chrono(edge_.options_.write_timeout));
+    auto done = [self = this->shared_from_this(), piece](
+                    beast::error_code ec, size_t) { self->OnWritten(ec); };
+    if (framing_ == Framing::kDownload) {
+      net::async_write(stream_, net::buffer(*piece), std::move(done));
+    } else {
+      net::async_write(stream_, bhttp::make_chunk(net::buffer(*piece)),
+                       std::move(done));
+    }
+  }
+
+  void OnWritten(beast::error_code ec) {
+    writing_ = false;
+    if (ec) return Close();
+    // Idle between messages: a quiet stream is not a stalled client.
+    Tcp().expires_never();
+    if (!latest_only_ && call_ != nullptr && !ended_) call_->RequestNext();
+    WriteNext();
+  }
+
+  // While a response streams nothing more is read: a client that hangs up
+  // ends the stream. (Through the TLS layer, not by polling the socket:
+  // TLS traffic of its own makes the socket readable.)
+  void WatchForHangUp() {
+    stream_.async_read_some(
+        net::buffer(hang_up_byte_),
+        [self = this->shared_from_this()](beast::error_code ec, size_t) {
+          // Bytes (a pipelined request) are left alone; the connection
+          // closes after the stream.
+          if (!ec || self->closed_) return;
+          if (self->call_ != nullptr) self->call_->Cancel();
+          self->ended_ = true;
+          self->Close();
+        });
+  }
+
+  // ----- downloads -----
+
+  void Download(absl::string_view path) {
+    const unsigned version = request_.version();
+    // /files/sessions/<session>/{artifacts|frames}/<id>
+    std::vector<absl::string_view> parts = absl::StrSplit(path, '/');
+    int64_t id = 0;
+    if (parts.size() != 6 || parts[2] != "sessions" ||
+        (parts[4] != "artifacts" && parts[4] != "frames") ||
+        !absl::SimpleAtoi(parts[5], &id) || id <= 0) {
+      return Send(ErrorResponse(
+          version,
+          absl::NotFoundError(absl::StrCat(
+              "no such file: ", QuoteInput(path),
+              " (files are at /files/sessions/<session>/artifacts/<id> and "
+              "/files/sessions/<session>/frames/<id>)"))));
+    }
+    absl::StatusOr<rpc::EdgeCaller> caller = Caller();
+    const bool artifact = parts[4] == "artifacts";
+    absl::StatusOr<RpcMethod> method =
+        FindRpcMethod(artifact ? "/hdrstereo.v1.Sessions/DownloadArtifact"
+                               : "/hdrstereo.v1.Sessions/DownloadFrame");
+    if (!caller.ok() || !method.ok()) {
+      const absl::Status status =
+          caller.ok() ? method.status() : caller.status();
+      edge_.Audit(rpc::Principal(), peer_, path, status);
+      return Send(ErrorResponse(version, status));
+    }
+    std::optional<ByteRange> range;
+    if (const auto header = request_.find(bhttp::field::range);
+        header != request_.end()) {
+      range = ParseRange(Sv(header->value()));
+    }
+    // If-Range: the range holds only for the file the client has.
+    if (const auto header = request_.find(bhttp::field::if_range);
+        header != request_.end()) {
+      if_range_ = std::string(header->value());
+    }
+    range_ = range;
+    head_ = request_.method() == bhttp::verb::head;
+    file_path_ = std::string(path);
+    StartDownload(*method, std::string(parts[3]), id, artifact, *caller);
+  }
+
+  void StartDownload(const RpcMethod& method, std::string session, int64_t id,
+                     bool artifact, const rpc::EdgeCaller& caller) {
+    const int64_t offset = range_.has_value() ? range_->first : 0;
+    const int64_t length = range_.has_value() && range_->last.has_value()
+                               ? *range_->last - range_->first + 1
+                               : 0;
+    std::string request;
+    if (artifact) {
+      v1::DownloadArtifactRequest message;
+      message.set_session(session);
+      message.set_artifact_id(id);
+      message.set_offset_bytes(offset);
+      message.set_length_bytes(length);
+      request = message.SerializeAsString();
+    } else {
+      v1::DownloadFrameRequest message;
+      message.set_session(session);
+      message.set_frame_id(id);
+      message.set_offset_bytes(offset);
+      message.set_length_bytes(length);
+      request = message.SerializeAsString();
+    }
+    download_ = DownloadState{method, std::move(session), id, artifact, caller};
+    framing_ = Framing::kDownload;
+    edge_.CallStarted();
+    call_ = edge_.bridge_.Stream(
+        method, std::move(request), caller, absl::InfiniteDuration(),
+        [self = this->shared_from_this()](std::string message) {
+          net::post(self->stream_.get_executor(),
+                    [self, message = std::move(message)]() mutable {
+                      self->OnChunk(std::move(message));
+                    });
+        },
+        [self = this->shared_from_this()](absl::Status status) {
+          net::post(self->stream_.get_executor(),
+                    [self, status] { self->OnDownloadEnd(status); });
+          self->edge_.CallEnded();
+        });
+    edge_.Track(call_);
+  }
+
+  void OnChunk(std::string bytes) {
+    if (closed_ || ended_) return;
+    v1::ArtifactChunk chunk;
+    if (!chunk.ParseFromString(bytes)) return call_->Cancel();
+    if (!headers_sent_) {
+      const std::string etag = absl::StrCat("\"", chunk.sha256(), "\"");
+      const int64_t total = chunk.total_size_bytes();
+      if (if_range_.has_value() && range_.has_value() && *if_range_ != etag) {
+        // The client's copy is another file: the whole file, from the top.
+        if_range_.reset();
+        range_.reset();
+        call_->Cancel();
+        restart_ = true;
+        return;
+      }
+      const auto if_none_match = request_.find(bhttp::field::if_none_match);
+      const bool not_modified =
+          if_none_match != request_.end() && if_none_match->value() == etag;
+      auto header = std::make_shared<bhttp::response<bhttp::empty_body>>(
+          not_modified         ? bhttp::status::not_modified
+          : range_.has_value() ? bhttp::status::partial_content
+                               : bhttp::status::ok,
+          request_.version());
+      AddSecurityHeaders(header->base());
+      // A file is never a page of this origin.
+      header->set("Content-Security-Policy", "sandbox; default-src 'none'");
+      header->set(bhttp::field::etag, etag);
+      header->set(bhttp::field::accept_ranges, "bytes");
+      header->set(bhttp::field::cache_control, "private, no-cache");
+      header->set(bhttp::field::content_type, FileContentType(file_path_));
+      header->keep_alive(false);
+      remaining_ = total - chunk.offset_bytes();
+      if (range_.has_value()) {
+        absl::StatusOr<ResolvedRange> resolved = ResolveRange(*range_, total);
+        if (!resolved.ok()) {
+          call_->Cancel();
+          ended_ = true;
+          StringResponse response =
+              ErrorResponse(request_.version(), resolved.status());
+          response.result(bhttp::status::range_not_satisfiable);
+          response.set(bhttp::field::content_range,
+                       absl::StrCat("bytes */", total));
+          return Send(std::move(response), true);
+        }
+        remaining_ = resolved->length;
+        header->set(
+            bhttp::field::content_range,
+            absl::StrCat("bytes ", resolved->offset, "-",
+                         resolved->offset + resolved->length - 1, "/", total));
+      }
+      header->content_length(not_modified ? 0 : remaining_);
+      headers_sent_ = true;
+      if (not_modified || head_) {
+        call_->Cancel();
+        ended_ = true;
+        remaining_ = 0;
+      }
+      WriteHeader(std::move(header));
+      if (ended_) return;
+    }
+    std::string data = std::move(*chunk.mutable_data());
+    if (static_cast<int64_t>(data.size()) > remaining_) {
+      data.resize(static_cast<size_t>(remaining_));
+    }
+    remaining_ -= static_cast<int64_t>(data.size());
+    if (!data.empty()) pending_.push_back(std::move(data));
+    if (remaining_ == 0) {
+      call_->Cancel();
+      ended_ = true;
+    }
+    WriteNext();
+  }
+
+  void OnDownloadEnd(absl::Status status) {
+    if (restart_) {
+      restart_ = false;
+      DownloadState again = download_;
+      call_.reset();
+      return StartDownload(again.method, again.session, again.id,
+                           again.artifact, again.caller);
+    }
+    if (!headers_sent_ && !closed_) {
+      ended_ = true;
+      StringResponse response = ErrorResponse(
+          request_.version(),
+          status.ok() ? absl::DataLossError("the file is empty") : status);
+      if (absl::IsOutOfRange(status)) {
+        response.result(bhttp::status::range_not_satisfiable);
+      }
+      return Send(std::move(response), true);
+    }
+    EndStream(status);
+  }
+
+  // ----- plain responses -----
+
+  void Send(StringResponse response, bool close = false, int status = 0) {
+    if (status != 0) response.result(static_cast<bhttp::status>(status));
+    if (close) response.keep_alive(false);
+    auto owned = std::make_shared<StringResponse>(std::move(response));
+    const bool keep_alive = owned->keep_alive() && !refuse_;
+    writing_ = true;
+    Tcp().expires_after(Chrono(edge_.options_.write_timeout));
+    bhttp::async_write(stream_, *owned,
+                       [self = this->shared_from_this(), owned, keep_alive](
+                           beast::error_code ec, size_t) {
+                         self->writing_ = false;
+                         if (ec || !keep_alive) return self->Close();
+                         self->ReadHeader();
+                       });
+  }
+
+  void Close() {
+    if (closed_) return;
+    closed_ = true;
+    if (call_ != nullptr) call_->Cancel();
+    beast::error_code ec;
+    Tcp().socket().shutdown(tcp::socket::shutdown_both, ec);
+    Tcp().close();
+  }
+
+  struct DownloadState {
+    RpcMethod method;
+    std::string session;
+    int64_t id = 0;
+    bool artifact = true;
+    rpc::EdgeCaller caller;
+  };
+
+  HttpEdge::Impl& edge_;
+  const ListenInfo& info_;
+  Stream stream_;
+  const std::string peer_;
+  const bool refuse_;
+  std::string cert_principal_;
+  beast::flat_buffer buffer_;
+  char hang_up_byte_[1];
+  std::optional<bhttp::request_parser<bhttp::string_body>> parser_;
+  Request request_;
+  int requests_ = 0;
+  bool closed_ = false;
+  // The streamed response.
+  Framing framing_ = Framing::kConnect;
+  Codec codec_ = Codec::kJson;
+  RpcMethod method_;
+  std::shared_ptr<StreamCall> call_;
+  bool latest_only_ = false;
+  bool writing_ = false;
+  bool ended_ = false;
+  std::deque<std::string> pending_;
+  // The download.
+  DownloadState download_;
+  std::optional<ByteRange> range_;
+  std::optional<std::string> if_range_;
+  std::string file_path_;
+  bool head_ = false;
+  bool headers_sent_ = false;
+  bool restart_ = false;
+  int64_t remaining_ = 0;
+};
+
+}  // namespace
+
+absl::StatusOr<rpc::EdgeCaller> HttpEdge::Impl::Authenticate(
+    const Request& request, const std::string& cookie_name, bool key_allowed,
+    const std::string& cert_principal, const std::string& peer) {
+  rpc::EdgeCaller caller;
+  caller.peer = peer;
+  rpc::Principal& principal = caller.principal;
+  const auto authorization = request.find(bhttp::field::authorization);
+  if (authorization != request.end()) {
+    absl::string_view token = Sv(authorization->value());
+    if (!absl::ConsumePrefix(&token, "Bearer ")) {
+      return absl::UnauthenticatedError(
+          "the Authorization header must be \"Bearer hs_<id>_<secret>\"");
+    }
+    if (!key_allowed) {
+      return absl::UnauthenticatedError("API keys are accepted over TLS only");
+    }
+    ASSIGN_OR_RETURN(rpc::VerifiedApiKey key, services_.keys->Verify(token));
+    principal.name = key.user;
+    principal.role =
+        std::min(key.role, services_.authenticator->RoleOf(key.user));
+    principal.auth_method = absl::StrCat("key:", key.id);
+    principal.key_expire_time = key.expire_time;
+    return caller;
+  }
+  if (std::optional<std::string> token =
+          CookieValue(Sv(request[bhttp::field::cookie]), cookie_name)) {
+    ASSIGN_OR_RETURN(BrowserSession session, sessions_.Use(*token));
+    absl::StatusOr<rpc::VerifiedApiKey> key =
+        services_.keys->Active(session.key_id);
+    if (!key.ok()) {
+      sessions_.End(*token);
+      return absl::UnauthenticatedError(
+          absl::StrCat(key.status().message(),
+                       "; the browser session it signed in has "
+                       "ended"));
+    }
+    principal.name = key->user;
+    principal.role =
+        std::min(key->role, services_.authenticator->RoleOf(key->user));
+    principal.auth_method = absl::StrCat("session:key:", key->id);
+    principal.key_expire_time = key->expire_time;
+    return caller;
+  }
+  if (!cert_principal.empty()) {
+    RETURN_IF_ERROR(
+        rpc::ValidatePrincipalName(cert_principal, "the client certificate"));
+    principal.name = cert_principal;
+    principal.role = services_.authenticator->RoleOf(cert_principal);
+    principal.auth_method = "cert";
+    return caller;
+  }
+  return absl::UnauthenticatedError(
+      "no credentials: sign in (POST /auth/sign-in with {\"apiKey\": "
+      "\"hs_...\"}), send Authorization: Bearer <API key>, or present a "
+      "client certificate of the lab CA");
+}
+
+void HttpEdge::Impl::Audit(const rpc::Principal& principal,
+                           const std::string& peer, absl::string_view route,
+                           const absl::Status& status) {
+  store::AuditRecord row;
+  row.principal = principal.name;
+  row.role = rpc::RoleName(principal.role);
+  row.auth_method = principal.auth_method;
+  row.peer = peer;
+  row.transport = "http";
+  row.method = QuoteInput(route);
+  row.status_code = static_cast<int>(status.code());
+  row.message = std::string(status.message());
+  services_.audit->Record(std::move(row));
+}
+
+void HttpEdge::Impl::Track(const std::shared_ptr<StreamCall>& call) {
+  absl::MutexLock lock(&streams_mutex_);
+  // Forget the calls that have ended.
+  streams_.remove_if([](const auto& weak) { return weak.expired(); });
+  streams_.push_back(call);
+}
+
+absl::Status HttpEdge::Impl::Listen(const rpc::TlsMaterial* tls) {
+  if (tls != nullptr) {
+    ASSIGN_OR_RETURN(tls_, TlsContext(*tls));
+  }
+  for (const std::string& address : options_.listen) {
+    const size_t colon = address.rfind(':');
+    std::string host = address.substr(0, colon);
+    int port = 0;
+    if (colon == address.npos ||
+        !absl::SimpleAtoi(address.substr(colon + 1), &port) || port < 0 ||
+        port > 65535) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "--http-listen ", QuoteInput(address), " must be HOST:PORT"));
+    }
+    const bool loopback = host == "localhost" || host == "[::1]" ||
+                          absl::StartsWith(host, "127.");
+    if (!loopback && tls_ == nullptr) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "--http-listen ", address,
+          " is not a loopback address: it needs TLS (--tls-cert and "
+          "--tls-key)"));
+    }
+    const std::string bind_host =
+        host == "localhost"
+            ? "127.0.0.1"
+            : std::string(absl::StripSuffix(absl::StripPrefix(host, "["), "]"));
+    boost::system::error_code ec;
+    const net::ip::address ip = net::ip::make_address(bind_host, ec);
+    if (ec) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--http-listen ", QuoteInput(address), ": ",
+                       QuoteInput(host), " is not an IP address"));
+    }
+    ListenInfo info;
+    info.tls = tls_ != nullptr;
+    info.loopback = loopback;
+    info.cookie_name = info.tls ? kTlsSessionCookie : kSessionCookie;
+    Listener& listener = listeners_.emplace_back(io_, std::move(info));
+    const tcp::endpoint endpoint(ip, static_cast<uint16_t>(port));
+    listener.acceptor.open(endpoint.protocol(), ec);
+    if (!ec)
+      listener.acceptor.set_option(net::socket_base::reuse_address(true), ec);
+    if (!ec) listener.acceptor.bind(endpoint, ec);
+    if (!ec)
+      listener.acceptor.listen(net::socket_base::max_listen_connections, ec);
+    if (ec) {
+      return absl::UnavailableError(
+          absl::StrCat("cannot serve HTTP on ", address, ": ", ec.message()));
+    }
+    const int bound = listener.acceptor.local_endpoint().port();
+    addresses_.push_back(absl::StrCat(host, ":", bound));
+    std::vector<std::string>& names = listener.info.served_names;
+    names = options_.hosts;
+    if (loopback || ip.is_unspecified()) {
+      names.insert(names.end(), {"localhost", "127.0.0.1", "[::1]"});
+    }
+    if (ip.is_unspecified()) {
+      // Every address of this machine: its own name.
+      names.push_back(net::ip::host_name(ec));
+    } else if (!loopback) {
+      names.push_back(host);
+    }
+    for (std::string& name : names) name = absl::AsciiStrToLower(name);
+  }
+  for (Listener& listener : listeners_) Accept(listener);
+  return absl::OkStatus();
+}
+
+void HttpEdge::Impl::Accept(Listener& listener) {
+  listener.acceptor.async_accept(
+      net::make_strand(io_),
+      [this, &listener](beast::error_code ec, tcp::socket socket) {
+        if (ec == net::error::operation_aborted ||
+            !listener.acceptor.is_open()) {
+          return;
+        }
+        if (!ec) {
+          boost::system::error_code peer_ec;
+          const tcp::endpoint remote = socket.remote_endpoint(peer_ec);
+          const std::string peer = peer_ec ? "unknown" : PeerName(remote);
+          const bool refuse = connections_.load() >= options_.max_connections;
+          if (refuse && refusing_.load() >= kMaxRefusing) {
+            socket.close(peer_ec);
+          } else if (listener.info.tls) {
+            std::make_shared<Connection<beast::ssl_stream<beast::tcp_stream>>>(
+                *this, listener.info,
+                beast::ssl_stream<beast::tcp_stream>(std::move(socket), *tls_),
+                peer, refuse)
+                ->Start();
+          } else {
+            std::make_shared<Connection<beast::tcp_stream>>(
+                *this, listener.info, beast::tcp_stream(std::move(socket)),
+                peer, refuse)
+                ->Start();
+          }
+        }
+        Accept(listener);
+      });
+}
+
+void HttpEdge::Impl::Run() {
+  for (int i = 0; i < std::max(1, options_.threads); ++i) {
+    threads_.emplace_back([this] { io_.run(); });
+  }
+}
+
+void HttpEdge::Impl::Stop() {
+  if (stopped_) return;
+  stopped_ = true;
+  for (Listener& listener : listeners_) {
+    net::post(listener.acceptor.get_executor(), [&listener] {
+      boost::system::error_code ec;
+      listener.acceptor.close(ec);
+    });
+  }
+  {
+    absl::MutexLock lock(&streams_mutex_);
+    for (const auto& weak : streams_) {
+      if (std::shared_ptr<StreamCall> call = weak.lock()) call->Cancel();
+    }
+  }
+  // The calls' callbacks post to io_: wait for them (the server's own
+  // shutdown ends any that are left) before the context goes.
+  for (int i = 0; i < 3000 && in_flight_.load() > 0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  if (in_flight_.load() > 0) {
+    spdlog::warn("HTTP edge: {} calls still in flight at shutdown",
+                 in_flight_.load());
+  }
+  io_.stop();
+  for (std::thread& thread : threads_) thread.join();
+  threads_.clear();
+}
+
+HttpEdge::HttpEdge(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+
+HttpEdge::~HttpEdge() { Stop(); }
+
+absl::StatusOr<std::unique_ptr<HttpEdge>> HttpEdge::Start(
+    const HttpEdgeOptions& options, const rpc::TlsMaterial* tls,
+    HttpEdgeServices services) {
+  auto impl = std::make_unique<Impl>(options, std::move(services));
+  RETURN_IF_ERROR(impl->Listen(tls));
+  impl->Run();
+  return std::unique_ptr<HttpEdge>(new HttpEdge(std::move(impl)));
+}
+
+const std::vector<std::string>& HttpEdge::addresses() const {
+  return impl_->addresses_;
+}
+
+void HttpEdge::Stop() { impl_->Stop(); }
+
+}  // namespace hdrstereo::http

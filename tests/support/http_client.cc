@@ -1,0 +1,124 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "tests/support/http_client.h"
+
+#include <curl/curl.h>
+#include <gtest/gtest.h>
+
+#include <memory>
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/strip.h"
+
+namespace hdrstereo::testing {
+namespace {
+
+size_t OnBody(char* data, size_t size, size_t count, void* user) {
+  static_cast<std::string*>(user)->append(data, size * count);
+  return size * count;
+}
+
+size_t OnHeader(char* data, size_t size, size_t count, void* user) {
+  auto* headers = static_cast<std::multimap<std::string, std::string>*>(user);
+  const std::string line(data, size * count);
+  const size_t colon = line.find(':');
+  if (colon == std::string::npos) {
+    // A status line: a new response (after 100 Continue) starts afresh.
+    if (line.rfind("HTTP/", 0) == 0) headers->clear();
+    return size * count;
+  }
+  headers->emplace(absl::AsciiStrToLower(line.substr(0, colon)),
+                   std::string(absl::StripAsciiWhitespace(
+                       absl::string_view(line).substr(colon + 1))));
+  return size * count;
+}
+
+}  // namespace
+
+std::string HttpResponse::Header(const std::string& name) const {
+  auto it = headers.find(name);
+  return it == headers.end() ? "" : it->second;
+}
+
+nlohmann::json HttpResponse::Json() const {
+  return nlohmann::json::parse(body, nullptr, false);
+}
+
+HttpResponse Fetch(const HttpRequest& request) {
+  HttpResponse response;
+  std::unique_ptr<CURL, decltype(&curl_easy_cleanup)> curl(curl_easy_init(),
+                                                           curl_easy_cleanup);
+  if (curl == nullptr) {
+    response.curl_error = "curl_easy_init failed";
+    return response;
+  }
+  CURL* c = curl.get();
+  curl_easy_setopt(c, CURLOPT_URL, request.url.c_str());
+  curl_easy_setopt(c, CURLOPT_CUSTOMREQUEST, request.method.c_str());
+  if (request.method == "HEAD") curl_easy_setopt(c, CURLOPT_NOBODY, 1L);
+  if (request.method == "POST" || !request.body.empty()) {
+    curl_easy_setopt(c, CURLOPT_POSTFIELDS, request.body.data());
+    curl_easy_setopt(c, CURLOPT_POSTFIELDSIZE_LARGE,
+                     static_cast<curl_off_t>(request.body.size()));
+  }
+  struct curl_slist* headers = nullptr;
+  for (const std::string& header : request.headers) {
+    headers = curl_slist_append(headers, header.c_str());
+  }
+  curl_easy_setopt(c, CURLOPT_HTTPHEADER, headers);
+  curl_easy_setopt(
+      c, CURLOPT_TIMEOUT_MS,
+      static_cast<long>(absl::ToInt64Milliseconds(request.timeout)));
+  curl_easy_setopt(c, CURLOPT_NOSIGNAL, 1L);
+  if (!request.ca.empty()) {
+    curl_easy_setopt(c, CURLOPT_CAINFO, request.ca.c_str());
+  }
+  if (!request.cert.empty()) {
+    curl_easy_setopt(c, CURLOPT_SSLCERT, request.cert.c_str());
+    curl_easy_setopt(c, CURLOPT_SSLKEY, request.key.c_str());
+  }
+  curl_easy_setopt(c, CURLOPT_WRITEFUNCTION, OnBody);
+  curl_easy_setopt(c, CURLOPT_WRITEDATA, &response.body);
+  curl_easy_setopt(c, CURLOPT_HEADERFUNCTION, OnHeader);
+  curl_easy_setopt(c, CURLOPT_HEADERDATA, &response.headers);
+  const CURLcode code = curl_easy_perform(c);
+  curl_slist_free_all(headers);
+  if (code != CURLE_OK) response.curl_error = curl_easy_strerror(code);
+  curl_easy_getinfo(c, CURLINFO_RESPONSE_CODE, &response.status);
+  return response;
+}
+
+std::vector<StreamMessage> ParseEnvelopes(const std::string& body) {
+  std::vector<StreamMessage> messages;
+  size_t at = 0;
+  while (at < body.size()) {
+    if (body.size() - at < 5) {
+      ADD_FAILURE() << "a stream ends inside an envelope's prefix at byte "
+                    << at;
+      break;
+    }
+    const auto flags = static_cast<uint8_t>(body[at]);
+    uint32_t size = 0;
+    for (int i = 1; i <= 4; ++i) {
+      size = (size << 8) | static_cast<uint8_t>(body[at + i]);
+    }
+    if (body.size() - at - 5 < size) {
+      ADD_FAILURE() << "an envelope at byte " << at << " declares " << size
+                    << " bytes; " << body.size() - at - 5 << " follow";
+      break;
+    }
+    messages.push_back({(flags & 0x02) != 0, body.substr(at + 5, size)});
+    at += 5 + size;
+  }
+  return messages;
+}
+
+std::string EnvelopeOf(const std::string& payload) {
+  std::string envelope(5, '\0');
+  const auto size = static_cast<uint32_t>(payload.size());
+  for (int i = 0; i < 4; ++i) {
+    envelope[1 + i] = static_cast<char>((size >> (24 - 8 * i)) & 0xff);
+  }
+  return envelope + payload;
+}
+
+}  // namespace hdrstereo::testing
