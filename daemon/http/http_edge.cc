@@ -1,10 +1,12 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "daemon/http/http_edge.h"
 
+#include <linux/sockios.h>
 #include <openssl/ssl.h>
 #include <openssl/x509.h>
 #include <openssl/x509v3.h>
 #include <spdlog/spdlog.h>
+#include <sys/ioctl.h>
 
 #include <atomic>
 #include <boost/asio.hpp>
@@ -52,6 +54,10 @@ constexpr char kTlsSessionCookie[] = "__Host-hdrstereo_session";
 // The one stream whose messages are snapshots: a viewer that falls behind
 // gets the newest frame, the older ones are dropped.
 constexpr char kLatestOnlyMethod[] = "hdrstereo.v1.Hardware.StreamPreview";
+// A live-view frame is written only while the kernel holds less than this
+// not yet sent: frames a slow viewer has not taken wait in the edge, where
+// only the newest is kept, not in a socket buffer the size of many frames.
+constexpr int kLiveViewUnsentBytes = 32 << 10;
 // Connections beyond max_connections still get their 503 (plain HTTP)
 // while fewer than this many are being refused; more are closed at once.
 constexpr size_t kMaxRefusing = 64;
@@ -752,6 +758,23 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
                            beast::error_code, size_t) { self->Close(); });
       return;
     }
+    if (latest_only_ && !ended_ && Unsent() > kLiveViewUnsentBytes) {
+      // The client is not taking frames as fast as they come: wait, and
+      // meanwhile newer frames replace the one waiting here.
+      if (stall_start_ == absl::InfinitePast()) stall_start_ = absl::Now();
+      if (absl::Now() - stall_start_ > edge_.options_.write_timeout) {
+        return Close();
+      }
+      writing_ = true;
+      pace_timer_.expires_after(std::chrono::milliseconds(10));
+      pace_timer_.async_wait(
+          [self = this->shared_from_this()](beast::error_code) {
+            self->writing_ = false;
+            self->WriteNext();
+          });
+      return;
+    }
+    stall_start_ = absl::InfinitePast();
     auto piece = std::make_shared<std::string>(std::move(pending_.front()));
     pending_.pop_front();
     writing_ = true;
@@ -773,6 +796,15 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
     Tcp().expires_never();
     if (!latest_only_ && call_ != nullptr && !ended_) call_->RequestNext();
     WriteNext();
+  }
+
+  // Bytes written to the socket that the kernel has not sent yet.
+  int Unsent() {
+    int unsent = 0;
+    if (::ioctl(Tcp().socket().native_handle(), SIOCOUTQNSD, &unsent) != 0) {
+      return 0;
+    }
+    return unsent;
   }
 
   // While a response streams nothing more is read: a client that hangs up
@@ -1023,6 +1055,8 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
   RpcMethod method_;
   std::shared_ptr<StreamCall> call_;
   bool latest_only_ = false;
+  net::steady_timer pace_timer_{stream_.get_executor()};
+  absl::Time stall_start_ = absl::InfinitePast();
   bool writing_ = false;
   bool ended_ = false;
   std::deque<std::string> pending_;

@@ -3,6 +3,7 @@
 
 #include <curl/curl.h>
 #include <gtest/gtest.h>
+#include <sys/socket.h>
 
 #include <memory>
 
@@ -12,9 +13,25 @@
 namespace hdrstereo::testing {
 namespace {
 
+struct BodySink {
+  std::string* body;
+  const std::function<bool(const std::string&)>* on_body;
+};
+
 size_t OnBody(char* data, size_t size, size_t count, void* user) {
-  static_cast<std::string*>(user)->append(data, size * count);
-  return size * count;
+  auto* sink = static_cast<BodySink*>(user);
+  if (*sink->on_body == nullptr) {
+    sink->body->append(data, size * count);
+    return size * count;
+  }
+  // A short count ends the transfer.
+  return (*sink->on_body)(std::string(data, size * count)) ? size * count : 0;
+}
+
+int SetReceiveBuffer(void* bytes, curl_socket_t socket, curlsocktype) {
+  const int size = *static_cast<int*>(bytes);
+  setsockopt(socket, SOL_SOCKET, SO_RCVBUF, &size, sizeof(size));
+  return CURL_SOCKOPT_OK;
 }
 
 size_t OnHeader(char* data, size_t size, size_t count, void* user) {
@@ -76,8 +93,14 @@ HttpResponse Fetch(const HttpRequest& request) {
     curl_easy_setopt(c, CURLOPT_SSLCERT, request.cert.c_str());
     curl_easy_setopt(c, CURLOPT_SSLKEY, request.key.c_str());
   }
+  BodySink sink{&response.body, &request.on_body};
   curl_easy_setopt(c, CURLOPT_WRITEFUNCTION, OnBody);
-  curl_easy_setopt(c, CURLOPT_WRITEDATA, &response.body);
+  curl_easy_setopt(c, CURLOPT_WRITEDATA, &sink);
+  int receive_buffer = request.receive_buffer_bytes;
+  if (receive_buffer > 0) {
+    curl_easy_setopt(c, CURLOPT_SOCKOPTFUNCTION, SetReceiveBuffer);
+    curl_easy_setopt(c, CURLOPT_SOCKOPTDATA, &receive_buffer);
+  }
   curl_easy_setopt(c, CURLOPT_HEADERFUNCTION, OnHeader);
   curl_easy_setopt(c, CURLOPT_HEADERDATA, &response.headers);
   const CURLcode code = curl_easy_perform(c);

@@ -9,6 +9,7 @@
 #define HDRSTEREO_TESTS_SUPPORT_HTTP_CLIENT_H_
 
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -28,6 +29,12 @@ struct HttpRequest {
   std::filesystem::path cert;
   std::filesystem::path key;
   absl::Duration timeout = absl::Seconds(30);
+  // When set, the body is handed over as it arrives (not kept in the
+  // response); returning false ends the transfer.
+  std::function<bool(const std::string& bytes)> on_body;
+  // A small socket receive buffer (0: the system's), for a client that
+  // reads slowly and must not have the kernel hold many messages for it.
+  int receive_buffer_bytes = 0;
 };
 
 struct HttpResponse {
