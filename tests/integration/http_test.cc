@@ -573,6 +573,22 @@ TEST_F(HttpTest, HttpCallsAreAuditedWithTheirPrincipalTransportAndPeer) {
   EXPECT_EQ(StopDaemon(), 0);
 }
 
+// Client certificates are verified at the TLS handshake as on gRPC: the
+// lab CA's, unexpired, not revoked (its CRL).
+TEST_F(HttpTest, CertificatesTheLabDoesNotVouchForAreRefusedAtTheHandshake) {
+  StartHttpDaemon();
+  for (const char* user : {"revoked", "expired", "mallory"}) {
+    HttpResponse refused = Unary("Server/WhoAmI", "{}", user);
+    EXPECT_EQ(refused.status, 0) << user << ": " << refused.body;
+    EXPECT_FALSE(refused.curl_error.empty()) << user;
+  }
+  HttpResponse erin = Unary("Server/WhoAmI", "{}", "erin");
+  ASSERT_EQ(erin.status, 200) << erin.curl_error << erin.body;
+  EXPECT_EQ(erin.Json().value("principal", ""), "erin");
+  EXPECT_EQ(erin.Json().value("authMethod", ""), "cert") << erin.body;
+  EXPECT_EQ(StopDaemon(), 0);
+}
+
 // Loopback HTTP without TLS still needs credentials: a page in the
 // operator's own browser can reach 127.0.0.1.
 TEST_F(HttpTest, LoopbackHttpIsNeverLocal) {
