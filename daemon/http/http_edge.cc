@@ -321,6 +321,7 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
   }
 
   void ReadHeader() {
+    head_ = false;
     if (refuse_) {
       // Beyond the connection limit: say so and close.
       return Send(ErrorResponse(
@@ -410,6 +411,7 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
     const absl::string_view path =
         absl::string_view(target).substr(0, target.find('?'));
     const unsigned version = request_.version();
+    head_ = request_.method() == bhttp::verb::head;
     if (absl::Status host =
             CheckHost(Sv(request_[bhttp::field::host]), info_.served_names);
         !host.ok()) {
@@ -862,7 +864,6 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
       if_range_ = std::string(header->value());
     }
     range_ = range;
-    head_ = request_.method() == bhttp::verb::head;
     file_path_ = std::string(path);
     StartDownload(*method, std::string(parts[3]), id, artifact, *caller);
   }
@@ -1007,6 +1008,9 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
   void Send(StringResponse response, bool close = false, int status = 0) {
     if (status != 0) response.result(static_cast<bhttp::status>(status));
     if (close) response.keep_alive(false);
+    // The answer to HEAD is its header alone (RFC 9110, 9.3.2), whose
+    // Content-Length still says what GET would get.
+    if (head_) response.body().clear();
     auto owned = std::make_shared<StringResponse>(std::move(response));
     const bool keep_alive = owned->keep_alive() && !refuse_;
     writing_ = true;
@@ -1048,6 +1052,7 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
   std::optional<bhttp::request_parser<bhttp::string_body>> parser_;
   Request request_;
   int requests_ = 0;
+  bool head_ = false;  // the request being answered is a HEAD request
   bool closed_ = false;
   // The streamed response.
   Framing framing_ = Framing::kConnect;
@@ -1065,7 +1070,6 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
   std::optional<ByteRange> range_;
   std::optional<std::string> if_range_;
   std::string file_path_;
-  bool head_ = false;
   bool headers_sent_ = false;
   bool restart_ = false;
   int64_t remaining_ = 0;
