@@ -227,7 +227,6 @@ class HttpEdge::Impl {
   RpcBridge bridge_;
   BrowserSessions sessions_;
   SignInThrottle throttle_;
-  net::io_context io_;
   std::atomic<size_t> connections_{0};
   std::atomic<size_t> refusing_{0};
   std::vector<std::string> addresses_;
@@ -236,7 +235,10 @@ class HttpEdge::Impl {
   struct Listener;
   void Accept(Listener& listener);
 
+  // Before io_: the connections its pending handlers hold, destroyed with
+  // it, use them.
   std::unique_ptr<ssl::context> tls_;
+  net::io_context io_;
   std::list<Listener> listeners_;
   std::vector<std::thread> threads_;
   std::atomic<int> in_flight_{0};
@@ -322,6 +324,8 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
 
   void ReadHeader() {
     head_ = false;
+    caller_.reset();
+    body_unread_ = false;
     if (refuse_) {
       // Beyond the connection limit: say so and close.
       return Send(ErrorResponse(
@@ -347,6 +351,19 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
   void OnHeader(beast::error_code ec) {
     if (ec) return RefuseUnreadable(ec);
     ++requests_;
+    // Whoever may not be served is answered from the headers alone, its
+    // body never read (nor buffered): a wrong Host, no credentials.
+    const Request& head = parser_->get();
+    const std::string target(head.target());
+    const bool sign_in = target == "/auth/sign-in";
+    if (sign_in) parser_->body_limit(kMaxSignInBodyBytes);
+    if (!CheckHost(Sv(head[bhttp::field::host]), info_.served_names).ok() ||
+        (!sign_in && target != "/auth/sign-out" && !Caller().ok())) {
+      body_unread_ = true;
+      request_ = parser_->release();
+      parser_.reset();
+      return Dispatch();
+    }
     Tcp().expires_after(Chrono(edge_.options_.body_timeout));
     if (absl::EqualsIgnoreCase(Sv(parser_->get()[bhttp::field::expect]),
                                "100-continue")) {
@@ -369,6 +386,7 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
         [self = this->shared_from_this()](beast::error_code ec, size_t) {
           if (ec) return self->RefuseUnreadable(ec);
           self->request_ = self->parser_->release();
+          self->parser_.reset();
           self->Dispatch();
         });
   }
@@ -471,10 +489,15 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
         .has_value();
   }
 
-  absl::StatusOr<rpc::EdgeCaller> Caller() {
-    return edge_.Authenticate(request_, info_.cookie_name,
-                              info_.tls || info_.loopback, cert_principal_,
-                              peer_);
+  // The caller of the request being answered, authenticated once, from
+  // its headers.
+  const absl::StatusOr<rpc::EdgeCaller>& Caller() {
+    if (!caller_.has_value()) {
+      caller_ = edge_.Authenticate(
+          parser_.has_value() ? parser_->get() : request_, info_.cookie_name,
+          info_.tls || info_.loopback, cert_principal_, peer_);
+    }
+    return *caller_;
   }
 
   void SignIn() {
@@ -586,6 +609,12 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
       response.result(bhttp::status::unsupported_media_type);
       return Send(std::move(response));
     }
+    if (streaming && version < 11) {
+      // A stream is sent in chunks, which HTTP/1.0 does not have.
+      return Send(ErrorResponse(
+          version, absl::InvalidArgumentError(absl::StrCat(
+                       method.grpc_path, " streams: it needs HTTP/1.1"))));
+    }
     const Framing framing = sse ? Framing::kSse : Framing::kConnect;
     // Refused before any call: a unary call's error response, or (Connect's
     // rule for streams) a stream that is only its end message.
@@ -629,11 +658,14 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
     edge_.CallStarted();
     edge_.bridge_.Unary(
         method, std::move(*bytes), *caller, timeout,
-        [self = this->shared_from_this(), method, codec = type->codec,
-         version](absl::StatusOr<std::string> response) {
-          net::post(self->stream_.get_executor(), [self, method, codec, version,
-                                                   response =
-                                                       std::move(response)] {
+        [self = this->shared_from_this(), edge = &edge_, method,
+         codec = type->codec,
+         version](absl::StatusOr<std::string> response) mutable {
+          // The connection goes with the posted handler, so that no gRPC
+          // thread holds it once the call is counted as ended.
+          auto executor = self->stream_.get_executor();
+          net::post(executor, [self = std::move(self), method, codec, version,
+                               response = std::move(response)] {
             absl::StatusOr<std::string> body =
                 response.ok() ? ResponseBody(method, codec, *response)
                               : response.status();
@@ -648,7 +680,7 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
             ok.prepare_payload();
             self->Send(std::move(ok));
           });
-          self->edge_.CallEnded();
+          edge->CallEnded();
         });
   }
 
@@ -676,13 +708,16 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
   void WriteHeader(std::shared_ptr<bhttp::response<Body>> header) {
     auto serializer =
         std::make_shared<bhttp::response_serializer<Body>>(*header);
+    // Beast gives a read the deadline in force when it starts and keeps it:
+    // the hang-up watch starts with none, then the write gets its own.
+    Tcp().expires_never();
+    WatchForHangUp();
     writing_ = true;
     Tcp().expires_after(Chrono(edge_.options_.write_timeout));
     bhttp::async_write_header(
         stream_, *serializer,
         [self = this->shared_from_this(), header, serializer](
             beast::error_code ec, size_t) { self->OnWritten(ec); });
-    WatchForHangUp();
   }
 
   void CallStream(const RpcMethod& method, std::string request,
@@ -690,7 +725,6 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
                   bool latest_only) {
     latest_only_ = latest_only;
     edge_.CallStarted();
-    auto weak = this->weak_from_this();
     call_ = edge_.bridge_.Stream(
         method, std::move(request), caller, timeout,
         [self = this->shared_from_this()](std::string message) {
@@ -699,10 +733,13 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
                       self->OnMessage(std::move(message));
                     });
         },
-        [self = this->shared_from_this()](absl::Status status) {
-          net::post(self->stream_.get_executor(),
-                    [self, status] { self->EndStream(status); });
-          self->edge_.CallEnded();
+        [self = this->shared_from_this(),
+         edge = &edge_](absl::Status status) mutable {
+          auto executor = self->stream_.get_executor();
+          net::post(executor, [self = std::move(self), status] {
+            self->EndStream(status);
+          });
+          edge->CallEnded();
         });
     edge_.Track(call_);
   }
@@ -710,6 +747,11 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
   void OnMessage(std::string message) {
     if (closed_) return;
     std::string piece = Frame(message);
+    if (piece.empty()) {
+      // Nothing to send (a message JSON could not show): read on.
+      call_->RequestNext();
+      return;
+    }
     if (latest_only_) {
       // Only the newest unsent frame is kept; the call reads on.
       if (!pending_.empty()) pending_.pop_back();
@@ -864,16 +906,15 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
       if_range_ = std::string(header->value());
     }
     range_ = range;
-    file_path_ = std::string(path);
     StartDownload(*method, std::string(parts[3]), id, artifact, *caller);
   }
 
   void StartDownload(const RpcMethod& method, std::string session, int64_t id,
                      bool artifact, const rpc::EdgeCaller& caller) {
     const int64_t offset = range_.has_value() ? range_->first : 0;
-    const int64_t length = range_.has_value() && range_->last.has_value()
-                               ? *range_->last - range_->first + 1
-                               : 0;
+    // To the end: a range past the end is cut to the file here (RFC 9110),
+    // which the service, refusing it, cannot do.
+    const int64_t length = 0;
     std::string request;
     if (artifact) {
       v1::DownloadArtifactRequest message;
@@ -901,10 +942,13 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
                       self->OnChunk(std::move(message));
                     });
         },
-        [self = this->shared_from_this()](absl::Status status) {
-          net::post(self->stream_.get_executor(),
-                    [self, status] { self->OnDownloadEnd(status); });
-          self->edge_.CallEnded();
+        [self = this->shared_from_this(),
+         edge = &edge_](absl::Status status) mutable {
+          auto executor = self->stream_.get_executor();
+          net::post(executor, [self = std::move(self), status] {
+            self->OnDownloadEnd(status);
+          });
+          edge->CallEnded();
         });
     edge_.Track(call_);
   }
@@ -938,7 +982,7 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
       header->set(bhttp::field::etag, etag);
       header->set(bhttp::field::accept_ranges, "bytes");
       header->set(bhttp::field::cache_control, "private, no-cache");
-      header->set(bhttp::field::content_type, FileContentType(file_path_));
+      header->set(bhttp::field::content_type, FileContentType(chunk.path()));
       header->keep_alive(false);
       remaining_ = total - chunk.offset_bytes();
       if (range_.has_value()) {
@@ -946,6 +990,7 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
         if (!resolved.ok()) {
           call_->Cancel();
           ended_ = true;
+          headers_sent_ = true;  // this answer is the response
           StringResponse response =
               ErrorResponse(request_.version(), resolved.status());
           response.result(bhttp::status::range_not_satisfiable);
@@ -959,7 +1004,7 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
             absl::StrCat("bytes ", resolved->offset, "-",
                          resolved->offset + resolved->length - 1, "/", total));
       }
-      header->content_length(not_modified ? 0 : remaining_);
+      if (!not_modified) header->content_length(remaining_);
       headers_sent_ = true;
       if (not_modified || head_) {
         call_->Cancel();
@@ -1007,7 +1052,8 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
 
   void Send(StringResponse response, bool close = false, int status = 0) {
     if (status != 0) response.result(static_cast<bhttp::status>(status));
-    if (close) response.keep_alive(false);
+    // After a body left unread the connection cannot carry another request.
+    if (close || body_unread_) response.keep_alive(false);
     // The answer to HEAD is its header alone (RFC 9110, 9.3.2), whose
     // Content-Length still says what GET would get.
     if (head_) response.body().clear();
@@ -1052,6 +1098,8 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
   std::optional<bhttp::request_parser<bhttp::string_body>> parser_;
   Request request_;
   int requests_ = 0;
+  std::optional<absl::StatusOr<rpc::EdgeCaller>> caller_;
+  bool body_unread_ = false;
   bool head_ = false;  // the request being answered is a HEAD request
   bool closed_ = false;
   // The streamed response.
@@ -1069,7 +1117,6 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
   DownloadState download_;
   std::optional<ByteRange> range_;
   std::optional<std::string> if_range_;
-  std::string file_path_;
   bool headers_sent_ = false;
   bool restart_ = false;
   int64_t remaining_ = 0;
@@ -1093,7 +1140,18 @@ absl::StatusOr<rpc::EdgeCaller> HttpEdge::Impl::Authenticate(
     if (!key_allowed) {
       return absl::UnauthenticatedError("API keys are accepted over TLS only");
     }
-    ASSIGN_OR_RETURN(rpc::VerifiedApiKey key, services_.keys->Verify(token));
+    // Guesses at keys are limited as sign-ins are (a malformed key is no
+    // guess: it cannot succeed).
+    const std::string address = peer.substr(0, peer.rfind(':'));
+    const bool well_formed = !rpc::ApiKeyIdOf(token).empty();
+    if (well_formed) RETURN_IF_ERROR(throttle_.Check(address));
+    absl::StatusOr<rpc::VerifiedApiKey> verified =
+        services_.keys->Verify(token);
+    if (!verified.ok()) {
+      if (well_formed) throttle_.RecordFailure(address);
+      return verified.status();
+    }
+    const rpc::VerifiedApiKey& key = *verified;
     principal.name = key.user;
     principal.role =
         std::min(key.role, services_.authenticator->RoleOf(key.user));
@@ -1230,6 +1288,17 @@ void HttpEdge::Impl::Accept(Listener& listener) {
       [this, &listener](beast::error_code ec, tcp::socket socket) {
         if (ec == net::error::operation_aborted ||
             !listener.acceptor.is_open()) {
+          return;
+        }
+        if (ec) {
+          // Out of file descriptors, say: try again shortly, not at once.
+          spdlog::warn("HTTP edge: cannot accept a connection: {}",
+                       ec.message());
+          auto timer = std::make_shared<net::steady_timer>(
+              listener.acceptor.get_executor(), std::chrono::milliseconds(100));
+          timer->async_wait([this, &listener, timer](beast::error_code) {
+            if (listener.acceptor.is_open()) Accept(listener);
+          });
           return;
         }
         if (!ec) {

@@ -103,25 +103,32 @@ void StreamCall::Cancel() {
 
 void StreamCall::OnReadDone(bool ok) {
   {
+    // Under the lock, so that no RequestNext() starts the next read into
+    // response_ before it is taken, and messages are handed on in order
+    // (on_message_ only posts).
     absl::MutexLock lock(&mutex_);
     reading_ = false;
-    if (!ok) ended_ = true;
+    if (ok) {
+      on_message_(BufferBytes(response_));
+      return;
+    }
+    ended_ = true;
   }
-  if (ok) {
-    on_message_(BufferBytes(response_));
-  } else {
-    // The stream has ended; OnDone brings its status.
-    RemoveHold();
-  }
+  // The stream has ended; OnDone brings its status.
+  RemoveHold();
 }
 
 void StreamCall::OnDone(const grpc::Status& status) {
   // gRPC's last use of the call; whoever else holds it may still call
   // Cancel(), which is then harmless.
   std::shared_ptr<StreamCall> self = std::move(self_);
+  // The callbacks hold their receiver, which may hold this call: let go,
+  // on_message_ before on_done_ says the call is over.
+  {
+    absl::MutexLock lock(&mutex_);
+    on_message_ = nullptr;
+  }
   on_done_(FromGrpc(status));
-  // The callbacks hold their receiver, which may hold this call: let go.
-  on_message_ = nullptr;
   on_done_ = nullptr;
 }
 

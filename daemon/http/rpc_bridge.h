@@ -80,7 +80,7 @@ class StreamCall
   bool ended_ ABSL_GUARDED_BY(mutex_) = false;
   grpc::ByteBuffer request_;
   grpc::ByteBuffer response_;
-  std::function<void(std::string)> on_message_;
+  std::function<void(std::string)> on_message_ ABSL_GUARDED_BY(mutex_);
   std::function<void(absl::Status)> on_done_;
   // Keeps the call alive until gRPC is done with it.
   std::shared_ptr<StreamCall> self_;

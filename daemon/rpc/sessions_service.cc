@@ -106,6 +106,7 @@ grpc::Status StreamFile(grpc::ServerContext& context,
     chunk.set_data(buffer.data(), want);
     chunk.set_total_size_bytes(size);
     chunk.set_sha256(file.sha256);
+    chunk.set_path(file.shown);
     if (!writer.Write(chunk)) {
       return grpc::Status(grpc::StatusCode::CANCELLED, "the client went away");
     }

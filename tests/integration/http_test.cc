@@ -232,6 +232,12 @@ TEST_F(HttpTest, FailedSignInsAreAuditedAndLimitedPerAddress) {
   EXPECT_EQ(Sql("SELECT count(*) FROM audit WHERE method = '\"/auth/sign-in\"' "
                 "AND status_code = 8"),
             "1");
+  // Guessing keys in the Authorization header counts the same.
+  HttpResponse guess =
+      Unary("Server/WhoAmI", "{}", "", {"Authorization: Bearer " + wrong});
+  EXPECT_EQ(guess.status, 429);
+  EXPECT_THAT(guess.Json().value("message", ""),
+              HasSubstr("too many failed sign-ins"));
   // No secret in the audit log or the daemon's log.
   EXPECT_EQ(Sql(absl::StrCat("SELECT count(*) FROM audit WHERE message LIKE '%",
                              key.substr(16), "%'")),
@@ -506,6 +512,7 @@ TEST_F(HttpTest, FramesAndArtifactsDownloadWithRangesAndTheirSha256AsEtag) {
   EXPECT_EQ(whole.Header("etag"), "\"" + sha256 + "\"");
   EXPECT_EQ(whole.Header("accept-ranges"), "bytes");
   EXPECT_EQ(whole.Header("content-length"), std::to_string(whole.body.size()));
+  EXPECT_EQ(whole.Header("content-type"), "image/png");
   EXPECT_THAT(whole.Header("content-security-policy"), HasSubstr("sandbox"));
   // A range, as a resumed download asks for it.
   get.headers = {"Range: bytes=10-19"};
@@ -516,6 +523,14 @@ TEST_F(HttpTest, FramesAndArtifactsDownloadWithRangesAndTheirSha256AsEtag) {
             absl::StrCat("bytes 10-19/", whole.body.size()));
   get.headers = {absl::StrCat("Range: bytes=", whole.body.size() - 5, "-")};
   EXPECT_EQ(Fetch(get).body, whole.body.substr(whole.body.size() - 5));
+  // A range reaching past the end is cut to the file.
+  get.headers = {"Range: bytes=0-999999999"};
+  HttpResponse clipped = Fetch(get);
+  EXPECT_EQ(clipped.status, 206);
+  EXPECT_EQ(clipped.body, whole.body);
+  EXPECT_EQ(clipped.Header("content-range"),
+            absl::StrCat("bytes 0-", whole.body.size() - 1, "/",
+                         whole.body.size()));
   get.headers = {absl::StrCat("Range: bytes=", whole.body.size(), "-")};
   HttpResponse beyond = Fetch(get);
   EXPECT_EQ(beyond.status, 416);
@@ -529,6 +544,7 @@ TEST_F(HttpTest, FramesAndArtifactsDownloadWithRangesAndTheirSha256AsEtag) {
   HttpResponse unchanged = Fetch(get);
   EXPECT_EQ(unchanged.status, 304);
   EXPECT_TRUE(unchanged.body.empty());
+  EXPECT_TRUE(unchanged.Header("content-length").empty());
   HttpRequest head = To(url, "alice");
   head.method = "HEAD";
   HttpResponse headers = Fetch(head);
