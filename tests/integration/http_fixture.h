@@ -54,6 +54,25 @@ class HttpFixture : public RemoteFixture {
     return Fetch(request);
   }
 
+  // Creates `session` and submits a bracketed stereo capture of it at
+  // `exposures` (a JSON list of seconds) as bob (operator), over HTTP; the
+  // job's id, "" when refused (a test failure).
+  std::string SubmitStereoCapture(const std::string& session,
+                                  const std::string& exposures) {
+    HttpResponse created =
+        Unary("Sessions/Create",
+              absl::StrCat(R"({"name": ")", session, R"("})"), "bob");
+    EXPECT_EQ(created.status, 200) << created.body;
+    HttpResponse submitted =
+        Unary("Jobs/SubmitCapture",
+              absl::StrCat(R"({"session": ")", session,
+                           R"(", "plan": {"bracketedStereo": {"exposuresS": )",
+                           exposures, "}}}"),
+              "bob");
+    EXPECT_EQ(submitted.status, 200) << submitted.body;
+    return submitted.Json().value("id", "");
+  }
+
   // Follows job `id` with Jobs/Watch (a Connect stream) to its end, as
   // `user`; its last state ("JOB_STATE_SUCCEEDED"), "" when none came.
   std::string FinalState(const std::string& id, const std::string& user) {

@@ -353,15 +353,8 @@ TEST_F(HttpTest, BadRequestsGetConnectErrorsAndChangeNothing) {
 
 TEST_F(HttpTest, JobsWatchStreamsOverConnectAndServerSentEvents) {
   StartHttpDaemon();
-  ASSERT_EQ(Unary("Sessions/Create", R"({"name": "watched"})", "bob").status,
-            200);
-  HttpResponse submitted = Unary(
-      "Jobs/SubmitCapture",
-      R"({"session": "watched", "plan": {"bracketedStereo": {"exposuresS": [0.01, 0.02]}}})",
-      "bob");
-  ASSERT_EQ(submitted.status, 200) << submitted.body;
-  const std::string job = submitted.Json().value("id", "");
-  ASSERT_FALSE(job.empty()) << submitted.body;
+  const std::string job = SubmitStereoCapture("watched", "[0.01, 0.02]");
+  ASSERT_FALSE(job.empty());
 
   HttpRequest watch = To("/hdrstereo.v1.Jobs/Watch", "alice");
   watch.headers = {"Content-Type: application/connect+json"};
@@ -488,15 +481,9 @@ TEST_F(HttpTest, ASlowViewerGetsTheNewestFrameNotABacklog) {
 
 TEST_F(HttpTest, FramesAndArtifactsDownloadWithRangesAndTheirSha256AsEtag) {
   StartHttpDaemon();
-  ASSERT_EQ(Unary("Sessions/Create", R"({"name": "files"})", "bob").status,
-            200);
-  HttpResponse submitted = Unary(
-      "Jobs/SubmitCapture",
-      R"({"session": "files", "plan": {"bracketedStereo": {"exposuresS": [0.01]}}})",
-      "bob");
-  ASSERT_EQ(submitted.status, 200) << submitted.body;
-  ASSERT_EQ(FinalState(submitted.Json().value("id", ""), "alice"),
-            "JOB_STATE_SUCCEEDED");
+  const std::string job = SubmitStereoCapture("files", "[0.01]");
+  ASSERT_FALSE(job.empty());
+  ASSERT_EQ(FinalState(job, "alice"), "JOB_STATE_SUCCEEDED");
   HttpResponse frames =
       Unary("Sessions/ListFrames", R"({"session": "files"})", "alice");
   ASSERT_EQ(frames.status, 200) << frames.body;
@@ -528,9 +515,9 @@ TEST_F(HttpTest, FramesAndArtifactsDownloadWithRangesAndTheirSha256AsEtag) {
   HttpResponse clipped = Fetch(get);
   EXPECT_EQ(clipped.status, 206);
   EXPECT_EQ(clipped.body, whole.body);
-  EXPECT_EQ(clipped.Header("content-range"),
-            absl::StrCat("bytes 0-", whole.body.size() - 1, "/",
-                         whole.body.size()));
+  EXPECT_EQ(
+      clipped.Header("content-range"),
+      absl::StrCat("bytes 0-", whole.body.size() - 1, "/", whole.body.size()));
   get.headers = {absl::StrCat("Range: bytes=", whole.body.size(), "-")};
   HttpResponse beyond = Fetch(get);
   EXPECT_EQ(beyond.status, 416);

@@ -10,14 +10,11 @@
 // principal and peer. Also the two downloads the HTTP edge serves ranges
 // from: DownloadArtifact with length_bytes and DownloadFrame.
 #include <gmock/gmock.h>
-#include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
-#include <condition_variable>
 #include <filesystem>
 #include <functional>
-#include <mutex>
 #include <string>
 #include <vector>
 
@@ -35,6 +32,7 @@
 #include "processing/io/atomic_file.h"
 #include "processing/io/sha256.h"
 #include "tests/support/daemon_fixture.h"
+#include "tests/support/empty_call.h"
 #include "tests/support/proto_methods.h"
 #include "tests/support/role_outcomes.h"
 #include "tests/support/status_matchers.h"
@@ -86,27 +84,7 @@ class InProcessGuardTest : public testing::DaemonFixture {
   grpc::Status Call(const std::string& method,
                     const std::function<void(grpc::ClientContext&)>& prepare,
                     absl::Duration deadline = absl::Seconds(20)) {
-    grpc::GenericStub stub(channel_);
-    grpc::ClientContext context;
-    context.set_deadline(absl::ToChronoTime(absl::Now() + deadline));
-    prepare(context);
-    grpc::Slice empty("", 0);
-    grpc::ByteBuffer request(&empty, 1);
-    grpc::ByteBuffer response;
-    std::mutex mutex;
-    std::condition_variable done_cv;
-    bool done = false;
-    grpc::Status status;
-    stub.UnaryCall(&context, method, grpc::StubOptions(), &request, &response,
-                   [&](grpc::Status s) {
-                     std::lock_guard<std::mutex> lock(mutex);
-                     status = std::move(s);
-                     done = true;
-                     done_cv.notify_all();
-                   });
-    std::unique_lock<std::mutex> lock(mutex);
-    done_cv.wait(lock, [&] { return done; });
-    return status;
+    return testing::CallWithEmptyRequest(channel_, method, prepare, deadline);
   }
 
   std::vector<store::AuditRecord> AuditRows(const std::string& method) {

@@ -6,12 +6,9 @@
 #ifndef HDRSTEREO_TESTS_INTEGRATION_REMOTE_FIXTURE_H_
 #define HDRSTEREO_TESTS_INTEGRATION_REMOTE_FIXTURE_H_
 
-#include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
 
-#include <condition_variable>
 #include <fstream>
-#include <mutex>
 #include <string>
 #include <vector>
 
@@ -20,6 +17,7 @@
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
 #include "tests/support/daemon_fixture.h"
+#include "tests/support/empty_call.h"
 #include "tests/support/test_certs.h"
 
 namespace hdrstereo::testing {
@@ -95,30 +93,14 @@ class RemoteFixture : public DaemonFixture {
                            const std::string& method,
                            const std::string* authorization = nullptr,
                            absl::Duration deadline = absl::Seconds(20)) {
-    grpc::GenericStub stub(channel);
-    grpc::ClientContext context;
-    context.set_deadline(absl::ToChronoTime(absl::Now() + deadline));
-    if (authorization != nullptr) {
-      context.AddMetadata("authorization", *authorization);
-    }
-    grpc::ByteBuffer request;
-    grpc::Slice empty("", 0);
-    request = grpc::ByteBuffer(&empty, 1);
-    grpc::ByteBuffer response;
-    std::mutex mutex;
-    std::condition_variable done_cv;
-    bool done = false;
-    grpc::Status status;
-    stub.UnaryCall(&context, method, grpc::StubOptions(), &request, &response,
-                   [&](grpc::Status s) {
-                     std::lock_guard<std::mutex> lock(mutex);
-                     status = std::move(s);
-                     done = true;
-                     done_cv.notify_all();
-                   });
-    std::unique_lock<std::mutex> lock(mutex);
-    done_cv.wait(lock, [&] { return done; });
-    return status;
+    return CallWithEmptyRequest(
+        channel, method,
+        [authorization](grpc::ClientContext& context) {
+          if (authorization != nullptr) {
+            context.AddMetadata("authorization", *authorization);
+          }
+        },
+        deadline);
   }
 
   // Writes an API key to a file only its owner can read.
