@@ -9,13 +9,10 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
-#include <fstream>
 #include <random>
 #include <thread>
 
-#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
-#include "absl/strings/str_split.h"
 #include "absl/time/clock.h"
 #include "hdrstereo/v1/jobs.grpc.pb.h"
 #include "tests/integration/remote_fixture.h"
@@ -29,6 +26,7 @@ using ::hdrstereo::testing::CommandResult;
 using ::hdrstereo::testing::JsonInt;
 using ::hdrstereo::testing::Process;
 using ::hdrstereo::testing::ReadFileOrDie;
+using ::hdrstereo::testing::ResidentKb;
 using ::hdrstereo::testing::TcpProxy;
 using ::testing::HasSubstr;
 
@@ -54,21 +52,6 @@ std::vector<nlohmann::json> JsonObjects(const std::string& text) {
     }
   }
   return out;
-}
-
-// Resident memory of `pid` in kB.
-int64_t RssKb(pid_t pid) {
-  std::ifstream in(absl::StrCat("/proc/", pid, "/status"));
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind("VmRSS:", 0) == 0) {
-      int64_t kb = 0;
-      std::vector<std::string> parts =
-          absl::StrSplit(line, ' ', absl::SkipEmpty());
-      if (parts.size() >= 2 && absl::SimpleAtoi(parts[1], &kb)) return kb;
-    }
-  }
-  return -1;
 }
 
 class RemoteRobustnessTest : public testing::RemoteFixture {
@@ -278,10 +261,10 @@ TEST_F(RemoteRobustnessTest, GarbageCredentialsNeitherCrashNorGrowTheDaemon) {
     for (std::thread& t : threads) t.join();
   };
   run(250, 1);  // warm up: connections, caches, the audit writer
-  const int64_t before = RssKb(daemon_->pid());
+  const int64_t before = ResidentKb(daemon_->pid());
   ASSERT_GT(before, 0);
   run(2500, 100);  // 10,000 calls
-  const int64_t after = RssKb(daemon_->pid());
+  const int64_t after = ResidentKb(daemon_->pid());
   EXPECT_EQ(wrong, 0) << first_wrong;
   EXPECT_EQ(unauthenticated + unimplemented, 11000);
   EXPECT_GT(unauthenticated, 0);

@@ -9,9 +9,12 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <fstream>
 #include <thread>
 
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
 #include "absl/time/clock.h"
 
 extern char** environ;
@@ -68,6 +71,20 @@ std::optional<int> Process::Wait(absl::Duration timeout) {
   std::optional<int> code = process::WaitForExit(pid_, absl::Now() + timeout);
   if (code.has_value()) pid_ = -1;
   return code;
+}
+
+int64_t ResidentKb(pid_t pid) {
+  std::ifstream in(absl::StrCat("/proc/", pid, "/status"));
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("VmRSS:", 0) == 0) {
+      int64_t kb = 0;
+      std::vector<std::string> parts =
+          absl::StrSplit(line, ' ', absl::SkipEmpty());
+      if (parts.size() >= 2 && absl::SimpleAtoi(parts[1], &kb)) return kb;
+    }
+  }
+  return -1;
 }
 
 bool WaitForFile(const std::filesystem::path& path, absl::Duration timeout) {

@@ -47,6 +47,10 @@ class Process {
   pid_t pid_;
 };
 
+// Resident memory (VmRSS in /proc/<pid>/status) of process `pid`, in kB;
+// -1 when it cannot be read.
+int64_t ResidentKb(pid_t pid);
+
 // Polls until `path` exists and is non-empty, or `timeout` passes.
 bool WaitForFile(const std::filesystem::path& path, absl::Duration timeout);
 // Polls until `path` exists (a socket, say), or `timeout` passes.
