@@ -1959,16 +1959,9 @@ TEST_F(HttpLoadTest, BeyondItsConnectionBoundTheEdgeRefusesClearly) {
 // tests/bench/capture_overhead.sh --http-watchers (docs/benchmarks.md).
 TEST_F(HttpLoadTest, FiftyHttpWatchersFollowOneCapture) {
   StartHttpDaemon({"--sim-time-scale", "0.2"});
-  HttpResponse created = Unary("Sessions/Create", R"({"name": "many"})", "bob");
-  ASSERT_EQ(created.status, 200) << created.body;
-  HttpResponse submitted =
-      Unary("Jobs/SubmitCapture",
-            R"({"session": "many", "plan": {"bracketedStereo": )"
-            R"({"exposuresS": [0.033333, 0.016667, 0.008]}}})",
-            "bob");
-  ASSERT_EQ(submitted.status, 200) << submitted.body;
-  const std::string id = submitted.Json().value("id", "");
-  ASSERT_FALSE(id.empty()) << submitted.body;
+  const std::string id =
+      SubmitStereoCapture("many", "[0.033333, 0.016667, 0.008]");
+  ASSERT_FALSE(id.empty());
 
   const std::string key = CreateKey("alice", "viewer");
   HttpRequest sign_in = To("/auth/sign-in");
