@@ -11,19 +11,31 @@
 # twice, first unwatched, then followed by N concurrent TLS clients
 # (`hdrstereo jobs watch`, one process and connection each), so that the two
 # overhead figures can be compared.
-# Usage: tests/bench/capture_overhead.sh [BUILD_DIR] [--watchers N]
-#                                        [--scales "0 1"]
+#
+# With --http-watchers N the daemon also serves HTTP on loopback and the
+# second capture is followed by N concurrent `curl` processes instead, each
+# its own connection running the Server-Sent Events form of Jobs/Watch with
+# an API key (as a browser page follows a capture); the script checks that
+# all of them got the same complete stream, the end included.
+# Usage: tests/bench/capture_overhead.sh [BUILD_DIR]
+#            [--watchers N | --http-watchers N] [--scales "0 1"]
 set -euo pipefail
 build=build
 watchers=0
+http_watchers=0
 scales="0 1"
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --watchers) watchers=$2; shift 2 ;;
+    --http-watchers) http_watchers=$2; shift 2 ;;
     --scales) scales=$2; shift 2 ;;
     *) build=$1; shift ;;
   esac
 done
+if [[ $watchers -gt 0 && $http_watchers -gt 0 ]]; then
+  echo "give --watchers or --http-watchers, not both" >&2
+  exit 2
+fi
 build=$(realpath "$build")
 root_dir=$(cd "$(dirname "$0")/../.." && pwd)
 work=$(mktemp -d)
@@ -43,19 +55,41 @@ if [[ $watchers -gt 0 ]]; then
            --tls-key "$certs/bench.key")
   listen=0.0.0.0:0
 fi
+http=()
+if [[ $http_watchers -gt 0 ]]; then
+  http=(--http-listen 127.0.0.1:0 --auth-user bench=operator)
+fi
 
-# One capture in session $2 of the daemon at $1; $3 watchers follow it.
+# One capture in session $2 of the daemon at $1; $3 watchers follow it:
+# TLS clients, or, given $4 (the HTTP edge's base URL), HTTP clients (SSE,
+# the API key's Authorization header read from a file, so that no command
+# line shows it), whose outputs must all be the same complete stream.
 capture() {
   local cli=("$build/clients/cli/hdrstereo" --server "$1" "${cli_tls[@]}")
   local job
   job=$("${cli[@]}" --json capture sl "$2" | sed -n 's/^ *"id": "\([0-9]*\)".*/\1/p')
-  local watchers=() watcher
-  for _ in $(seq "$3"); do
-    "${cli[@]}" jobs watch "$job" >/dev/null 2>&1 &
+  local watchers=() watcher i
+  for i in $(seq "$3"); do
+    if [[ -n ${4:-} ]]; then
+      curl -sSN -H @"$work/auth-header" -H 'Content-Type: application/json' \
+        -H 'Accept: text/event-stream' -d "{\"jobId\": \"$job\"}" \
+        "$4/hdrstereo.v1.Jobs/Watch" >"$work/http-watcher-$i" 2>&1 &
+    else
+      "${cli[@]}" jobs watch "$job" >/dev/null 2>&1 &
+    fi
     watchers+=($!)
   done
   "${cli[@]}" jobs watch "$job" | grep "in the daemon"
   for watcher in "${watchers[@]}"; do wait "$watcher"; done
+  if [[ -n ${4:-} ]]; then
+    local same=0 first="$work/http-watcher-1"
+    for i in $(seq "$3"); do
+      cmp -s "$first" "$work/http-watcher-$i" && same=$((same + 1))
+    done
+    grep -q '^event: end$' "$first" || same=0
+    echo "$same of $3 HTTP watchers got the whole stream, the same" \
+      "$(grep -c '^data: ' "$first") messages (the end included)"
+  fi
 }
 
 for scale in $scales; do
@@ -63,7 +97,7 @@ for scale in $scales; do
   mkdir -p "$root"
   "$build/daemon/hdrstereod" --listen "$listen" --data-root "$root" \
     --ready-file "$root/ready" --sim-time-scale "$scale" "${tls[@]}" \
-    >"$root/log" 2>&1 &
+    "${http[@]}" >"$root/log" 2>&1 &
   pid=$!
   for _ in $(seq 100); do [[ -s "$root/ready" ]] && break; sleep 0.1; done
   address=$(head -n 1 "$root/ready" | sed 's/^0\.0\.0\.0:/127.0.0.1:/')
@@ -79,6 +113,14 @@ for scale in $scales; do
     "${cli[@]}" session create watched >/dev/null
     echo -n "time scale $scale, $watchers TLS watchers: "
     capture "$address" watched "$watchers"
+  fi
+  if [[ $http_watchers -gt 0 ]]; then
+    url=$(grep '^http' "$root/ready" | head -n 1)
+    key=$("${cli[@]}" admin key create --user bench --role operator 2>/dev/null)
+    (umask 077; echo "Authorization: Bearer $key" >"$work/auth-header")
+    "${cli[@]}" session create watched >/dev/null
+    echo -n "time scale $scale, $http_watchers HTTP watchers: "
+    capture "$address" watched "$http_watchers" "$url"
   fi
   kill -TERM $pid
   wait $pid
