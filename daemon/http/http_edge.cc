@@ -1052,8 +1052,12 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
 
   void Send(StringResponse response, bool close = false, int status = 0) {
     if (status != 0) response.result(static_cast<bhttp::status>(status));
-    // After a body left unread the connection cannot carry another request.
-    if (close || body_unread_) response.keep_alive(false);
+    // After a body left unread the connection cannot carry another request;
+    // after Connection: close (or HTTP/1.0 without keep-alive) none comes,
+    // and the server closes (RFC 9112, 9.6).
+    if (close || body_unread_ || !request_.keep_alive()) {
+      response.keep_alive(false);
+    }
     // The answer to HEAD is its header alone (RFC 9110, 9.3.2), whose
     // Content-Length still says what GET would get.
     if (head_) response.body().clear();
