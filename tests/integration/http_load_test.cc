@@ -1825,6 +1825,29 @@ TEST_F(HttpLoadTest, AnswersToHeadAreHeadersAlone) {
   EXPECT_EQ(StopDaemon(), 0) << daemon_log();
 }
 
+// A request with Connection: close is answered with Connection: close and
+// the daemon closes the connection (RFC 9112, 9.6), not the idle timeout a
+// minute later.
+TEST_F(HttpLoadTest, ConnectionCloseIsHonoured) {
+  StartPlainHttpDaemon();
+  RawConnection connection(port_);
+  ASSERT_TRUE(connection.connected());
+  // The client keeps its side open: only the daemon can end this.
+  ASSERT_TRUE(connection.Send(absl::StrCat(
+      "POST /hdrstereo.v1.Server/WhoAmI HTTP/1.1\r\nHost: 127.0.0.1:", port_,
+      "\r\nAuthorization: Bearer ", key_,
+      "\r\nConnection: close\r\nContent-Type: application/json\r\n"
+      "Content-Length: 2\r\n\r\n{}")));
+  const RawConnection::Received received =
+      connection.ReadUntilClosed(absl::Seconds(5));
+  EXPECT_TRUE(received.closed) << "still open after 5 s: " << received.bytes;
+  const std::vector<Answer> answers = ParseAnswers(received.bytes);
+  ASSERT_EQ(answers.size(), 1u) << received.bytes;
+  EXPECT_EQ(answers[0].status, 200) << received.bytes;
+  EXPECT_EQ(answers[0].connection, "close") << received.bytes;
+  EXPECT_EQ(StopDaemon(), 0) << daemon_log();
+}
+
 // 200 connections that send nothing or half a request line hold no one
 // up: a real client is served while they wait. The daemon closes them, and
 // one stalled inside its headers, at the header timeout (10 s from the
