@@ -15,6 +15,8 @@
 //   header timeout (slow-loris).
 // - 50 Connect watchers of one capture, as that many browsers would follow
 //   it, see the same events as a gRPC watcher.
+// - Two protocol rules the hostile requests found broken: an answer to HEAD
+//   has no body, and Connection: close closes.
 // Every loop is bounded in count and time.
 #include <arpa/inet.h>
 #include <gmock/gmock.h>
