@@ -1305,25 +1305,23 @@ void HttpEdge::Impl::Accept(Listener& listener) {
           });
           return;
         }
-        if (!ec) {
-          boost::system::error_code peer_ec;
-          const tcp::endpoint remote = socket.remote_endpoint(peer_ec);
-          const std::string peer = peer_ec ? "unknown" : PeerName(remote);
-          const bool refuse = connections_.load() >= options_.max_connections;
-          if (refuse && refusing_.load() >= kMaxRefusing) {
-            socket.close(peer_ec);
-          } else if (listener.info.tls) {
-            std::make_shared<Connection<beast::ssl_stream<beast::tcp_stream>>>(
-                *this, listener.info,
-                beast::ssl_stream<beast::tcp_stream>(std::move(socket), *tls_),
-                peer, refuse)
-                ->Start();
-          } else {
-            std::make_shared<Connection<beast::tcp_stream>>(
-                *this, listener.info, beast::tcp_stream(std::move(socket)),
-                peer, refuse)
-                ->Start();
-          }
+        boost::system::error_code peer_ec;
+        const tcp::endpoint remote = socket.remote_endpoint(peer_ec);
+        const std::string peer = peer_ec ? "unknown" : PeerName(remote);
+        const bool refuse = connections_.load() >= options_.max_connections;
+        if (refuse && refusing_.load() >= kMaxRefusing) {
+          socket.close(peer_ec);
+        } else if (listener.info.tls) {
+          std::make_shared<Connection<beast::ssl_stream<beast::tcp_stream>>>(
+              *this, listener.info,
+              beast::ssl_stream<beast::tcp_stream>(std::move(socket), *tls_),
+              peer, refuse)
+              ->Start();
+        } else {
+          std::make_shared<Connection<beast::tcp_stream>>(
+              *this, listener.info, beast::tcp_stream(std::move(socket)), peer,
+              refuse)
+              ->Start();
         }
         Accept(listener);
       });

@@ -20,7 +20,8 @@
 // browser shows can send requests there): a session cookie, Authorization:
 // Bearer <API key>, or (TLS) a client certificate of the lab CA. Host must
 // be a served name; mutations need a JSON or Connect content type (never a
-// form's) and, when they carry an Origin, it must be the edge's own.
+// form's) and an Origin that is the edge's own whenever they carry one, and
+// always with a session cookie.
 #ifndef HDRSTEREO_DAEMON_HTTP_HTTP_EDGE_H_
 #define HDRSTEREO_DAEMON_HTTP_HTTP_EDGE_H_
 
