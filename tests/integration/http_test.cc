@@ -10,6 +10,7 @@
 
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -30,7 +31,18 @@ namespace {
 using ::testing::HasSubstr;
 using ::testing::Not;
 
-class HttpTest : public HttpFixture {};
+class HttpTest : public HttpFixture {
+ protected:
+  // Live view as the binary Connect stream, as bob (it moves nothing but
+  // watches the rig: operator).
+  HttpRequest LiveView(const v1::StreamPreviewRequest& request) {
+    HttpRequest live = To("/hdrstereo.v1.Hardware/StreamPreview", "bob");
+    live.headers = {"Content-Type: application/connect+proto"};
+    live.body = EnvelopeOf(request.SerializeAsString());
+    live.timeout = absl::Seconds(60);
+    return live;
+  }
+};
 
 // The cookie a sign-in response sets, "name=value".
 std::string CookieOf(const HttpResponse& response) {
@@ -405,11 +417,7 @@ TEST_F(HttpTest, LiveViewSendsJpegFramesAsBinaryMessages) {
   StartHttpDaemon();
   v1::StreamPreviewRequest request;
   request.set_max_frames(3);
-  // Live view moves nothing but watches the rig: operator.
-  HttpRequest live = To("/hdrstereo.v1.Hardware/StreamPreview", "bob");
-  live.headers = {"Content-Type: application/connect+proto"};
-  live.body = EnvelopeOf(request.SerializeAsString());
-  live.timeout = absl::Seconds(60);
+  HttpRequest live = LiveView(request);
   HttpResponse stream = Fetch(live);
   ASSERT_EQ(stream.status, 200) << stream.curl_error;
   EXPECT_EQ(stream.Header("content-type"), "application/connect+proto");
@@ -440,32 +448,23 @@ TEST_F(HttpTest, ASlowViewerGetsTheNewestFrameNotABacklog) {
   StartHttpDaemon();
   v1::StreamPreviewRequest request;
   request.set_max_fps(10);
-  HttpRequest live = To("/hdrstereo.v1.Hardware/StreamPreview", "bob");
-  live.headers = {"Content-Type: application/connect+proto"};
-  live.body = EnvelopeOf(request.SerializeAsString());
-  live.timeout = absl::Seconds(60);
+  HttpRequest live = LiveView(request);
   // A slow link: little buffered in the client's kernel.
   live.receive_buffer_bytes = 4096;
   std::string buffered;
   std::vector<int64_t> sequences;
   live.on_body = [&](const std::string& bytes) {
     buffered += bytes;
-    for (;;) {
-      if (buffered.size() < 5) return true;
-      uint32_t size = 0;
-      for (int i = 1; i <= 4; ++i) {
-        size = (size << 8) | static_cast<uint8_t>(buffered[i]);
-      }
-      if (buffered.size() < 5 + size) return true;
+    while (std::optional<StreamMessage> envelope = TakeEnvelope(buffered)) {
       v1::PreviewMessage message;
-      EXPECT_TRUE(message.ParseFromString(buffered.substr(5, size)));
-      buffered.erase(0, 5 + size);
+      EXPECT_TRUE(message.ParseFromString(envelope->payload));
       if (!message.has_frame()) return false;
       sequences.push_back(message.frame().sequence());
       // This viewer takes about 3 frames a second of the 10 made.
       absl::SleepFor(absl::Milliseconds(300));
       if (sequences.size() == 20) return false;
     }
+    return true;
   };
   Fetch(live);
   ASSERT_EQ(sequences.size(), 20u);

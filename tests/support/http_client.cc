@@ -110,27 +110,29 @@ HttpResponse Fetch(const HttpRequest& request) {
   return response;
 }
 
+std::optional<StreamMessage> TakeEnvelope(std::string& buffered) {
+  if (buffered.size() < 5) return std::nullopt;
+  const auto flags = static_cast<uint8_t>(buffered[0]);
+  uint32_t size = 0;
+  for (int i = 1; i <= 4; ++i) {
+    size = (size << 8) | static_cast<uint8_t>(buffered[i]);
+  }
+  if (buffered.size() - 5 < size) return std::nullopt;
+  StreamMessage message{(flags & 0x02) != 0, buffered.substr(5, size)};
+  buffered.erase(0, 5 + size);
+  return message;
+}
+
 std::vector<StreamMessage> ParseEnvelopes(const std::string& body) {
   std::vector<StreamMessage> messages;
-  size_t at = 0;
-  while (at < body.size()) {
-    if (body.size() - at < 5) {
-      ADD_FAILURE() << "a stream ends inside an envelope's prefix at byte "
-                    << at;
-      break;
-    }
-    const auto flags = static_cast<uint8_t>(body[at]);
-    uint32_t size = 0;
-    for (int i = 1; i <= 4; ++i) {
-      size = (size << 8) | static_cast<uint8_t>(body[at + i]);
-    }
-    if (body.size() - at - 5 < size) {
-      ADD_FAILURE() << "an envelope at byte " << at << " declares " << size
-                    << " bytes; " << body.size() - at - 5 << " follow";
-      break;
-    }
-    messages.push_back({(flags & 0x02) != 0, body.substr(at + 5, size)});
-    at += 5 + size;
+  std::string rest = body;
+  while (std::optional<StreamMessage> message = TakeEnvelope(rest)) {
+    messages.push_back(std::move(*message));
+  }
+  if (!rest.empty()) {
+    ADD_FAILURE() << "a stream ends inside an envelope at byte "
+                  << body.size() - rest.size() << " (" << rest.size()
+                  << " bytes left over)";
   }
   return messages;
 }

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -56,6 +57,9 @@ struct StreamMessage {
   bool end = false;     // the end-of-stream message
   std::string payload;  // JSON or binary, as the content type says
 };
+// The first enveloped message of `buffered`, removed from it; nullopt while
+// it holds less than a whole envelope (a stream read as it arrives).
+std::optional<StreamMessage> TakeEnvelope(std::string& buffered);
 // The enveloped messages of a Connect stream's body (a test failure for a
 // malformed body).
 std::vector<StreamMessage> ParseEnvelopes(const std::string& body);
