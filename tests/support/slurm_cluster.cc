@@ -31,22 +31,31 @@ constexpr const char* kSlurmctld = "/usr/sbin/slurmctld";
 constexpr const char* kSlurmd = "/usr/sbin/slurmd";
 constexpr const char* kSbatch = "/usr/bin/sbatch";
 
-// A port free now on 127.0.0.1 (the kernel's choice).
-absl::StatusOr<int> FreePort() {
-  int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  if (fd < 0) return absl::ErrnoToStatus(errno, "socket");
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  socklen_t len = sizeof addr;
-  int port = -1;
-  if (::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0 &&
-      ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len) == 0) {
-    port = ntohs(addr.sin_port);
+// Two distinct ports free now on 127.0.0.1 (the kernel's choice; both are
+// held while choosing, so they differ). Another process may still take one
+// before slurmctld or slurmd binds it: Start retries with fresh ports then.
+absl::StatusOr<std::pair<int, int>> TwoFreePorts() {
+  int fds[2] = {-1, -1};
+  int ports[2] = {-1, -1};
+  for (int i = 0; i < 2; ++i) {
+    fds[i] = ::socket(AF_INET, SOCK_STREAM, 0);
+    if (fds[i] < 0) break;
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t len = sizeof addr;
+    if (::bind(fds[i], reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0 &&
+        ::getsockname(fds[i], reinterpret_cast<sockaddr*>(&addr), &len) == 0) {
+      ports[i] = ntohs(addr.sin_port);
+    }
   }
-  ::close(fd);
-  if (port < 0) return absl::InternalError("no free port on 127.0.0.1");
-  return port;
+  for (int fd : fds) {
+    if (fd >= 0) ::close(fd);
+  }
+  if (ports[0] < 0 || ports[1] < 0) {
+    return absl::InternalError("no two free ports on 127.0.0.1");
+  }
+  return std::make_pair(ports[0], ports[1]);
 }
 
 int64_t MemoryMb() {
@@ -90,6 +99,17 @@ std::optional<std::string> SlurmCluster::SkipReasonHere() {
 
 absl::StatusOr<std::unique_ptr<SlurmCluster>> SlurmCluster::Start(
     absl::Duration timeout) {
+  constexpr int kAttempts = 3;
+  absl::StatusOr<std::unique_ptr<SlurmCluster>> cluster;
+  for (int attempt = 0; attempt < kAttempts; ++attempt) {
+    cluster = StartOnce(timeout);
+    if (!absl::IsAborted(cluster.status())) break;
+  }
+  return cluster;
+}
+
+absl::StatusOr<std::unique_ptr<SlurmCluster>> SlurmCluster::StartOnce(
+    absl::Duration timeout) {
   std::unique_ptr<SlurmCluster> c(new SlurmCluster());
   const fs::path& t = c->dir_.path();
   ::chmod(t.c_str(), 0755);  // munged checks every folder above its socket
@@ -121,8 +141,8 @@ absl::StatusOr<std::unique_ptr<SlurmCluster>> SlurmCluster::Start(
         "munged did not create its socket in 10 s: ", c->LogTails()));
   }
 
-  ASSIGN_OR_RETURN(int ctld_port, FreePort());
-  ASSIGN_OR_RETURN(int slurmd_port, FreePort());
+  ASSIGN_OR_RETURN(auto ports, TwoFreePorts());
+  const auto [ctld_port, slurmd_port] = ports;
   c->cpus_ = static_cast<int>(std::thread::hardware_concurrency());
   c->conf_ = t / "slurm.conf";
   std::ofstream(c->conf_)
@@ -166,7 +186,15 @@ absl::StatusOr<std::unique_ptr<SlurmCluster>> SlurmCluster::Start(
         c->Run({"sinfo", "-h", "-N", "-o", "%T"}, absl::Seconds(10));
     if (sinfo.ok()) {
       last = sinfo->out + sinfo->err;
-      if (absl::StartsWith(sinfo->out, "idle")) return c;
+      if (absl::StartsWith(sinfo->out, "idle")) {
+        c->up_ = true;
+        return c;
+      }
+    }
+    if (c->PortTaken()) {
+      return absl::AbortedError(absl::StrCat(
+          "another process took a Slurm port before its daemon bound it; ",
+          c->LogTails()));
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
   }
@@ -177,7 +205,7 @@ absl::StatusOr<std::unique_ptr<SlurmCluster>> SlurmCluster::Start(
 
 SlurmCluster::~SlurmCluster() {
   // Jobs a failed test left behind end with the cluster, not after it.
-  if (daemons_.size() == 3) {
+  if (up_) {
     Run({"scancel", "--partition=test"}).IgnoreError();
   }
   // slurmd first, munged last.
@@ -195,6 +223,16 @@ absl::StatusOr<CommandResult> SlurmCluster::Run(std::vector<std::string> argv,
   argv.insert(argv.begin(),
               {"/usr/bin/env", absl::StrCat("SLURM_CONF=", conf_.string())});
   return RunCommand(argv, timeout);
+}
+
+bool SlurmCluster::PortTaken() const {
+  for (const char* log : {"slurmctld.log", "slurmd.log"}) {
+    if (absl::StrContains(Tail(dir_.path() / "log" / log, 64 * 1024),
+                          "Address already in use")) {
+      return true;
+    }
+  }
+  return false;
 }
 
 std::string SlurmCluster::LogTails() const {

@@ -32,6 +32,8 @@ class SlurmCluster {
 
   // Starts munged, slurmctld and slurmd and waits (at most `timeout`) until
   // sinfo shows the node idle. The error carries the daemons' log tails.
+  // A port taken by another process between choosing and binding (tests run
+  // in parallel) restarts the cluster on fresh ports, at most three times.
   static absl::StatusOr<std::unique_ptr<SlurmCluster>> Start(
       absl::Duration timeout = absl::Seconds(60));
   ~SlurmCluster();  // SIGTERM, then SIGKILL, to the three daemons it started
@@ -46,11 +48,16 @@ class SlurmCluster {
  private:
   SlurmCluster() = default;
   static std::optional<std::string> SkipReasonHere();
+  // One try; ABORTED when slurmctld or slurmd found its port taken.
+  static absl::StatusOr<std::unique_ptr<SlurmCluster>> StartOnce(
+      absl::Duration timeout);
+  bool PortTaken() const;
   std::string LogTails() const;
 
   TempDir dir_;
   std::filesystem::path conf_;
   int cpus_ = 1;
+  bool up_ = false;  // the node was idle once: jobs may be left to cancel
   std::vector<Process> daemons_;  // munged, slurmctld, slurmd
 };
 
