@@ -153,6 +153,15 @@ absl::StatusOr<std::unique_ptr<ssl::context>> TlsContext(
     context->add_certificate_authority(net::buffer(tls.client_ca), ec);
     // Asked for, not required: a browser without one signs in with a key.
     if (!ec) context->set_verify_mode(ssl::verify_peer, ec);
+    // With peers verified, OpenSSL resumes a session (a browser's next
+    // connection) only under a session id context, and without one fails
+    // that handshake (alert 80, internal error).
+    static constexpr unsigned char kSessionContext[] = "hdrstereo-http";
+    if (!ec && SSL_CTX_set_session_id_context(
+                   context->native_handle(), kSessionContext,
+                   sizeof(kSessionContext) - 1) != 1) {
+      ec = boost::asio::error::invalid_argument;
+    }
   }
   if (ec) {
     return absl::InvalidArgumentError(
