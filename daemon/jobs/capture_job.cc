@@ -772,35 +772,77 @@ absl::Status RunCaptureJob(hardware::Rig& rig, JobContext& context,
   return absl::OkStatus();
 }
 
+namespace {
+
+// A plan judged against the rig as SubmitCapture and EstimateCapture both
+// judge it.
+struct JudgedPlan {
+  RigLimits limits;
+  v1::CapturePlan normal;
+  io::CaptureKind kind = io::CaptureKind::kBracketedStereo;
+  bool metered = false;
+  int64_t frames = 0;  // a metered plan's are known at the rig: none yet
+  // The frames the disk guard promises room for: a metered plan's are
+  // those of the default bracket until it has chosen (and the rest is
+  // checked at every frame); otherwise the plan's own.
+  std::vector<FrameSpec> promised;
+};
+
+absl::StatusOr<JudgedPlan> JudgePlan(const hardware::Rig& rig,
+                                     const v1::CapturePlan& plan) {
+  JudgedPlan judged;
+  // Limits come from the stage; without one, say so before judging the plan.
+  ASSIGN_OR_RETURN(judged.limits, LimitsOf(rig));
+  ASSIGN_OR_RETURN(judged.normal, NormalizePlan(plan, judged.limits));
+  RETURN_IF_ERROR(CheckDevicesFor(judged.normal, rig));
+  judged.kind = *PlanKind(judged.normal);
+  judged.metered = ChoosesExposuresAtTheRig(judged.normal);
+  judged.frames =
+      static_cast<int64_t>(ExpandPlan(judged.normal, judged.limits, 0).size());
+  judged.promised =
+      ExpandPlan(WithDefaultExposures(judged.normal), judged.limits, 0);
+  return judged;
+}
+
+}  // namespace
+
 absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
                                                const hardware::Rig& rig,
                                                absl::string_view session,
                                                const v1::CapturePlan& plan,
                                                absl::string_view submitted_by,
                                                const DiskGuard* disk) {
-  // Limits come from the stage; without one, say so before judging the plan.
-  ASSIGN_OR_RETURN(RigLimits limits, LimitsOf(rig));
-  ASSIGN_OR_RETURN(v1::CapturePlan normal, NormalizePlan(plan, limits));
-  RETURN_IF_ERROR(CheckDevicesFor(normal, rig));
-  const size_t frames = ExpandPlan(normal, limits, 0).size();
-  const io::CaptureKind kind = *PlanKind(normal);
-  const bool metered = ChoosesExposuresAtTheRig(normal);
+  ASSIGN_OR_RETURN(const JudgedPlan judged, JudgePlan(rig, plan));
   if (disk != nullptr) {
-    // A metered plan's frames are known at the rig: until then the room is
-    // that of the default bracket (and the rest is checked at every frame).
     RETURN_IF_ERROR(disk->CheckRoomFor(
-        kind, static_cast<int64_t>(
-                  ExpandPlan(WithDefaultExposures(normal), limits, 0).size())));
+        judged.kind, static_cast<int64_t>(judged.promised.size())));
   }
+  const int64_t frames = judged.frames;
+  const std::string kind_name(io::CaptureKindName(judged.kind));
   return engine.Submit(
-      store::JobKind::kCapture, session, normal.SerializeAsString(),
-      static_cast<int64_t>(frames),
-      metered ? absl::StrCat("queued ", io::CaptureKindName(kind),
-                             " capture; its exposures are chosen by metering "
-                             "the scene at the rig")
-              : absl::StrCat("queued ", io::CaptureKindName(kind),
-                             " capture of ", frames, " frames"),
+      store::JobKind::kCapture, session, judged.normal.SerializeAsString(),
+      frames,
+      judged.metered
+          ? absl::StrCat("queued ", kind_name,
+                         " capture; its exposures are chosen by metering "
+                         "the scene at the rig")
+          : absl::StrCat("queued ", kind_name, " capture of ", frames,
+                         " frames"),
       submitted_by);
+}
+
+absl::StatusOr<CaptureEstimate> EstimateCapture(const hardware::Rig& rig,
+                                                const v1::CapturePlan& plan,
+                                                const DiskGuard& disk) {
+  ASSIGN_OR_RETURN(const JudgedPlan judged, JudgePlan(rig, plan));
+  CaptureEstimate estimate;
+  estimate.frames = static_cast<int64_t>(judged.promised.size());
+  estimate.duration_s = ExpectedSeconds(
+      judged.promised, SettingsOf(judged.normal), judged.limits);
+  ASSIGN_OR_RETURN(estimate.disk_bytes,
+                   disk.NeededBytes(judged.kind, estimate.frames));
+  estimate.exposures_chosen_at_rig = judged.metered;
+  return estimate;
 }
 
 }  // namespace hdrstereo::jobs

@@ -40,6 +40,20 @@ absl::StatusOr<store::JobRecord> SubmitCapture(JobEngine& engine,
                                                absl::string_view submitted_by,
                                                const DiskGuard* disk = nullptr);
 
+// What SubmitCapture would queue for `plan` (Jobs.EstimateCapture): the
+// plan judged as SubmitCapture judges it (the same errors), and, for a plan
+// whose exposures are chosen at the rig, the default bracket's frames (what
+// the disk guard promises room for until then).
+struct CaptureEstimate {
+  int64_t frames = 0;
+  double duration_s = 0;   // ExpectedSeconds
+  int64_t disk_bytes = 0;  // DiskGuard::NeededBytes
+  bool exposures_chosen_at_rig = false;
+};
+absl::StatusOr<CaptureEstimate> EstimateCapture(const hardware::Rig& rig,
+                                                const v1::CapturePlan& plan,
+                                                const DiskGuard& disk);
+
 // Writes the exact truth of a stereo pair taken at `left_mm` and
 // `left_mm + baseline_mm` into `dir` (simulation only).
 using TruthWriter = std::function<absl::Status(

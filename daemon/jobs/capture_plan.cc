@@ -2,6 +2,7 @@
 #include "daemon/jobs/capture_plan.h"
 
 #include <cmath>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -353,6 +354,33 @@ std::vector<FrameSpec> ExpandPlan(const v1::CapturePlan& plan,
       break;
   }
   return frames;
+}
+
+double ExpectedSeconds(const std::vector<FrameSpec>& frames,
+                       const BaseSettings& settings, const RigLimits& rig,
+                       const CaptureTiming& timing) {
+  double seconds = 0;
+  double at_mm = rig.home_position_mm;
+  // The pattern on the projector: its id and whether it is the inverse.
+  std::optional<std::pair<std::string, bool>> shown;
+  for (const FrameSpec& frame : frames) {
+    if (frame.stage_position_mm != at_mm) {
+      seconds +=
+          std::abs(frame.stage_position_mm - at_mm) / timing.stage_speed_mm_s +
+          settings.settle_s;
+      at_mm = frame.stage_position_mm;
+    }
+    if (frame.pattern.has_value()) {
+      std::pair<std::string, bool> pattern{frame.pattern->Id(),
+                                           frame.pattern->inverse};
+      if (pattern != shown) {
+        seconds += timing.pattern_change_s;
+        shown = std::move(pattern);
+      }
+    }
+    seconds += frame.exposure_s + timing.frame_overhead_s;
+  }
+  return seconds;
 }
 
 BaseSettings SettingsOf(const v1::CapturePlan& plan) {

@@ -92,6 +92,25 @@ void ToProto(const hdr::AutoBracketResult& chosen, v1::AutoBracketChoice* out);
 std::vector<FrameSpec> ExpandPlan(const v1::CapturePlan& plan,
                                   const RigLimits& rig, int64_t capture_id);
 
+// What a rig takes to capture, for telling people how long a plan lasts
+// (Jobs.EstimateCapture): a DSLR's readout and USB transfer of one frame, a
+// lead-screw stage's speed, a projector's pattern change.
+struct CaptureTiming {
+  double frame_overhead_s = 1.0;  // per frame, besides its exposure
+  double stage_speed_mm_s = 20;
+  double pattern_change_s = 0.1;  // each frame whose pattern differs
+};
+
+// About how long `frames` (ExpandPlan) take with `settings` (SettingsOf):
+// each frame's exposure and overhead, each stage move (from the home
+// position to the first frame's, then between frames) at the stage's speed
+// plus the plan's settle time, each pattern change. Not counted: the
+// operator a calibration waits for, metering and projector probes,
+// retaken frames, suspensions.
+double ExpectedSeconds(const std::vector<FrameSpec>& frames,
+                       const BaseSettings& settings, const RigLimits& rig,
+                       const CaptureTiming& timing = {});
+
 // What the plan captures; INVALID_ARGUMENT for a plan without one.
 absl::StatusOr<io::CaptureKind> PlanKind(const v1::CapturePlan& plan);
 

@@ -154,6 +154,28 @@ grpc::Status JobsService::SubmitCapture(grpc::ServerContext* context,
       response);
 }
 
+grpc::Status JobsService::EstimateCapture(
+    grpc::ServerContext* context, const v1::EstimateCaptureRequest* request,
+    v1::CaptureEstimate* response) {
+  if (grpc::Status s = calls_.Admit(*context); !s.ok()) return s;
+  // A form estimates before its session is chosen.
+  if (!request->session().empty()) {
+    if (absl::Status s = store::ValidateName(request->session(), "session");
+        !s.ok()) {
+      return ToGrpcStatus(s);
+    }
+  }
+  if (!request->has_plan()) return InvalidArgument("plan is required");
+  absl::StatusOr<jobs::CaptureEstimate> estimate =
+      jobs::EstimateCapture(rig_, request->plan(), disk_);
+  if (!estimate.ok()) return ToGrpcStatus(estimate.status());
+  response->set_frames(estimate->frames);
+  response->set_duration_s(estimate->duration_s);
+  response->set_disk_bytes(estimate->disk_bytes);
+  response->set_exposures_chosen_at_rig(estimate->exposures_chosen_at_rig);
+  return grpc::Status::OK;
+}
+
 grpc::Status JobsService::SubmitProcessing(
     grpc::ServerContext* context, const v1::SubmitProcessingRequest* request,
     v1::Job* response) {

@@ -21,6 +21,9 @@ class JobsService final : public v1::Jobs::Service {
   grpc::Status SubmitCapture(grpc::ServerContext* context,
                              const v1::SubmitCaptureRequest* request,
                              v1::Job* response) override;
+  grpc::Status EstimateCapture(grpc::ServerContext* context,
+                               const v1::EstimateCaptureRequest* request,
+                               v1::CaptureEstimate* response) override;
   grpc::Status SubmitProcessing(grpc::ServerContext* context,
                                 const v1::SubmitProcessingRequest* request,
                                 v1::Job* response) override;

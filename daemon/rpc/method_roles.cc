@@ -67,6 +67,9 @@ const std::map<std::string, MethodRule, std::less<>>& MethodRules() {
           {"/hdrstereo.v1.Jobs/List", kRead},
           {"/hdrstereo.v1.Jobs/Watch", kRead},
           {"/hdrstereo.v1.Jobs/SubmitCapture", kMoveRig},
+          // Judges a plan and reads the disk guard's numbers (a viewer sees
+          // the free space in GetInfo); queues nothing, moves nothing.
+          {"/hdrstereo.v1.Jobs/EstimateCapture", kRead},
           {"/hdrstereo.v1.Jobs/SubmitProcessing", kOperate},
           {"/hdrstereo.v1.Jobs/SubmitProcessingBatch", kOperate},
           {"/hdrstereo.v1.Jobs/Pause", kOperate},

@@ -17,6 +17,7 @@
 #include "absl/strings/str_cat.h"
 #include "hardware/sim/scene.h"
 #include "hardware/sim/sim_world.h"
+#include "hdrstereo/v1/jobs.grpc.pb.h"
 #include "hdrstereo/v1/sessions.grpc.pb.h"
 #include "tests/integration/capture_fixture.h"
 
@@ -137,6 +138,74 @@ TEST_F(CaptureTest, BadPlansAreRefusedAndNothingIsQueued) {
   CommandResult unknown = Cli({"capture", "stereo", "nope"});
   EXPECT_EQ(unknown.exit_code, 4);
   EXPECT_THAT(unknown.err, HasSubstr("no session named \"nope\""));
+  EXPECT_EQ(Sql("SELECT count(*) FROM jobs"), "0");
+}
+
+// Jobs.EstimateCapture: a known plan's frames, duration and disk need,
+// counted by hand with the daemon's frame guess (no capture on disk yet),
+// and a bad plan refused in SubmitCapture's own words; nothing is queued.
+TEST_F(CaptureTest, EstimateCaptureCountsAPlanAndRefusesItAsSubmitDoes) {
+  scene_path_ = WriteScene("lab-lamp", SmallLabLamp());
+  StartDaemon({"--sim-scene", scene_path_.string(), "--sim-time-scale", "0",
+               "--frame-bytes-guess-mb", "1", "--disk-margin-mb", "2"});
+  ASSERT_EQ(Cli({"session", "create", "s"}).exit_code, 0);
+  auto jobs = v1::Jobs::NewStub(
+      grpc::CreateChannel(address_, grpc::InsecureChannelCredentials()));
+  v1::EstimateCaptureRequest request;
+  request.set_session("s");
+  v1::BracketedStereoPlan* plan =
+      request.mutable_plan()->mutable_bracketed_stereo();
+  plan->add_exposures_s(0.5);
+  plan->add_exposures_s(0.25);
+  plan->set_baseline_mm(50);
+  plan->set_settle_s(1);
+  {
+    grpc::ClientContext context;
+    v1::CaptureEstimate estimate;
+    const grpc::Status s = jobs->EstimateCapture(&context, request, &estimate);
+    ASSERT_TRUE(s.ok()) << s.error_message();
+    // An ambient frame and 2 exposures at each of 2 views.
+    EXPECT_EQ(estimate.frames(), 5);
+    // 5 frames of the 1 MiB guess, as much again for processing, and the
+    // 2 MiB margin.
+    EXPECT_EQ(estimate.disk_bytes(), int64_t{5 * 2 + 2} << 20);
+    // 1.75 s of exposure, 5 x 1 s of readout and transfer, 50 mm at
+    // 20 mm/s and 1 s of settling (ExpectedSeconds).
+    EXPECT_DOUBLE_EQ(estimate.duration_s(), 10.25);
+    EXPECT_FALSE(estimate.exposures_chosen_at_rig());
+  }
+  {
+    // Automatic bracketing: the default bracket's 1 + 8 x 2 frames.
+    v1::EstimateCaptureRequest metered = request;
+    metered.set_session("");  // none chosen yet
+    metered.mutable_plan()->mutable_bracketed_stereo()->clear_exposures_s();
+    metered.mutable_plan()->mutable_bracketed_stereo()->mutable_auto_bracket();
+    grpc::ClientContext context;
+    v1::CaptureEstimate estimate;
+    const grpc::Status s = jobs->EstimateCapture(&context, metered, &estimate);
+    ASSERT_TRUE(s.ok()) << s.error_message();
+    EXPECT_EQ(estimate.frames(), 17);
+    EXPECT_EQ(estimate.disk_bytes(), int64_t{17 * 2 + 2} << 20);
+    EXPECT_TRUE(estimate.exposures_chosen_at_rig());
+  }
+  plan->add_exposures_s(0);
+  grpc::ClientContext estimate_context;
+  v1::CaptureEstimate estimate;
+  const grpc::Status refused =
+      jobs->EstimateCapture(&estimate_context, request, &estimate);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(refused.error_message(),
+            "bracketed_stereo.exposures_s[2] is 0 s; exposures must be in "
+            "(0, 3600] s");
+  v1::SubmitCaptureRequest submit;
+  submit.set_session("s");
+  *submit.mutable_plan() = request.plan();
+  grpc::ClientContext submit_context;
+  v1::Job job;
+  const grpc::Status also_refused =
+      jobs->SubmitCapture(&submit_context, submit, &job);
+  EXPECT_EQ(also_refused.error_code(), refused.error_code());
+  EXPECT_EQ(also_refused.error_message(), refused.error_message());
   EXPECT_EQ(Sql("SELECT count(*) FROM jobs"), "0");
 }
 

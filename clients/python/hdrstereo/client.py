@@ -741,4 +741,6 @@ RAW_ONLY: frozenset[str] = frozenset({
     "Schedules.SetEnabled", "Schedules.ListRuns",
     # A recorded frame's bytes (what the HTTP edge serves frames from).
     "Sessions.DownloadFrame",
+    # The console's capture form asks while the operator types.
+    "Jobs.EstimateCapture",
 })

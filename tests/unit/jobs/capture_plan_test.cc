@@ -158,6 +158,44 @@ TEST(CapturePlanTest, ARecordedAutoBracketReadsBackOrNamesItsOwner) {
               StatusIs(absl::StatusCode::kDataLoss, HasSubstr("capture 3: ")));
 }
 
+// Hand-counted: 1 ambient frame (the bracket's middle, 0.25 s) and 2
+// exposures at each of 2 views: 1.75 s of exposure, 5 s of overhead, one
+// move of 50 mm at 20 mm/s (2.5 s) and its 1 s settle.
+TEST(CapturePlanTest, ExpectedSecondsCountsExposuresOverheadAndMoves) {
+  v1::CapturePlan plan;
+  v1::BracketedStereoPlan* p = plan.mutable_bracketed_stereo();
+  p->add_exposures_s(0.5);
+  p->add_exposures_s(0.25);
+  p->set_baseline_mm(50);
+  p->set_settle_s(1);
+  const RigLimits rig;
+  ASSERT_OK_AND_ASSIGN(const v1::CapturePlan normal, NormalizePlan(plan, rig));
+  const std::vector<FrameSpec> frames = ExpandPlan(normal, rig, 0);
+  ASSERT_EQ(frames.size(), 5u);
+  EXPECT_DOUBLE_EQ(ExpectedSeconds(frames, SettingsOf(normal), rig), 10.25);
+  // Without the ambient frame, and with a slower stage: 1.5 + 4 + 5 + 1.
+  p->set_skip_ambient(true);
+  ASSERT_OK_AND_ASSIGN(const v1::CapturePlan no_ambient,
+                       NormalizePlan(plan, rig));
+  EXPECT_DOUBLE_EQ(
+      ExpectedSeconds(ExpandPlan(no_ambient, rig, 0), SettingsOf(no_ambient),
+                      rig, {.stage_speed_mm_s = 10}),
+      11.5);
+}
+
+// Every one of the 42 patterns of a 1024x768 projector is a change.
+TEST(CapturePlanTest, ExpectedSecondsCountsEachPatternChange) {
+  v1::CapturePlan plan;
+  plan.mutable_structured_light()->add_exposures_s(0.1);
+  plan.mutable_structured_light()->set_views(1);
+  const RigLimits rig;
+  ASSERT_OK_AND_ASSIGN(const v1::CapturePlan normal, NormalizePlan(plan, rig));
+  const std::vector<FrameSpec> frames = ExpandPlan(normal, rig, 0);
+  ASSERT_EQ(frames.size(), 42u);
+  // 42 x (0.1 s exposure + 1 s overhead + 0.1 s pattern change).
+  EXPECT_NEAR(ExpectedSeconds(frames, SettingsOf(normal), rig), 50.4, 1e-9);
+}
+
 TEST(CapturePlanTest, BadPlansNameTheField) {
   struct Case {
     std::function<void(v1::CapturePlan&)> edit;
