@@ -13,6 +13,7 @@ import {
   artifactView, browserShowsImage, checkExposure, companionImages, coverageImages,
   extensionOf, formatExposure, formatPercent, formatPx, groundTruthOf, groupArtifacts, hex,
 } from "../results";
+import { atLeast, Role, useMe } from "../identity";
 import { href } from "../router";
 import { Badge, ErrorBox, formatBytes, formatTime, Section, usePoll } from "../ui";
 import { DisparityViewer } from "../viewers/disparity_viewer";
@@ -161,8 +162,9 @@ function FrameCard({ session, frame }: { session: string; frame: Frame }) {
         <div>
           sha256 <code title={frame.sha256}>{frame.sha256.slice(0, 12)}…</code>{" "}
           {hash === undefined && (
-            <button type="button" class="secondary small" onClick={verify}
-                    aria-label={`Check frame ${frame.id}'s file against its sha256`}>Check file</button>
+            <button type="button" class="secondary small" onClick={verify}>
+              Check file<span class="visually-hidden"> of frame {String(frame.id)} against its sha256</span>
+            </button>
           )}
           {hash?.state === "checking" && <span role="status">checking…</span>}
           {hash?.state === "ok" && <Badge tone="ok">file matches</Badge>}
@@ -318,9 +320,10 @@ function ResultLinks({ session, artifacts }: { session: string; artifacts: Artif
         {report && (
           <li>
             <a href={fileUrl(session, "artifacts", report.id)} target="_blank" rel="noopener"
-               data-testid="report-link">HTML report (opens in a new tab)</a>{" "}
-            <span class="help">served as a file: its images are separate artifacts under
-              “report” below.</span>
+               data-testid="report-link">HTML report (opens in a new tab)</a>{" · "}
+            <a href={fileUrl(session, "artifacts", report.id)} download="report.html">download it</a>{" "}
+            <span class="help">The edge serves it sandboxed, as one file: its images are the
+              artifacts under “report” below.</span>
           </li>
         )}
       </ul>
@@ -351,11 +354,51 @@ function CoverageImages({ session, artifacts }: { session: string; artifacts: Ar
 
 // --- One session, one artifact --------------------------------------------
 
+// Operators (and admins) start processing here; a viewer does not see it.
+function ProcessControl({ session }: { session: string }) {
+  const me = useMe();
+  const [force, setForce] = useState(false);
+  const [busy, setBusy] = useState(false);
+  const [job, setJob] = useState<bigint | undefined>(undefined);
+  const [error, setError] = useState<string | undefined>(undefined);
+  if (!atLeast(me, Role.OPERATOR)) return null;
+  const submit = async () => {
+    setBusy(true);
+    setError(undefined);
+    setJob(undefined);
+    try {
+      const j = await api.jobs.submitProcessing({ session, force });
+      setJob(j.id);
+    } catch (e) {
+      setError(errorMessage(e));
+    } finally {
+      setBusy(false);
+    }
+  };
+  return (
+    <div class="process-control">
+      <div class="row">
+        <button type="button" onClick={submit} disabled={busy}>Process this session</button>
+        <label class="choice">
+          <input type="checkbox" checked={force} onChange={(e) => setForce(e.currentTarget.checked)} />
+          recompute every step, also those whose inputs did not change
+        </label>
+      </div>
+      {job !== undefined && (
+        <p role="status">Processing job {String(job)} submitted:{" "}
+          <a href={href("jobs", job)}>follow it on the Jobs page</a>; reload this page when it is done.</p>
+      )}
+      <ErrorBox error={error} />
+    </div>
+  );
+}
+
 function SessionView({ name }: { name: string }) {
   const data = usePoll(async () => {
-    const [session, frames, artifacts, metrics] = await Promise.all([
-      api.sessions.get({ name }), allFrames(name), allArtifacts(name),
-      api.sessions.listMetrics({ session: name }),
+    // The session first: a name that is not there is one refusal, not four.
+    const session = await api.sessions.get({ name });
+    const [frames, artifacts, metrics] = await Promise.all([
+      allFrames(name), allArtifacts(name), api.sessions.listMetrics({ session: name }),
     ]);
     return { session, frames, artifacts, metrics: metrics.metrics };
   }, 0, [name]);
@@ -377,7 +420,10 @@ function SessionView({ name }: { name: string }) {
               <dt>Frames</dt><dd>{v.session.frameCount}</dd>
               <dt>Artifacts</dt><dd>{v.session.artifactCount}</dd>
             </dl>
-            <button type="button" class="secondary" onClick={data.reload}>Reload</button>
+            <div class="row session-actions">
+              <button type="button" class="secondary" onClick={data.reload}>Reload</button>
+            </div>
+            <ProcessControl session={name} />
           </Section>
           <ResultLinks session={name} artifacts={v.artifacts} />
           <Section title="Metrics">
