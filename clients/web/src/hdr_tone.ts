@@ -37,31 +37,46 @@ export function autoExposureEv(data: Float32Array, channels: 1 | 3): number {
   return Math.round(-Math.log2(p99) * 10) / 10;
 }
 
-// Fills RGBA bytes (ImageData's layout) from radiance at exposure ev
-// through a 4096-entry table of the curve, so a redraw is a multiply and a
-// lookup per channel.
-export function toneInto(data: Float32Array, channels: 1 | 3, ev: number,
-                         out: Uint8ClampedArray): void {
-  const n = 4096;
-  const table = new Uint8Array(n + 1);
-  for (let i = 0; i <= n; ++i) table[i] = Math.round(255 * srgbEncode(i / n));
-  const k = Math.pow(2, ev) * n;
+// The sRGB curve as 4097 8-bit codes over [0, 1]: the CPU path's lookup.
+const kCurveSteps = 4096;
+const kCurve: Uint8Array = (() => {
+  const table = new Uint8Array(kCurveSteps + 1);
+  for (let i = 0; i <= kCurveSteps; ++i) table[i] = Math.round(255 * srgbEncode(i / kCurveSteps));
+  return table;
+})();
+
+export interface Size {
+  width: number;
+  height: number;
+}
+
+// Fills RGBA bytes (ImageData's layout) of `to` from a radiance map of
+// `from` (the map's pixel under each output pixel, as the shader does) at
+// exposure ev, through the table, so a pixel costs a multiply and a lookup
+// per channel.
+export function toneInto(data: Float32Array, channels: 1 | 3, from: Size, ev: number,
+                         out: Uint8ClampedArray, to: Size = from): void {
+  const k = Math.pow(2, ev) * kCurveSteps;
   const code = (v: number) => {
     const t = v * k;
-    return t > 0 ? table[t >= n ? n : Math.round(t)] : 0;
+    return t > 0 ? kCurve[t >= kCurveSteps ? kCurveSteps : Math.round(t)] : 0;
   };
-  const pixels = data.length / channels;
-  for (let p = 0; p < pixels; ++p) {
-    const i = p * channels;
-    const o = 4 * p;
-    if (channels === 3) {
-      out[o] = code(data[i]);
-      out[o + 1] = code(data[i + 1]);
-      out[o + 2] = code(data[i + 2]);
-    } else {
-      out[o] = out[o + 1] = out[o + 2] = code(data[i]);
+  const sx = from.width / to.width;
+  const sy = from.height / to.height;
+  for (let y = 0; y < to.height; ++y) {
+    const row = Math.min(from.height - 1, Math.floor((y + 0.5) * sy)) * from.width;
+    for (let x = 0; x < to.width; ++x) {
+      const i = (row + Math.min(from.width - 1, Math.floor((x + 0.5) * sx))) * channels;
+      const o = 4 * (y * to.width + x);
+      if (channels === 3) {
+        out[o] = code(data[i]);
+        out[o + 1] = code(data[i + 1]);
+        out[o + 2] = code(data[i + 2]);
+      } else {
+        out[o] = out[o + 1] = out[o + 2] = code(data[i]);
+      }
+      out[o + 3] = 255;
     }
-    out[o + 3] = 255;
   }
 }
 
@@ -88,6 +103,7 @@ vec3 srgb(vec3 c) {
 }
 void main() {
   ivec2 size = textureSize(radiance, 0);
+  // gl_FragCoord is a pixel centre (x + 0.5): the nearest map pixel.
   ivec2 p = min(ivec2(floor(gl_FragCoord.xy * scale)), size - 1);
   vec3 v = texelFetch(radiance, ivec2(p.x, size.y - 1 - p.y), 0).rgb;
   color = vec4(srgb(v * gain), 1.0);

@@ -23,18 +23,27 @@ test("exposure doubles the radiance per EV before the curve", () => {
 });
 
 test("toneInto follows toneByte within one code (its table has 4096 steps)", () => {
-  const data = new Float32Array([0.01, 0.2, 0.7, 0.0001, 3, -1]);
+  const values = [0.01, 0.2, 0.7, 0.0001, 3, -1];
   const out = new Uint8ClampedArray(8);
-  toneInto(data, 3, 0.5, out);
-  [0.01, 0.2, 0.7, 0.0001, 3, -1].forEach((v, i) => {
+  toneInto(new Float32Array(values), 3, { width: 2, height: 1 }, 0.5, out);
+  values.forEach((v, i) => {
     const o = i < 3 ? i : 4 + (i - 3);
     assert.ok(Math.abs(out[o] - toneByte(v, 0.5)) <= 1, `value ${v}: ${out[o]} vs ${toneByte(v, 0.5)}`);
   });
   assert.equal(out[3], 255);
   assert.equal(out[7], 255);
   const grey = new Uint8ClampedArray(4);
-  toneInto(new Float32Array([0.25]), 1, 2, grey);
+  toneInto(new Float32Array([0.25]), 1, { width: 1, height: 1 }, 2, grey);
   assert.deepEqual([...grey], [255, 255, 255, 255]);
+});
+
+test("toneInto draws a smaller canvas from the map's pixel under each", () => {
+  // A 4x2 grey map (rows from the top) drawn at 2x1: pixel centres 0.5 and
+  // 1.5 land on map x 1 and 3 of row 1.
+  const map = new Float32Array([0, 0.01, 0, 0.02, 0, 0.25, 0, 1]);
+  const out = new Uint8ClampedArray(8);
+  toneInto(map, 1, { width: 4, height: 2 }, 0, out, { width: 2, height: 1 });
+  assert.deepEqual([...out], [137, 137, 137, 255, 255, 255, 255, 255]);
 });
 
 test("auto exposure puts the 99th percentile of luminance at white", () => {

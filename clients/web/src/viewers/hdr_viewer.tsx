@@ -99,12 +99,17 @@ function webglRenderer(canvas: HTMLCanvasElement, pfm: Pfm): Renderer | null {
 function canvasRenderer(canvas: HTMLCanvasElement, pfm: Pfm): Renderer {
   const ctx = canvas.getContext("2d");
   if (!ctx) throw new Error("this browser gives neither a WebGL2 nor a 2D canvas");
-  const image = ctx.createImageData(pfm.width, pfm.height);
+  let image = ctx.createImageData(pfm.width, pfm.height);
   return {
     kind: "2D canvas (no WebGL2 here): the curve runs on the CPU",
     draw: (ev) => {
-      toneInto(pfm.data, pfm.channels, ev, image.data);
+      toneInto(pfm.data, pfm.channels, pfm, ev, image.data, image);
       ctx.putImageData(image, 0, 0);
+    },
+    resize: (width, height) => {
+      canvas.width = width;
+      canvas.height = height;
+      image = ctx.createImageData(width, height);
     },
     dispose: () => {},
   };
@@ -167,8 +172,9 @@ export function HdrViewer({ url, label }: { url: string; label: string }) {
     maxRef.current = 0;
     countRef.current = 0;
     redraw(start);
-    // WebGL draws at the size the map is shown (the screen's pixels, at
-    // most the map's): each slider step then shades only what is seen.
+    // Both renderers draw at the size the map is shown (the screen's
+    // pixels, at most the map's): each slider step then shades only what
+    // is seen.
     const fit = renderer.resize;
     const observer = fit && typeof ResizeObserver !== "undefined"
       ? new ResizeObserver(() => {
@@ -226,7 +232,7 @@ export function HdrViewer({ url, label }: { url: string; label: string }) {
         <p class="help">
           {pfm.width}×{pfm.height}, {pfm.channels === 3 ? "RGB" : "grey"} float
           ({formatBytes(bytes ?? 0)}, {pfm.littleEndian ? "little" : "big"}-endian PFM).
-          Linear radiance × 2<sup>EV</sup>, clipped at white, sRGB curve. Drawn by {kind}{kind.startsWith("WebGL2") ? ", at the size it is shown (the screen's pixels, at most the map's)" : ""}.
+          Linear radiance × 2<sup>EV</sup>, clipped at white, sRGB curve. Drawn by {kind}, at the size it is shown (the screen's pixels, at most the map's).
           Auto puts the 99th percentile of luminance at white.
         </p>
       )}
