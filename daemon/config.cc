@@ -401,6 +401,12 @@ absl::StatusOr<ParsedArgs> Parse(const std::function<void(CLI::App&)>& parse) {
                  "The largest HTTP request body, in KiB")
       ->check(CLI::Range(int64_t{1}, int64_t{64} << 10))
       ->capture_default_str();
+  app.add_option("--web-root", config.web_root,
+                 "The operator's console the HTTP edge serves at /: the "
+                 "folder of its built files, read at startup (it must "
+                 "exist when given) [default: <folder of hdrstereod>/../"
+                 "share/hdrstereo/web, where the build and deploy/install.sh "
+                 "put it]");
   app.add_option("--webhook-max-attempts", config.webhook_max_attempts,
                  "Attempts at each webhook event before giving up")
       ->check(CLI::Range(1, 100))

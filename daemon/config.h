@@ -80,6 +80,11 @@ struct Config {
   // HTTP connections served at once, and the largest request body.
   int http_max_connections = 256;
   int64_t http_max_body_kb = 4096;
+  // The operator's console the HTTP edge serves at /: the folder of its
+  // built files (daemon/http/console_files.h). Empty = <hdrstereod's
+  // folder>/../share/hdrstereo/web (installed: /usr/local/share/...; the
+  // build tree: build/share/...), served when it exists.
+  std::filesystem::path web_root;
   // Webhook delivery (daemon/notify): attempts per event, the delay before
   // the first retry (doubling, at most 10 min), one request's time limit.
   int webhook_max_attempts = 8;

@@ -116,6 +116,9 @@ http::HttpEdgeOptions HttpOptionsFor(const Config& config) {
   options.sessions.lifetime = absl::Hours(config.http_session_lifetime_hours);
   options.max_connections = static_cast<size_t>(config.http_max_connections);
   options.max_body_bytes = static_cast<size_t>(config.http_max_body_kb) << 10;
+  options.web_root_named = !config.web_root.empty();
+  options.web_root =
+      options.web_root_named ? config.web_root : http::DefaultWebRoot();
   return options;
 }
 
@@ -321,8 +324,10 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const Config& config) {
     for (const std::string& address : server->http_->addresses()) {
       ready.push_back(absl::StrCat(scheme, address));
     }
-    spdlog::info("serving HTTP on {} (every request needs credentials)",
-                 absl::StrJoin(server->http_->addresses(), ", "));
+    spdlog::info(
+        "serving HTTP on {} (the console at /; every other request needs "
+        "credentials)",
+        absl::StrJoin(server->http_->addresses(), ", "));
   }
   if (!config.ready_file.empty()) {
     // The gRPC addresses, then the HTTP edge's base URLs.

@@ -209,6 +209,9 @@ class HttpEdge::Impl {
         throttle_(options.sign_in),
         io_(options.threads) {}
 
+  // Reads the console's files (options_.web_root) and says in the log
+  // where it looked and what it serves.
+  absl::Status LoadConsole();
   absl::Status Listen(const rpc::TlsMaterial* tls);
   void Run();
   void Stop();
@@ -236,6 +239,7 @@ class HttpEdge::Impl {
   RpcBridge bridge_;
   BrowserSessions sessions_;
   SignInThrottle throttle_;
+  ConsoleFiles console_;  // read-only once serving
   std::atomic<size_t> connections_{0};
   std::atomic<size_t> refusing_{0};
   std::vector<std::string> addresses_;
@@ -364,6 +368,15 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
     // body never read (nor buffered): a wrong Host, no credentials.
     const Request& head = parser_->get();
     const std::string target(head.target());
+    if (edge_.console_.Serves(
+            absl::string_view(target).substr(0, target.find('?')))) {
+      // The console's files need no credentials (they hold no secret; the
+      // calls the page makes do) and take no body: one sent is not read.
+      body_unread_ = !parser_->is_done();
+      request_ = parser_->release();
+      parser_.reset();
+      return Dispatch();
+    }
     const bool sign_in = target == "/auth/sign-in";
     if (sign_in) parser_->body_limit(kMaxSignInBodyBytes);
     if (!CheckHost(Sv(head[bhttp::field::host]), info_.served_names).ok() ||
@@ -445,6 +458,11 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
       edge_.Audit(rpc::Principal(), peer_, "host", host);
       return Send(ErrorResponse(version, host), true);
     }
+    if (std::optional<ConsoleAnswer> answer =
+            edge_.console_.Answer(Sv(request_.method_string()), path,
+                                  Sv(request_[bhttp::field::if_none_match]))) {
+      return ServeConsole(*answer);
+    }
     const bhttp::verb verb = request_.method();
     if (path == "/auth/sign-in" || path == "/auth/sign-out") {
       if (verb != bhttp::verb::post) return MethodNotAllowed("POST");
@@ -463,6 +481,40 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
     if (verb != bhttp::verb::post) return MethodNotAllowed("POST");
     if (!method.ok()) return Send(ErrorResponse(version, method.status()));
     Rpc(*method);
+  }
+
+  void ServeConsole(const ConsoleAnswer& answer) {
+    if (answer.status == 405) return MethodNotAllowed("GET, HEAD");
+    StringResponse response(static_cast<bhttp::status>(answer.status),
+                            request_.version());
+    // The edge's own CSP: the page's script and style sheet are files of
+    // this origin, and it has no inline script or style.
+    AddSecurityHeaders(response.base());
+    if (answer.file == nullptr) {
+      // Not installed: say so, and do not let a browser keep the answer.
+      response.set(bhttp::field::content_type, "text/plain; charset=utf-8");
+      response.set(bhttp::field::cache_control, "no-store");
+      response.body() = answer.message;
+      response.prepare_payload();
+      return Send(std::move(response));
+    }
+    // Kept by browsers, but asked again each time (a daemon updated in
+    // place serves a new console at once): mostly a 304.
+    response.set(bhttp::field::cache_control, "no-cache");
+    response.set(bhttp::field::etag, answer.file->etag);
+    if (answer.status == 304) {
+      response.prepare_payload();
+      return Send(std::move(response));
+    }
+    response.set(bhttp::field::content_type, answer.file->content_type);
+    if (head_) {
+      // HEAD: the length GET would send, no copy of the body.
+      response.content_length(answer.file->body.size());
+    } else {
+      response.body() = answer.file->body;
+      response.prepare_payload();
+    }
+    Send(std::move(response));
   }
 
   void MethodNotAllowed(const char* allowed) {
@@ -1220,6 +1272,44 @@ void HttpEdge::Impl::Audit(const rpc::Principal& principal,
   services_.audit->Record(std::move(row));
 }
 
+absl::Status HttpEdge::Impl::LoadConsole() {
+  const std::filesystem::path& dir = options_.web_root;
+  if (dir.empty()) {
+    spdlog::warn(
+        "HTTP edge: no operator's console (the folder of hdrstereod is "
+        "unknown; give --web-root): GET / answers 404");
+    return absl::OkStatus();
+  }
+  absl::StatusOr<ConsoleFiles> console =
+      ConsoleFiles::Load(dir, options_.console_limits);
+  if (!console.ok()) return console.status();
+  if (!console->found() && options_.web_root_named) {
+    return absl::NotFoundError(absl::StrCat(
+        "--web-root ", dir.string(),
+        ": no such directory (it should hold the built console: index.html, "
+        "console.js, console.css)"));
+  }
+  console_ = *std::move(console);
+  for (const std::string& skipped : console_.skipped()) {
+    spdlog::warn("HTTP edge: not serving {}/{}", dir.string(), skipped);
+  }
+  if (!console_.installed()) {
+    spdlog::warn(
+        "HTTP edge: no operator's console in {} ({}): GET / answers 404; "
+        "build it (the web_console target, which needs Node.js 20 and npm) "
+        "or give --web-root",
+        dir.string(),
+        console_.found() ? "no index.html there" : "no such directory");
+    return absl::OkStatus();
+  }
+  spdlog::info(
+      "HTTP edge: serving the operator's console from {} ({} files, "
+      "{} KiB)",
+      dir.string(), console_.files().size(),
+      (console_.total_bytes() + 1023) / 1024);
+  return absl::OkStatus();
+}
+
 void HttpEdge::Impl::Track(const std::shared_ptr<StreamCall>& call) {
   absl::MutexLock lock(&streams_mutex_);
   // Forget the calls that have ended.
@@ -1379,6 +1469,7 @@ absl::StatusOr<std::unique_ptr<HttpEdge>> HttpEdge::Start(
     const HttpEdgeOptions& options, const rpc::TlsMaterial* tls,
     HttpEdgeServices services) {
   auto impl = std::make_unique<Impl>(options, std::move(services));
+  RETURN_IF_ERROR(impl->LoadConsole());
   RETURN_IF_ERROR(impl->Listen(tls));
   impl->Run();
   return std::unique_ptr<HttpEdge>(new HttpEdge(std::move(impl)));

@@ -8,6 +8,9 @@
 // guard every path runs decides, audits and applies the rig lock.
 //
 // Routes:
+//   GET|HEAD /  and  /<file>                 the operator's console
+//                                            (console_files.h): no
+//                                            credentials, ETag, no-cache
 //   POST /hdrstereo.v1.<Service>/<Method>    Connect unary or server stream
 //                                            (or, for streams with Accept:
 //                                            text/event-stream, SSE)
@@ -16,8 +19,9 @@
 //   GET|HEAD /files/sessions/<session>/artifacts/<id>   Range, ETag (sha256)
 //   GET|HEAD /files/sessions/<session>/frames/<id>
 //
-// Who calls: every request needs credentials, also on loopback (any page a
-// browser shows can send requests there): a session cookie, Authorization:
+// Who calls: every request but the console's files needs credentials, also
+// on loopback (any page a browser shows can send requests there): a
+// session cookie, Authorization:
 // Bearer <API key>, or (TLS) a client certificate of the lab CA. Host must
 // be a served name; mutations need a JSON or Connect content type (never a
 // form's) and an Origin that is the edge's own whenever they carry one, and
@@ -28,6 +32,7 @@
 #include <grpcpp/channel.h>
 
 #include <cstddef>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -35,6 +40,7 @@
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
 #include "daemon/http/browser_sessions.h"
+#include "daemon/http/console_files.h"
 #include "daemon/http/sign_in_throttle.h"
 #include "daemon/rpc/api_keys.h"
 #include "daemon/rpc/audit_log.h"
@@ -51,6 +57,12 @@ struct HttpEdgeOptions {
   // localhost / 127.0.0.1 / [::1] for loopback ones): the Host header must
   // name one.
   std::vector<std::string> hosts;
+  // The operator's console: the directory of its built files, read once at
+  // Start. One that does not exist is served as "not installed" (a 404 at
+  // /) unless `web_root_named` (--web-root was given): then Start fails.
+  std::filesystem::path web_root;
+  bool web_root_named = false;
+  ConsoleLimits console_limits;
   BrowserSessionOptions sessions;
   SignInThrottleOptions sign_in;
   // Connections at once; beyond it a connection gets 503 and is closed.
@@ -82,9 +94,11 @@ struct HttpEdgeServices {
 
 class HttpEdge {
  public:
-  // Binds every address (port 0: a free one) and starts serving;
-  // UNAVAILABLE naming an address that cannot be bound, INVALID_ARGUMENT
-  // for one that is not loopback while `tls` is null.
+  // Loads the console, binds every address (port 0: a free one) and starts
+  // serving; UNAVAILABLE naming an address that cannot be bound,
+  // INVALID_ARGUMENT for one that is not loopback while `tls` is null, the
+  // errors of ConsoleFiles::Load, and NOT_FOUND for a named web root that
+  // does not exist.
   static absl::StatusOr<std::unique_ptr<HttpEdge>> Start(
       const HttpEdgeOptions& options, const rpc::TlsMaterial* tls,
       HttpEdgeServices services);

@@ -261,6 +261,26 @@ TEST(DeployTest, CameraReconnectBackoffFromFlagOrConfig) {
               HasSubstr("camera-reconnect-max-s"));
 }
 
+// The console's folder: unset by default (the daemon then looks beside its
+// executable), from the flag or the config's web-root, the flag winning.
+TEST(DeployTest, WebRootFromFlagOrConfig) {
+  ASSERT_OK_AND_ASSIGN(daemon::ParsedArgs defaults, Parse({}));
+  EXPECT_EQ(std::get<daemon::Config>(defaults).web_root, "");
+  ASSERT_OK_AND_ASSIGN(daemon::ParsedArgs flag,
+                       Parse({"--web-root", "/opt/hdrstereo/web"}));
+  EXPECT_EQ(std::get<daemon::Config>(flag).web_root, "/opt/hdrstereo/web");
+  ASSERT_OK_AND_ASSIGN(
+      daemon::ParsedArgs text,
+      daemon::ParseConfigText("web-root = \"/srv/console\"\n"));
+  EXPECT_EQ(std::get<daemon::Config>(text).web_root, "/srv/console");
+  testing::TempDir dir;
+  const std::string path = (dir / "web.toml").string();
+  std::ofstream(path) << "web-root = \"/srv/console\"\n";
+  ASSERT_OK_AND_ASSIGN(daemon::ParsedArgs both,
+                       Parse({"--config", path, "--web-root", "/opt/web"}));
+  EXPECT_EQ(std::get<daemon::Config>(both).web_root, "/opt/web");
+}
+
 TEST(DeployTest, UnknownConfigKeyIsRefusedByName) {
   testing::TempDir dir;
   const std::string path = (dir / "bad.toml").string();
