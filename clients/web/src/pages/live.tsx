@@ -31,7 +31,7 @@ import { atLeast, Role, useMe } from "../identity";
 import { captureJobIn, retryDelayMs } from "../preview_retry";
 import { RateMeter } from "../rate";
 import { href } from "../router";
-import { Badge, ErrorBox, Section, usePoll } from "../ui";
+import { Badge, ErrorBox, Section } from "../ui";
 import { arrowStep, imagePoint, moveRegion, type Region, regionAround } from "../zoom";
 
 // The zoom shows this many image pixels (fewer when the image is smaller).
@@ -55,7 +55,8 @@ type StreamState =
   | { kind: "connecting" }
   | { kind: "live" }
   | { kind: "paused"; jobId: bigint; reason: string; job?: Job }
-  | { kind: "retrying"; error?: string; ended?: string; retryAt: number };
+  | { kind: "retrying"; error?: string; ended?: string; retryAt: number }
+  | { kind: "refused"; error: string };  // not retried: the role will not change
 
 function fromServer(c: ChannelStatistics): ChannelHistogram {
   return {
@@ -198,9 +199,11 @@ export function LivePage() {
   const frameView = view.current;
 
   // The stream: frames while it runs; paused while a capture holds the rig
-  // (the job is polled, and the stream tried again once it stops running);
+  // (the job is polled, and the stream tried again once it is neither
+  // running nor paused);
   // after an error or another end, tried again with back-off.
   useEffect(() => {
+    if (!operator) return undefined;
     const stop = new AbortController();
     const { signal } = stop;
     const waitForCapture = async (jobId: bigint, reason: string) => {
@@ -211,7 +214,9 @@ export function LivePage() {
         try {
           const job = await api.jobs.get({ jobId }, { signal });
           setStream({ kind: "paused", jobId, reason, job });
-          if (job.state !== JobState.RUNNING) return;
+          // A paused capture still holds the rig; a waiting one (a
+          // calibration pose) lets live view run.
+          if (job.state !== JobState.RUNNING && job.state !== JobState.PAUSED) return;
         } catch {
           return;  // the stream itself will say what is wrong
         }
@@ -237,6 +242,10 @@ export function LivePage() {
           error = e;
         }
         if (signal.aborted) return;
+        if (error !== undefined && errorCode(error) === Code.PermissionDenied) {
+          setStream({ kind: "refused", error: errorMessage(error) });
+          return;
+        }
         const refusedFor = error !== undefined && errorCode(error) === Code.FailedPrecondition
           ? captureJobIn(errorMessage(error)) : undefined;
         if (ended && ended.captureJobId !== 0n) {
@@ -258,7 +267,7 @@ export function LivePage() {
       }
     })();
     return () => stop.abort();
-  }, [maxFps, attempt, frameView]);
+  }, [maxFps, attempt, frameView, operator]);
 
   // The rates and a clock for "retrying in N s", twice a second.
   useEffect(() => {
@@ -313,6 +322,17 @@ export function LivePage() {
   const paused = stream.kind === "paused" ? stream : undefined;
   const guide = stream.kind === "live" ? shown?.calibration : undefined;
   const dpr = typeof window !== "undefined" ? window.devicePixelRatio || 1 : 1;
+
+  // The daemon streams live view to operators only (it uses the camera).
+  if (!operator) {
+    return (
+      <div class="live">
+        <h1>Live view</h1>
+        <p class="notice">Live view needs the operator role (it takes the camera's frames); you are
+          signed in as a viewer. The <a href={href("rig")}>Rig</a> page shows the camera's state.</p>
+      </div>
+    );
+  }
 
   return (
     <div class="live">
@@ -392,7 +412,7 @@ export function LivePage() {
             </Section>
           )}
           {guide && <GuideCard guide={guide} operator={operator} />}
-          <ExposureCard operator={operator} frameExposureS={shown?.exposureS} />
+          <ExposureCard operator={operator} live={stream.kind === "live"} frameExposureS={shown?.exposureS} />
           <Histograms shown={shown} source={source} setSource={setSource} />
         </div>
       </div>
@@ -413,6 +433,8 @@ function StreamLine({ stream, now, onRetry }: { stream: StreamState; now: number
           <a href={href("jobs", String(stream.jobId))}>capture job {String(stream.jobId)}</a>: {stream.reason}
         </p>
       );
+    case "refused":
+      return <div role="status"><ErrorBox error={stream.error} /></div>;
     case "retrying": {
       const seconds = Math.max(0, Math.ceil((stream.retryAt - now) / 1000));
       return (
@@ -510,23 +532,34 @@ function describeSettings(s: CameraSettings): string {
   ].join(", ");
 }
 
-function ExposureCard({ operator, frameExposureS }: { operator: boolean; frameExposureS?: number }) {
-  const settings = usePoll(() => api.hardware.getCameraSettings({}), 0);
+// The camera's settings, read each time the stream goes live (while a
+// capture holds the rig the daemon refuses to read them).
+function ExposureCard({ operator, live, frameExposureS }: {
+  operator: boolean; live: boolean; frameExposureS?: number;
+}) {
+  const [current, setCurrent] = useState<CameraSettings | undefined>(undefined);
+  const [loadError, setLoadError] = useState<string | undefined>(undefined);
   const [exposure, setExposure] = useState("");
   const [iso, setIso] = useState("");
   const [aperture, setAperture] = useState("");
   const [applied, setApplied] = useState<CameraSettings | undefined>(undefined);
   const [error, setError] = useState<string | undefined>(undefined);
   const [busy, setBusy] = useState(false);
-  const current = applied ?? settings.value;
 
-  useEffect(() => {
-    const s = settings.value;
-    if (!s) return;
+  const show = (s: CameraSettings) => {
+    setCurrent(s);
     setExposure(formatExposure(s.exposureS));
     setIso(s.iso > 0 ? String(s.iso) : "");
     setAperture(s.apertureF > 0 ? String(s.apertureF) : "");
-  }, [settings.value]);
+  };
+  useEffect(() => {
+    if (!live) return;
+    let alive = true;
+    api.hardware.getCameraSettings({}).then(
+      (s) => { if (alive) { show(s); setLoadError(undefined); } },
+      (e) => { if (alive) setLoadError(errorMessage(e)); });
+    return () => { alive = false; };
+  }, [live]);
 
   const exposureS = parseExposure(exposure);
   const submit = async (e: Event) => {
@@ -539,9 +572,7 @@ function ExposureCard({ operator, frameExposureS }: { operator: boolean; frameEx
         settings: { exposureS, iso: Number(iso) || 0, apertureF: Number(aperture) || 0 },
       });
       setApplied(used);
-      setExposure(formatExposure(used.exposureS));
-      if (used.iso > 0) setIso(String(used.iso));
-      if (used.apertureF > 0) setAperture(String(used.apertureF));
+      show(used);
     } catch (err) {
       setError(errorMessage(err));
     } finally {
@@ -551,7 +582,8 @@ function ExposureCard({ operator, frameExposureS }: { operator: boolean; frameEx
 
   return (
     <Section title="Exposure">
-      <ErrorBox error={settings.error} />
+      <ErrorBox error={loadError} />
+      {!current && !loadError && <p class="muted">Read when live view runs.</p>}
       {current && (
         <dl class="facts">
           <dt>Exposure</dt><dd>{formatExposure(current.exposureS)}</dd>
@@ -562,7 +594,7 @@ function ExposureCard({ operator, frameExposureS }: { operator: boolean; frameEx
           <dt>Stored in</dt><dd>{formatName(CameraSettings_CaptureTarget[current.captureTarget])}</dd>
         </dl>
       )}
-      {operator && (
+      {operator && current && (
         <form class="exposure-form" onSubmit={submit}>
           <div class="field">
             <label for="exp-time">Exposure time</label>

@@ -6,9 +6,9 @@
 // Controls show only for the roles that may use them: an operator moves
 // the stage, probes the projector and takes the lock; an admin also
 // force-releases someone else's lock.
-import { useState } from "preact/hooks";
+import { useRef, useState } from "preact/hooks";
 import { api, errorMessage } from "../api";
-import { DeviceState, type ProjectorProbe, type RigLock } from "../../gen/hdrstereo/v1/hardware_pb";
+import { type CameraStatus, DeviceState, type ProjectorProbe, type RigLock } from "../../gen/hdrstereo/v1/hardware_pb";
 import { type Job, JobKind, JobState, type ProjectorTiming } from "../../gen/hdrstereo/v1/jobs_pb";
 import { atLeast, Role, useMe } from "../identity";
 import { href } from "../router";
@@ -77,25 +77,7 @@ export function RigPage() {
       </p>
       <ErrorBox error={status.error} />
       <div class="grid">
-        <Section title="Camera">
-          {hw?.camera ? (
-            <>
-              <p><DeviceBadge state={hw.camera.state} attempt={hw.camera.reconnectAttempt} />
-                {hw.camera.message && <> {hw.camera.message}</>}</p>
-              <dl class="facts">
-                <dt>Model</dt><dd>{hw.camera.model || "–"}</dd>
-                {hw.camera.serial && <><dt>Serial</dt><dd>{hw.camera.serial}</dd></>}
-                {hw.camera.port && <><dt>Port</dt><dd class="mono">{hw.camera.port}</dd></>}
-                <dt>Battery</dt>
-                <dd>{hw.camera.batteryPercent >= 0
-                  ? <><meter min={0} max={100} low={20} optimum={100} value={hw.camera.batteryPercent}
-                             aria-label="Battery" /> {hw.camera.batteryPercent} %</>
-                  : "unknown"}</dd>
-                <dt>Drops</dt><dd>{String(hw.camera.disconnects)} since the daemon started</dd>
-              </dl>
-            </>
-          ) : <p class="muted">{status.error ? "Unknown." : "Loading…"}</p>}
-        </Section>
+        <CameraCard camera={hw?.camera} error={status.error} />
         <StageCard status={hw?.stage} operator={operator} onChange={status.reload} />
         <ProjectorCard status={hw?.projector} timing={timing.value} timingJob={structured}
                        operator={operator} onChange={status.reload} />
@@ -116,6 +98,35 @@ export function RigPage() {
   );
 }
 
+function CameraCard({ camera, error }: { camera?: CameraStatus; error?: string }) {
+  // While a capture or another call holds the rig the status says only
+  // that: show the camera's facts as last seen.
+  const lastSeen = useRef<CameraStatus | undefined>(undefined);
+  if (camera?.model) lastSeen.current = camera;
+  const facts = camera?.model ? camera : lastSeen.current;
+  if (!camera) return <Section title="Camera"><p class="muted">{error ? "Unknown." : "Loading…"}</p></Section>;
+  return (
+    <Section title="Camera">
+      <p><DeviceBadge state={camera.state} attempt={camera.reconnectAttempt} />
+        {camera.message && <> {camera.message}</>}</p>
+      {facts && (
+        <dl class="facts">
+          <dt>Model</dt><dd>{facts.model}</dd>
+          {facts.serial && <><dt>Serial</dt><dd>{facts.serial}</dd></>}
+          {facts.port && <><dt>Port</dt><dd class="mono">{facts.port}</dd></>}
+          <dt>Battery</dt>
+          <dd>{facts.batteryPercent >= 0
+            ? <><meter min={0} max={100} low={20} optimum={100} value={facts.batteryPercent}
+                       aria-label="Battery" /> {facts.batteryPercent} %</>
+            : "unknown"}</dd>
+          <dt>Drops</dt><dd>{String(facts.disconnects)} since the daemon started</dd>
+        </dl>
+      )}
+      {facts && facts !== camera && <p class="help">As last seen.</p>}
+    </Section>
+  );
+}
+
 function StageCard({ status, operator, onChange }: {
   status?: { state: DeviceState; positionMm: number; homed: boolean; travelMm: number;
              warningFlags: string[]; message: string };
@@ -123,7 +134,11 @@ function StageCard({ status, operator, onChange }: {
 }) {
   const [target, setTarget] = useState("");
   const action = useAction();
-  const travel = status?.travelMm ?? 0;
+  // While a capture or another call holds the rig the status has no stage
+  // data (travel 0): bound the input by the travel last seen.
+  const knownTravel = useRef(0);
+  if (status && status.travelMm > 0) knownTravel.current = status.travelMm;
+  const travel = knownTravel.current;
   const value = Number(target);
   const valid = target.trim() !== "" && Number.isFinite(value) && value >= 0 && value <= travel;
   const move = async (e: Event) => {
@@ -139,9 +154,11 @@ function StageCard({ status, operator, onChange }: {
         <>
           <p><DeviceBadge state={status.state} />{status.message && <> {status.message}</>}</p>
           <dl class="facts">
-            <dt>Position</dt><dd data-testid="stage-position">{formatMm(status.positionMm)}</dd>
-            <dt>Homed</dt><dd>{status.homed ? "yes" : "no: home it before moving"}</dd>
-            <dt>Travel</dt><dd>0 – {formatMm(status.travelMm)}</dd>
+            {status.travelMm > 0 && <>
+              <dt>Position</dt><dd data-testid="stage-position">{formatMm(status.positionMm)}</dd>
+              <dt>Homed</dt><dd>{status.homed ? "yes" : "no: home it before moving"}</dd>
+            </>}
+            {travel > 0 && <><dt>Travel</dt><dd>0 – {formatMm(travel)}</dd></>}
             {status.warningFlags.length > 0 && <><dt>Warnings</dt><dd>{status.warningFlags.join(", ")}</dd></>}
           </dl>
           {operator && (
@@ -156,7 +173,10 @@ function StageCard({ status, operator, onChange }: {
                   <button type="submit" disabled={action.busy || !valid}>Move</button>
                   <button type="button" class="secondary" disabled={action.busy} onClick={home}>Home</button>
                 </div>
-                <p id="stage-target-help" class="help">Absolute, from 0 to {formatMm(travel)}.</p>
+                <p id="stage-target-help" class="help">
+                  {travel > 0 ? `Absolute, from 0 to ${formatMm(travel)}.`
+                              : "Absolute; the travel is read once the rig is free."}
+                </p>
               </div>
             </form>
           )}
@@ -170,8 +190,8 @@ function StageCard({ status, operator, onChange }: {
 function describeTiming(t: ProjectorTiming | undefined): string | undefined {
   if (!t) return undefined;
   const parts = [
-    t.latencyS !== undefined ? `latency ${(t.latencyS * 1000).toFixed(0)} ms` : "latency not probed",
-    t.refreshHz !== undefined ? `refresh ${t.refreshHz.toFixed(2)} Hz` : "refresh unknown",
+    t.latencyS !== undefined ? `latency ${(t.latencyS * 1000).toFixed(0)} ms` : "latency not recorded",
+    t.refreshHz !== undefined ? `refresh ${t.refreshHz.toFixed(2)} Hz` : "refresh rate not recorded",
   ];
   return parts.join(", ");
 }
@@ -294,7 +314,8 @@ function Disk({ free, pending, root }: { free: bigint; pending: bigint; root: st
   return (
     <>
       <dl class="facts">
-        <dt>Free</dt><dd>{formatBytes(free)} on <span class="mono">{root}</span></dd>
+        <dt>Data root</dt><dd class="mono">{root}</dd>
+        <dt>Free</dt><dd>{formatBytes(free)}</dd>
         <dt>Queued captures need</dt><dd>{formatBytes(pending)}</dd>
       </dl>
       {short ? (
