@@ -70,6 +70,7 @@ HttpResponse Fetch(const HttpRequest& request) {
   }
   CURL* c = curl.get();
   curl_easy_setopt(c, CURLOPT_URL, request.url.c_str());
+  if (request.path_as_is) curl_easy_setopt(c, CURLOPT_PATH_AS_IS, 1L);
   curl_easy_setopt(c, CURLOPT_CUSTOMREQUEST, request.method.c_str());
   if (request.method == "HEAD") curl_easy_setopt(c, CURLOPT_NOBODY, 1L);
   if (request.method == "POST" || !request.body.empty()) {

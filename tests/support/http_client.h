@@ -36,6 +36,9 @@ struct HttpRequest {
   // A small socket receive buffer (0: the system's), for a client that
   // reads slowly and must not have the kernel hold many messages for it.
   int receive_buffer_bytes = 0;
+  // Send the URL's path as written: curl otherwise resolves "/../" and
+  // "/./" itself, as browsers do, and a test of such paths never sends one.
+  bool path_as_is = false;
 };
 
 struct HttpResponse {
