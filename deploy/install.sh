@@ -3,9 +3,10 @@
 #
 # Installs hdrstereo as a system service on a lab PC (Debian 12), as root:
 # builds (deploy/build.sh), installs the binaries under /usr/local/bin, the
-# systemd unit, the udev rules, the config (kept if already there), creates
-# the user `hdrstereo` (groups plugdev, dialout) and the data root
-# /var/lib/hdrstereo. Idempotent: run it again after an update.
+# operator's console under /usr/local/share/hdrstereo/web, the systemd unit,
+# the udev rules, the config (kept if already there), creates the user
+# `hdrstereo` (groups plugdev, dialout) and the data root /var/lib/hdrstereo.
+# Idempotent: run it again after an update.
 #
 # Usage: sudo deploy/install.sh [--no-build] [--tls-from DIR]
 #                               [--uninstall [--purge]]
@@ -15,8 +16,8 @@
 #                into /etc/hdrstereo/tls, 0640 root:hdrstereo; then set
 #                [tls] and listen (gRPC) or http-listen (HTTP: browsers,
 #                curl) in the config (see its comments)
-#   --uninstall  stop and remove the service, binaries, unit and udev rules;
-#                keeps the config, user and data unless --purge
+#   --uninstall  stop and remove the service, binaries, console, unit and udev
+#                rules; keeps the config, user and data unless --purge
 #   --purge      with --uninstall: also remove config, user and data root
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -27,6 +28,8 @@ data_root=/var/lib/hdrstereo
 udev_dir=/etc/udev/rules.d
 user=hdrstereo
 binaries=(hdrstereod hdrstereo hdrstereo-proc hdrstereo-sim)
+# Where the installed hdrstereod finds the console: <its folder>/../share.
+web_root=$prefix/share/hdrstereo/web
 
 build=1
 uninstall=0
@@ -39,7 +42,7 @@ while [[ $# -gt 0 ]]; do
       [[ -n "$tls_from" ]] || { echo "install.sh: --tls-from needs DIR" >&2; exit 2; } ;;
     --uninstall) uninstall=1 ;;
     --purge) purge=1 ;;
-    -h|--help) sed -n '3,20p' "$0"; exit 0 ;;
+    -h|--help) sed -n '3,21p' "$0"; exit 0 ;;
     *) echo "install.sh: unknown argument $1" >&2; exit 2 ;;
   esac
   shift
@@ -64,6 +67,8 @@ if [[ $uninstall == 1 ]]; then
   rm -f "$unit"
   if have_systemd; then systemctl daemon-reload; fi
   for b in "${binaries[@]}"; do rm -f "$prefix/bin/$b"; done
+  rm -rf "$web_root"
+  rmdir "$(dirname "$web_root")" 2>/dev/null || true
   rm -f "$udev_dir/60-hdrstereo-stage.rules" \
         "$udev_dir/60-hdrstereo-gphoto2.rules"
   udevadm control --reload 2>/dev/null || true
@@ -98,6 +103,17 @@ for b in "${binaries[@]}"; do
   fi
   install -m 0755 "$path" "$prefix/bin/$b"
 done
+
+# 2b. The operator's console (the web_console target's build/share/hdrstereo/
+#     web), replacing the one installed before.
+if [[ -f "$root/build/share/hdrstereo/web/index.html" ]]; then
+  rm -rf "$web_root"
+  install -d -m 0755 "$web_root"
+  install -m 0644 "$root"/build/share/hdrstereo/web/* "$web_root/"
+else
+  echo "install.sh: no console in build/share/hdrstereo/web (built with" \
+       "-DHDRSTEREO_WEB=OFF?): the HTTP edge's / will say it is not installed"
+fi
 
 # 3. User and data root.
 for group in plugdev dialout; do
