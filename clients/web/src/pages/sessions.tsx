@@ -463,9 +463,11 @@ function ArtifactPage({ session, id }: { session: string; id: string }) {
           <div class="card">
             {artifactView(a) === "hdr" && <HdrViewer key={url} url={url} label={a.path} />}
             {artifactView(a) === "disparity" && (
-              <DisparityViewer key={url} url={url} label={a.path}
-                               truthUrl={truth ? fileUrl(session, "artifacts", truth.id) : undefined}
-                               truthLabel={truth?.path} />
+              truth && truth.id !== a.id
+                ? <DisparityViewer key={url} url={url} label={a.path}
+                                   truthUrl={fileUrl(session, "artifacts", truth.id)} truthLabel={truth.path} />
+                : <DisparityViewer key={url} url={url} label={a.path}
+                                   truthNote={truth ? "this map is the session's ground truth" : undefined} />
             )}
             {artifactView(a) === "image" && <img class="artifact-image" src={url} alt={a.path} />}
             {artifactView(a) === "download" && (

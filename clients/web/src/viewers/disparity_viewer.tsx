@@ -77,13 +77,14 @@ export interface DisparityViewerProps {
   label: string;
   truthUrl?: string;    // the left view's ground truth, when the session has one
   truthLabel?: string;
+  truthNote?: string;   // said instead when there is no truth to compare with
 }
 
-export function DisparityViewer({ url, label, truthUrl, truthLabel }: DisparityViewerProps) {
+export function DisparityViewer({ url, label, truthUrl, truthLabel, truthNote }: DisparityViewerProps) {
   const disparity = usePfm(url);
-  const truthLoad = usePfm(truthUrl && truthUrl !== url ? truthUrl : undefined);
+  const truthLoad = usePfm(truthUrl);
   const d = disparity.pfm;
-  const gtCandidate = truthUrl === url ? d : truthLoad.pfm;
+  const gtCandidate = truthLoad.pfm;
   const gt = gtCandidate && d && gtCandidate.width === d.width && gtCandidate.height === d.height
     ? gtCandidate : undefined;
   const sizeMismatch = gtCandidate && d && !gt;
@@ -194,7 +195,7 @@ export function DisparityViewer({ url, label, truthUrl, truthLabel }: DisparityV
                 <dl class="facts mono">
                   <dt>pixel</dt><dd>x {cursor.x}, y {cursor.y}</dd>
                   <dt>disparity</dt><dd>{fmt(at.disparity)}</dd>
-                  <dt>ground truth</dt><dd>{gt ? fmt(at.truth) : "not in this session"}</dd>
+                  <dt>ground truth</dt><dd>{gt ? fmt(at.truth) : "–"}</dd>
                   <dt>error |d − gt|</dt><dd>{error !== undefined ? fmt(error) : "–"}</dd>
                 </dl>
               ) : "Point at the map, or focus it and use the arrow keys, to read a pixel."}
@@ -207,7 +208,8 @@ export function DisparityViewer({ url, label, truthUrl, truthLabel }: DisparityV
               {d.width}×{d.height} {d.channels === 1 ? "one-channel" : "three-channel (first shown)"} float
               PFM; viridis from the minimum to the maximum of its finite values; values in pixels
               to 3 decimals.
-              {gt ? ` Ground truth: ${truthLabel ?? "given"}.` : " No ground truth in this session."}
+              {gt ? ` Ground truth: ${truthLabel ?? "given"}.`
+                : ` ${truthNote ? `No comparison: ${truthNote}` : "No ground truth in this session"}.`}
             </p>
           </div>
         )}
