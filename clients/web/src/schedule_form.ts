@@ -1,0 +1,140 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+//
+// The new-schedule form's state and the Schedule it makes. Fields are named
+// by the paths the daemon's validation messages use ("schedule.cron",
+// "plan.captures[0].bracketed_stereo.views"), so a refused Create lands at
+// the field it names (field_errors.ts) and so do the form's own checks.
+import { create } from "@bufbuild/protobuf";
+import { ImageFormat } from "../gen/hdrstereo/v1/common_pb";
+import { type CapturePlan, CapturePlanSchema } from "../gen/hdrstereo/v1/jobs_pb";
+import { MissedRunPolicy, type Schedule, ScheduleSchema } from "../gen/hdrstereo/v1/schedules_pb";
+import { parseExposures } from "./schedule_text";
+
+export type CaptureKind = "bracketed_stereo" | "structured_light";
+
+// Text as typed; "" is the daemon's default for every number.
+export interface CaptureDraft {
+  kind: CaptureKind;
+  exposures: string;
+  autoBracket: boolean;   // bracketed stereo only
+  views: string;
+  baselineMm: string;
+  settleS: string;
+  iso: string;
+  apertureF: string;
+  format: ImageFormat;    // bracketed stereo only
+  skipAmbient: boolean;   // bracketed stereo only
+  projectorProbe: boolean;   // structured light only
+  roundExposures: boolean;   // structured light only
+}
+
+export interface ScheduleDraft {
+  name: string;
+  cron: string;
+  timeZone: string;
+  enabled: boolean;
+  missedRunPolicy: MissedRunPolicy;
+  sessionPattern: string;
+  captures: CaptureDraft[];
+  processingSteps: string[];
+}
+
+export function newCapture(kind: CaptureKind): CaptureDraft {
+  return {
+    kind, exposures: "", autoBracket: false, views: "", baselineMm: "", settleS: "", iso: "",
+    apertureF: "", format: ImageFormat.UNSPECIFIED, skipAmbient: false, projectorProbe: false,
+    roundExposures: false,
+  };
+}
+
+export function newScheduleDraft(timeZone: string): ScheduleDraft {
+  return {
+    name: "", cron: "0 2 * * *", timeZone, enabled: true,
+    missedRunPolicy: MissedRunPolicy.RUN_ONCE_ON_START, sessionPattern: "",
+    captures: [newCapture("bracketed_stereo")], processingSteps: [],
+  };
+}
+
+export const capturePath = (i: number) => `plan.captures[${i}]`;
+export const captureFieldPath = (i: number, kind: CaptureKind, field: string) =>
+  `${capturePath(i)}.${kind}.${field}`;
+
+const kCaptureFields: Record<CaptureKind, string[]> = {
+  bracketed_stereo: ["exposures_s", "auto_bracket", "views", "baseline_mm", "settle_s", "iso",
+                     "aperture_f", "format", "skip_ambient"],
+  structured_light: ["exposures_s", "views", "baseline_mm", "settle_s", "iso", "aperture_f",
+                     "projector_probe", "round_exposures_to_refresh"],
+};
+
+// Every field path the form shows for `draft`.
+export function formFields(draft: ScheduleDraft): string[] {
+  const fields = ["schedule.name", "schedule.cron", "schedule.time_zone", "schedule.enabled",
+                  "schedule.missed_run_policy", "plan.session_pattern", "plan.captures",
+                  "plan.processing_steps"];
+  draft.captures.forEach((c, i) => {
+    fields.push(capturePath(i), ...kCaptureFields[c.kind].map((f) => captureFieldPath(i, c.kind, f)));
+  });
+  return fields;
+}
+
+// The Schedule to create, or the form's own errors by field path.
+export function buildSchedule(draft: ScheduleDraft):
+    { schedule: Schedule; errors?: undefined } | { schedule?: undefined; errors: Record<string, string> } {
+  const errors: Record<string, string> = {};
+  const number = (text: string, path: string, integer: boolean): number => {
+    if (text.trim() === "") return 0;
+    const value = Number(text);
+    if (!Number.isFinite(value) || value < 0 || (integer && !Number.isInteger(value))) {
+      errors[path] = `${path.split(".").pop()} "${text}" is not ${integer ? "a whole number" : "a number"} of 0 or more`;
+      return 0;
+    }
+    return value;
+  };
+  const captures = draft.captures.map((c, i): CapturePlan => {
+    const path = (f: string) => captureFieldPath(i, c.kind, f);
+    let exposuresS: number[] = [];
+    if (!(c.kind === "bracketed_stereo" && c.autoBracket)) {
+      try {
+        exposuresS = parseExposures(c.exposures);
+      } catch (e) {
+        errors[path("exposures_s")] = (e as Error).message;
+      }
+    }
+    const common = {
+      exposuresS,
+      views: number(c.views, path("views"), true),
+      baselineMm: number(c.baselineMm, path("baseline_mm"), false),
+      settleS: number(c.settleS, path("settle_s"), false),
+      iso: number(c.iso, path("iso"), true),
+      apertureF: number(c.apertureF, path("aperture_f"), false),
+    };
+    if (c.kind === "bracketed_stereo") {
+      return create(CapturePlanSchema, {
+        plan: {
+          case: "bracketedStereo",
+          value: { ...common, format: c.format, skipAmbient: c.skipAmbient,
+                   autoBracket: c.autoBracket ? {} : undefined },
+        },
+      });
+    }
+    return create(CapturePlanSchema, {
+      plan: {
+        case: "structuredLight",
+        value: { ...common, roundExposuresToRefresh: c.roundExposures,
+                 projectorProbe: c.projectorProbe ? {} : undefined },
+      },
+    });
+  });
+  if (draft.captures.length === 0) errors["plan.captures"] = "add at least one capture";
+  if (Object.keys(errors).length > 0) return { errors };
+  return {
+    schedule: create(ScheduleSchema, {
+      name: draft.name.trim(),
+      cron: draft.cron.trim(),
+      timeZone: draft.timeZone.trim(),
+      enabled: draft.enabled,
+      missedRunPolicy: draft.missedRunPolicy,
+      plan: { sessionPattern: draft.sessionPattern.trim(), captures, processingSteps: draft.processingSteps },
+    }),
+  };
+}
