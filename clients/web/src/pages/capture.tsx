@@ -243,7 +243,9 @@ export function CapturePage() {
   // Choose the newest session once the list is in.
   useEffect(() => {
     const list = sessions.value?.sessions;
-    if (session === "" && list) setSession(list.length > 0 ? list[list.length - 1].name : kNewSession);
+    if (session !== "" || !list) return;
+    const newest = [...list].sort((a, b) => Number((b.createTime?.seconds ?? 0n) - (a.createTime?.seconds ?? 0n)))[0];
+    setSession(newest ? newest.name : kNewSession);
   }, [sessions.value]);
 
   const creating = session === kNewSession;

@@ -57,14 +57,30 @@ export function JobsPage({ params }: { params: string[] }) {
   return <JobList />;
 }
 
+const kHistoryShown = 100;
+const kQueueShown = 200;
+
+// The newest `keep` jobs in `states` and how many there are: the daemon
+// lists jobs oldest first, so every page is read.
+async function newestJobs(states: JobState[], keep: number): Promise<{ jobs: Job[]; count: number }> {
+  let jobs: Job[] = [];
+  let count = 0;
+  let pageToken = "";
+  do {
+    const page = await api.jobs.list({ states, page: { pageSize: 1000, pageToken } });
+    count += page.jobs.length;
+    jobs = [...jobs, ...page.jobs].slice(-keep);
+    pageToken = page.nextPageToken;
+  } while (pageToken !== "");
+  return { jobs, count };
+}
+
 function JobList() {
   const [filter, setFilter] = useState<JobState | "all">("all");
   const states = filter === "all" ? null : [filter];
-  const queue = usePoll(
-    () => api.jobs.list({ states: states ?? kQueueStates, page: { pageSize: 200 } }), 2000, [filter]);
+  const queue = usePoll(() => newestJobs(states ?? kQueueStates, kQueueShown), 2000, [filter]);
   const history = usePoll(
-    () => (states ? Promise.resolve(null) : api.jobs.list({ states: kHistoryStates, page: { pageSize: 100 } })),
-    5000, [filter]);
+    () => (states ? Promise.resolve(null) : newestJobs(kHistoryStates, kHistoryShown)), 5000, [filter]);
   return (
     <section>
       <h1>Jobs</h1>
@@ -83,13 +99,20 @@ function JobList() {
       </div>
       <Section title={states ? `Jobs ${kStateWords[states[0]][0]}` : "Queue"}>
         <ErrorBox error={queue.error} />
-        <JobTable jobs={queue.value?.jobs} order="oldest first"
+        <JobTable jobs={queue.value?.jobs}
+                  order={states && kHistoryStates.includes(states[0]) ? "newest first" : "oldest first"}
                   empty={states ? "No job is in this state." : "Nothing queued or running."} />
+        {queue.value && queue.value.count > kQueueShown && (
+          <p class="muted">The newest {kQueueShown} of {queue.value.count}.</p>
+        )}
       </Section>
       {!states && (
         <Section title="History">
           <ErrorBox error={history.error} />
           <JobTable jobs={history.value?.jobs ?? undefined} order="newest first" empty="No finished jobs yet." />
+          {history.value && history.value.count > kHistoryShown && (
+            <p class="muted">The newest {kHistoryShown} of {history.value.count} finished jobs.</p>
+          )}
         </Section>
       )}
     </section>
