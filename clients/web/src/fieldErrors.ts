@@ -8,7 +8,9 @@
 //   "structured_light.projector_probe.max_delay_s (0.1 s) is shorter than ..."
 //   "session \"a b\" contains ' '; use only letters, digits, '-' and '_'"
 // A few name only the plan ("bracketed_stereo: 3 views 100 mm apart ...
-// beyond the stage travel"): those are matched by what they say.
+// beyond the stage travel"): those are matched by what they say. The path
+// itself is read as field_errors.ts reads it for every form.
+import { fieldOf, messagePath } from "./field_errors";
 
 export interface FieldError {
   field?: string;  // one of the form's fields; undefined: the form's top
@@ -25,11 +27,8 @@ const kByWording: [RegExp, string][] = [
   [/^no session named /, "session"],
 ];
 
-const kPath = /^(?:plan\.)?([a-z_]+(?:\.[a-z_]+)*)(?:\[(\d+)\])?(?=[ :(]|$)/;
-
 // `fields`: the paths the form shows, e.g. "bracketed_stereo.exposures_s",
-// "session". The message's path, or the longest of `fields` it lies in,
-// names the field.
+// "session".
 export function fieldError(message: string, fields: readonly string[]): FieldError {
   for (const [pattern, target] of kByWording) {
     const m = pattern.exec(message);
@@ -37,13 +36,8 @@ export function fieldError(message: string, fields: readonly string[]): FieldErr
     const field = target.replace("$", m[1] ?? "");
     if (fields.includes(field)) return { field, message };
   }
-  const m = kPath.exec(message);
-  if (!m) return { message };
-  const path = m[1];
-  const index = m[2] === undefined ? undefined : Number(m[2]);
-  let best: string | undefined;
-  for (const f of fields) {
-    if ((path === f || path.startsWith(`${f}.`)) && (!best || f.length > best.length)) best = f;
-  }
-  return best ? { field: best, index, message } : { message };
+  const field = fieldOf(message, fields);
+  if (field === undefined) return { message };
+  const entry = /^\[(\d+)\]/.exec(messagePath(message)?.slice(field.length) ?? "");
+  return entry ? { field, index: Number(entry[1]), message } : { field, message };
 }
