@@ -391,10 +391,10 @@ export function LivePage() {
           </div>
           {overlay && (
             <p class="clip-legend">
-              <span class="swatch swatch-high" aria-hidden="true" /> magenta hatching = clipped high
-              (a channel at 255{shown ? `: ${shown.clipped.high} px` : ""}){" · "}
-              <span class="swatch swatch-low" aria-hidden="true" /> solid cyan = clipped low
-              (a channel at 0{shown ? `: ${shown.clipped.low} px` : ""})
+              <span><span class="swatch swatch-high" aria-hidden="true" /> magenta hatching = clipped
+                high (a channel at 255{shown ? `: ${shown.clipped.high} px` : ""})</span>
+              <span><span class="swatch swatch-low" aria-hidden="true" /> solid cyan = clipped low
+                (a channel at 0{shown ? `: ${shown.clipped.low} px` : ""})</span>
             </p>
           )}
           {paused && <PausedJob paused={paused} />}
@@ -437,8 +437,10 @@ function StreamLine({ stream, now, onRetry }: { stream: StreamState; now: number
       return <div role="status"><ErrorBox error={stream.error} /></div>;
     case "retrying": {
       const seconds = Math.max(0, Math.ceil((stream.retryAt - now) / 1000));
+      // Not a live region: the countdown would be read out every second
+      // (the ErrorBox is an alert by itself).
       return (
-        <div role="status">
+        <div>
           {stream.error && <ErrorBox error={stream.error} />}
           <p class="row">
             {stream.ended && <><Badge tone="idle">Stopped</Badge> The stream ended: {stream.ended}.</>}
