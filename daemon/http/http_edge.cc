@@ -380,7 +380,8 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
     const bool sign_in = target == "/auth/sign-in";
     if (sign_in) parser_->body_limit(kMaxSignInBodyBytes);
     if (!CheckHost(Sv(head[bhttp::field::host]), info_.served_names).ok() ||
-        (!sign_in && target != "/auth/sign-out" && !Caller().ok())) {
+        (!sign_in && target != "/auth/sign-out" && target != "/auth/session" &&
+         !Caller().ok())) {
       body_unread_ = true;
       request_ = parser_->release();
       parser_.reset();
@@ -467,6 +468,17 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
     if (path == "/auth/sign-in" || path == "/auth/sign-out") {
       if (verb != bhttp::verb::post) return MethodNotAllowed("POST");
       return path == "/auth/sign-in" ? SignIn() : SignOut();
+    }
+    if (path == "/auth/session") {
+      if (verb != bhttp::verb::get && verb != bhttp::verb::head) {
+        return MethodNotAllowed("GET, HEAD");
+      }
+      // Whether this request's credentials are good: a page asks before its
+      // first call, so that being signed out is an answer, not a 401 the
+      // browser reports as a failed request.
+      return Send(JsonResponse(
+          version, 200,
+          Caller().ok() ? R"({"signedIn":true})" : R"({"signedIn":false})"));
     }
     if (absl::StartsWith(path, "/files/")) {
       if (verb != bhttp::verb::get && verb != bhttp::verb::head) {

@@ -16,13 +16,15 @@
 //                                            text/event-stream, SSE)
 //   POST /auth/sign-in  {"apiKey": "hs_..."} a session cookie
 //   POST /auth/sign-out
+//   GET|HEAD /auth/session                   {"signedIn": true|false}: are
+//                                            this request's credentials good
 //   GET|HEAD /files/sessions/<session>/artifacts/<id>   Range, ETag (sha256)
 //   GET|HEAD /files/sessions/<session>/frames/<id>
 //
-// Who calls: every request but the console's files needs credentials, also
-// on loopback (any page a browser shows can send requests there): a
-// session cookie, Authorization:
-// Bearer <API key>, or (TLS) a client certificate of the lab CA. Host must
+// Who calls: every request but the console's files and /auth/session needs
+// credentials, also on loopback (any page a browser shows can send requests
+// there): a session cookie, Authorization: Bearer <API key>, or (TLS) a
+// client certificate of the lab CA. Host must
 // be a served name; mutations need a JSON or Connect content type (never a
 // form's) and an Origin that is the edge's own whenever they carry one, and
 // always with a session cookie.

@@ -167,6 +167,21 @@ TEST_F(HttpTest, SignInSetsAStrictSessionCookieThatRevokingTheKeyEnds) {
   // The key is never sent back.
   EXPECT_THAT(signed_in.body, Not(HasSubstr(key.substr(16))));
   const std::string cookie = "Cookie: " + CookieOf(signed_in);
+  // The console asks whether it is signed in before its first call.
+  auto signed_in_state = [&](std::vector<std::string> headers) {
+    HttpRequest session = To("/auth/session");
+    session.method = "GET";
+    session.headers = std::move(headers);
+    HttpResponse answer = Fetch(session);
+    EXPECT_EQ(answer.status, 200) << answer.body;
+    return answer.body;
+  };
+  EXPECT_EQ(signed_in_state({cookie, origin}), R"({"signedIn":true})");
+  EXPECT_EQ(signed_in_state({}), R"({"signedIn":false})");
+  HttpRequest post_session = To("/auth/session");
+  post_session.headers = {cookie, origin, "Content-Type: application/json"};
+  post_session.body = "{}";
+  EXPECT_EQ(Fetch(post_session).status, 405);
 
   HttpResponse whoami = Unary("Server/WhoAmI", "{}", "", {cookie, origin});
   ASSERT_EQ(whoami.status, 200) << whoami.body;
@@ -186,6 +201,7 @@ TEST_F(HttpTest, SignInSetsAStrictSessionCookieThatRevokingTheKeyEnds) {
   EXPECT_EQ(revoked.Json().value("code", ""), "unauthenticated");
   EXPECT_THAT(revoked.Json().value("message", ""),
               HasSubstr("API key " + id + " was revoked"));
+  EXPECT_EQ(signed_in_state({cookie, origin}), R"({"signedIn":false})");
 
   // Sign-out ends a session and clears the cookie.
   const std::string other = CreateKey("alice", "viewer");

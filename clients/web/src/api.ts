@@ -80,6 +80,15 @@ export async function signIn(apiKey: string): Promise<void> {
   throw new Error(message);
 }
 
+// Whether the page's session cookie (or client certificate) is good, asked
+// before the first call so that being signed out is an answer, not a 401.
+export async function isSignedIn(): Promise<boolean> {
+  const response = await fetch("/auth/session", { credentials: "same-origin" });
+  if (!response.ok) throw new Error(`session check failed (HTTP ${response.status})`);
+  const body = await response.json();
+  return body?.signedIn === true;
+}
+
 export async function signOut(): Promise<void> {
   await postJson("/auth/sign-out", {});
 }

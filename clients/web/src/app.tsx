@@ -4,7 +4,7 @@
 // shows only what the signed-in role may use.
 import type { JSX } from "preact";
 import { useCallback, useEffect, useState } from "preact/hooks";
-import { api, errorCode, errorMessage, kSignedOutEvent, signIn, signOut } from "./api";
+import { api, errorCode, errorMessage, isSignedIn, kSignedOutEvent, signIn, signOut } from "./api";
 import { atLeast, type Me, MeContext, Role, roleName } from "./identity";
 import { AdminPage } from "./pages/admin";
 import { CapturePage } from "./pages/capture";
@@ -80,6 +80,10 @@ export function App() {
 
   const loadMe = useCallback(async () => {
     try {
+      if (!(await isSignedIn())) {
+        setMe(null);
+        return;
+      }
       const id = await api.server.whoAmI({});
       setMe({ principal: id.principal, role: id.role, authMethod: id.authMethod });
       setFatal(undefined);
