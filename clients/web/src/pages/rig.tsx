@@ -314,10 +314,10 @@ function Disk({ free, pending, root }: { free: bigint; pending: bigint; root: st
   return (
     <>
       <dl class="facts">
-        <dt>Data root</dt><dd class="mono">{root}</dd>
         <dt>Free</dt><dd>{formatBytes(free)}</dd>
         <dt>Queued captures need</dt><dd>{formatBytes(pending)}</dd>
       </dl>
+      <p class="help">On the data root, <span class="mono">{root}</span>.</p>
       {short ? (
         <p class="notice" role="alert">
           <strong>▲ Not enough disk space:</strong> the queued captures need {formatBytes(pending)} but only{" "}
