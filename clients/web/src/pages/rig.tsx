@@ -117,7 +117,7 @@ function CameraCard({ camera, error }: { camera?: CameraStatus; error?: string }
           <dt>Battery</dt>
           <dd>{facts.batteryPercent >= 0
             ? <><meter min={0} max={100} low={20} optimum={100} value={facts.batteryPercent}
-                       aria-label="Battery" /> {facts.batteryPercent} %</>
+                       aria-label="Battery" /> {facts.batteryPercent} %{facts.batteryPercent < 20 && " (low)"}</>
             : "unknown"}</dd>
           <dt>Drops</dt><dd>{String(facts.disconnects)} since the daemon started</dd>
         </dl>
