@@ -25,7 +25,7 @@ interface PageEntry {
 
 const kPages: PageEntry[] = [
   { page: "rig", title: "Rig", role: Role.VIEWER, render: () => <RigPage /> },
-  { page: "live", title: "Live view", role: Role.VIEWER, render: () => <LivePage /> },
+  { page: "live", title: "Live view", role: Role.OPERATOR, render: () => <LivePage /> },
   { page: "capture", title: "Capture", role: Role.OPERATOR, render: () => <CapturePage /> },
   { page: "jobs", title: "Jobs", role: Role.VIEWER, render: (r) => <JobsPage params={r.params} /> },
   { page: "sessions", title: "Sessions", role: Role.VIEWER,
