@@ -53,6 +53,8 @@ function RunRow({ run }: { run: ScheduleRun }) {
   );
 }
 
+const runKey = (run: ScheduleRun) => String(run.dueTime?.seconds ?? run.session);
+
 // A schedule's runs, newest first: the first page kept up to date, older
 // pages on request.
 function Runs({ name }: { name: string }) {
@@ -72,7 +74,11 @@ function Runs({ name }: { name: string }) {
       setError(errorMessage(e));
     }
   };
-  const runs = [...(first.value?.runs ?? []), ...older];
+  // Runs that came due since push the first page's last ones into the
+  // older pages: each run once.
+  const newest = first.value?.runs ?? [];
+  const seen = new Set(newest.map(runKey));
+  const runs = [...newest, ...older.filter((r) => !seen.has(runKey(r)))];
   return (
     <div class="runs">
       <ErrorBox error={first.error ?? error} />
@@ -86,7 +92,7 @@ function Runs({ name }: { name: string }) {
                 <th scope="col">Session</th><th scope="col">Jobs</th><th scope="col">On behalf of</th>
                 <th scope="col">Reason</th></tr>
             </thead>
-            <tbody>{runs.map((r) => <RunRow key={`${r.dueTime?.seconds}-${r.session}`} run={r} />)}</tbody>
+            <tbody>{runs.map((r) => <RunRow key={runKey(r)} run={r} />)}</tbody>
           </table>
         </TableWrap>
       )}
@@ -367,7 +373,7 @@ export function SchedulesPage() {
             <caption class="visually-hidden">Schedules</caption>
             <thead>
               <tr><th scope="col">Name</th><th scope="col">When</th><th scope="col">Plan</th>
-                <th scope="col">State</th><th scope="col">Next run</th><th scope="col">Created by</th>
+                <th scope="col">State</th><th scope="col">Next run <span class="muted">(your time)</span></th><th scope="col">Created by</th>
                 <th scope="col">Actions</th></tr>
             </thead>
             <tbody>
