@@ -361,7 +361,7 @@ const kLevelWords: Record<JobEvent_Level, [string, "ok" | "warn" | "bad" | "idle
 };
 
 function EventList({ events }: { events: JobEvent[] }) {
-  const box = useRef<HTMLOListElement>(null);
+  const box = useRef<HTMLDivElement>(null);
   // Whether the reader is at the newest event, read before this render
   // adds rows: then the list follows the new ones, otherwise it stays put.
   const el = box.current;
@@ -371,26 +371,28 @@ function EventList({ events }: { events: JobEvent[] }) {
   }, [events.length]);
   if (events.length === 0) return <p class="muted">No events yet.</p>;
   return (
-    <ol class="event-log" ref={box} role="log" aria-label="Job events" tabIndex={0}>
-      {events.map((e) => {
-        const [level, tone] = kLevelWords[e.level] ?? kLevelWords[JobEvent_Level.UNSPECIFIED];
-        return (
-          <li key={String(e.sequence)} data-sequence={String(e.sequence)} class={`event ${tone}`}>
-            <span class="event-seq mono">{String(e.sequence)}</span>
-            <time class="event-time mono" dateTime={new Date(timeMs(e.time)).toISOString()}>
-              {new Date(timeMs(e.time)).toLocaleTimeString()}
-            </time>
-            {e.message
-              ? <span class="event-text">{tone !== "idle" && <Badge tone={tone}>{level}</Badge>} {e.message}</span>
-              : <span class="event-text muted">
-                  {kStateWords[e.state]?.[0]}
-                  {e.progress && e.progress.total > 0n && ` · ${e.progress.done} / ${e.progress.total}`}
-                  {e.progress?.step && ` · ${e.progress.step}`}
-                </span>}
-          </li>
-        );
-      })}
-    </ol>
+    <div class="event-log" ref={box} role="log" aria-label="Job events" tabIndex={0}>
+      <ol>
+        {events.map((e) => {
+          const [level, tone] = kLevelWords[e.level] ?? kLevelWords[JobEvent_Level.UNSPECIFIED];
+          return (
+            <li key={String(e.sequence)} data-sequence={String(e.sequence)} class={`event ${tone}`}>
+              <span class="event-seq mono">{String(e.sequence)}</span>
+              <time class="event-time mono" dateTime={new Date(timeMs(e.time)).toISOString()}>
+                {new Date(timeMs(e.time)).toLocaleTimeString()}
+              </time>
+              {e.message
+                ? <span class="event-text">{tone !== "idle" && <Badge tone={tone}>{level}</Badge>} {e.message}</span>
+                : <span class="event-text muted">
+                    {kStateWords[e.state]?.[0]}
+                    {e.progress && e.progress.total > 0n && ` · ${e.progress.done} / ${e.progress.total}`}
+                    {e.progress?.step && ` · ${e.progress.step}`}
+                  </span>}
+            </li>
+          );
+        })}
+      </ol>
+    </div>
   );
 }
 
