@@ -237,7 +237,8 @@ function CaptureEditor({ index, capture, errors, onChange, onRemove }: {
   );
 }
 
-function NewSchedule({ onDone }: { onDone: (created: boolean) => void }) {
+// onDone: with what to tell the admin once created, or undefined when cancelled.
+function NewSchedule({ onDone }: { onDone: (notice?: string) => void }) {
   const [draft, setDraft] = useState<ScheduleDraft>(
     () => newScheduleDraft(Intl.DateTimeFormat().resolvedOptions().timeZone ?? ""));
   const [errors, setErrors] = useState<FormErrors>(kNoErrors);
@@ -256,11 +257,19 @@ function NewSchedule({ onDone }: { onDone: (created: boolean) => void }) {
     }
     setBusy(true);
     try {
-      await api.schedules.create({ schedule: built.schedule });
-      // The daemon enables a new schedule; the form can ask for it disabled.
-      if (!draft.enabled) await api.schedules.setEnabled({ name: built.schedule.name, enabled: false });
+      const made = await api.schedules.create({ schedule: built.schedule });
       setErrors(kNoErrors);
-      onDone(true);
+      // The daemon enables a new schedule; the form can ask for it disabled.
+      let notice = `Created schedule ${made.name}.`;
+      if (!draft.enabled) {
+        try {
+          await api.schedules.setEnabled({ name: made.name, enabled: false });
+          notice = `Created schedule ${made.name}, disabled.`;
+        } catch (err) {
+          notice = `Created schedule ${made.name}, but it is enabled: disabling it failed: ${errorMessage(err)}`;
+        }
+      }
+      onDone(notice);
     } catch (err) {
       setErrors(placeError(errorMessage(err), formFields(draft)));
     } finally {
@@ -343,7 +352,7 @@ function NewSchedule({ onDone }: { onDone: (created: boolean) => void }) {
         </fieldset>
         <div class="row">
           <button type="submit" disabled={busy}>Create schedule</button>
-          <button type="button" class="secondary" onClick={() => onDone(false)}>Cancel</button>
+          <button type="button" class="secondary" onClick={() => onDone()}>Cancel</button>
         </div>
       </form>
     </section>
@@ -355,15 +364,18 @@ export function SchedulesPage() {
   const admin = atLeast(me, Role.ADMIN);
   const list = usePoll(() => api.schedules.list({ page: { pageSize: 1000 } }), 10000);
   const [creating, setCreating] = useState(false);
+  const [notice, setNotice] = useState<string | undefined>(undefined);
   const schedules = list.value?.schedules ?? [];
   return (
     <div class="schedules-page">
       <div class="row page-head">
         <h1 id="schedules-title">Schedules</h1>
-        {admin && !creating && <button type="button" onClick={() => setCreating(true)}>New schedule</button>}
+        {admin && !creating &&
+          <button type="button" onClick={() => { setNotice(undefined); setCreating(true); }}>New schedule</button>}
       </div>
+      <p role="status" class={notice ? "notice" : "visually-hidden"}>{notice}</p>
       {!admin && <p class="help">Creating, enabling and deleting schedules needs the admin role.</p>}
-      {creating && <NewSchedule onDone={(created) => { setCreating(false); if (created) list.reload(); }} />}
+      {creating && <NewSchedule onDone={(done) => { setCreating(false); setNotice(done); if (done) list.reload(); }} />}
       <ErrorBox error={list.error} />
       {list.value === undefined && !list.error && <p class="muted">Loading…</p>}
       {list.value && schedules.length === 0 && <p>No schedules yet.</p>}
@@ -374,7 +386,7 @@ export function SchedulesPage() {
             <thead>
               <tr><th scope="col">Name</th><th scope="col">When</th><th scope="col">Plan</th>
                 <th scope="col">State</th><th scope="col">Next run <span class="muted">(your time)</span></th><th scope="col">Created by</th>
-                <th scope="col">Actions</th></tr>
+                <th scope="col">{admin ? "Actions" : "Runs"}</th></tr>
             </thead>
             <tbody>
               {schedules.map((s) => <ScheduleRows key={s.name} schedule={s} admin={admin} onChanged={list.reload} />)}
