@@ -206,6 +206,17 @@ TEST_F(CaptureTest, EstimateCaptureCountsAPlanAndRefusesItAsSubmitDoes) {
       jobs->SubmitCapture(&submit_context, submit, &job);
   EXPECT_EQ(also_refused.error_code(), refused.error_code());
   EXPECT_EQ(also_refused.error_message(), refused.error_message());
+  // A session that is given is named as SubmitCapture names it.
+  v1::EstimateCaptureRequest misnamed;
+  misnamed.set_session("a b");
+  misnamed.mutable_plan()->mutable_calibration()->set_poses(2);
+  grpc::ClientContext misnamed_context;
+  const grpc::Status bad_name =
+      jobs->EstimateCapture(&misnamed_context, misnamed, &estimate);
+  EXPECT_EQ(bad_name.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(bad_name.error_message(),
+            "session \"a b\" contains ' '; use only letters, digits, '-' and "
+            "'_'");
   EXPECT_EQ(Sql("SELECT count(*) FROM jobs"), "0");
 }
 
