@@ -10,8 +10,8 @@ import { useEffect, useMemo, useRef, useState } from "preact/hooks";
 import { ImageFormat } from "../../gen/hdrstereo/v1/common_pb";
 import type { CaptureEstimate } from "../../gen/hdrstereo/v1/jobs_pb";
 import { api, errorMessage } from "../api";
-import { buildPlan, type FormValues, kPlanFields, type PlanKind } from "../capturePlan";
-import { type FieldError, fieldError } from "../fieldErrors";
+import { buildPlan, type FormValues, kPlanFields, type PlanKind } from "../capture_plan";
+import { type FieldError, fieldError } from "../plan_field_errors";
 import { href } from "../router";
 import { Badge, ErrorBox, formatBytes, formatDuration, Section, usePoll } from "../ui";
 

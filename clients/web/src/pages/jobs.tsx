@@ -10,7 +10,7 @@ import {
   type Job, type JobEvent, JobEvent_Level, JobKind, JobState,
 } from "../../gen/hdrstereo/v1/jobs_pb";
 import { api, errorCode, errorMessage } from "../api";
-import { gaps, lastSequence, mergeEvents, reconnectDelayMs } from "../eventLog";
+import { gaps, lastSequence, mergeEvents, reconnectDelayMs } from "../event_log";
 import { atLeast, Role, useMe } from "../identity";
 import { remainingSeconds } from "../remaining";
 import { href } from "../router";

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 import assert from "node:assert/strict";
 import { test } from "node:test";
-import { fieldError } from "../src/fieldErrors";
-import { kPlanFields } from "../src/capturePlan";
+import { fieldError } from "../src/plan_field_errors";
+import { kPlanFields } from "../src/capture_plan";
 
 const stereo = ["session", ...kPlanFields.bracketed_stereo];
 const sl = ["session", ...kPlanFields.structured_light];

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 import assert from "node:assert/strict";
 import { test } from "node:test";
-import { buildPlan, formatExposure, parseExposures, parseNumber } from "../src/capturePlan";
+import { buildPlan, formatExposure, parseExposures, parseNumber } from "../src/capture_plan";
 
 test("numbers and fractions; empty is the daemon's default", () => {
   assert.equal(parseNumber(""), 0);

@@ -8,7 +8,7 @@
 import { create } from "@bufbuild/protobuf";
 import { ImageFormat } from "../gen/hdrstereo/v1/common_pb";
 import { type CapturePlan, CapturePlanSchema } from "../gen/hdrstereo/v1/jobs_pb";
-import type { FieldError } from "./fieldErrors";
+import type { FieldError } from "./plan_field_errors";
 
 export type PlanKind = "bracketed_stereo" | "structured_light" | "calibration";
 

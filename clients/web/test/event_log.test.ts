@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 import assert from "node:assert/strict";
 import { test } from "node:test";
-import { gaps, lastSequence, mergeEvents, reconnectDelayMs } from "../src/eventLog";
+import { gaps, lastSequence, mergeEvents, reconnectDelayMs } from "../src/event_log";
 
 const ev = (sequence: number, message = `e${sequence}`) => ({ sequence: BigInt(sequence), message });
 const seqs = (log: { sequence: bigint }[]) => log.map((e) => Number(e.sequence));
