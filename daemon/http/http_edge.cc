@@ -24,6 +24,7 @@
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
 #include "absl/synchronization/mutex.h"
@@ -195,6 +196,32 @@ std::string FileContentType(absl::string_view path) {
   return "application/octet-stream";
 }
 
+// A report file's Content-Type: the page itself is shown as HTML (under
+// kReportPolicy), the rest as any downloaded file.
+std::string ReportFileContentType(absl::string_view path) {
+  if (absl::EndsWithIgnoreCase(path, ".html")) {
+    return "text/html; charset=utf-8";
+  }
+  return FileContentType(path);
+}
+
+// A downloaded file is never a page of this origin.
+constexpr char kFilePolicy[] = "sandbox; default-src 'none'";
+// What a session's report page needs (processing/report/html_report.cc):
+// its inline <style> and its images, files beside it. Its inline script
+// (which counts the images that loaded, for tests opening the file
+// directly) never runs here: no script-src, and a sandbox without
+// allow-scripts. allow-same-origin keeps the page at this origin so that
+// its images are fetched with the session cookie (SameSite=Strict): a
+// page of an opaque origin is cross-site to every cookie.
+constexpr char kReportPolicy[] =
+    "sandbox allow-same-origin; default-src 'none'; img-src 'self'; "
+    "style-src 'unsafe-inline'; base-uri 'none'; form-action 'none'; "
+    "frame-ancestors 'none'";
+// ListArtifacts' largest page (daemon/rpc/pagination.h): a report's files
+// come in one page, unless it has more than this many.
+constexpr int kReportListPageSize = 1000;
+
 }  // namespace
 
 // What the whole edge shares: options, the bridge into the services, the
@@ -339,6 +366,9 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
     head_ = false;
     caller_.reset();
     body_unread_ = false;
+    range_.reset();
+    if_range_.reset();
+    report_ = false;
     if (refuse_) {
       // Beyond the connection limit: say so and close.
       return Send(ErrorResponse(
@@ -946,6 +976,13 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
     const unsigned version = request_.version();
     // /files/sessions/<session>/{artifacts|frames}/<id>
     std::vector<absl::string_view> parts = absl::StrSplit(path, '/');
+    if (parts.size() >= 5 && parts[2] == "sessions" && parts[4] == "report") {
+      // /files/sessions/<session>/report/<name>: the rest of the path is
+      // the name, so that a '/' in it is refused as such.
+      return DownloadReportFile(
+          path, std::string(parts[3]),
+          absl::StrJoin(parts.begin() + 5, parts.end(), "/"));
+    }
     int64_t id = 0;
     if (parts.size() != 6 || parts[2] != "sessions" ||
         (parts[4] != "artifacts" && parts[4] != "frames") ||
@@ -954,8 +991,9 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
           version,
           absl::NotFoundError(absl::StrCat(
               "no such file: ", QuoteInput(path),
-              " (files are at /files/sessions/<session>/artifacts/<id> and "
-              "/files/sessions/<session>/frames/<id>)"))));
+              " (files are at /files/sessions/<session>/artifacts/<id>, "
+              "/files/sessions/<session>/frames/<id> and "
+              "/files/sessions/<session>/report/<name>)"))));
     }
     absl::StatusOr<rpc::EdgeCaller> caller = Caller();
     const bool artifact = parts[4] == "artifacts";
@@ -968,18 +1006,108 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
       edge_.Audit(rpc::Principal(), peer_, path, status);
       return Send(ErrorResponse(version, status));
     }
-    std::optional<ByteRange> range;
+    ReadRangeHeaders();
+    StartDownload(*method, std::string(parts[3]), id, artifact, *caller);
+  }
+
+  void ReadRangeHeaders() {
     if (const auto header = request_.find(bhttp::field::range);
         header != request_.end()) {
-      range = ParseRange(Sv(header->value()));
+      range_ = ParseRange(Sv(header->value()));
     }
     // If-Range: the range holds only for the file the client has.
     if (const auto header = request_.find(bhttp::field::if_range);
         header != request_.end()) {
       if_range_ = std::string(header->value());
     }
-    range_ = range;
-    StartDownload(*method, std::string(parts[3]), id, artifact, *caller);
+  }
+
+  // A file of the session's report by its name, so that the page's
+  // relative links to its images resolve here: the artifact of path
+  // report/<name>, found with Sessions.ListArtifacts as the caller, then
+  // sent by DownloadArtifact as the id route sends it. Both calls go
+  // through the bridge, so the guard authorizes and audits them as it
+  // does the id route's.
+  void DownloadReportFile(absl::string_view path, std::string session,
+                          absl::string_view name) {
+    const unsigned version = request_.version();
+    absl::StatusOr<std::string> file = ReportFilePath(name);
+    if (!file.ok()) return Send(ErrorResponse(version, file.status()));
+    absl::StatusOr<rpc::EdgeCaller> caller = Caller();
+    absl::StatusOr<RpcMethod> list =
+        FindRpcMethod("/hdrstereo.v1.Sessions/ListArtifacts");
+    absl::StatusOr<RpcMethod> download =
+        FindRpcMethod("/hdrstereo.v1.Sessions/DownloadArtifact");
+    if (!caller.ok() || !list.ok() || !download.ok()) {
+      const absl::Status status = !caller.ok() ? caller.status()
+                                  : !list.ok() ? list.status()
+                                               : download.status();
+      edge_.Audit(rpc::Principal(), peer_, path, status);
+      return Send(ErrorResponse(version, status));
+    }
+    ReadRangeHeaders();
+    report_ = true;
+    FindReportFile(*list, *download, std::move(session), std::move(*file), "",
+                   *caller);
+  }
+
+  // One page of the session's report artifacts; the next, until `file`
+  // is found or the pages end.
+  void FindReportFile(const RpcMethod& list, const RpcMethod& download,
+                      std::string session, std::string file,
+                      const std::string& page_token,
+                      const rpc::EdgeCaller& caller) {
+    v1::ListArtifactsRequest request;
+    request.set_session(session);
+    request.set_kind("report");
+    request.mutable_page()->set_page_size(kReportListPageSize);
+    request.mutable_page()->set_page_token(page_token);
+    edge_.CallStarted();
+    edge_.bridge_.Unary(
+        list, request.SerializeAsString(), caller, edge_.options_.unary_timeout,
+        [self = this->shared_from_this(), edge = &edge_, list, download,
+         session = std::move(session), file = std::move(file),
+         caller](absl::StatusOr<std::string> response) mutable {
+          auto executor = self->stream_.get_executor();
+          net::post(
+              executor, [self = std::move(self), list, download,
+                         session = std::move(session), file = std::move(file),
+                         caller, response = std::move(response)]() mutable {
+                self->OnReportFilesListed(list, download, std::move(session),
+                                          std::move(file), caller,
+                                          std::move(response));
+              });
+          edge->CallEnded();
+        });
+  }
+
+  void OnReportFilesListed(const RpcMethod& list, const RpcMethod& download,
+                           std::string session, std::string file,
+                           const rpc::EdgeCaller& caller,
+                           absl::StatusOr<std::string> response) {
+    if (closed_) return;
+    const unsigned version = request_.version();
+    v1::ListArtifactsResponse listed;
+    if (response.ok() && !listed.ParseFromString(*response)) {
+      response = absl::InternalError("ListArtifacts sent a malformed answer");
+    }
+    if (!response.ok()) return Send(ErrorResponse(version, response.status()));
+    for (const v1::Artifact& artifact : listed.artifacts()) {
+      if (artifact.path() == file) {
+        return StartDownload(download, std::move(session), artifact.id(), true,
+                             caller);
+      }
+    }
+    if (!listed.next_page_token().empty()) {
+      return FindReportFile(list, download, std::move(session), std::move(file),
+                            listed.next_page_token(), caller);
+    }
+    Send(ErrorResponse(
+        version, absl::NotFoundError(absl::StrCat(
+                     "session ", session, " has no report file ",
+                     QuoteInput(file.substr(file.find('/') + 1)),
+                     " (a processed session's report is at /files/sessions/",
+                     session, "/report/index.html)"))));
   }
 
   void StartDownload(const RpcMethod& method, std::string session, int64_t id,
@@ -1050,12 +1178,14 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
                                : bhttp::status::ok,
           request_.version());
       AddSecurityHeaders(header->base());
-      // A file is never a page of this origin.
-      header->set("Content-Security-Policy", "sandbox; default-src 'none'");
+      header->set("Content-Security-Policy",
+                  report_ ? kReportPolicy : kFilePolicy);
       header->set(bhttp::field::etag, etag);
       header->set(bhttp::field::accept_ranges, "bytes");
       header->set(bhttp::field::cache_control, "private, no-cache");
-      header->set(bhttp::field::content_type, FileContentType(chunk.path()));
+      header->set(bhttp::field::content_type,
+                  report_ ? ReportFileContentType(chunk.path())
+                          : FileContentType(chunk.path()));
       header->keep_alive(false);
       remaining_ = total - chunk.offset_bytes();
       if (range_.has_value()) {
@@ -1197,6 +1327,7 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
   bool headers_sent_ = false;
   bool restart_ = false;
   int64_t remaining_ = 0;
+  bool report_ = false;  // a report file, by its name
 };
 
 }  // namespace

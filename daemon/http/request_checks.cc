@@ -16,6 +16,8 @@ namespace {
 
 // Longer than any DNS name (253) with a port.
 constexpr size_t kMaxHostHeaderBytes = 300;
+// Longer than any name the report step gives its files.
+constexpr size_t kMaxReportNameBytes = 128;
 
 bool IsHostChar(char c) {
   return absl::ascii_isalnum(c) || c == '-' || c == '.' || c == '_';
@@ -150,6 +152,23 @@ absl::StatusOr<ResolvedRange> ResolveRange(const ByteRange& range,
   const int64_t last =
       range.last.has_value() ? std::min(*range.last, total - 1) : total - 1;
   return ResolvedRange{range.first, last - range.first + 1};
+}
+
+absl::StatusOr<std::string> ReportFilePath(absl::string_view name) {
+  const bool plain =
+      !name.empty() && name.size() <= kMaxReportNameBytes &&
+      name.front() != '.' && absl::c_all_of(name, [](char c) {
+        return absl::ascii_isalnum(c) || c == '.' || c == '-' || c == '_';
+      });
+  if (!plain) {
+    return absl::NotFoundError(absl::StrCat(
+        "no such report file: ", QuoteInput(name),
+        " (a report file is named by one plain name of at most ",
+        kMaxReportNameBytes,
+        " letters, digits, '.', '-' and '_', not starting with '.', as in "
+        "/files/sessions/<session>/report/index.html)"));
+  }
+  return absl::StrCat("report/", name);
 }
 
 }  // namespace hdrstereo::http

@@ -3,7 +3,7 @@
 // Checks of an HTTP request's headers that decide whether the edge serves
 // it at all, as pure functions on the received text: the Host a request
 // names (against DNS rebinding), its Origin (against cross-site requests),
-// the session cookie, and a download's Range.
+// the session cookie, a download's Range, and a report file's name.
 #ifndef HDRSTEREO_DAEMON_HTTP_REQUEST_CHECKS_H_
 #define HDRSTEREO_DAEMON_HTTP_REQUEST_CHECKS_H_
 
@@ -56,6 +56,14 @@ struct ResolvedRange {
 };
 absl::StatusOr<ResolvedRange> ResolveRange(const ByteRange& range,
                                            int64_t total);
+
+// The artifact path ("report/<name>") of a report file named in a URL
+// (/files/sessions/<session>/report/<name>, `name` as written: no
+// percent-decoding). A name is one plain path component: 1 to 128 letters,
+// digits, '.', '-' and '_', not starting with '.' (so never "." or "..",
+// and never '/', '\' or NUL). NOT_FOUND otherwise, saying what a name
+// may be.
+absl::StatusOr<std::string> ReportFilePath(absl::string_view name);
 
 }  // namespace hdrstereo::http
 

@@ -3,8 +3,8 @@
 // The HTTP edge of the real daemon through libcurl: browser sign-in and
 // its cookie, CSRF and Host checks, security headers, Connect errors for
 // bad input, server streams (Connect and SSE), live view as binary JPEG,
-// downloads with Range and ETag, the audit of HTTP calls, and loopback
-// without credentials.
+// downloads with Range and ETag, a session's report as a page with its
+// images, the audit of HTTP calls, and loopback without credentials.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -566,6 +566,151 @@ TEST_F(HttpTest, FramesAndArtifactsDownloadWithRangesAndTheirSha256AsEtag) {
   HttpRequest no_file = To("/files/sessions/files/frames/999999", "alice");
   no_file.method = "GET";
   EXPECT_EQ(Fetch(no_file).status, 404);
+  EXPECT_EQ(StopDaemon(), 0);
+}
+
+// A processed session's report as a page in the browser: index.html and
+// the images beside it by their names under /files/sessions/<s>/report/,
+// where the page's relative links resolve; found with ListArtifacts and
+// sent by DownloadArtifact as the caller (the id route's guard and audit),
+// under a CSP that lets the page have its inline style and its images.
+TEST_F(HttpTest, TheReportIsAPageWhoseImagesResolveToTheReportRoute) {
+  StartHttpDaemon();
+  const std::string capture = SubmitStereoCapture("rep", "[0.01, 0.04]");
+  ASSERT_FALSE(capture.empty());
+  ASSERT_EQ(FinalState(capture, "alice"), "JOB_STATE_SUCCEEDED");
+  HttpResponse submitted =
+      Unary("Jobs/SubmitProcessing",
+            R"({"session": "rep", "steps": ["report"]})", "bob");
+  ASSERT_EQ(submitted.status, 200) << submitted.body;
+  ASSERT_EQ(FinalState(submitted.Json().value("id", ""), "alice"),
+            "JOB_STATE_SUCCEEDED")
+      << daemon_log();
+  const std::filesystem::path folder = data_root() / "sessions/rep/report";
+  const std::string page = ReadFileOrDie(folder / "index.html");
+  const std::string kReportPolicy =
+      "sandbox allow-same-origin; default-src 'none'; img-src 'self'; "
+      "style-src 'unsafe-inline'; base-uri 'none'; form-action 'none'; "
+      "frame-ancestors 'none'";
+
+  // alice is a viewer: reading a session's files is a viewer's right.
+  HttpRequest get = To("/files/sessions/rep/report/index.html", "alice");
+  get.method = "GET";
+  HttpResponse shown = Fetch(get);
+  ASSERT_EQ(shown.status, 200) << shown.body;
+  EXPECT_EQ(shown.body, page);
+  EXPECT_EQ(shown.Header("content-type"), "text/html; charset=utf-8");
+  EXPECT_EQ(shown.Header("content-security-policy"), kReportPolicy);
+  EXPECT_EQ(shown.Header("x-content-type-options"), "nosniff");
+  EXPECT_EQ(shown.Header("etag"), "\"" + io::Sha256Hex(page) + "\"");
+  EXPECT_EQ(shown.Header("accept-ranges"), "bytes");
+  // The page shows its images by plain relative names, which a browser
+  // resolves against /files/sessions/rep/report/ to this route.
+  const std::string image = "error_simulation_fused.png";
+  ASSERT_THAT(page, HasSubstr(absl::StrCat("<img src=\"", image, "\"")));
+  HttpRequest get_image =
+      To(absl::StrCat("/files/sessions/rep/report/", image), "alice");
+  get_image.method = "GET";
+  HttpResponse picture = Fetch(get_image);
+  ASSERT_EQ(picture.status, 200) << picture.body;
+  EXPECT_EQ(picture.body, ReadFileOrDie(folder / image));
+  EXPECT_EQ(picture.Header("content-type"), "image/png");
+  EXPECT_EQ(picture.Header("content-security-policy"), kReportPolicy);
+  // Range, If-None-Match and HEAD as on the id route.
+  get_image.headers = {"Range: bytes=8-23"};
+  HttpResponse part = Fetch(get_image);
+  EXPECT_EQ(part.status, 206);
+  EXPECT_EQ(part.body, picture.body.substr(8, 16));
+  EXPECT_EQ(part.Header("content-range"),
+            absl::StrCat("bytes 8-23/", picture.body.size()));
+  get.headers = {"If-None-Match: \"" + io::Sha256Hex(page) + "\""};
+  HttpResponse unchanged = Fetch(get);
+  EXPECT_EQ(unchanged.status, 304);
+  EXPECT_TRUE(unchanged.body.empty());
+  HttpRequest head = To("/files/sessions/rep/report/index.html", "alice");
+  head.method = "HEAD";
+  HttpResponse headers = Fetch(head);
+  EXPECT_EQ(headers.status, 200);
+  EXPECT_EQ(headers.Header("content-length"), std::to_string(page.size()));
+  EXPECT_TRUE(headers.body.empty());
+
+  // The same file by its id keeps the id route's answer: a download.
+  HttpResponse listed =
+      Unary("Sessions/ListArtifacts", R"({"session": "rep", "kind": "report"})",
+            "alice");
+  ASSERT_EQ(listed.status, 200) << listed.body;
+  const nlohmann::json artifacts = listed.Json()["artifacts"];
+  std::string index_id;
+  for (const nlohmann::json& artifact : artifacts) {
+    if (artifact.value("path", "") == "report/index.html") {
+      index_id = std::to_string(JsonInt(artifact["id"]));
+    }
+  }
+  ASSERT_FALSE(index_id.empty()) << "no report/index.html artifact";
+  HttpRequest by_id =
+      To(absl::StrCat("/files/sessions/rep/artifacts/", index_id), "alice");
+  by_id.method = "GET";
+  HttpResponse downloaded = Fetch(by_id);
+  EXPECT_EQ(downloaded.body, page);
+  EXPECT_EQ(downloaded.Header("content-type"), "application/octet-stream");
+  EXPECT_EQ(downloaded.Header("content-security-policy"),
+            "sandbox; default-src 'none'");
+
+  // Names other than one plain name, sent as written, and unknown names.
+  const std::string kNameRule =
+      "(a report file is named by one plain name of at most 128 letters, "
+      "digits, '.', '-' and '_', not starting with '.', as in "
+      "/files/sessions/<session>/report/index.html)";
+  for (const char* name :
+       {"..", "../report/index.html", "a/index.html", "%2e%2e", ".", ""}) {
+    HttpRequest odd =
+        To(absl::StrCat("/files/sessions/rep/report/", name), "alice");
+    odd.method = "GET";
+    odd.path_as_is = true;
+    HttpResponse refused = Fetch(odd);
+    EXPECT_EQ(refused.status, 404) << name;
+    EXPECT_EQ(refused.Json().value("message", ""),
+              absl::StrCat("no such report file: \"", name, "\" ", kNameRule))
+        << name;
+  }
+  HttpRequest unknown = To("/files/sessions/rep/report/nope.png", "alice");
+  unknown.method = "GET";
+  HttpResponse missing = Fetch(unknown);
+  EXPECT_EQ(missing.status, 404);
+  EXPECT_EQ(missing.Json().value("message", ""),
+            "session rep has no report file \"nope.png\" (a processed "
+            "session's report is at /files/sessions/rep/report/index.html)");
+  HttpRequest elsewhere = To("/files/sessions/none/report/index.html", "alice");
+  elsewhere.method = "GET";
+  HttpResponse no_session = Fetch(elsewhere);
+  EXPECT_EQ(no_session.status, 404);
+  EXPECT_EQ(no_session.Json().value("message", ""),
+            "no session named \"none\"");
+
+  // Credentials and a role, as for the RPCs.
+  HttpRequest anonymous = To("/files/sessions/rep/report/index.html");
+  anonymous.method = "GET";
+  HttpResponse unauthenticated = Fetch(anonymous);
+  EXPECT_EQ(unauthenticated.status, 401);
+  EXPECT_THAT(unauthenticated.Json().value("message", ""),
+              HasSubstr("no credentials"));
+  HttpRequest roleless = To("/files/sessions/rep/report/index.html", "dave");
+  roleless.method = "GET";
+  HttpResponse denied = Fetch(roleless);
+  EXPECT_EQ(denied.status, 403);
+  EXPECT_THAT(denied.Json().value("message", ""),
+              HasSubstr("dave has no role"));
+  // Refusals are audited as on the id route: the guard's (the call it
+  // refused, over HTTP) and the edge's for no credentials.
+  ASSERT_EQ(As("carol", {"audit"}).exit_code, 0);
+  EXPECT_EQ(Sql("SELECT count(*) FROM audit WHERE method = "
+                "'/hdrstereo.v1.Sessions/ListArtifacts' AND principal = "
+                "'dave' AND transport = 'http' AND status_code = 7"),
+            "1");
+  EXPECT_EQ(Sql("SELECT count(*) FROM audit WHERE method LIKE "
+                "'%/files/sessions/rep/report/index.html%' AND principal = "
+                "'' AND transport = 'http' AND status_code = 16"),
+            "1");
   EXPECT_EQ(StopDaemon(), 0);
 }
 

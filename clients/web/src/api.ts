@@ -98,3 +98,9 @@ export function fileUrl(session: string, kind: "frames" | "artifacts",
                         id: bigint | number | string): string {
   return `/files/sessions/${encodeURIComponent(session)}/${kind}/${id}`;
 }
+
+// A session's HTML report as a page (the edge serves its images beside it
+// on the same route, so the page's relative links resolve).
+export function reportUrl(session: string): string {
+  return `/files/sessions/${encodeURIComponent(session)}/report/index.html`;
+}

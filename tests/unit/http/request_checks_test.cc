@@ -2,7 +2,7 @@
 //
 // The header checks that decide whether the HTTP edge serves a request:
 // Host against DNS rebinding, Origin against cross-site requests, the
-// session cookie, and a download's Range.
+// session cookie, a download's Range, and a report file's name.
 #include "daemon/http/request_checks.h"
 
 #include <gmock/gmock.h>
@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "absl/strings/str_cat.h"
 #include "tests/support/status_matchers.h"
 
 namespace hdrstereo::http {
@@ -286,6 +287,44 @@ TEST(ResolveRangeTest, WhatParseRangeReadsResolvesWithinTheFile) {
     EXPECT_GE(resolved.offset, 0) << header;
     EXPECT_GE(resolved.length, 1) << header;
     EXPECT_LE(resolved.offset + resolved.length, 10) << header;
+  }
+}
+
+TEST(ReportFilePathTest, APlainNameIsAFileOfTheReportFolder) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"index.html", "report/index.html"},
+      {"error_simulation_fused.png", "report/error_simulation_fused.png"},
+      {"gt_structured_light_invalid.png",
+       "report/gt_structured_light_invalid.png"},
+      {"a", "report/a"},
+      {"x..y", "report/x..y"},
+      {std::string(128, 'n'), absl::StrCat("report/", std::string(128, 'n'))},
+  };
+  for (const auto& [name, path] : cases) {
+    ASSERT_OK_AND_ASSIGN(std::string resolved, ReportFilePath(name));
+    EXPECT_EQ(resolved, path);
+  }
+}
+
+TEST(ReportFilePathTest, AnythingButOnePlainNameIsNotFoundSayingWhy) {
+  EXPECT_THAT(
+      ReportFilePath(".."),
+      StatusIs(absl::StatusCode::kNotFound,
+               "no such report file: \"..\" (a report file is named by one "
+               "plain name of at most 128 letters, digits, '.', '-' and '_', "
+               "not starting with '.', as in "
+               "/files/sessions/<session>/report/index.html)"));
+  for (const std::string& name :
+       {std::string(""), std::string("."), std::string("../index.html"),
+        std::string("a/b.png"), std::string("/index.html"),
+        std::string("..\\sessions.db"), std::string("index.html\0x", 12),
+        std::string(".hidden"), std::string("%2e%2e"),
+        std::string("index.html "), std::string("in\ndex.html"),
+        std::string(129, 'n')}) {
+    EXPECT_THAT(
+        ReportFilePath(name),
+        StatusIs(absl::StatusCode::kNotFound, HasSubstr("no such report file")))
+        << name;
   }
 }
 

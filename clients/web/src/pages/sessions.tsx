@@ -8,7 +8,7 @@
 // image). Everything here only reads, so a viewer sees all of it.
 import { useState } from "preact/hooks";
 import { CaptureKind, type Artifact, type Frame, type Metric, type Session } from "../../gen/hdrstereo/v1/sessions_pb";
-import { api, errorMessage, fileUrl } from "../api";
+import { api, errorMessage, fileUrl, reportUrl } from "../api";
 import {
   artifactView, browserShowsImage, checkExposure, companionImages, coverageImages,
   extensionOf, formatExposure, formatPercent, formatPx, groundTruthOf, groupArtifacts, hex,
@@ -319,11 +319,11 @@ function ResultLinks({ session, artifacts }: { session: string; artifacts: Artif
         ))}
         {report && (
           <li>
-            <a href={fileUrl(session, "artifacts", report.id)} target="_blank" rel="noopener"
+            <a href={reportUrl(session)} target="_blank" rel="noopener"
                data-testid="report-link">HTML report (opens in a new tab)</a>{" · "}
             <a href={fileUrl(session, "artifacts", report.id)} download="report.html">download it</a>{" "}
-            <span class="help">The edge serves it sandboxed, as one file: its images are the
-              artifacts under “report” below.</span>
+            <span class="help">The page shows its images but runs no script; the download
+              is the page alone (its images are the artifacts under “report” below).</span>
           </li>
         )}
       </ul>
