@@ -5,10 +5,17 @@
 # and a structured-light capture with live progress, processes the session
 # (HDR, seven tone-mapped pairs, stereo, fusion, structured-light ground
 # truth, metrics, Middlebury export, HTML report), prints the metrics table
-# and the report's path, and stops the daemon cleanly.
-# Usage: deploy/demo.sh [DATA_ROOT]   (default: ./demo-data)
+# and the report's path, and stops the daemon cleanly. With --console it
+# then keeps the daemon running and prints the operator's console URL and
+# an API key file to sign in with (Ctrl-C stops it).
+# Usage: deploy/demo.sh [--console] [DATA_ROOT]   (default: ./demo-data)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
+console=0
+if [[ "${1:-}" == --console ]]; then
+  console=1
+  shift
+fi
 "$root/deploy/build.sh" "$root/build"
 bin="$root/build"
 data_root=$(realpath -m "${1:-demo-data}")
@@ -18,12 +25,15 @@ rm -f "$ready"
 
 echo "== starting hdrstereod (simulated hardware, data root $data_root)"
 "$bin/daemon/hdrstereod" --hardware sim --data-root "$data_root" \
-  --listen 127.0.0.1:0 --ready-file "$ready" &
+  --listen 127.0.0.1:0 --http-listen 127.0.0.1:0 --auth-user demo=admin \
+  --ready-file "$ready" &
 daemon=$!
 trap 'kill -TERM $daemon 2>/dev/null; wait $daemon 2>/dev/null || true' EXIT
 for _ in $(seq 100); do [[ -s "$ready" ]] && break; sleep 0.1; done
 [[ -s "$ready" ]] || { echo "hdrstereod did not start" >&2; exit 1; }
-export HDRSTEREO_SERVER=$(cat "$ready")
+# The ready file: the gRPC address, then the console's URL.
+export HDRSTEREO_SERVER=$(sed -n 1p "$ready")
+console_url=$(sed -n 2p "$ready")
 cli="$bin/clients/cli/hdrstereo"
 
 echo "== hdrstereo status"
@@ -43,6 +53,18 @@ echo "== hdrstereo report $session"
 "$cli" report "$session"
 echo "== hdrstereo jobs list"
 "$cli" jobs list
+
+if ((console)); then
+  key_file="$data_root/demo.key"
+  (umask 077 && "$cli" admin key create --user demo --role admin \
+     --expires 1d --note "deploy/demo.sh --console" > "$key_file")
+  echo "== the console: open $console_url and sign in with the key in"
+  echo "   $key_file (shown once; an admin key for the user demo, valid 1 day)."
+  echo "   Ctrl-C stops the daemon."
+  wait $daemon || true
+  trap - EXIT
+  exit 0
+fi
 
 echo "== stopping hdrstereod"
 kill -TERM $daemon
