@@ -7,13 +7,13 @@
 // submitted; the page goes on to the job.
 import type { ComponentChildren } from "preact";
 import { useEffect, useMemo, useRef, useState } from "preact/hooks";
-import { ImageFormat } from "../../gen/hdrstereo/v1/common_pb";
 import type { CaptureEstimate } from "../../gen/hdrstereo/v1/jobs_pb";
 import { api, errorMessage } from "../api";
 import { buildPlan, type FormValues, kPlanFields, type PlanKind } from "../capture_plan";
 import { type FieldError, fieldError } from "../plan_field_errors";
 import { href } from "../router";
 import { Badge, ErrorBox, formatBytes, formatDuration, Section, usePoll } from "../ui";
+import { ImageFormatOptions } from "./form_parts";
 
 const kKinds: { kind: PlanKind; title: string; help: string }[] = [
   { kind: "bracketed_stereo", title: "Bracketed stereo",
@@ -155,12 +155,7 @@ function StereoFields({ form }: { form: FormContext }) {
                   onChange={(e) => form.set(formatPath, e.currentTarget.value)}
                   aria-invalid={form.errors.has(formatPath) ? "true" : undefined}
                   aria-describedby={describedBy(formatPath, form)}>
-            <option value={String(ImageFormat.UNSPECIFIED)}>camera's current</option>
-            <option value={String(ImageFormat.JPEG)}>JPEG</option>
-            <option value={String(ImageFormat.RAW)}>RAW</option>
-            <option value={String(ImageFormat.RAW_AND_JPEG)}>RAW + JPEG</option>
-            <option value={String(ImageFormat.TIFF_16)}>16-bit TIFF (simulated camera)</option>
-            <option value={String(ImageFormat.PNG_8)}>8-bit PNG (simulated camera)</option>
+            <ImageFormatOptions />
           </select>
           <FieldMessages path={formatPath} form={form} />
         </div>

@@ -1,10 +1,11 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
-// Pieces the schedules and admin pages share: a labelled form field that
-// shows its error, a button that asks before it acts, and a box that shows
-// a secret once.
+// Pieces the forms share: a labelled form field that shows its error, a
+// button that asks before it acts, a box that shows a secret once, and the
+// image formats a plan may ask for.
 import type { ComponentChildren, JSX } from "preact";
 import { useEffect, useRef, useState } from "preact/hooks";
+import { ImageFormat } from "../../gen/hdrstereo/v1/common_pb";
 import { errorMessage } from "../api";
 
 export interface FieldInputProps {
@@ -148,5 +149,19 @@ export function ShownOnce({ title, label, secret, children, onClose }: {
         <button type="submit">Done: I have stored it</button>
       </form>
     </dialog>
+  );
+}
+
+// The <option>s of an image-format <select>, values the enum's numbers.
+export function ImageFormatOptions() {
+  return (
+    <>
+      <option value={String(ImageFormat.UNSPECIFIED)}>The camera's current</option>
+      <option value={String(ImageFormat.JPEG)}>JPEG</option>
+      <option value={String(ImageFormat.RAW)}>RAW</option>
+      <option value={String(ImageFormat.RAW_AND_JPEG)}>RAW + JPEG</option>
+      <option value={String(ImageFormat.TIFF_16)}>16-bit TIFF (simulated camera)</option>
+      <option value={String(ImageFormat.PNG_8)}>8-bit PNG (simulated camera)</option>
+    </>
   );
 }

@@ -6,7 +6,6 @@
 // role table: Schedules.List and ListRuns need viewer, the rest admin).
 import { useState } from "preact/hooks";
 import { api, errorMessage } from "../api";
-import { ImageFormat } from "../../gen/hdrstereo/v1/common_pb";
 import { MissedRunPolicy, type Schedule, type ScheduleRun } from "../../gen/hdrstereo/v1/schedules_pb";
 import { type FormErrors, kNoErrors, placeError } from "../field_errors";
 import { atLeast, Role, useMe } from "../identity";
@@ -15,7 +14,7 @@ import { buildSchedule, type CaptureDraft, type CaptureKind, captureFieldPath, c
          formFields, newCapture, newScheduleDraft, type ScheduleDraft } from "../schedule_form";
 import { describeCron, describePlan, missedRunPolicyText, runOutcome } from "../schedule_text";
 import { Badge, ErrorBox, formatTime, usePoll } from "../ui";
-import { Check, ConfirmButton, Field, TableWrap } from "./form_parts";
+import { Check, ConfirmButton, Field, ImageFormatOptions, TableWrap } from "./form_parts";
 
 const kRunsPerPage = 20;
 
@@ -202,12 +201,7 @@ function CaptureEditor({ index, capture, errors, onChange, onRemove }: {
             {(p) => (
               <select {...p} value={String(capture.format)}
                       onChange={(e) => onChange({ ...capture, format: Number(e.currentTarget.value) })}>
-                <option value={String(ImageFormat.UNSPECIFIED)}>The camera's current</option>
-                <option value={String(ImageFormat.JPEG)}>JPEG</option>
-                <option value={String(ImageFormat.RAW)}>RAW</option>
-                <option value={String(ImageFormat.RAW_AND_JPEG)}>RAW + JPEG</option>
-                <option value={String(ImageFormat.TIFF_16)}>16-bit TIFF (simulated camera)</option>
-                <option value={String(ImageFormat.PNG_8)}>8-bit PNG (simulated camera)</option>
+                <ImageFormatOptions />
               </select>
             )}
           </Field>
