@@ -354,11 +354,12 @@ export function spkiHashOf(pem: string): string {
 
 // Debian's Chromium, headless, trusting the server key `spkiHash` and
 // nothing else beyond the system's roots.
-export async function launchBrowser(spkiHash: string): Promise<Browser> {
+export async function launchBrowser(spkiHash: string, extraArgs: string[] = []):
+    Promise<Browser> {
   return within(60_000, "Chromium's start", chromium.launch({
     executablePath: kChromium,
     headless: true,
-    args: [`--ignore-certificate-errors-spki-list=${spkiHash}`],
+    args: [`--ignore-certificate-errors-spki-list=${spkiHash}`, ...extraArgs],
     timeout: 60_000,
   }));
 }
@@ -386,6 +387,9 @@ export class PageWatch {
       // the server responded with a status of 401 ()".
       const status = /responded with a status of (\d+)/.exec(message.text())?.[1];
       if (status && this.allowed(url, Number(status))) return;
+      // ... and each failed request as "Failed to load resource: net::...".
+      const failure = /Failed to load resource: (net::[A-Z_]+)/.exec(message.text())?.[1];
+      if (failure && this.allowed(url, 0, failure)) return;
       this.problems.push(`console error: ${message.text()} (at ${url || "?"})`);
     });
     page.on("pageerror", (error) => {
