@@ -2,7 +2,7 @@
 //
 // The console's shell: sign-in, then the pages behind a navigation bar that
 // shows only what the signed-in role may use.
-import type { JSX } from "preact";
+import { Fragment, type JSX } from "preact";
 import { useCallback, useEffect, useState } from "preact/hooks";
 import { api, errorCode, errorMessage, isSignedIn, kSignedOutEvent, signIn, signOut } from "./api";
 import { atLeast, type Me, MeContext, Role, roleName } from "./identity";
@@ -136,7 +136,14 @@ export function App() {
       <main id="page" aria-label={current.title}>
         {me.role === Role.UNSPECIFIED
           ? <p class="error" role="alert">You are signed in as {me.principal} but hold no role; ask an admin.</p>
-          : current.render(route)}
+          : (
+            // Keyed by the whole route: another route (#/jobs/1 → #/jobs/2)
+            // mounts a fresh page, so no state, stream or poll of the last
+            // one carries over.
+            <Fragment key={JSON.stringify([current.page, ...route.params])}>
+              {current.render(route)}
+            </Fragment>
+          )}
       </main>
     </MeContext.Provider>
   );

@@ -14,11 +14,11 @@ export interface Loaded<T> {
 }
 
 // Calls `load` now, every `everyMs` (0: once) and on reload(); keeps the
-// last value while a later call fails.
+// last value while a later call fails. When `deps` change the value and
+// error of the old ones are dropped at once (never shown under the new).
 export function usePoll<T>(load: () => Promise<T>, everyMs: number,
                            deps: unknown[] = []): Loaded<T> {
-  const [value, setValue] = useState<T | undefined>(undefined);
-  const [error, setError] = useState<string | undefined>(undefined);
+  const [held, setHeld] = useState<{ deps: unknown[]; value?: T; error?: string }>({ deps });
   const [tick, setTick] = useState(0);
   const loadRef = useRef(load);
   loadRef.current = load;
@@ -29,10 +29,12 @@ export function usePoll<T>(load: () => Promise<T>, everyMs: number,
       try {
         const v = await loadRef.current();
         if (!live) return;
-        setValue(v);
-        setError(undefined);
+        setHeld({ deps, value: v });
       } catch (e) {
-        if (live) setError(errorMessage(e));
+        if (live) {
+          setHeld((h) => ({ deps, value: sameDeps(h.deps, deps) ? h.value : undefined,
+                            error: errorMessage(e) }));
+        }
       }
       if (live && everyMs > 0) timer = setTimeout(run, everyMs);
     };
@@ -43,7 +45,28 @@ export function usePoll<T>(load: () => Promise<T>, everyMs: number,
     };
     // eslint-disable-next-line react-hooks/exhaustive-deps
   }, [tick, everyMs, ...deps]);
-  return { value, error, reload: () => setTick((t) => t + 1) };
+  const current = sameDeps(held.deps, deps);
+  return {
+    value: current ? held.value : undefined,
+    error: current ? held.error : undefined,
+    reload: () => setTick((t) => t + 1),
+  };
+}
+
+function sameDeps(a: unknown[], b: unknown[]): boolean {
+  return a.length === b.length && a.every((x, i) => Object.is(x, b[i]));
+}
+
+// Resolves after `ms`, or at once when `signal` aborts.
+export function sleep(ms: number, signal: AbortSignal): Promise<void> {
+  return new Promise((resolve) => {
+    if (signal.aborted) {
+      resolve();
+      return;
+    }
+    const timer = setTimeout(resolve, ms);
+    signal.addEventListener("abort", () => { clearTimeout(timer); resolve(); }, { once: true });
+  });
 }
 
 export function ErrorBox({ error }: { error?: string }) {

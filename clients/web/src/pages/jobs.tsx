@@ -14,7 +14,7 @@ import { gaps, lastSequence, mergeEvents, reconnectDelayMs } from "../event_log"
 import { atLeast, Role, useMe } from "../identity";
 import { remainingSeconds } from "../remaining";
 import { href } from "../router";
-import { Badge, ErrorBox, formatDuration, formatTime, Section, usePoll } from "../ui";
+import { Badge, ErrorBox, formatDuration, formatTime, Section, sleep, usePoll } from "../ui";
 
 const kStateWords: Record<JobState, [string, "ok" | "warn" | "bad" | "idle"]> = {
   [JobState.UNSPECIFIED]: ["unknown", "idle"],
@@ -175,48 +175,47 @@ type Connection =
 const kFatalCodes = [Code.NotFound, Code.InvalidArgument, Code.PermissionDenied,
                      Code.Unauthenticated, Code.OutOfRange];
 
-function sleep(ms: number, signal: AbortSignal): Promise<void> {
-  return new Promise((resolve) => {
-    const timer = setTimeout(resolve, ms);
-    signal.addEventListener("abort", () => { clearTimeout(timer); resolve(); }, { once: true });
-  });
-}
-
-// The job's events, streamed live and resumed after a break.
+// The job's events, streamed live and resumed after a break. Every state
+// update first checks the effect's signal: a loop of an earlier job (or of
+// an unmounted page) changes nothing once it is aborted.
 function useJobEvents(jobId: bigint): { events: JobEvent[]; connection: Connection } {
   const [events, setEvents] = useState<JobEvent[]>([]);
   const [connection, setConnection] = useState<Connection>({ kind: "connecting" });
-  const last = useRef(0n);
   useEffect(() => {
     const abort = new AbortController();
-    last.current = 0n;
+    const { signal } = abort;
+    const connected = (c: Connection) => { if (!signal.aborted) setConnection(c); };
+    let last = 0n;
     setEvents([]);
+    setConnection({ kind: "connecting" });
     (async () => {
       let attempt = 0;
-      while (!abort.signal.aborted) {
+      while (!signal.aborted) {
         let why = "the stream ended before the job did";
         try {
           let finished = false;
-          const stream = api.jobs.watch({ jobId, afterSequence: last.current }, {
-            signal: abort.signal,
+          const stream = api.jobs.watch({ jobId, afterSequence: last }, {
+            signal,
             // Connected: a job that is waiting may send nothing for long.
-            onHeader: () => setConnection({ kind: "live" }),
+            onHeader: () => connected({ kind: "live" }),
           });
           for await (const event of stream) {
+            if (signal.aborted) return;
             attempt = 0;
-            if (event.sequence > last.current) last.current = event.sequence;
+            if (event.sequence > last) last = event.sequence;
             setEvents((log) => mergeEvents(log, [event]));
             setConnection({ kind: "live" });
             if (kFinalStates.includes(event.state)) finished = true;
           }
           // A stream also ends for a job that will not go on (interrupted).
-          if (!finished) finished = kHistoryStates.includes((await api.jobs.get({ jobId })).state);
+          if (!finished) finished = kHistoryStates.includes((await api.jobs.get({ jobId }, { signal })).state);
+          if (signal.aborted) return;
           if (finished) {
             setConnection({ kind: "ended" });
             return;
           }
         } catch (e) {
-          if (abort.signal.aborted) return;
+          if (signal.aborted) return;
           const code = errorCode(e);
           if (code !== undefined && kFatalCodes.includes(code)) {
             setConnection({ kind: "failed", why: errorMessage(e) });
@@ -226,9 +225,9 @@ function useJobEvents(jobId: bigint): { events: JobEvent[]; connection: Connecti
         }
         const inMs = reconnectDelayMs(attempt, Math.random());
         ++attempt;
-        setConnection({ kind: "retrying", inMs, attempt, why });
-        await sleep(inMs, abort.signal);
-        if (!abort.signal.aborted) setConnection({ kind: "connecting" });
+        connected({ kind: "retrying", inMs, attempt, why });
+        await sleep(inMs, signal);
+        connected({ kind: "connecting" });
       }
     })();
     return () => abort.abort();
