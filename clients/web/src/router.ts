@@ -12,7 +12,16 @@ export interface Route {
 export function parseRoute(hash: string): Route {
   const parts = hash.replace(/^#\/?/, "").split("/").filter((p) => p !== "");
   const [page = "rig", ...rest] = parts;
-  return { page, params: rest.map((p) => decodeURIComponent(p)) };
+  return { page, params: rest.map(decodePart) };
+}
+
+// A malformed escape (#/sessions/%E0) is kept as typed rather than thrown.
+function decodePart(part: string): string {
+  try {
+    return decodeURIComponent(part);
+  } catch {
+    return part;
+  }
 }
 
 export function href(page: string, ...params: (string | number | bigint)[]): string {
