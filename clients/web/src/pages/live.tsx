@@ -31,7 +31,7 @@ import { atLeast, Role, useMe } from "../identity";
 import { captureJobIn, retryDelayMs } from "../preview_retry";
 import { RateMeter } from "../rate";
 import { href } from "../router";
-import { Badge, ErrorBox, Section } from "../ui";
+import { Badge, ErrorBox, Section, sleep } from "../ui";
 import { arrowStep, imagePoint, moveRegion, type Region, regionAround } from "../zoom";
 
 // The zoom shows this many image pixels (fewer when the image is smaller).
@@ -73,6 +73,7 @@ function fromServer(c: ChannelStatistics): ChannelHistogram {
 class FrameView {
   received = 0;
   shown = 0;
+  skipped = 0;  // frames that could not be decoded or drawn
   readonly delivered = new RateMeter();
   readonly drawn = new RateMeter();
   canvas: HTMLCanvasElement | null = null;
@@ -95,26 +96,30 @@ class FrameView {
     if (!this.busy) void this.drain();
   }
 
+  // One frame at a time; a frame that cannot be decoded or drawn is
+  // skipped and counted, and the one waiting behind it is still drawn.
   private async drain(): Promise<void> {
     this.busy = true;
     try {
       while (this.pending) {
         const frame = this.pending;
         this.pending = undefined;
-        // The JPEG's levels as they are, like the daemon's decoder: no
-        // colour management.
-        const bitmap = await createImageBitmap(
-          new Blob([frame.jpeg as Uint8Array<ArrayBuffer>], { type: "image/jpeg" }),
-          { colorSpaceConversion: "none" });
         try {
-          this.draw(frame, bitmap);
-        } finally {
-          bitmap.close();
+          // The JPEG's levels as they are, like the daemon's decoder: no
+          // colour management.
+          const bitmap = await createImageBitmap(
+            new Blob([frame.jpeg as Uint8Array<ArrayBuffer>], { type: "image/jpeg" }),
+            { colorSpaceConversion: "none" });
+          try {
+            this.draw(frame, bitmap);
+          } finally {
+            bitmap.close();
+          }
+        } catch (e) {
+          ++this.skipped;
+          console.warn(`live view: frame ${frame.sequence} could not be drawn:`, e);
         }
       }
-    } catch (e) {
-      // An undecodable frame is skipped; the next one is drawn.
-      console.warn("live view: a frame could not be drawn:", e);
     } finally {
       this.busy = false;
     }
@@ -172,14 +177,6 @@ class FrameView {
   }
 }
 
-// Resolves after `ms`, or at once when `signal` aborts.
-function sleep(ms: number, signal: AbortSignal): Promise<void> {
-  return new Promise((resolve) => {
-    const timer = setTimeout(resolve, ms);
-    signal.addEventListener("abort", () => { clearTimeout(timer); resolve(); }, { once: true });
-  });
-}
-
 const percent = (f: number) => `${(f * 100).toFixed(f > 0 && f < 0.001 ? 3 : 2)} %`;
 
 export function LivePage() {
@@ -189,7 +186,7 @@ export function LivePage() {
   const [attempt, setAttempt] = useState(0);  // "Retry now" restarts the stream
   const [stream, setStream] = useState<StreamState>({ kind: "connecting" });
   const [shown, setShown] = useState<Shown | undefined>(undefined);
-  const [rates, setRates] = useState({ shown: 0, delivered: 0, received: 0, drawn: 0 });
+  const [rates, setRates] = useState({ shown: 0, delivered: 0, received: 0, drawn: 0, skipped: 0 });
   const [overlay, setOverlay] = useState(false);
   const [zoom, setZoom] = useState<Region | undefined>(undefined);
   const [source, setSource] = useState<"server" | "browser">("server");
@@ -275,7 +272,7 @@ export function LivePage() {
       const t = performance.now();
       setRates({
         shown: frameView.drawn.rate(t), delivered: frameView.delivered.rate(t),
-        received: frameView.received, drawn: frameView.shown,
+        received: frameView.received, drawn: frameView.shown, skipped: frameView.skipped,
       });
       setNow(Date.now());
     }, 500);
@@ -368,6 +365,7 @@ export function LivePage() {
           <p class="live-rate" data-testid="live-rate">
             shown <strong>{rates.shown.toFixed(1)} fps</strong> of {rates.delivered.toFixed(1)} delivered
             {shown && <> (cap {shown.fpsCap} fps)</>} · {rates.drawn} of {rates.received} frames drawn
+            {rates.skipped > 0 && <> ({rates.skipped} could not be decoded, skipped)</>}
             {shown && <> · frame #{String(shown.sequence)}, {shown.width}×{shown.height},
               exposure {formatExposure(shown.exposureS)}</>}
           </p>
