@@ -8,6 +8,7 @@
 import { create } from "@bufbuild/protobuf";
 import { ImageFormat } from "../gen/hdrstereo/v1/common_pb";
 import { type CapturePlan, CapturePlanSchema } from "../gen/hdrstereo/v1/jobs_pb";
+import { parseExposureList } from "./exposure";
 import type { FieldError } from "./plan_field_errors";
 
 export type PlanKind = "bracketed_stereo" | "structured_light" | "calibration";
@@ -41,32 +42,6 @@ export function parseNumber(text: string): number {
   return Number.isFinite(value) ? value : NaN;
 }
 
-// "1/60, 1/125 0.5" as seconds.
-export function parseExposures(text: string, field: string): { values: number[]; errors: FieldError[] } {
-  const values: number[] = [];
-  const errors: FieldError[] = [];
-  text.split(/[,;\s]+/).filter((t) => t !== "").forEach((token, i) => {
-    const v = parseNumber(token);
-    if (Number.isNaN(v)) {
-      errors.push({ field, index: i,
-                    message: `${field}[${i}] is "${token}"; give seconds as a number or a fraction like 1/60` });
-    }
-    values.push(v);
-  });
-  return { values, errors };
-}
-
-// 1/60 for 0.016666…, 0.5 for 0.5, 2 for 2: how photographers write them.
-export function formatExposure(seconds: number): string {
-  if (seconds > 0 && seconds < 1) {
-    const denominator = 1 / seconds;
-    if (Math.abs(denominator - Math.round(denominator)) < 1e-6 * denominator) {
-      return `1/${Math.round(denominator)}`;
-    }
-  }
-  return String(Number(seconds.toPrecision(6)));
-}
-
 export function buildPlan(kind: PlanKind, values: FormValues): { plan: CapturePlan; errors: FieldError[] } {
   const errors: FieldError[] = [];
   const text = (f: string) => {
@@ -84,8 +59,9 @@ export function buildPlan(kind: PlanKind, values: FormValues): { plan: CapturePl
     return v;
   };
   const exposures = () => {
-    const parsed = parseExposures(text("exposures_s"), `${kind}.exposures_s`);
-    errors.push(...parsed.errors);
+    const field = `${kind}.exposures_s`;
+    const parsed = parseExposureList(text("exposures_s"));
+    errors.push(...parsed.errors.map((e) => ({ field, index: e.index, message: `${field}[${e.index}]: ${e.message}` })));
     return parsed.values.map((v) => (Number.isNaN(v) ? 0 : v));
   };
   let plan: CapturePlan;

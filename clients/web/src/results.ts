@@ -5,6 +5,8 @@
 // reported, how each artifact can be viewed, how artifacts group by the
 // step that made them, and the metrics' stated precision.
 
+import { formatExposure } from "./exposure";
+
 // --- Frames -------------------------------------------------------------
 
 export type ExposureCheck =
@@ -15,17 +17,6 @@ export type ExposureCheck =
 // Cameras round shutter times to third stops; within a sixth of a stop of
 // what was set counts as the setting the camera used.
 export const kExposureToleranceStops = 1 / 6;
-
-export function formatExposure(seconds: number): string {
-  if (!(seconds > 0)) return "–";
-  if (seconds >= 1) return `${Number(seconds.toPrecision(3))} s`;
-  const inverse = 1 / seconds;
-  // 1/250 s style when the time is (nearly) a unit fraction.
-  if (Math.abs(inverse - Math.round(inverse)) < 0.01 * inverse) {
-    return `1/${Math.round(inverse)} s`;
-  }
-  return `${Number(seconds.toPrecision(3))} s`;
-}
 
 // The exposure the camera wrote into the file against the one set.
 export function checkExposure(setS: number, cameraS: number | undefined): ExposureCheck {

@@ -8,7 +8,7 @@ import { create } from "@bufbuild/protobuf";
 import { ImageFormat } from "../gen/hdrstereo/v1/common_pb";
 import { type CapturePlan, CapturePlanSchema } from "../gen/hdrstereo/v1/jobs_pb";
 import { MissedRunPolicy, type Schedule, ScheduleSchema } from "../gen/hdrstereo/v1/schedules_pb";
-import { parseExposures } from "./schedule_text";
+import { parseExposureList } from "./exposure";
 
 export type CaptureKind = "bracketed_stereo" | "structured_light";
 
@@ -94,11 +94,9 @@ export function buildSchedule(draft: ScheduleDraft):
     const path = (f: string) => captureFieldPath(i, c.kind, f);
     let exposuresS: number[] = [];
     if (!(c.kind === "bracketed_stereo" && c.autoBracket)) {
-      try {
-        exposuresS = parseExposures(c.exposures);
-      } catch (e) {
-        errors[path("exposures_s")] = (e as Error).message;
-      }
+      const parsed = parseExposureList(c.exposures);
+      if (parsed.errors.length > 0) errors[path("exposures_s")] = parsed.errors[0].message;
+      exposuresS = parsed.values;
     }
     const common = {
       exposuresS,

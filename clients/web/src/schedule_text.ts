@@ -1,11 +1,11 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
 // Schedules in words: a cron expression read out where it is a common
-// shape, a plan as one line, a run's outcome, and the exposure lists the
-// schedule form takes ("1/60, 1/250, 0.5").
+// shape, a plan as one line, a run's outcome.
 import type { CapturePlan } from "../gen/hdrstereo/v1/jobs_pb";
 import { MissedRunPolicy, type SchedulePlan, ScheduleRun_Outcome }
   from "../gen/hdrstereo/v1/schedules_pb";
+import { formatExposure } from "./exposure";
 
 const kDayNames = ["Sunday", "Monday", "Tuesday", "Wednesday", "Thursday", "Friday", "Saturday"];
 const kDayAbbrev = ["SUN", "MON", "TUE", "WED", "THU", "FRI", "SAT"];
@@ -83,31 +83,6 @@ export function describeCron(cron: string): string | undefined {
     return `${at} on day ${day} of every month`;
   }
   return undefined;
-}
-
-// An exposure time for people: "1/60 s" below a second when it is one
-// over a whole number, else in seconds.
-export function formatExposure(seconds: number): string {
-  if (seconds > 0 && seconds < 1) {
-    const over = Math.round(1 / seconds);
-    if (Math.abs(1 / over - seconds) <= seconds * 1e-6) return `1/${over} s`;
-  }
-  return `${Number(seconds.toPrecision(4))} s`;
-}
-
-// Parses "1/60, 1/250 0.5" (commas or spaces; fractions or decimals) into
-// seconds. Empty: []. Throws with the offending item.
-export function parseExposures(text: string): number[] {
-  const items = text.split(/[\s,]+/).filter((t) => t !== "");
-  return items.map((item) => {
-    const fraction = /^(\d+(?:\.\d+)?)\/(\d+(?:\.\d+)?)$/.exec(item);
-    const value = fraction ? Number(fraction[1]) / Number(fraction[2])
-      : /^\d*\.?\d+(e-?\d+)?$/i.test(item) ? Number(item) : NaN;
-    if (!Number.isFinite(value) || value <= 0) {
-      throw new Error(`"${item}" is not an exposure time; write seconds, e.g. 1/60 or 0.5`);
-    }
-    return value;
-  });
 }
 
 function exposures(list: number[]): string {

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 import assert from "node:assert/strict";
 import { test } from "node:test";
-import { buildPlan, formatExposure, parseExposures, parseNumber } from "../src/capture_plan";
+import { buildPlan, parseNumber } from "../src/capture_plan";
 
 test("numbers and fractions; empty is the daemon's default", () => {
   assert.equal(parseNumber(""), 0);
@@ -11,19 +11,14 @@ test("numbers and fractions; empty is the daemon's default", () => {
   assert.ok(Number.isNaN(parseNumber("1/0")));
 });
 
-test("exposure lists name the entry that is not a number", () => {
-  assert.deepEqual(parseExposures("1/2, 1/4 2", "f").values, [0.5, 0.25, 2]);
-  const bad = parseExposures("1/60,x", "bracketed_stereo.exposures_s");
-  assert.equal(bad.errors.length, 1);
-  assert.equal(bad.errors[0].field, "bracketed_stereo.exposures_s");
-  assert.equal(bad.errors[0].index, 1);
-});
-
-test("exposures as photographers write them", () => {
-  assert.equal(formatExposure(1 / 60), "1/60");
-  assert.equal(formatExposure(0.5), "1/2");
-  assert.equal(formatExposure(0.3), "0.3");
-  assert.equal(formatExposure(2), "2");
+test("a bad entry of the exposure list is named at its field and index", () => {
+  const { plan, errors } = buildPlan("structured_light", { "structured_light.exposures_s": "1/60,x" });
+  assert.deepEqual(errors, [{
+    field: "structured_light.exposures_s", index: 1,
+    message: "structured_light.exposures_s[1]: \"x\" is not an exposure time; write seconds, e.g. 1/60 or 0.5",
+  }]);
+  if (plan.plan.case !== "structuredLight") assert.fail("not structured light");
+  assert.deepEqual(plan.plan.value.exposuresS, [1 / 60, 0]);
 });
 
 test("a stereo form makes its plan; automatic bracketing leaves the exposures out", () => {

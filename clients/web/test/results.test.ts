@@ -3,16 +3,8 @@ import assert from "node:assert/strict";
 import { test } from "node:test";
 import {
   artifactView, barScale, browserShowsImage, checkExposure, companionImages, coverageImages,
-  formatExposure, formatPercent, formatPx, groundTruthOf, groupArtifacts, hex,
+  formatPercent, formatPx, groundTruthOf, groupArtifacts, hex,
 } from "../src/results";
-
-test("exposures read as photographers write them", () => {
-  assert.equal(formatExposure(0.004), "1/250 s");
-  assert.equal(formatExposure(1 / 30), "1/30 s");
-  assert.equal(formatExposure(0.3), "0.3 s");
-  assert.equal(formatExposure(2), "2 s");
-  assert.equal(formatExposure(0), "–");
-});
 
 test("the camera's exposure against the one set: within 1/6 stop matches", () => {
   assert.deepEqual(checkExposure(0.004, 0.004), { state: "match", text: "camera reports 1/250 s" });

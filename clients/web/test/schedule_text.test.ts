@@ -5,8 +5,8 @@ import { create } from "@bufbuild/protobuf";
 import { CapturePlanSchema } from "../gen/hdrstereo/v1/jobs_pb";
 import { MissedRunPolicy, SchedulePlanSchema, ScheduleRun_Outcome }
   from "../gen/hdrstereo/v1/schedules_pb";
-import { describeCapture, describeCron, describePlan, formatExposure, missedRunPolicyText,
-         parseExposures, runOutcome } from "../src/schedule_text";
+import { describeCapture, describeCron, describePlan, missedRunPolicyText, runOutcome }
+  from "../src/schedule_text";
 
 test("describeCron reads common shapes", () => {
   assert.equal(describeCron("30 2 * * *"), "every day at 02:30");
@@ -26,22 +26,6 @@ test("describeCron leaves other shapes to the expression", () => {
   assert.equal(describeCron("0 3 13 * 5"), undefined);        // day and weekday
   assert.equal(describeCron("0 3 * *"), undefined);           // 4 fields
   assert.equal(describeCron("61 3 * * *"), undefined);
-});
-
-test("formatExposure writes fractions below a second", () => {
-  assert.equal(formatExposure(1 / 60), "1/60 s");
-  assert.equal(formatExposure(0.004), "1/250 s");
-  assert.equal(formatExposure(0.3), "0.3 s");
-  assert.equal(formatExposure(2), "2 s");
-});
-
-test("parseExposures reads fractions and decimals", () => {
-  assert.deepEqual(parseExposures("1/4, 0.5 2"), [0.25, 0.5, 2]);
-  assert.deepEqual(parseExposures("  "), []);
-  assert.throws(() => parseExposures("1/60, fast"),
-                { message: "\"fast\" is not an exposure time; write seconds, e.g. 1/60 or 0.5" });
-  assert.throws(() => parseExposures("0"), /"0" is not an exposure time/);
-  assert.throws(() => parseExposures("1/0"), /"1\/0" is not an exposure time/);
 });
 
 test("describeCapture says what a capture takes", () => {
@@ -68,7 +52,7 @@ test("describePlan lists session, captures and processing", () => {
   });
   assert.deepEqual(describePlan(plan, "nightly"), [
     "session nightly-{date}-{time}",
-    "bracketed stereo: 1 exposure (1/2 s), 2 views",
+    "bracketed stereo: 1 exposure (0.5 s), 2 views",
     "then processing: hdr, stereo",
   ]);
   plan.sessionPattern = "lab-{date}";

@@ -548,7 +548,7 @@ function ExposureCard({ operator, live, frameExposureS }: {
 
   const show = (s: CameraSettings) => {
     setCurrent(s);
-    setExposure(formatExposure(s.exposureS));
+    setExposure(formatExposure(s.exposureS, { forInput: true }));
     setIso(s.iso > 0 ? String(s.iso) : "");
     setAperture(s.apertureF > 0 ? String(s.apertureF) : "");
   };

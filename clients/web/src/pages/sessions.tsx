@@ -11,8 +11,9 @@ import { CaptureKind, type Artifact, type Frame, type Metric, type Session } fro
 import { api, errorMessage, fileUrl, reportUrl } from "../api";
 import {
   artifactView, browserShowsImage, checkExposure, companionImages, coverageImages,
-  extensionOf, formatExposure, formatPercent, formatPx, groundTruthOf, groupArtifacts, hex,
+  extensionOf, formatPercent, formatPx, groundTruthOf, groupArtifacts, hex,
 } from "../results";
+import { formatExposure } from "../exposure";
 import { atLeast, Role, useMe } from "../identity";
 import { href } from "../router";
 import { Badge, ErrorBox, formatBytes, formatTime, Section, usePoll } from "../ui";
