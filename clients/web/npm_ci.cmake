@@ -17,6 +17,9 @@ endforeach()
 
 set(lock "${DIR}/package-lock.json")
 set(installed "${DIR}/node_modules/.package-lock.json")
+# Two build trees building at once share DIR: one installs, the other waits
+# and then finds node_modules current.
+file(LOCK "${DIR}/.npm-ci.lock" GUARD PROCESS TIMEOUT 900)
 if(EXISTS "${installed}" AND NOT "${lock}" IS_NEWER_THAN "${installed}")
   if(NOT EXISTS "${STAMP}")
     file(TOUCH "${STAMP}")

@@ -398,20 +398,22 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
     // body never read (nor buffered): a wrong Host, no credentials.
     const Request& head = parser_->get();
     const std::string target(head.target());
-    if (edge_.console_.Serves(
-            absl::string_view(target).substr(0, target.find('?')))) {
-      // The console's files need no credentials (they hold no secret; the
-      // calls the page makes do) and take no body: one sent is not read.
+    const absl::string_view path =
+        absl::string_view(target).substr(0, target.find('?'));
+    if (edge_.console_.Serves(path) || path == "/auth/session") {
+      // The console's files and the session check need no credentials (the
+      // files hold no secret; the calls the page makes do) and take no
+      // body: one sent is not read.
       body_unread_ = !parser_->is_done();
       request_ = parser_->release();
       parser_.reset();
       return Dispatch();
     }
     const bool sign_in = target == "/auth/sign-in";
-    if (sign_in) parser_->body_limit(kMaxSignInBodyBytes);
+    const bool sign_out = target == "/auth/sign-out";
+    if (sign_in || sign_out) parser_->body_limit(kMaxSignInBodyBytes);
     if (!CheckHost(Sv(head[bhttp::field::host]), info_.served_names).ok() ||
-        (!sign_in && target != "/auth/sign-out" && target != "/auth/session" &&
-         !Caller().ok())) {
+        (!sign_in && !sign_out && !Caller().ok())) {
       body_unread_ = true;
       request_ = parser_->release();
       parser_.reset();
@@ -503,12 +505,20 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
       if (verb != bhttp::verb::get && verb != bhttp::verb::head) {
         return MethodNotAllowed("GET, HEAD");
       }
-      // Whether this request's credentials are good: a page asks before its
-      // first call, so that being signed out is an answer, not a 401 the
-      // browser reports as a failed request.
+      // Whether the page's session cookie (or client certificate) is good: a
+      // page asks before its first call, so that being signed out is an
+      // answer, not a 401 the browser reports as a failed request. An
+      // Authorization header is not looked at: key guesses go where they
+      // are throttled and audited.
+      Request browser_only = request_;
+      browser_only.erase(bhttp::field::authorization);
+      const bool signed_in = edge_
+                                 .Authenticate(browser_only, info_.cookie_name,
+                                               false, cert_principal_, peer_)
+                                 .ok();
       return Send(JsonResponse(
           version, 200,
-          Caller().ok() ? R"({"signedIn":true})" : R"({"signedIn":false})"));
+          signed_in ? R"({"signedIn":true})" : R"({"signedIn":false})"));
     }
     if (absl::StartsWith(path, "/files/")) {
       if (verb != bhttp::verb::get && verb != bhttp::verb::head) {

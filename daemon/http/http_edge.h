@@ -16,8 +16,9 @@
 //                                            text/event-stream, SSE)
 //   POST /auth/sign-in  {"apiKey": "hs_..."} a session cookie
 //   POST /auth/sign-out
-//   GET|HEAD /auth/session                   {"signedIn": true|false}: are
-//                                            this request's credentials good
+//   GET|HEAD /auth/session                   {"signedIn": true|false}: is
+//                                            the session cookie (or client
+//                                            certificate) good
 //   GET|HEAD /files/sessions/<session>/artifacts/<id>   Range, ETag (sha256)
 //   GET|HEAD /files/sessions/<session>/frames/<id>
 //

@@ -178,6 +178,10 @@ TEST_F(HttpTest, SignInSetsAStrictSessionCookieThatRevokingTheKeyEnds) {
   };
   EXPECT_EQ(signed_in_state({cookie, origin}), R"({"signedIn":true})");
   EXPECT_EQ(signed_in_state({}), R"({"signedIn":false})");
+  // A key is not checked here (key guesses go where they are throttled and
+  // audited), good or bad.
+  EXPECT_EQ(signed_in_state({"Authorization: Bearer " + key}),
+            R"({"signedIn":false})");
   HttpRequest post_session = To("/auth/session");
   post_session.headers = {cookie, origin, "Content-Type: application/json"};
   post_session.body = "{}";
