@@ -57,9 +57,11 @@ export function TableWrap({ label, children }: { label: string; children: Compon
 }
 
 // A button that asks `question` before running `act`; the question takes
-// the focus, Cancel gives it back. A refused call shows the server's words.
-export function ConfirmButton({ label, question, confirmLabel, act }: {
-  label: string; question: string; confirmLabel: string; act: () => Promise<unknown>;
+// the focus, Cancel (or `keepLabel`) gives it back. A refused call shows
+// the server's words.
+export function ConfirmButton({ label, question, confirmLabel, keepLabel = "Cancel", act }: {
+  label: string; question: string; confirmLabel: string; keepLabel?: string;
+  act: () => Promise<unknown>;
 }) {
   const [asking, setAsking] = useState(false);
   const [busy, setBusy] = useState(false);
@@ -99,7 +101,7 @@ export function ConfirmButton({ label, question, confirmLabel, act }: {
         {confirmLabel}
       </button>
       <button type="button" class="secondary" disabled={busy} onClick={() => setAsking(false)}>
-        Cancel
+        {keepLabel}
       </button>
       {error && <span class="field-error" role="alert">{error}</span>}
     </span>

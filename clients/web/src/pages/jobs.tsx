@@ -15,6 +15,7 @@ import { atLeast, Role, useMe } from "../identity";
 import { remainingSeconds } from "../remaining";
 import { href } from "../router";
 import { Badge, ErrorBox, formatDuration, formatTime, Section, sleep, usePoll } from "../ui";
+import { ConfirmButton } from "./form_parts";
 
 const kStateWords: Record<JobState, [string, "ok" | "warn" | "bad" | "idle"]> = {
   [JobState.UNSPECIFIED]: ["unknown", "idle"],
@@ -422,8 +423,7 @@ function JobControls({ job, state, canControl, reload }:
                      { job: Job; state: JobState; canControl: boolean; reload: () => void }) {
   const [busy, setBusy] = useState(false);
   const [error, setError] = useState<string | undefined>(undefined);
-  const [confirming, setConfirming] = useState(false);
-  if (!canControl) return null;
+  if (!canControl || !kQueueStates.includes(state)) return null;
   const jobId = job.id;
   const act = async (call: () => Promise<unknown>) => {
     setBusy(true);
@@ -435,11 +435,8 @@ function JobControls({ job, state, canControl, reload }:
       setError(errorMessage(e));
     } finally {
       setBusy(false);
-      setConfirming(false);
     }
   };
-  const open = kQueueStates.includes(state);
-  if (!open) return null;
   return (
     <div class="job-controls">
       <div class="row">
@@ -452,20 +449,13 @@ function JobControls({ job, state, canControl, reload }:
             Resume
           </button>
         )}
-        {!confirming && (
-          <button type="button" class="danger" disabled={busy} onClick={() => setConfirming(true)}>
-            Cancel job…
-          </button>
-        )}
+        <ConfirmButton label="Cancel job…" confirmLabel="Yes, cancel it" keepLabel="Keep it"
+                       question={`Cancel job #${jobId}? The rig is left safe; frames taken are kept.`}
+                       act={async () => {
+                         await api.jobs.cancel({ jobId });
+                         reload();
+                       }} />
       </div>
-      {confirming && (
-        <div class="confirm row" role="group" aria-label="Confirm cancelling">
-          <span>Cancel job #{String(jobId)}? The rig is left safe; frames taken are kept.</span>
-          <button type="button" class="danger" disabled={busy} autoFocus
-                  onClick={() => act(() => api.jobs.cancel({ jobId }))}>Yes, cancel it</button>
-          <button type="button" class="secondary" onClick={() => setConfirming(false)}>Keep it</button>
-        </div>
-      )}
       <ErrorBox error={error} />
     </div>
   );
