@@ -6,9 +6,9 @@
 // the field it names (field_errors.ts) and so do the form's own checks.
 import { create } from "@bufbuild/protobuf";
 import { ImageFormat } from "../gen/hdrstereo/v1/common_pb";
-import { type CapturePlan, CapturePlanSchema } from "../gen/hdrstereo/v1/jobs_pb";
+import type { CapturePlan } from "../gen/hdrstereo/v1/jobs_pb";
 import { MissedRunPolicy, type Schedule, ScheduleSchema } from "../gen/hdrstereo/v1/schedules_pb";
-import { parseExposureList } from "./exposure";
+import { buildPlan, type FormValues } from "./capture_plan";
 
 export type CaptureKind = "bracketed_stereo" | "structured_light";
 
@@ -77,51 +77,37 @@ export function formFields(draft: ScheduleDraft): string[] {
   return fields;
 }
 
-// The Schedule to create, or the form's own errors by field path.
+// One capture of the draft as the capture form's values, so that the
+// capture form's builder (capture_plan.ts) makes it and reads its numbers.
+function captureValues(c: CaptureDraft): FormValues {
+  const k = c.kind;
+  const values: FormValues = {
+    [`${k}.exposures_s`]: c.exposures, [`${k}.views`]: c.views, [`${k}.baseline_mm`]: c.baselineMm,
+    [`${k}.settle_s`]: c.settleS, [`${k}.iso`]: c.iso, [`${k}.aperture_f`]: c.apertureF,
+  };
+  if (k === "bracketed_stereo") {
+    Object.assign(values, { [`${k}.auto_bracket`]: c.autoBracket, [`${k}.format`]: String(c.format),
+                            [`${k}.skip_ambient`]: c.skipAmbient });
+  } else {
+    Object.assign(values, { [`${k}.projector_probe`]: c.projectorProbe,
+                            [`${k}.round_exposures_to_refresh`]: c.roundExposures });
+  }
+  return values;
+}
+
+// The Schedule to create, or the form's own errors by field path (the
+// first one of each field). Numbers are read as the capture form reads
+// them; their ranges are the daemon's to judge.
 export function buildSchedule(draft: ScheduleDraft):
     { schedule: Schedule; errors?: undefined } | { schedule?: undefined; errors: Record<string, string> } {
   const errors: Record<string, string> = {};
-  const number = (text: string, path: string, integer: boolean): number => {
-    if (text.trim() === "") return 0;
-    const value = Number(text);
-    if (!Number.isFinite(value) || value < 0 || (integer && !Number.isInteger(value))) {
-      errors[path] = `${path.split(".").pop()} "${text}" is not ${integer ? "a whole number" : "a number"} of 0 or more`;
-      return 0;
-    }
-    return value;
-  };
   const captures = draft.captures.map((c, i): CapturePlan => {
-    const path = (f: string) => captureFieldPath(i, c.kind, f);
-    let exposuresS: number[] = [];
-    if (!(c.kind === "bracketed_stereo" && c.autoBracket)) {
-      const parsed = parseExposureList(c.exposures);
-      if (parsed.errors.length > 0) errors[path("exposures_s")] = parsed.errors[0].message;
-      exposuresS = parsed.values;
+    const { plan, errors: found } = buildPlan(c.kind, captureValues(c));
+    for (const e of found) {
+      const path = e.field ? `${capturePath(i)}.${e.field}` : capturePath(i);
+      errors[path] ??= e.message;
     }
-    const common = {
-      exposuresS,
-      views: number(c.views, path("views"), true),
-      baselineMm: number(c.baselineMm, path("baseline_mm"), false),
-      settleS: number(c.settleS, path("settle_s"), false),
-      iso: number(c.iso, path("iso"), true),
-      apertureF: number(c.apertureF, path("aperture_f"), false),
-    };
-    if (c.kind === "bracketed_stereo") {
-      return create(CapturePlanSchema, {
-        plan: {
-          case: "bracketedStereo",
-          value: { ...common, format: c.format, skipAmbient: c.skipAmbient,
-                   autoBracket: c.autoBracket ? {} : undefined },
-        },
-      });
-    }
-    return create(CapturePlanSchema, {
-      plan: {
-        case: "structuredLight",
-        value: { ...common, roundExposuresToRefresh: c.roundExposures,
-                 projectorProbe: c.projectorProbe ? {} : undefined },
-      },
-    });
+    return plan;
   });
   if (draft.captures.length === 0) errors["plan.captures"] = "add at least one capture";
   if (Object.keys(errors).length > 0) return { errors };

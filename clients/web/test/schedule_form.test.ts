@@ -60,13 +60,19 @@ test("buildSchedule's own errors sit at their fields", () => {
   const draft = newScheduleDraft("UTC");
   draft.captures.push(newCapture("structured_light"));
   draft.captures[0] = { ...draft.captures[0], views: "2.5" };
-  draft.captures[1] = { ...draft.captures[1], exposures: "1/60 x", baselineMm: "-3" };
+  draft.captures[1] = { ...draft.captures[1], exposures: "1/60 x", baselineMm: "3 mm" };
   assert.deepEqual(buildSchedule(draft).errors, {
-    "plan.captures[0].bracketed_stereo.views": "views \"2.5\" is not a whole number of 0 or more",
+    "plan.captures[0].bracketed_stereo.views": "bracketed_stereo.views is \"2.5\"; give a whole number",
     "plan.captures[1].structured_light.exposures_s":
-      "\"x\" is not an exposure time; write seconds, e.g. 1/60 or 0.5",
-    "plan.captures[1].structured_light.baseline_mm": "baseline_mm \"-3\" is not a number of 0 or more",
+      "structured_light.exposures_s[1]: \"x\" is not an exposure time; write seconds, e.g. 1/60 or 0.5",
+    "plan.captures[1].structured_light.baseline_mm": "structured_light.baseline_mm is \"3 mm\"; give a number",
   });
+  // Ranges are the daemon's to judge (its message lands at the field).
+  draft.captures[0] = { ...draft.captures[0], views: "" };
+  draft.captures[1] = { ...draft.captures[1], exposures: "1/60", baselineMm: "-3" };
+  const { schedule } = buildSchedule(draft);
+  const light = schedule?.plan?.captures[1].plan;
+  assert.equal(light?.case === "structuredLight" && light.value.baselineMm, -3);
   draft.captures = [];
   assert.deepEqual(buildSchedule(draft).errors, { "plan.captures": "add at least one capture" });
 });
