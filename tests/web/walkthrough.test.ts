@@ -8,8 +8,9 @@
 // page and follow both to the end on the job page (every event once, in
 // order); process; the metrics table equals the API's; the HDR viewer's
 // slider redraws (timed); the fused disparity read at three pixels equals
-// the PFM artifact downloaded here. Every page: no console error, no failed
-// request, no serious axe-core violation, a screenshot.
+// the PFM artifact downloaded here. Then the main pages at tablet width
+// (800 px): none wider than the screen. Every page: no console error, no
+// failed request, no serious axe-core violation, a screenshot.
 import assert from "node:assert/strict";
 import { after, before, test } from "node:test";
 import type { Browser, Page } from "playwright-core";
@@ -258,4 +259,34 @@ test("the operator's walkthrough", { timeout: 480_000 }, async () => {
     }
     await inspect(page, "disparity-viewer");
   });
+});
+
+test("the main pages at tablet width: nothing wider than the screen", { timeout: 180_000 },
+     async () => {
+  await withConsole(browser, daemon, "tablet", async (c) => {
+    const { page } = c;
+    await signIn(c, operator);
+    const jobs = (await daemon.ok("Jobs/List", {}, operator)).jobs as { id: string }[];
+    assert.ok(jobs.length > 0, "the walkthrough left no job");
+    const pages: [string, RegExp, string][] = [
+      ["#/rig", /^Rig$/, "tablet-rig"],
+      ["#/live", /^Live view$/, "tablet-live"],
+      ["#/capture", /^Capture$/, "tablet-capture"],
+      ["#/jobs", /^Jobs$/, "tablet-jobs"],
+      [`#/jobs/${jobs[0].id}`, /^Job #/, "tablet-job"],
+      ["#/sessions", /^Sessions$/, "tablet-sessions"],
+      [`#/sessions/${kSession}`, new RegExp(`^Session ${kSession}`), "tablet-session"],
+      ["#/schedules", /^Schedules$/, "tablet-schedules"],
+    ];
+    for (const [hash, h1, name] of pages) {
+      await page.goto(`/${hash}`);
+      await page.getByRole("heading", { level: 1, name: h1 }).waitFor();
+      await until(15_000, `${hash} loading`, async () =>
+        (await page.getByText(/^Loading…$/).count()) === 0 ? true : undefined);
+      const overflow = await page.evaluate(
+        () => document.documentElement.scrollWidth - document.documentElement.clientWidth);
+      assert.ok(overflow <= 0, `${hash} is ${overflow} px wider than the 800 px screen`);
+      await inspect(page, name);
+    }
+  }, { width: 800, height: 1100 });
 });
