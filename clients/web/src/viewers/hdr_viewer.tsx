@@ -6,8 +6,10 @@
 // (hdr_tone.ts), so a step costs a frame, not a trip to the server. Each
 // redraw is timed (draw, finish and one pixel read back, which waits for
 // the GPU) and shown; the canvas carries data-redraw-ms (last) and
-// data-redraw-max-ms for the browser test. Without WebGL2 the same curve
-// runs on the CPU into a 2D canvas.
+// data-redraw-max-ms for the browser test. Without WebGL2, for a map larger
+// than the GPU's textures or when the upload fails, the same curve runs on
+// the CPU into a 2D canvas. The GPU's objects and context are released on
+// unmount.
 import { useEffect, useRef, useState } from "preact/hooks";
 import {
   autoExposureEv, drawSize, kHdrFragmentShader, kHdrVertexShader, toneInto,
@@ -24,8 +26,11 @@ interface Renderer {
   dispose: () => void;
 }
 
-function compile(gl: WebGL2RenderingContext, type: number, source: string): WebGLShader {
-  const shader = gl.createShader(type)!;
+function compile(gl: WebGL2RenderingContext, type: number, source: string,
+                 made: WebGLShader[]): WebGLShader {
+  const shader = gl.createShader(type);
+  if (!shader) throw new Error("the context gives no shader");
+  made.push(shader);
   gl.shaderSource(shader, source);
   gl.compileShader(shader);
   if (!gl.getShaderParameter(shader, gl.COMPILE_STATUS)) {
@@ -34,33 +39,60 @@ function compile(gl: WebGL2RenderingContext, type: number, source: string): WebG
   return shader;
 }
 
-function webglRenderer(canvas: HTMLCanvasElement, pfm: Pfm): Renderer | null {
+// A WebGL2 renderer, or why there is none (the 2D canvas draws then): no
+// WebGL2, a map larger than the GPU's textures, a failed upload. Whatever
+// it made is deleted and its context released when it cannot draw, and
+// on dispose().
+function webglRenderer(canvas: HTMLCanvasElement, pfm: Pfm): Renderer | string {
   const gl = canvas.getContext("webgl2", { antialias: false, depth: false, alpha: false });
-  if (!gl) return null;
-  const program = gl.createProgram()!;
-  gl.attachShader(program, compile(gl, gl.VERTEX_SHADER, kHdrVertexShader));
-  gl.attachShader(program, compile(gl, gl.FRAGMENT_SHADER, kHdrFragmentShader));
-  gl.linkProgram(program);
-  if (!gl.getProgramParameter(program, gl.LINK_STATUS)) {
-    throw new Error(`shader program: ${gl.getProgramInfoLog(program) ?? "does not link"}`);
+  if (!gl) return "no WebGL2 here";
+  const shaders: WebGLShader[] = [];
+  let program: WebGLProgram | null = null;
+  let texture: WebGLTexture | null = null;
+  let vao: WebGLVertexArrayObject | null = null;
+  const release = () => {
+    gl.deleteVertexArray(vao);
+    gl.deleteTexture(texture);
+    gl.deleteProgram(program);
+    for (const shader of shaders) gl.deleteShader(shader);
+    gl.getExtension("WEBGL_lose_context")?.loseContext();
+  };
+  const maxSize = Number(gl.getParameter(gl.MAX_TEXTURE_SIZE));
+  if (pfm.width > maxSize || pfm.height > maxSize) {
+    release();
+    return `the map is larger than this GPU's textures of at most ${maxSize}×${maxSize}`;
   }
-  let rgb = pfm.data;
-  if (pfm.channels === 1) {
-    rgb = new Float32Array(pfm.data.length * 3);
-    for (let i = 0; i < pfm.data.length; ++i) rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = pfm.data[i];
+  try {
+    program = gl.createProgram();
+    if (!program) throw new Error("the context gives no program");
+    gl.attachShader(program, compile(gl, gl.VERTEX_SHADER, kHdrVertexShader, shaders));
+    gl.attachShader(program, compile(gl, gl.FRAGMENT_SHADER, kHdrFragmentShader, shaders));
+    gl.linkProgram(program);
+    if (!gl.getProgramParameter(program, gl.LINK_STATUS)) {
+      throw new Error(`shader program: ${gl.getProgramInfoLog(program) ?? "does not link"}`);
+    }
+    let rgb = pfm.data;
+    if (pfm.channels === 1) {
+      rgb = new Float32Array(pfm.data.length * 3);
+      for (let i = 0; i < pfm.data.length; ++i) rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = pfm.data[i];
+    }
+    texture = gl.createTexture();
+    gl.activeTexture(gl.TEXTURE0);
+    gl.bindTexture(gl.TEXTURE_2D, texture);
+    // NEAREST: float textures need an extension only for linear filtering.
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE);
+    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+    gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGB32F, pfm.width, pfm.height, 0, gl.RGB, gl.FLOAT, rgb);
+    const error = gl.getError();
+    if (error !== gl.NO_ERROR) throw new Error(`the float texture's upload failed (GL error ${error})`);
+    vao = gl.createVertexArray();
+  } catch (e) {
+    release();
+    return `WebGL2 could not take the map: ${e instanceof Error ? e.message : String(e)}`;
   }
-  const texture = gl.createTexture();
-  gl.activeTexture(gl.TEXTURE0);
-  gl.bindTexture(gl.TEXTURE_2D, texture);
-  // NEAREST: float textures need an extension only for linear filtering.
-  gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
-  gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
-  gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE);
-  gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE);
-  gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
-  gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGB32F, pfm.width, pfm.height, 0, gl.RGB, gl.FLOAT, rgb);
-  const error = gl.getError();
-  if (error !== gl.NO_ERROR) throw new Error(`float texture upload failed (GL error ${error})`);
   gl.useProgram(program);
   gl.uniform1i(gl.getUniformLocation(program, "radiance"), 0);
   const gain = gl.getUniformLocation(program, "gain");
@@ -72,7 +104,6 @@ function webglRenderer(canvas: HTMLCanvasElement, pfm: Pfm): Renderer | null {
     gl.uniform2f(scale, pfm.width / width, pfm.height / height);
   };
   resize(pfm.width, pfm.height);
-  const vao = gl.createVertexArray();
   gl.bindVertexArray(vao);
   const probe = new Uint8Array(4);
   const info = gl.getExtension("WEBGL_debug_renderer_info");
@@ -88,20 +119,17 @@ function webglRenderer(canvas: HTMLCanvasElement, pfm: Pfm): Renderer | null {
       gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, probe);
     },
     resize,
-    dispose: () => {
-      gl.deleteTexture(texture);
-      gl.deleteProgram(program);
-      gl.deleteVertexArray(vao);
-    },
+    dispose: release,
   };
 }
 
-function canvasRenderer(canvas: HTMLCanvasElement, pfm: Pfm): Renderer {
+// `why`: why WebGL2 does not draw, said on the page.
+function canvasRenderer(canvas: HTMLCanvasElement, pfm: Pfm, why: string): Renderer {
   const ctx = canvas.getContext("2d");
   if (!ctx) throw new Error("this browser gives neither a WebGL2 nor a 2D canvas");
   let image = ctx.createImageData(pfm.width, pfm.height);
   return {
-    kind: "2D canvas (no WebGL2 here): the curve runs on the CPU",
+    kind: `2D canvas (${why}): the curve runs on the CPU`,
     draw: (ev) => {
       toneInto(pfm.data, pfm.channels, pfm, ev, image.data, image);
       ctx.putImageData(image, 0, 0);
@@ -125,6 +153,10 @@ export function HdrViewer({ url, label }: { url: string; label: string }) {
   const [timing, setTiming] = useState<{ last: number; max: number; count: number }>(
     { last: 0, max: 0, count: 0 });
   const [renderError, setRenderError] = useState<string | undefined>(undefined);
+  // Why WebGL2 does not draw this map: the 2D renderer then draws into a
+  // fresh canvas (one that had a WebGL context gives no 2D one).
+  const [fallback, setFallback] = useState<{ pfm: Pfm; why: string } | undefined>(undefined);
+  const noWebgl = pfm && fallback?.pfm === pfm ? fallback.why : undefined;
   const maxRef = useRef(0);
   const countRef = useRef(0);
   const evRef = useRef(0);
@@ -151,9 +183,14 @@ export function HdrViewer({ url, label }: { url: string; label: string }) {
     if (!pfm || !canvas) return;
     canvas.width = pfm.width;
     canvas.height = pfm.height;
-    let renderer: Renderer | null = null;
+    let renderer: Renderer;
     try {
-      renderer = webglRenderer(canvas, pfm) ?? canvasRenderer(canvas, pfm);
+      const webgl = noWebgl === undefined ? webglRenderer(canvas, pfm) : noWebgl;
+      if (typeof webgl === "string" && noWebgl === undefined) {
+        setFallback({ pfm, why: webgl });
+        return;
+      }
+      renderer = typeof webgl === "string" ? canvasRenderer(canvas, pfm, webgl) : webgl;
     } catch (e) {
       setRenderError(e instanceof Error ? e.message : String(e));
       return;
@@ -183,17 +220,17 @@ export function HdrViewer({ url, label }: { url: string; label: string }) {
         fit(size.width, size.height);
         canvas.dataset.drawSize = `${size.width}x${size.height}`;
         // Not a slider step: the first draw into a new buffer allocates it.
-        renderer!.draw(evRef.current);
+        renderer.draw(evRef.current);
       })
       : undefined;
     observer?.observe(canvas);
     canvas.dataset.drawSize = `${canvas.width}x${canvas.height}`;
     return () => {
       observer?.disconnect();
-      renderer?.dispose();
+      renderer.dispose();
       rendererRef.current = null;
     };
-  }, [pfm]);
+  }, [pfm, noWebgl]);
 
   const lo = Math.floor(autoEv) - 8;
   const hi = Math.floor(autoEv) + 8;
@@ -225,7 +262,10 @@ export function HdrViewer({ url, label }: { url: string; label: string }) {
       )}
       <div class="hdr-stage"
            style={pfm ? { maxWidth: `min(100%, calc((100vh - 18rem) * ${pfm.width / pfm.height}))` } : undefined}>
-        <canvas ref={canvasRef} class="viewer-canvas hdr-canvas" hidden={!pfm}
+        {/* A new map or renderer gets a new canvas: a released context stays
+            with its canvas. */}
+        <canvas ref={canvasRef} key={`${url} ${noWebgl === undefined ? "webgl" : "2d"}`}
+                class="viewer-canvas hdr-canvas" hidden={!pfm}
                 aria-label={`${label}: radiance map shown at the chosen exposure`} role="img" />
       </div>
       {pfm && (
