@@ -5,8 +5,10 @@
 // the pointer or the keyboard cursor: disparity, the ground truth there and
 // the error |d − gt|. The read-out element carries data-x, data-y,
 // data-disparity, data-truth and data-error (the float32 values exactly,
-// "" where there is none) for the browser test.
-import { useEffect, useMemo, useRef, useState } from "preact/hooks";
+// "" where there is none) for the browser test. The read-out is not a live
+// region (it changes on every pointer move); a keyboard move is announced
+// through a hidden one.
+import { useEffect, useId, useMemo, useRef, useState } from "preact/hooks";
 import { colorize, finiteRange, kInvalidRgb, kViridis, rgbCss, type Range } from "../colormap";
 import { pfmAt, type Pfm } from "../pfm";
 import { clientToPixel, type Pixel, pixelToBox, stepPixel } from "../pixel_map";
@@ -43,7 +45,7 @@ function fmt(v: number | undefined, digits = 3): string {
 function Legend({ range, unit, invalid, total, title }:
                 { range: Range; unit: string; invalid: number; total: number; title: string }) {
   const stops = 16;
-  const id = `legend-${title.replace(/[^a-z]/gi, "")}`;
+  const id = `legend-${useId()}`;  // unique per viewer: url(#id) finds this one
   return (
     <div class="legend" data-min={String(range.min)} data-max={String(range.max)}>
       <svg width="260" height="22" viewBox="0 0 260 22" preserveAspectRatio="none" aria-hidden="true">
@@ -90,6 +92,8 @@ export function DisparityViewer({ url, label, truthUrl, truthLabel, truthNote }:
   const sizeMismatch = gtCandidate && d && !gt;
   const [layer, setLayer] = useState<Layer>("disparity");
   const [cursor, setCursor] = useState<Pixel | null>(null);
+  const [announced, setAnnounced] = useState("");
+  const layerName = `disparity-layer-${useId()}`;
   const canvasRef = useRef<HTMLCanvasElement>(null);
   const [, setShownWidth] = useState(0);  // re-render the cursor when the canvas resizes
 
@@ -124,12 +128,16 @@ export function DisparityViewer({ url, label, truthUrl, truthLabel, truthNote }:
     return () => observer.disconnect();
   }, []);
 
-  const at = cursor && d ? {
-    disparity: pfmAt(d, cursor.x, cursor.y),
-    truth: gt ? pfmAt(gt, cursor.x, cursor.y) : undefined,
-  } : undefined;
-  const error = at && at.truth !== undefined && Number.isFinite(at.disparity) && Number.isFinite(at.truth)
-    ? Math.abs(at.disparity - at.truth) : undefined;
+  const valuesAt = (p: Pixel | null) => {
+    if (!p || !d) return undefined;
+    const disparity = pfmAt(d, p.x, p.y);
+    const truth = gt ? pfmAt(gt, p.x, p.y) : undefined;
+    const error = truth !== undefined && Number.isFinite(disparity) && Number.isFinite(truth)
+      ? Math.abs(disparity - truth) : undefined;
+    return { disparity, truth, error };
+  };
+  const at = valuesAt(cursor);
+  const error = at?.error;
 
   const onPointer = (e: PointerEvent) => {
     const canvas = canvasRef.current;
@@ -144,6 +152,9 @@ export function DisparityViewer({ url, label, truthUrl, truthLabel, truthNote }:
     if (next) {
       e.preventDefault();
       setCursor(next);
+      const v = valuesAt(next)!;
+      setAnnounced(`x ${next.x}, y ${next.y}: disparity ${fmt(v.disparity)}` +
+                   (gt ? `, ground truth ${fmt(v.truth)}, error ${fmt(v.error)}` : ""));
     }
   };
   const canvas = canvasRef.current;
@@ -166,7 +177,7 @@ export function DisparityViewer({ url, label, truthUrl, truthLabel, truthNote }:
           <legend class="visually-hidden">Map shown</legend>
           {(["disparity", "truth", "error"] as Layer[]).map((l) => (
             <label key={l} class="choice">
-              <input type="radio" name="disparity-layer" value={l} checked={layer === l}
+              <input type="radio" name={layerName} value={l} checked={layer === l}
                      disabled={l !== "disparity" && !gt} onChange={() => setLayer(l)} />
               {l === "disparity" ? "Disparity" : l === "truth" ? "Ground truth" : `Error |d − gt| (0–${kErrorSpanPx} px)`}
             </label>
@@ -186,7 +197,9 @@ export function DisparityViewer({ url, label, truthUrl, truthLabel, truthNote }:
         </div>
         {d && (
           <div class="viewer-side">
-            <output id="disparity-readout" class="readout" aria-live="polite"
+            <p class="visually-hidden" aria-live="polite">{announced}</p>
+            {/* An <output> is a live region unless told otherwise. */}
+            <output id="disparity-readout" class="readout" aria-live="off"
                     data-x={cursor ? String(cursor.x) : ""} data-y={cursor ? String(cursor.y) : ""}
                     data-disparity={at ? String(at.disparity) : ""}
                     data-truth={at?.truth !== undefined ? String(at.truth) : ""}
