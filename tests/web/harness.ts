@@ -527,6 +527,16 @@ export async function signIn(c: Console, key: ApiKey): Promise<void> {
   await c.page.getByTestId("who").waitFor();
 }
 
+// Stops the daemon; throws unless it exited cleanly (0) on SIGTERM, so a
+// crash during a test fails it.
+export async function stopCleanly(daemon: Daemon | undefined): Promise<void> {
+  if (!daemon) return;
+  const code = await daemon.stop();
+  if (code !== 0) {
+    throw new Error(`hdrstereod exited with ${code} on SIGTERM:\n${daemon.logTail()}`);
+  }
+}
+
 // Closes everything a test opened, in order, whatever failed; rethrows the
 // first error.
 export async function closeAll(steps: (() => Promise<unknown> | unknown)[]): Promise<void> {

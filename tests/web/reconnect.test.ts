@@ -14,7 +14,7 @@ import type { AddressInfo } from "node:net";
 import { after, before, test } from "node:test";
 import type { Browser } from "playwright-core";
 import { type ApiKey, closeAll, Daemon, inspect, kSmallLabLamp, launchBrowser, screenshot, signIn,
-         until, withConsole } from "./harness.ts";
+         stopCleanly, until, withConsole } from "./harness.ts";
 
 let daemon: Daemon;
 let browser: Browser;
@@ -75,7 +75,7 @@ after(async () => {
       for (const s of tunnels) s.destroy();
       proxy?.close();
     },
-    () => daemon?.stop(),
+    () => stopCleanly(daemon),
   ]);
 }, { timeout: 60_000 });
 

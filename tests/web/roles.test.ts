@@ -15,7 +15,7 @@ import { join } from "node:path";
 import { after, before, test } from "node:test";
 import type { Browser, Page } from "playwright-core";
 import { type ApiKey, callWithCookie, closeAll, cookieHeader, Daemon, inspect, kSmallLabLamp,
-         launchBrowser, signIn, until, within, withConsole } from "./harness.ts";
+         launchBrowser, signIn, stopCleanly, until, withConsole, within } from "./harness.ts";
 
 let daemon: Daemon;
 let browser: Browser;
@@ -40,13 +40,17 @@ before(async () => {
 }, { timeout: 180_000 });
 
 after(async () => {
-  await closeAll([() => browser?.close(), () => daemon?.stop()]);
+  await closeAll([() => browser?.close(), () => stopCleanly(daemon)]);
 }, { timeout: 60_000 });
 
 // Buttons only an operator (or admin) may use, by the start of their
 // accessible name.
 const kOperatorControl =
-  /^(Home|Move|Take the lock|Take lock|Release|Renew|Force|Submit|Cancel|Pause|Resume|Continue|Process|Measure latency|Apply|Show pattern|Blank|New schedule|Create|Delete|Revoke|Enable|Disable|Remove)\b/i;
+  new RegExp(`^(${[
+    "Home", "Move", "Take the lock", "Take lock", "Release", "Renew", "Force", "Submit", "Cancel",
+    "Pause", "Resume", "Continue", "Process", "Measure latency", "Apply", "Show pattern", "Blank",
+    "New schedule", "Create", "Delete", "Revoke", "Enable", "Disable", "Remove",
+  ].join("|")})\\b`, "i");
 
 // Waits until the page under `h1` has landed: its heading shows and no
 // "Loading…" placeholder is left (bounded).

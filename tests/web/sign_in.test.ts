@@ -7,8 +7,8 @@
 import assert from "node:assert/strict";
 import { after, before, test } from "node:test";
 import type { Browser } from "playwright-core";
-import { type ApiKey, callWithCookie, closeAll, cookieHeader, Daemon, inspect,
-         launchBrowser, loadSignedOut, signIn, withConsole } from "./harness.ts";
+import { type ApiKey, callWithCookie, closeAll, cookieHeader, Daemon, inspect, launchBrowser,
+         loadSignedOut, signIn, stopCleanly, withConsole } from "./harness.ts";
 
 let daemon: Daemon;
 let browser: Browser;
@@ -21,7 +21,7 @@ before(async () => {
 }, { timeout: 120_000 });
 
 after(async () => {
-  await closeAll([() => browser?.close(), () => daemon?.stop()]);
+  await closeAll([() => browser?.close(), () => stopCleanly(daemon)]);
 }, { timeout: 60_000 });
 
 const kSignInError = "#sign-in-error";

@@ -14,8 +14,8 @@
 import assert from "node:assert/strict";
 import { after, before, test } from "node:test";
 import type { Browser, Page } from "playwright-core";
-import { type ApiKey, closeAll, Daemon, inspect, kSmallLabLamp, launchBrowser, signIn, until,
-         withConsole } from "./harness.ts";
+import { type ApiKey, closeAll, Daemon, inspect, kSmallLabLamp, launchBrowser, signIn,
+         stopCleanly, until, withConsole } from "./harness.ts";
 import { parsePfm, pfmValue } from "./pfm.ts";
 
 let daemon: Daemon;
@@ -30,7 +30,7 @@ before(async () => {
 }, { timeout: 120_000 });
 
 after(async () => {
-  await closeAll([() => browser?.close(), () => daemon?.stop()]);
+  await closeAll([() => browser?.close(), () => stopCleanly(daemon)]);
 }, { timeout: 60_000 });
 
 interface Histogram {
