@@ -15,9 +15,11 @@ export interface Loaded<T> {
 
 // Calls `load` now, every `everyMs` (0: once) and on reload(); keeps the
 // last value while a later call fails. When `deps` change the value and
-// error of the old ones are dropped at once (never shown under the new).
-export function usePoll<T>(load: () => Promise<T>, everyMs: number,
-                           deps: unknown[] = []): Loaded<T> {
+// error of the old ones are dropped at once (never shown under the new),
+// unless `extends` says the new deps only extend the old value (a "show
+// more" that loads one more page): then it stays until the new one comes.
+export function usePoll<T>(load: () => Promise<T>, everyMs: number, deps: unknown[] = [],
+                           { extends: extending = false }: { extends?: boolean } = {}): Loaded<T> {
   const [held, setHeld] = useState<{ deps: unknown[]; value?: T; error?: string }>({ deps });
   const [tick, setTick] = useState(0);
   const loadRef = useRef(load);
@@ -32,7 +34,7 @@ export function usePoll<T>(load: () => Promise<T>, everyMs: number,
         setHeld({ deps, value: v });
       } catch (e) {
         if (live) {
-          setHeld((h) => ({ deps, value: sameDeps(h.deps, deps) ? h.value : undefined,
+          setHeld((h) => ({ deps, value: extending || sameDeps(h.deps, deps) ? h.value : undefined,
                             error: errorMessage(e) }));
         }
       }
@@ -45,7 +47,7 @@ export function usePoll<T>(load: () => Promise<T>, everyMs: number,
     };
     // eslint-disable-next-line react-hooks/exhaustive-deps
   }, [tick, everyMs, ...deps]);
-  const current = sameDeps(held.deps, deps);
+  const current = extending || sameDeps(held.deps, deps);
   return {
     value: current ? held.value : undefined,
     error: current ? held.error : undefined,

@@ -59,7 +59,7 @@ function SessionList() {
       next = r.nextPageToken;
     }
     return { sessions, next };
-  }, 15000, [pages.length]);
+  }, 15000, [pages.length], { extends: true });
   const sessions = list.value?.sessions ?? [];
   return (
     <>
