@@ -643,6 +643,12 @@ class Connection : public std::enable_shared_from_this<Connection<Stream>> {
             "apiKey: expected the body {\"apiKey\": \"hs_...\"}");
       }
       const std::string token = body["apiKey"].get<std::string>();
+      if (rpc::ApiKeyIdOf(token).empty()) {
+        // No guess at a key (it cannot succeed): not counted as one.
+        return absl::InvalidArgumentError(
+            "apiKey: that is not an API key: keys look like hs_<id>_<secret> "
+            "(hdrstereo admin key create prints one)");
+      }
       principal.auth_method = absl::StrCat("key:", rpc::ApiKeyIdOf(token));
       absl::StatusOr<rpc::VerifiedApiKey> key =
           edge_.services_.keys->Verify(token);

@@ -239,6 +239,12 @@ TEST_F(HttpTest, FailedSignInsAreAuditedAndLimitedPerAddress) {
   wrong.back() = wrong.back() == 'a' ? 'b' : 'a';
   HttpRequest sign_in = To("/auth/sign-in");
   sign_in.headers = {"Content-Type: application/json"};
+  // Something that is no key at all is said so, and is not a guess.
+  sign_in.body = R"({"apiKey": "my password"})";
+  HttpResponse malformed = Fetch(sign_in);
+  EXPECT_EQ(malformed.status, 400) << malformed.body;
+  EXPECT_THAT(malformed.Json().value("message", ""),
+              HasSubstr("apiKey: that is not an API key"));
   sign_in.body = absl::StrCat(R"({"apiKey": ")", wrong, R"("})");
   for (int i = 0; i < 10; ++i) {
     HttpResponse refused = Fetch(sign_in);
