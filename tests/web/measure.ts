@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
 // The console's numbers for docs/benchmarks.md (not a ctest; run by hand
-// from tests/web: `node --import tsx measure.ts`), printed as JSON, against
+// from tests/web: `node --import tsx measure.ts [--wide]`), printed as JSON, against
 // the real daemon on simulated hardware (the bundled lab-lamp, 1200 x 900)
 // over TLS on loopback in Debian's Chromium:
 //   loadMs       navigation start to the Rig page's first data (the camera's
@@ -28,7 +28,12 @@ const daemon = await Daemon.start();
 const browser = await launchBrowser(daemon.spkiHash);
 try {
   const operator = await daemon.createKey("operator");
-  const c = await openConsole(browser, daemon, "measure");
+  // --wide: a 1800 x 1300 window, where the HDR viewer draws the whole
+  // 1200 x 900 map at one screen pixel per map pixel.
+  const c = await openConsole(browser, daemon, "measure",
+                              process.argv.includes("--wide")
+                                ? { width: 1800, height: 1300 }
+                                : { width: 1280, height: 800 });
   await signIn(c, operator);
 
   // When the camera's model first shows, in the page's own clock
