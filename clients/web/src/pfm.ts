@@ -19,10 +19,11 @@ export interface Pfm {
   data: Float32Array;
 }
 
-// Limits on what the console will open: larger than any camera here, small
-// enough that a header cannot ask for gigabytes.
+// Limits on what the console will open: a 44-megapixel RGB map (a 24 MP
+// DSLR's 6000x4000x3 is 72 M values), small enough that a header cannot ask
+// for gigabytes.
 export const kMaxPfmSide = 16384;
-export const kMaxPfmValues = 64 * 1024 * 1024;  // 256 MiB of float32
+export const kMaxPfmValues = 128 * 1024 * 1024;  // 512 MiB of float32
 
 export class PfmError extends Error {
   constructor(message: string) {

@@ -75,7 +75,11 @@ test("hostile headers fail with a message before allocating", () => {
   throwsPfm(pfm("Pf\n2 0\n-1.0\n", [], true), /^PFM: height 0 is outside 1\.\.16384$/);
   throwsPfm(pfm(`Pf\n${kMaxPfmSide + 1} 2\n-1.0\n`, [], true), /^PFM: width 16385 is outside 1\.\.16384$/);
   throwsPfm(pfm("Pf\n16384 16384\n-1.0\n", [], true),
-            /^PFM: 16384x16384x1 is more than 67108864 values$/);
+            /^PFM: 16384x16384x1 is more than 134217728 values$/);
+  // A 24 MP DSLR's radiance map is within the limits: only its data is
+  // missing here.
+  throwsPfm(pfm("PF\n6000 4000\n-1.0\n", [], true),
+            /^PFM: 6000x4000x3 needs 288000000 bytes of data, the file has 0 \(truncated\)$/);
   throwsPfm(pfm("Pf\n1e3 2\n-1.0\n", [], true), /width "1e3" is not a positive integer/);
   throwsPfm(pfm("P6\n2 2\n255\n", [], true), /^PFM: unknown type "P6" \(expected PF or Pf\)$/);
   throwsPfm(pfm("Pf\n2 2\n0\n", [1, 2, 3, 4], true), /^PFM: scale "0" is not a non-zero number$/);
