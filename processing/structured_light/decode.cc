@@ -20,6 +20,9 @@ struct Thresholds {
   int min_contrast = 1;
   int min_lit = 1;
   int relative_q8 = 64;  // min relative contrast, x256
+  // false: every bit required and the relative test not applied (see
+  // FinestStripesResolved).
+  bool relative = true;
   int saturation = 255;
   int full_scale = 255;
 };
@@ -169,7 +172,8 @@ void DecodeRows(const std::vector<std::vector<cv::Mat>>& grey,
         // An unlit pixel counts no bit.
         need[x] = static_cast<uint16_t>(
             is_lit
-                ? std::max(th.min_contrast, (diff * th.relative_q8 + 255) >> 8)
+                ? std::max(th.min_contrast,
+                           th.relative ? (diff * th.relative_q8 + 255) >> 8 : 0)
                 : 0xFFFF);
       }
       std::fill(code_c.begin(), code_c.end(), uint16_t{0});
@@ -244,6 +248,39 @@ void DecodeRows(const std::vector<std::vector<cv::Mat>>& grey,
       }
     }
   }
+}
+
+// With every bit required: whether the camera resolves the finest stripes,
+// which are 2 projector pixels wide. The projector pixels one camera pixel
+// spans: the mean step between valid 4-neighbours' positions (the larger of
+// the column and row step; steps above 64 are depth edges and left out),
+// with the positions rounded down to multiples of 4 first, so that
+// aliased finest bits (unequal parts of two stripes, which pass a contrast
+// floor in a beat pattern) do not shorten the steps. Above 2, every pixel
+// sees several of the finest stripes. Fewer than 100 pairs: unknown, false.
+bool FinestStripesResolved(const DecodedView& d) {
+  constexpr int kFinestStripe = 2;
+  constexpr int kEdgeStep = 64;
+  const cv::Mat& c = d.column;
+  const cv::Mat& r = d.row;
+  int64_t pairs = 0, sum = 0;
+  auto add = [&](int y0, int x0, int y1, int x1) {
+    const int32_t a = c.at<int32_t>(y0, x0), b = c.at<int32_t>(y1, x1);
+    if (a < 0 || b < 0) return;
+    const int step = 4 * std::max(std::abs((a >> 2) - (b >> 2)),
+                                  std::abs((r.at<int32_t>(y0, x0) >> 2) -
+                                           (r.at<int32_t>(y1, x1) >> 2)));
+    if (step > kEdgeStep) return;
+    ++pairs;
+    sum += step;
+  };
+  for (int y = 0; y < c.rows; ++y) {
+    for (int x = 0; x < c.cols; ++x) {
+      if (x + 1 < c.cols) add(y, x, y, x + 1);
+      if (y + 1 < c.rows) add(y, x, y + 1, x);
+    }
+  }
+  return pairs >= 100 && sum <= kFinestStripe * pairs;
 }
 
 }  // namespace
@@ -347,6 +384,9 @@ absl::StatusOr<DecodedView> Decode(const ViewFrames& view,
     th.relative_q8 = std::clamp(
         static_cast<int>(std::lround(options.min_relative_contrast * 256)), 0,
         256);
+    // With every bit required, first without the relative test; then again
+    // with it if the reads show the finest stripes unresolved.
+    th.relative = options.min_bits > 0;
     th.saturation = std::clamp(
         static_cast<int>(std::floor(options.saturation * th.full_scale)), 1,
         th.full_scale);
@@ -379,16 +419,23 @@ absl::StatusOr<DecodedView> Decode(const ViewFrames& view,
     out.column_code_bits = col_bits;
     out.row_code_bits = row_bits;
     const int stripes = std::max(1, size.height / 16);
-    cv::parallel_for_(
-        cv::Range(0, size.height),
-        [&](const cv::Range& rows) {
-          if (depth == CV_8U) {
-            DecodeRows<uint8_t>(grey, cols, rows_axis, th, rows, &out);
-          } else {
-            DecodeRows<uint16_t>(grey, cols, rows_axis, th, rows, &out);
-          }
-        },
-        stripes);
+    const auto decode = [&] {
+      cv::parallel_for_(
+          cv::Range(0, size.height),
+          [&](const cv::Range& rows) {
+            if (depth == CV_8U) {
+              DecodeRows<uint8_t>(grey, cols, rows_axis, th, rows, &out);
+            } else {
+              DecodeRows<uint16_t>(grey, cols, rows_axis, th, rows, &out);
+            }
+          },
+          stripes);
+    };
+    decode();
+    if (!th.relative && !FinestStripesResolved(out)) {
+      th.relative = true;
+      decode();
+    }
     out.valid_pixels = cv::countNonZero(out.column >= 0);
     out.lit_pixels = cv::countNonZero(out.lit);
     const int total = size.area();

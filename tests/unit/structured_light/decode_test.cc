@@ -182,11 +182,15 @@ TEST_P(SimDecodeTest, DecodeMatchesAnalyticProjectorPixel) {
               << "%, within 1 " << within_one * 100 << "%, unlit " << unlit
               << " decoded " << unlit_decoded << "\n";
     // Thresholds: >= 98% of the pixels the projector lights with >= 10% of
-    // their radiance are decoded (all lit pixels: >= 90%, see
+    // their radiance are decoded (all lit pixels: >= 85%, see
     // sim_capture.h), >= 99.5% exactly right, all within one projector
-    // pixel, none in projector shadow.
+    // pixel, none in projector shadow. (All lit pixels on lab-lamp: 86-89 %
+    // since the 5-level contrast floor, 93-94 % with the old 2-level one;
+    // what is left out are pixels near the lamp where the projector adds 2-4
+    // grey levels, where the 2-level floor let noise decide bits at 8x the
+    // sensor's noise: decode.h, decode_coverage_test.cc.)
     EXPECT_GE(strong_coverage, 0.98);
-    EXPECT_GE(coverage, 0.90);
+    EXPECT_GE(coverage, 0.85);
     EXPECT_GE(exact_rate, 0.995);
     EXPECT_GE(within_one, 0.9999);
     EXPECT_EQ(unlit_decoded, 0);
