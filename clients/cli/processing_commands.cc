@@ -4,6 +4,7 @@
 // processing, read its evaluation, list and fetch what it produced.
 #include <openssl/evp.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
@@ -17,6 +18,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "clients/cli/commands.h"
 #include "clients/cli/output.h"
@@ -27,6 +29,67 @@ namespace hdrstereo::cli {
 namespace {
 
 namespace fs = std::filesystem;
+
+// What a user needs before the table: how good the structured-light
+// ground truth is (when the simulator's exact truth can score it), then per
+// ground truth the best methods and, in words, any method worse than LDR.
+void PrintMetricsHeadline(const v1::ListMetricsResponse& r) {
+  constexpr char kGroundTruthMethod[] = "structured_light";
+  for (const v1::Metric& m : r.metrics()) {
+    if (m.method() != kGroundTruthMethod) continue;
+    // Bad counts a pixel without a disparity as bad at every threshold
+    // (processing/eval); of the covered ones, this share is off by > 1 px.
+    const double off =
+        m.coverage() > 0
+            ? 100.0 * (m.bad_1() - (100.0 - m.coverage())) / m.coverage()
+            : 0.0;
+    std::cout << absl::StrFormat(
+        "structured-light ground truth, against the simulator's exact truth: "
+        "covers %.1f%% of the non-occluded pixels; where it has a disparity, "
+        "RMSE %.3f px and %.1f%% off by more than 1 px\n",
+        m.coverage(), m.rmse_px(), std::max(0.0, off));
+  }
+  std::vector<std::string> truths;
+  for (const v1::Metric& m : r.metrics()) {
+    if (std::find(truths.begin(), truths.end(), m.ground_truth()) ==
+        truths.end()) {
+      truths.push_back(m.ground_truth());
+    }
+  }
+  for (const std::string& truth : truths) {
+    const v1::Metric* ldr = nullptr;
+    const v1::Metric* best_rmse = nullptr;
+    const v1::Metric* best_bad = nullptr;
+    std::vector<std::string> worse;
+    for (const v1::Metric& m : r.metrics()) {
+      if (m.ground_truth() != truth || m.method() == kGroundTruthMethod) {
+        continue;
+      }
+      if (m.method() == "ldr") ldr = &m;
+      if (best_rmse == nullptr || m.rmse_px() < best_rmse->rmse_px()) {
+        best_rmse = &m;
+      }
+      if (best_bad == nullptr || m.bad_1() < best_bad->bad_1()) best_bad = &m;
+      if (m.worse_than_ldr()) {
+        worse.push_back(absl::StrFormat("%s (%.3f)", m.method(), m.rmse_px()));
+      }
+    }
+    if (best_rmse == nullptr) continue;
+    std::cout << absl::StrFormat(
+        "against %s: best by RMSE %s (%.3f px), best by bad-1 %s (%.1f%%)",
+        truth, best_rmse->method(), best_rmse->rmse_px(), best_bad->method(),
+        best_bad->bad_1());
+    if (ldr != nullptr) {
+      std::cout << absl::StrFormat("; LDR %.3f px, %.1f%%", ldr->rmse_px(),
+                                   ldr->bad_1());
+    }
+    std::cout << "\n";
+    if (!worse.empty()) {
+      std::cout << absl::StrFormat("against %s, worse than LDR by RMSE: %s\n",
+                                   truth, absl::StrJoin(worse, ", "));
+    }
+  }
+}
 
 int PrintMetrics(const Client& client, const std::string& session) {
   v1::ListMetricsRequest request;
@@ -43,8 +106,9 @@ int PrintMetrics(const Client& client, const std::string& session) {
                        "ground truth)\n";
           return;
         }
+        PrintMetricsHeadline(r);
         Table table({"GROUND TRUTH", "METHOD", "RMSE", "MAE", "BAD>0.5",
-                     "BAD>1", "BAD>2", "BAD>4", "COVERAGE"});
+                     "BAD>1", "BAD>2", "BAD>4", "COVERAGE", "VS LDR"});
         for (const v1::Metric& m : r.metrics()) {
           table.AddRow({m.ground_truth(), m.method(),
                         absl::StrFormat("%.3f", m.rmse_px()),
@@ -53,7 +117,8 @@ int PrintMetrics(const Client& client, const std::string& session) {
                         absl::StrFormat("%.1f%%", m.bad_1()),
                         absl::StrFormat("%.1f%%", m.bad_2()),
                         absl::StrFormat("%.1f%%", m.bad_4()),
-                        absl::StrFormat("%.1f%%", m.coverage())});
+                        absl::StrFormat("%.1f%%", m.coverage()),
+                        m.worse_than_ldr() ? "worse" : ""});
         }
         table.Print(std::cout);
       });

@@ -19,6 +19,8 @@
 #include "daemon/store/artifact_repository.h"
 #include "daemon/store/frame_repository.h"
 #include "daemon/store/names.h"
+#include "processing/pipeline/pipeline.h"
+#include "processing/pipeline/session_files.h"
 
 namespace hdrstereo::rpc {
 
@@ -298,7 +300,14 @@ grpc::Status SessionsService::ListMetrics(grpc::ServerContext* context,
   absl::StatusOr<std::vector<store::MetricRecord>> metrics =
       store::ArtifactRepository(store_).Metrics(session->id);
   if (!metrics.ok()) return ToGrpcStatus(metrics.status());
+  std::vector<pipeline::Metric> rows;
   for (const store::MetricRecord& m : *metrics) {
+    rows.push_back(
+        {.method = m.method, .ground_truth = m.ground_truth, .rmse = m.rmse});
+  }
+  const std::vector<bool> worse = pipeline::WorseThanLdr(rows);
+  for (size_t i = 0; i < metrics->size(); ++i) {
+    const store::MetricRecord& m = (*metrics)[i];
     v1::Metric* out = response->add_metrics();
     out->set_method(m.method);
     out->set_ground_truth(m.ground_truth);
@@ -310,6 +319,7 @@ grpc::Status SessionsService::ListMetrics(grpc::ServerContext* context,
     out->set_bad_4(m.bad_4);
     out->set_coverage(m.coverage);
     out->set_job_id(m.job_id);
+    out->set_worse_than_ldr(worse[i]);
   }
   return grpc::Status::OK;
 }

@@ -35,6 +35,43 @@ std::string DisparityFile(Method m) {
   return absl::StrCat("disparity/", experiment::MethodName(m), ".pfm");
 }
 
+// With both the structured-light ground truth and the simulator's exact
+// truth, the first scored against the second (its accuracy, and its
+// coverage of the non-occluded pixels), as the row kGroundTruthMethod. A
+// truth that cannot be scored (e.g. of another size) is a warning: the
+// methods' rows do not depend on it.
+void ScoreGroundTruth(const std::vector<Truth>& truths,
+                      const experiment::ExperimentOptions& options,
+                      StepContext& c, std::vector<Metric>* rows) {
+  const Truth* sl = nullptr;
+  const Truth* exact = nullptr;
+  for (const Truth& t : truths) {
+    if (t.name == "structured_light") sl = &t;
+    if (t.name == "simulation") exact = &t;
+  }
+  if (sl == nullptr || exact == nullptr) return;
+  absl::StatusOr<eval::RegionMetrics> score = experiment::Score(
+      sl->disparity, exact->disparity, exact->nonoccluded, options);
+  if (!score.ok()) {
+    c.Warn(absl::StrCat(
+        "evaluate: the structured-light ground truth cannot be scored against "
+        "the simulation: ",
+        score.status().message()));
+    return;
+  }
+  Metric row;
+  row.method = kGroundTruthMethod;
+  row.ground_truth = exact->name;
+  row.rmse = score->rmse;
+  row.mae = score->mae;
+  row.bad_0_5 = score->bad_percent.at(0);
+  row.bad_1 = score->bad_percent.at(1);
+  row.bad_2 = score->bad_percent.at(2);
+  row.bad_4 = score->bad_percent.at(3);
+  row.coverage = 100.0 * score->coverage;
+  rows->push_back(row);
+}
+
 absl::Status RunEvaluate(const experiment::ExperimentOptions& options,
                          StepContext& c) {
   ASSIGN_OR_RETURN(const std::vector<Truth> truths, c.Truths());
@@ -69,6 +106,7 @@ absl::Status RunEvaluate(const experiment::ExperimentOptions& options,
       rows.push_back(row);
     }
   }
+  ScoreGroundTruth(truths, options, c, &rows);
   RETURN_IF_ERROR(
       c.outputs().WriteText("metrics", kMetricsFile, MetricsToJson(rows)));
   return c.state().RecordMetrics(rows);
@@ -123,15 +161,18 @@ absl::Status RunExport(StepContext& c) {
 report::Table MetricsTable(const std::vector<Metric>& metrics) {
   report::Table t{"metrics",
                   {"ground truth", "method", "RMSE", "MAE", "bad-0.5 %",
-                   "bad-1 %", "bad-2 %", "bad-4 %", "coverage %"},
+                   "bad-1 %", "bad-2 %", "bad-4 %", "coverage %", "vs LDR"},
                   {}};
-  for (const Metric& m : SortMetrics(metrics)) {
+  const std::vector<Metric> sorted = SortMetrics(metrics);
+  const std::vector<bool> worse = WorseThanLdr(sorted);
+  for (size_t i = 0; i < sorted.size(); ++i) {
+    const Metric& m = sorted[i];
     t.rows.push_back(
         {m.ground_truth, m.method, absl::StrFormat("%.3f", m.rmse),
          absl::StrFormat("%.3f", m.mae), absl::StrFormat("%.1f", m.bad_0_5),
          absl::StrFormat("%.1f", m.bad_1), absl::StrFormat("%.1f", m.bad_2),
-         absl::StrFormat("%.1f", m.bad_4),
-         absl::StrFormat("%.1f", m.coverage)});
+         absl::StrFormat("%.1f", m.bad_4), absl::StrFormat("%.1f", m.coverage),
+         worse[i] ? "worse than LDR" : ""});
   }
   return t;
 }

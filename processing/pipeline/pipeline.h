@@ -105,9 +105,14 @@ struct Artifact {
   int64_t size_bytes = 0;
 };
 
+// The metrics row of the structured-light ground truth itself, scored
+// against the simulator's exact truth (sessions that have both).
+inline constexpr char kGroundTruthMethod[] = "structured_light";
+
 // One metrics row (thesis Table 5.2 for this session).
 struct Metric {
-  std::string method;        // experiment::MethodName: "ldr", ..., "fused"
+  // experiment::MethodName ("ldr", ..., "fused") or kGroundTruthMethod.
+  std::string method;
   std::string ground_truth;  // "structured_light" or "simulation"
   double rmse = 0;
   double mae = 0;

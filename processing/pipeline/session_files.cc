@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <system_error>
@@ -516,6 +517,21 @@ std::vector<Metric> SortMetrics(std::vector<Metric> metrics) {
                             std::tie(b.ground_truth, b_nan, b.rmse);
                    });
   return metrics;
+}
+
+std::vector<bool> WorseThanLdr(const std::vector<Metric>& metrics) {
+  std::map<std::string, double> ldr;  // by ground truth
+  for (const Metric& m : metrics) {
+    if (m.method == "ldr") ldr[m.ground_truth] = m.rmse;
+  }
+  std::vector<bool> worse;
+  for (const Metric& m : metrics) {
+    const auto it = ldr.find(m.ground_truth);
+    // NaN compares false.
+    worse.push_back(m.method != "ldr" && m.method != kGroundTruthMethod &&
+                    it != ldr.end() && m.rmse > it->second);
+  }
+  return worse;
 }
 
 std::string FormatMetrics(const std::vector<Metric>& metrics) {

@@ -103,6 +103,12 @@ absl::StatusOr<std::vector<Metric>> ReadMetricsFile(
 // Sorted by ground truth, then RMSE (the order tables show them in), a NaN
 // RMSE last.
 std::vector<Metric> SortMetrics(std::vector<Metric> metrics);
+// Per row of `metrics`: whether its RMSE is above that of "ldr" against the
+// same ground truth, i.e. the method did worse than the single middle
+// exposure every method is meant to beat. False for LDR itself, for the
+// ground-truth row (kGroundTruthMethod), without an LDR row, and for a NaN
+// RMSE on either side.
+std::vector<bool> WorseThanLdr(const std::vector<Metric>& metrics);
 // The metrics as a Markdown table in SortMetrics order.
 std::string FormatMetrics(const std::vector<Metric>& metrics);
 

@@ -113,9 +113,45 @@ TEST_F(ProcessingTest, CaptureProcessArtifactsMetricsAndReuse) {
       << Sql("SELECT method, ground_truth, rmse FROM metrics");
   EXPECT_LT(sim["fused"], sim["ldr"]);
   EXPECT_FALSE(Rmse("p", "structured_light").empty());
+  // The structured-light ground truth is itself scored against the exact
+  // truth (its row is not a method: never "worse than LDR").
+  ASSERT_TRUE(sim.contains("structured_light"))
+      << Sql("SELECT method, ground_truth, rmse FROM metrics");
+  EXPECT_LT(sim["structured_light"], 1.0) << "the SL ground truth is sub-pixel";
   CommandResult metrics = Cli({"metrics", "p"});
   EXPECT_EQ(metrics.exit_code, 0);
   EXPECT_THAT(metrics.out, HasSubstr("fused"));
+  // The table is led by the ground truth's quality and the best methods.
+  EXPECT_THAT(metrics.out,
+              HasSubstr("structured-light ground truth, against the "
+                        "simulator's exact truth: covers "));
+  EXPECT_THAT(metrics.out, HasSubstr("against simulation: best by RMSE "));
+  EXPECT_LT(metrics.out.find("structured-light ground truth"),
+            metrics.out.find("GROUND TRUTH"));
+  // worse_than_ldr is exactly "RMSE above LDR's against the same truth",
+  // and every such method is named in the line that says so.
+  nlohmann::json listed = CliJson({"metrics", "p"});
+  std::map<std::string, double> ldr;
+  for (const nlohmann::json& m : listed["metrics"]) {
+    if (m["method"] == "ldr") ldr[m["ground_truth"]] = m["rmse_px"];
+  }
+  int worse = 0;
+  for (const nlohmann::json& m : listed["metrics"]) {
+    const std::string method = m["method"];
+    const bool expected = method != "ldr" && method != "structured_light" &&
+                          m["rmse_px"].get<double>() > ldr[m["ground_truth"]];
+    EXPECT_EQ(m["worse_than_ldr"].get<bool>(), expected) << m;
+    if (!expected) continue;
+    ++worse;
+    const std::string line =
+        absl::StrCat("against ", m["ground_truth"].get<std::string>(),
+                     ", worse than LDR by RMSE: ");
+    const size_t at = metrics.out.find(line);
+    ASSERT_NE(at, std::string::npos) << metrics.out;
+    EXPECT_NE(metrics.out.find(method + " (", at), std::string::npos)
+        << method << " not named: " << metrics.out;
+  }
+  std::cout << metrics.out << worse << " method rows worse than LDR\n";
 
   CommandResult report = Cli({"report", "p", "--open"});
   EXPECT_EQ(report.exit_code, 0) << report.out;
@@ -141,6 +177,10 @@ TEST_F(ProcessingTest, CaptureProcessArtifactsMetricsAndReuse) {
   EXPECT_EQ(ratio.first, ratio.second) << "images that did not load";
   EXPECT_GT(std::stoi(ratio.second), 20);
   EXPECT_THAT(dom->out, HasSubstr("<table id=\"metrics\">"));
+  EXPECT_THAT(dom->out, HasSubstr("<th>vs LDR</th>"));
+  if (worse > 0) {
+    EXPECT_THAT(dom->out, HasSubstr("worse than LDR"));
+  }
 
   // Unchanged inputs: nothing is recomputed, no file is rewritten.
   const std::string kTimes =

@@ -178,12 +178,14 @@ test("the operator's walkthrough", { timeout: 480_000 }, async () => {
       truth: r.getAttribute("data-truth"), method: r.getAttribute("data-method"),
       values: Array.from(r.querySelectorAll("td[data-value]"))
         .map((td) => Number(td.getAttribute("data-value"))),
+      worse: r.querySelector("td[data-worse-than-ldr]")?.getAttribute("data-worse-than-ldr") === "true",
     })));
     const api = (await daemon.ok("Sessions/ListMetrics", { session: kSession }, operator)).metrics;
     assert.ok(api.length > 0);
     assert.deepEqual(shownMetrics, api.map((m: any) => ({
       truth: m.groundTruth, method: m.method,
       values: [m.rmsePx, m.maePx, m.bad05, m.bad1, m.bad2, m.bad4, m.coverage].map((v) => v ?? 0),
+      worse: m.worseThanLdr ?? false,
     })));
     await inspect(page, "session");
 

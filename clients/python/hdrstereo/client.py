@@ -652,7 +652,9 @@ class Client:
     def metrics(self, session: str, as_frame: bool = False) -> Any:
         """The session's disparity metrics, one dict per method and ground
         truth (method, ground_truth, rmse_px, mae_px, bad_0_5, bad_1, bad_2,
-        bad_4, coverage, job_id), by ground truth then RMSE. `as_frame=True`
+        bad_4, coverage, job_id, worse_than_ldr), by ground truth then RMSE;
+        method "structured_light" against "simulation" is the
+        structured-light ground truth itself. `as_frame=True`
         returns a pandas DataFrame (ImportError if pandas is not
         installed)."""
         check_name(session)

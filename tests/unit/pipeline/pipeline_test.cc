@@ -329,7 +329,13 @@ void MetricsAgainstSimulatorAndStructuredLight() {
   const Processed& p = Shared();
   ASSERT_TRUE(p.status.ok()) << p.status;
   EXPECT_EQ(p.store.metrics_calls, 1);
-  EXPECT_EQ(p.summary.metrics.size(), 2 * Methods().size());
+  // Every method against both truths, and the structured-light truth
+  // itself against the exact one.
+  EXPECT_EQ(p.summary.metrics.size(), 2 * Methods().size() + 1);
+  const Metric* sl = Find(p.summary.metrics, "simulation", kGroundTruthMethod);
+  ASSERT_NE(sl, nullptr);
+  EXPECT_LT(sl->rmse, 0.5);       // measured 0.398
+  EXPECT_GT(sl->coverage, 80.0);  // measured 87.1 %
   for (const char* gt : {"simulation", "structured_light"}) {
     for (const std::string& m : Methods()) {
       const Metric* row = Find(p.summary.metrics, gt, m);
@@ -367,7 +373,7 @@ void SecondRunRecomputesNothing() {
   EXPECT_TRUE(s->computed.empty()) << ::testing::PrintToString(s->computed);
   EXPECT_TRUE(rec.step_times.empty());  // a reused step took no time
   EXPECT_EQ(s->reused, AllSteps());
-  EXPECT_EQ(s->metrics.size(), 2 * Methods().size());
+  EXPECT_EQ(s->metrics.size(), 2 * Methods().size() + 1);
   EXPECT_EQ(c->store.metrics_calls, 1);  // from the first run only
 }
 

@@ -252,6 +252,26 @@ TEST(MetricsJsonTest, RoundTripAndTheTableInOrder) {
       StatusIs(absl::StatusCode::kDataLoss, HasSubstr("not a metrics file")));
 }
 
+// Worse than LDR: by RMSE, against the same ground truth only; never LDR
+// itself, the ground truth's own row, a NaN, or without an LDR row.
+TEST(MetricsJsonTest, WorseThanLdrComparesWithinOneGroundTruth) {
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<Metric> rows = {
+      Row("ldr", "simulation", 1.0),
+      Row("fattal", "simulation", 1.5),
+      Row("fused", "simulation", 0.5),
+      Row("drago", "simulation", 1.0),  // equal is not worse
+      Row("wls", "simulation", kNaN),
+      Row(kGroundTruthMethod, "simulation", 2.0),
+      Row("fattal", "structured_light", 1.5),  // no LDR row here
+      Row("ldr", "elsewhere", 3.0),
+      Row("fused", "elsewhere", 2.0)};
+  EXPECT_THAT(WorseThanLdr(rows),
+              ::testing::ElementsAre(false, true, false, false, false, false,
+                                     false, false, false));
+  EXPECT_TRUE(WorseThanLdr({}).empty());
+}
+
 // JSON has no NaN or infinity: a metric that could not be computed (NaN)
 // or an infinite one is written as null and read back as NaN, so that one
 // such number does not make the whole file unreadable. Infinity does not

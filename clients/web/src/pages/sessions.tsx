@@ -230,13 +230,14 @@ function MetricsTable({ metrics }: { metrics: Metric[] }) {
       <table class="metrics-table" data-testid="metrics-table">
         <caption>Pixels (px) to 3 decimals, percentages to 1; the exact value is in each
           cell's tooltip. Bad: the share of scored pixels whose error exceeds the threshold.
-          Coverage: ground-truth pixels with a disparity.</caption>
+          Coverage: ground-truth pixels with a disparity. Versus LDR: a method whose RMSE is
+          above the single middle exposure's against the same ground truth.</caption>
         <thead>
           <tr><th scope="col">Ground truth</th><th scope="col">Method</th>
             <th scope="col" class="num">RMSE</th><th scope="col" class="num">MAE</th>
             <th scope="col" class="num">Bad &gt; 0.5</th><th scope="col" class="num">Bad &gt; 1</th>
             <th scope="col" class="num">Bad &gt; 2</th><th scope="col" class="num">Bad &gt; 4</th>
-            <th scope="col" class="num">Coverage</th></tr>
+            <th scope="col" class="num">Coverage</th><th scope="col">Versus LDR</th></tr>
         </thead>
         <tbody>
           {metrics.map((m) => (
@@ -244,6 +245,7 @@ function MetricsTable({ metrics }: { metrics: Metric[] }) {
               <td>{m.groundTruth.replace(/_/g, " ")}</td>
               <th scope="row">{m.method}</th>
               {px(m.rmsePx)}{px(m.maePx)}{pc(m.bad05)}{pc(m.bad1)}{pc(m.bad2)}{pc(m.bad4)}{pc(m.coverage)}
+              <td data-worse-than-ldr={String(m.worseThanLdr)}>{m.worseThanLdr ? "worse than LDR" : ""}</td>
             </tr>
           ))}
         </tbody>
