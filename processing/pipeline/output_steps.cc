@@ -50,8 +50,12 @@ void ScoreGroundTruth(const std::vector<Truth>& truths,
     if (t.name == "simulation") exact = &t;
   }
   if (sl == nullptr || exact == nullptr) return;
+  // Both truths are in pixels: the scale meant for a method's output does
+  // not apply.
+  experiment::ExperimentOptions truth_options = options;
+  truth_options.evaluation.disparity_scale = 1.0;
   absl::StatusOr<eval::RegionMetrics> score = experiment::Score(
-      sl->disparity, exact->disparity, exact->nonoccluded, options);
+      sl->disparity, exact->disparity, exact->nonoccluded, truth_options);
   if (!score.ok()) {
     c.Warn(absl::StrCat(
         "evaluate: the structured-light ground truth cannot be scored against "

@@ -34,7 +34,7 @@ namespace fs = std::filesystem;
 namespace {
 
 // Part of every input hash: bump when a step's outputs change meaning.
-constexpr char kVersion[] = "hdrstereo-pipeline-1";
+constexpr char kVersion[] = "hdrstereo-pipeline-2";
 
 const StepSpec& SpecOf(const std::string& step) {
   for (const StepSpec& s : StepTable()) {

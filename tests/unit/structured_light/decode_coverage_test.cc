@@ -249,6 +249,7 @@ TEST(RealCoverageTest, KeepsWhatAPlainDecoderReadsOnZengzhik) {
       }
     }
     const int plain_count = cv::countNonZero(plain);
+    ASSERT_GT(plain_count, 1000) << view << ": the plain decoder read nothing";
     std::cout << absl::StrFormat(
         "zengzhik %s: the plain decoder reads %d pixels consistently; the "
         "default decode %d, keeping %.1f %% of the plain ones, %.2f %% of "

@@ -64,7 +64,13 @@ function Bars({ id, title, unit, rows, format }: BarsProps) {
   );
 }
 
-export function MetricsChart({ metrics }: { metrics: Metric[] }) {
+// The structured-light ground truth's own row (scored against the
+// simulation) is a reference, not a method: the table shows it, the chart
+// compares methods only.
+const kGroundTruthMethod = "structured_light";
+
+export function MetricsChart({ metrics: all }: { metrics: Metric[] }) {
+  const metrics = all.filter((m) => m.method !== kGroundTruthMethod);
   const [bad, setBad] = useState<BadKey>("bad_1");
   const threshold = kBadThresholds.find((t) => t.key === bad)!;
   const truths = [...new Set(metrics.map((m) => m.groundTruth))];
