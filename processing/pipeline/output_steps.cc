@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -33,6 +34,22 @@ using experiment::Method;
 
 std::string DisparityFile(Method m) {
   return absl::StrCat("disparity/", experiment::MethodName(m), ".pfm");
+}
+
+// One metrics row from a score of `method` against the truth `truth`.
+Metric MetricRow(std::string method, std::string truth,
+                 const eval::RegionMetrics& r) {
+  Metric row;
+  row.method = std::move(method);
+  row.ground_truth = std::move(truth);
+  row.rmse = r.rmse;
+  row.mae = r.mae;
+  row.bad_0_5 = r.bad_percent.at(0);
+  row.bad_1 = r.bad_percent.at(1);
+  row.bad_2 = r.bad_percent.at(2);
+  row.bad_4 = r.bad_percent.at(3);
+  row.coverage = 100.0 * r.coverage;
+  return row;
 }
 
 // With both the structured-light ground truth and the simulator's exact
@@ -63,17 +80,7 @@ void ScoreGroundTruth(const std::vector<Truth>& truths,
         score.status().message()));
     return;
   }
-  Metric row;
-  row.method = kGroundTruthMethod;
-  row.ground_truth = exact->name;
-  row.rmse = score->rmse;
-  row.mae = score->mae;
-  row.bad_0_5 = score->bad_percent.at(0);
-  row.bad_1 = score->bad_percent.at(1);
-  row.bad_2 = score->bad_percent.at(2);
-  row.bad_4 = score->bad_percent.at(3);
-  row.coverage = 100.0 * score->coverage;
-  rows->push_back(row);
+  rows->push_back(MetricRow(kGroundTruthMethod, exact->name, *score));
 }
 
 absl::Status RunEvaluate(const experiment::ExperimentOptions& options,
@@ -96,18 +103,7 @@ absl::Status RunEvaluate(const experiment::ExperimentOptions& options,
             absl::StrCat("evaluate ", experiment::MethodName(m), " against ",
                          t.name, ": ", score.status().message()));
       }
-      const eval::RegionMetrics& r = *score;
-      Metric row;
-      row.method = experiment::MethodName(m);
-      row.ground_truth = t.name;
-      row.rmse = r.rmse;
-      row.mae = r.mae;
-      row.bad_0_5 = r.bad_percent.at(0);
-      row.bad_1 = r.bad_percent.at(1);
-      row.bad_2 = r.bad_percent.at(2);
-      row.bad_4 = r.bad_percent.at(3);
-      row.coverage = 100.0 * r.coverage;
-      rows.push_back(row);
+      rows.push_back(MetricRow(experiment::MethodName(m), t.name, *score));
     }
   }
   ScoreGroundTruth(truths, options, c, &rows);
