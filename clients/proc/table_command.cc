@@ -2,6 +2,7 @@
 //
 // hdrstereo-proc table --scene NAME [--scene NAME ...] [--width W]
 //                      [--baseline-mm B] [--markdown OUT.md]
+//                      [--thesis-fusion] [--one-fused4] [--details]
 // hdrstereo-proc table --left-stack L/ --right-stack R/ --truth disp.pfm
 //                      [--nonoccluded mask.png] [--max-disp D]
 // The thesis' Tables 5.2 / 5.3 (RMSE and bad-1px of ldr, the seven TMOs,
@@ -45,6 +46,9 @@ struct TableArgs {
   double lambda = 1.0;
   double inconsistent_confidence = 1.0;
   double edge_weight = 1.0;
+  bool thesis_fusion = false;
+  bool one_fused4 = false;
+  bool details = false;
 };
 
 // The thesis' eight exposures (Fig. 3.2), ISO 100.
@@ -128,11 +132,15 @@ absl::Status RunTable(const TableArgs& args) {
     topt.experiment.fusion.lambda = args.lambda;
     topt.experiment.fusion.edge_weight = args.edge_weight;
     topt.experiment.inconsistent_confidence = args.inconsistent_confidence;
+    topt.experiment.robust_fusion.enabled = !args.thesis_fusion;
+    topt.fused4_all_subsets = !args.one_fused4;
+    topt.details = args.details;
     ASSIGN_OR_RETURN(experiment::TableResult r,
                      experiment::RunThesisTable(in, topt));
     results.push_back(r);
   }
-  const std::string table = experiment::FormatTable(results);
+  const std::string table =
+      experiment::FormatTable(results) + experiment::FormatDetails(results);
   std::cout << table;
   if (!args.markdown.empty()) {
     std::ofstream f(args.markdown);
@@ -171,15 +179,28 @@ void AddTableCommands(CLI::App& app) {
   cmd->add_option("--max-disp", args->max_disp,
                   "Largest disparity (0 = from the truth)");
   cmd->add_option("--markdown", args->markdown, "Also write the table here");
-  cmd->add_option("--sigma", args->sigma, "Fusion data-term sigma (px)")
+  CLI::Option* thesis = cmd->add_flag(
+      "--thesis-fusion", args->thesis_fusion,
+      "The thesis' fusion (one graph cut, every candidate weighed "
+      "alike) instead of weighing each by its evidence");
+  cmd->add_flag("--details", args->details,
+                "Also per data set: bad-2px, bad-1px scaled with the width, "
+                "the per-region split and the oracle of the seven");
+  cmd->add_flag("--one-fused4", args->one_fused4,
+                "fused-4 of the first four TMOs only, not the mean of all 35 "
+                "subsets (for large sizes)");
+  cmd->add_option("--sigma", args->sigma, "Thesis fusion: data-term sigma (px)")
       ->check(CLI::PositiveNumber)
+      ->needs(thesis)
       ->capture_default_str();
   cmd->add_option("--lambda", args->lambda, "Fusion smoothness weight")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cmd->add_option("--inconsistent-confidence", args->inconsistent_confidence,
-                  "Data weight of a candidate's LR-inconsistent pixels")
+                  "Thesis fusion: data weight of a candidate's "
+                  "LR-inconsistent pixels")
       ->check(CLI::Range(0.0, 1.0))
+      ->needs(thesis)
       ->capture_default_str();
   cmd->add_option("--edge-weight", args->edge_weight,
                   "Fusion smoothness factor on guide edge pixels (Appendix "

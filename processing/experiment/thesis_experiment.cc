@@ -56,6 +56,7 @@ absl::Status ExperimentOptions::Validate() const {
     RETURN_IF_ERROR(WithFieldPrefix(name, s.Validate()));
   }
   RETURN_IF_ERROR(WithFieldPrefix("fusion", FusionOf(*this, 1).Validate()));
+  RETURN_IF_ERROR(WithFieldPrefix("robust_fusion", robust_fusion.Validate()));
   RETURN_IF_ERROR(RequireField(
       inconsistent_confidence >= 0 && inconsistent_confidence <= 1,
       "inconsistent_confidence", inconsistent_confidence, "in [0, 1]"));
@@ -70,13 +71,14 @@ absl::Status ExperimentOptions::Validate() const {
 
 void to_json(nlohmann::json& j, const ExperimentOptions& o) {
   const auto& [response, merge, tonemap, ldr_stereo, hdr_stereo, fusion,
-               inconsistent_confidence, evaluation] = o;
+               robust_fusion, inconsistent_confidence, evaluation] = o;
   j = nlohmann::json{{"response", response},
                      {"merge", merge},
                      {"tonemap", tonemap},
                      {"ldr_stereo", ldr_stereo},
                      {"hdr_stereo", hdr_stereo},
                      {"fusion", fusion},
+                     {"robust_fusion", robust_fusion},
                      {"inconsistent_confidence", inconsistent_confidence},
                      {"evaluation", evaluation}};
 }
@@ -179,6 +181,16 @@ absl::StatusOr<fusion::FusionResult> FuseSome(
     const std::vector<const Candidate*>& candidates, const cv::Mat& guide,
     int max_disparity, const ExperimentOptions& options) {
   std::vector<cv::Mat> disparities, confidences;
+  if (options.robust_fusion.enabled) {
+    std::vector<cv::Mat> consistent;
+    for (const Candidate* c : candidates) {
+      disparities.push_back(c->disparity);
+      consistent.push_back(c->consistent);
+    }
+    return fusion::FuseByReliability(disparities, consistent, guide,
+                                     FusionOf(options, max_disparity),
+                                     options.robust_fusion);
+  }
   for (const Candidate* c : candidates) {
     disparities.push_back(c->disparity);
     // Confidences of 1 everywhere are the same as none (and slower).

@@ -27,6 +27,7 @@
 #include "processing/eval/disparity_eval.h"
 #include "processing/experiment/method.h"
 #include "processing/fusion/fusion.h"
+#include "processing/fusion/reliability.h"
 #include "processing/hdr/merge.h"
 #include "processing/hdr/response.h"
 #include "processing/hdr/stack.h"
@@ -45,11 +46,17 @@ struct ExperimentOptions {
   stereo::StereoOptions hdr_stereo = stereo::StereoOptions::Hdr();
   // The graph-cut fusion; max_disp is set per run like the stereo range.
   fusion::FusionOptions fusion;
-  // Candidates' left-right check: pixels that fail it get this confidence
-  // in the fusion's data term (1 = ignore the check). Default 1: on the
-  // simulated scenes down-weighting inconsistent pixels made fusion worse
-  // (lab-lamp, 256 px: fused-7 RMSE 0.71 at 1, 1.72 at 0.25, 2.84 at 0.05)
-  // -- the failing TMOs' errors are often left-right consistent.
+  // By default each candidate is weighed by its own evidence
+  // (fusion/reliability.h; its sigma replaces fusion.sigma);
+  // robust_fusion.enabled = false is the thesis' fusion, one cut with the
+  // weights below.
+  fusion::ReliabilityOptions robust_fusion;
+  // Thesis fusion only: candidates' pixels that fail their left-right check
+  // get this confidence in the data term (1 = ignore the check). Default 1:
+  // on the simulated scenes down-weighting inconsistent pixels made that
+  // fusion worse (lab-lamp, 256 px: fused-7 RMSE 0.71 at 1, 1.72 at 0.25,
+  // 2.84 at 0.05) -- the failing TMOs' errors are often left-right
+  // consistent.
   double inconsistent_confidence = 1.0;
   // Scoring; the bad-pixel thresholds are 0.5, 1, 2 and 4 px.
   eval::EvalOptions evaluation{.gt_zero_valid = true};
@@ -118,7 +125,7 @@ absl::StatusOr<Fused> FuseMethods(const std::map<Method, Candidate>& candidates,
                                   const ExperimentOptions& options,
                                   const UnitRunner& runner = SerialRunner);
 // Graph-cut fusion of some of the tone-mapped candidates (the table's
-// fused-4 subsets).
+// fused-4 subsets): by reliability, or the thesis' one cut.
 absl::StatusOr<fusion::FusionResult> FuseSome(
     const std::vector<const Candidate*>& candidates, const cv::Mat& guide,
     int max_disparity, const ExperimentOptions& options);

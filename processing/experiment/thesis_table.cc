@@ -1,9 +1,13 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "processing/experiment/thesis_table.h"
 
+#include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstdio>
+#include <limits>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 #include <string>
 #include <utility>
 #include <vector>
@@ -66,6 +70,121 @@ absl::StatusOr<TableRow> Fused4(const std::map<Method, Candidate>& candidates,
   return f4;
 }
 
+// The regions of DetailRow, as masks in its order.
+std::vector<std::pair<std::string, cv::Mat>> Regions(const cv::Mat& ldr_left,
+                                                     int max_disp) {
+  cv::Mat grey = io::To8Bit(ldr_left);
+  if (grey.channels() == 3) cv::cvtColor(grey, grey, cv::COLOR_BGR2GRAY);
+  const cv::Size size = grey.size();
+  cv::Mat small;
+  const int small_w = std::min(kReferenceWidth, size.width);
+  cv::resize(grey, small,
+             cv::Size(small_w, std::max(1, size.height * small_w / size.width)),
+             0, 0, cv::INTER_AREA);
+  cv::Mat gx, gy, mag;
+  cv::Sobel(small, gx, CV_32F, 1, 0);
+  cv::Sobel(small, gy, CV_32F, 0, 1);
+  cv::magnitude(gx, gy, mag);
+  cv::blur(mag, mag, cv::Size(9, 9));
+  cv::Mat low = mag < 20;
+  cv::resize(low, low, size, 0, 0, cv::INTER_NEAREST);
+  cv::Mat taken = cv::Mat::zeros(size, CV_8UC1);
+  std::vector<std::pair<std::string, cv::Mat>> out;
+  auto add = [&](const std::string& name, cv::Mat m) {
+    m &= ~taken;
+    taken |= m;
+    out.emplace_back(name, m);
+  };
+  cv::Mat band = cv::Mat::zeros(size, CV_8UC1);
+  band.colRange(0, std::min(max_disp, size.width)).setTo(255);
+  add("left band", band);
+  add("saturated", grey >= 250);
+  add("dark", grey <= 10);
+  add("low texture", low);
+  add("textured", cv::Mat(size, CV_8UC1, cv::Scalar(255)));
+  return out;
+}
+
+absl::StatusOr<DetailRow> Detail(
+    const std::string& approach, const cv::Mat& disp, const TableInput& in,
+    const std::vector<std::pair<std::string, cv::Mat>>& regions,
+    const ExperimentOptions& options) {
+  eval::EvalOptions e = options.evaluation;
+  const double scaled = static_cast<double>(in.truth.cols) / kReferenceWidth;
+  e.thresholds = {1.0, 2.0, scaled};
+  ASSIGN_OR_RETURN(
+      const eval::DisparityEvaluation all,
+      eval::EvaluateDisparity(disp, in.truth, in.nonoccluded, cv::Mat(), e));
+  DetailRow row{approach,
+                all.nonoccluded.rmse,
+                all.nonoccluded.bad_percent[0],
+                all.nonoccluded.bad_percent[1],
+                all.nonoccluded.bad_percent[2],
+                {}};
+  for (const auto& [name, mask] : regions) {
+    ASSIGN_OR_RETURN(
+        const eval::DisparityEvaluation r,
+        eval::EvaluateDisparity(disp, in.truth, in.nonoccluded, mask, e));
+    const double share = all.nonoccluded.pixels == 0
+                             ? 0
+                             : 100.0 *
+                                   static_cast<double>(r.nonoccluded.pixels) /
+                                   static_cast<double>(all.nonoccluded.pixels);
+    row.regions.push_back(
+        {name, share, r.nonoccluded.rmse,
+         r.nonoccluded.pixels == 0 ? 0 : r.nonoccluded.bad_percent[0]});
+  }
+  return row;
+}
+
+// Per pixel, the candidate of the seven closest to the truth (compared as
+// scored: times the evaluation's disparity_scale).
+cv::Mat Oracle(const std::map<Method, cv::Mat>& disparity, const cv::Mat& truth,
+               double disparity_scale) {
+  cv::Mat best(truth.size(), CV_32FC1,
+               cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  std::vector<const cv::Mat*> seven;
+  for (Method m : ToneMappedMethods()) seven.push_back(&disparity.at(m));
+  for (int y = 0; y < truth.rows; ++y) {
+    const float* t = truth.ptr<float>(y);
+    float* out = best.ptr<float>(y);
+    for (int x = 0; x < truth.cols; ++x) {
+      double best_error = std::numeric_limits<double>::infinity();
+      for (const cv::Mat* c : seven) {
+        const float z = c->ptr<float>(y)[x];
+        const double error = std::abs(z * disparity_scale - t[x]);
+        if (error < best_error) {
+          best_error = error;
+          out[x] = z;
+        }
+      }
+    }
+  }
+  return best;
+}
+
+absl::StatusOr<std::vector<DetailRow>> Details(const TableResult& result,
+                                               const TableInput& in,
+                                               int max_disp, size_t ldr,
+                                               const ExperimentOptions& o) {
+  const auto regions = Regions(in.left.images[ldr], max_disp);
+  std::vector<DetailRow> rows;
+  for (const TableRow& r : result.rows) {
+    auto it = result.disparity.find(r.method);
+    if (it == result.disparity.end()) continue;  // fused-4: a mean of runs
+    ASSIGN_OR_RETURN(DetailRow row,
+                     Detail(MethodName(r.method), it->second, in, regions, o));
+    rows.push_back(std::move(row));
+  }
+  ASSIGN_OR_RETURN(
+      DetailRow oracle,
+      Detail("oracle",
+             Oracle(result.disparity, in.truth, o.evaluation.disparity_scale),
+             in, regions, o));
+  rows.push_back(std::move(oracle));
+  return rows;
+}
+
 absl::StatusOr<TableResult> RunImpl(const TableInput& in,
                                     const TableOptions& options) {
   const ExperimentOptions& o = options.experiment;
@@ -112,6 +231,7 @@ absl::StatusOr<TableResult> RunImpl(const TableInput& in,
 
   TableResult result;
   result.name = in.name;
+  result.width = width;
   result.fused_stats = fused.stats;
   for (const auto& [m, c] : candidates) result.disparity[m] = c.disparity;
   for (const auto& [m, d] : fused.disparity) result.disparity[m] = d;
@@ -130,6 +250,9 @@ absl::StatusOr<TableResult> RunImpl(const TableInput& in,
       TableRow f7,
       ScoreRow(Method::kFused, result.disparity[Method::kFused], in, o));
   result.rows.push_back(f7);
+  if (options.details) {
+    ASSIGN_OR_RETURN(result.details, Details(result, in, max_disp, ldr, o));
+  }
   return result;
 }
 
@@ -163,6 +286,36 @@ absl::StatusOr<TableResult> RunThesisTable(const TableInput& input,
   } catch (const cv::Exception& e) {
     return absl::InternalError(absl::StrCat("table: OpenCV: ", e.what()));
   }
+}
+
+std::string FormatDetails(const std::vector<TableResult>& results) {
+  std::string out;
+  for (const TableResult& r : results) {
+    if (r.details.empty()) continue;
+    const DetailRow& first = r.details.front();
+    absl::StrAppend(&out, "\n", r.name, " (", r.width, " px; scaled = bad-",
+                    Fixed(static_cast<double>(r.width) / kReferenceWidth, 2),
+                    "px; per region RMSE / bad-1px %)\n\n| approach | RMSE | "
+                    "bad-1px % | bad-2px % | scaled % |");
+    std::string rule = "|---|---:|---:|---:|---:|";
+    for (const RegionScore& region : first.regions) {
+      absl::StrAppend(&out, " ", region.region, " (", Fixed(region.share, 1),
+                      " %) |");
+      absl::StrAppend(&rule, "---:|");
+    }
+    absl::StrAppend(&out, "\n", rule, "\n");
+    for (const DetailRow& row : r.details) {
+      absl::StrAppend(&out, "| ", row.approach, " | ", Fixed(row.rmse, 2),
+                      " | ", Fixed(row.bad1, 1), " | ", Fixed(row.bad2, 1),
+                      " | ", Fixed(row.scaled, 1), " |");
+      for (const RegionScore& region : row.regions) {
+        absl::StrAppend(&out, " ", Fixed(region.rmse, 2), " / ",
+                        Fixed(region.bad1, 1), " |");
+      }
+      absl::StrAppend(&out, "\n");
+    }
+  }
+  return out;
 }
 
 double MeanRmse(const std::vector<TableResult>& results, Method method) {

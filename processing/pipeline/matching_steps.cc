@@ -66,7 +66,7 @@ absl::Status RunStereo(const Matching& o, StepContext& c) {
 }
 
 struct Fusion {
-  ExperimentOptions options;  // fusion and inconsistent_confidence
+  ExperimentOptions options;  // fusion, robust_fusion, inconsistent_confidence
   int max_disparity = 0;
 };
 
@@ -109,11 +109,13 @@ absl::StatusOr<ConfiguredStep> ConfigureFusion(const StepContext& c) {
   ASSIGN_OR_RETURN(const hdr::ExposureStack left, c.Stack(0));
   Fusion o;
   o.options.fusion = c.options().experiment.fusion;
+  o.options.robust_fusion = c.options().experiment.robust_fusion;
   o.options.inconsistent_confidence =
       c.options().experiment.inconsistent_confidence;
   ASSIGN_OR_RETURN(o.max_disparity, c.MaxDisparity(left.images[0].cols));
   return ConfiguredStep{
       {{"fusion", o.options.fusion},
+       {"robust_fusion", o.options.robust_fusion},
        {"inconsistent_confidence", o.options.inconsistent_confidence},
        {"max_disparity", o.max_disparity}},
       [o](StepContext& c) { return RunFusion(o, c); }};

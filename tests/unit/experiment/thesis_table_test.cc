@@ -8,50 +8,61 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <string>
 #include <vector>
 
-#include "hardware/sim/scene.h"
-#include "hardware/sim/sim_world.h"
-#include "hardware/sim/truth.h"
-#include "processing/base/status_macros.h"
 #include "tests/support/status_matchers.h"
+#include "tests/support/thesis_scene.h"
 
 namespace hdrstereo::experiment {
 namespace {
 
-absl::StatusOr<TableInput> Render(const std::string& name, int width) {
-  ASSIGN_OR_RETURN(sim::Scene scene, sim::LoadScene(name));
-  sim::ScaleCamera(scene, width);
-  const std::vector<double> times = {1.0 / 15,   1.0 / 30,  1.0 / 60,
-                                     1.0 / 125,  1.0 / 250, 1.0 / 500,
-                                     1.0 / 1000, 1.0 / 2000};
-  sim::SimWorld world(scene);
-  TableInput in;
-  in.name = name;
-  for (double t : times) {
-    world.SetStagePosition(0);
-    in.left.images.push_back(world.RenderExposure({t, 100}, 8));
-    world.SetStagePosition(150);
-    in.right.images.push_back(world.RenderExposure({t, 100}, 8));
+// The details' rows against the table's and against each other.
+void ExpectConsistentDetails(const TableResult& r) {
+  ASSERT_FALSE(r.details.empty());
+  const DetailRow& oracle = r.details.back();
+  ASSERT_EQ(oracle.approach, "oracle");
+  for (const DetailRow& d : r.details) {
+    SCOPED_TRACE(d.approach);
+    double share = 0;
+    for (const RegionScore& region : d.regions) share += region.share;
+    EXPECT_NEAR(share, 100.0, 1e-6);
+    ASSERT_EQ(d.regions.size(), 5u);
+    EXPECT_EQ(d.regions.front().region, "left band");
+    EXPECT_GE(d.bad1, d.bad2);
+    // At 256 px the scaled threshold is 0.8 px: at least as many bad.
+    EXPECT_GE(d.scaled, d.bad1);
+    for (const TableRow& row : r.rows) {
+      if (MethodName(row.method) != d.approach) continue;
+      EXPECT_DOUBLE_EQ(d.rmse, row.rmse);
+      EXPECT_DOUBLE_EQ(d.bad1, row.bad1);
+      if (std::find(ToneMappedMethods().begin(), ToneMappedMethods().end(),
+                    row.method) != ToneMappedMethods().end()) {
+        // Per pixel the closest of the seven: never worse than one of them.
+        EXPECT_LE(oracle.rmse, row.rmse);
+        EXPECT_LE(oracle.bad1, row.bad1);
+      }
+    }
   }
-  in.left.exposure_s = in.right.exposure_s = times;
-  ASSIGN_OR_RETURN(const sim::StereoTruth truth, world.Truth(0, 150));
-  in.truth = truth.left.disparity;
-  in.nonoccluded = truth.left.nonoccluded;
-  in.ldr_index = 4;  // 1/250 s
-  return in;
+  EXPECT_NE(FormatDetails({r}).find("| oracle |"), std::string::npos);
 }
 
 TEST(ThesisTableTest, FusionBeatsLdrTmosMeanAndMedian) {
   std::vector<TableResult> results;
   for (const std::string name : {"lab-lamp", "two-lamps", "desk-lamp"}) {
-    ASSERT_OK_AND_ASSIGN(const TableInput in, Render(name, 256));
-    absl::StatusOr<TableResult> r = RunThesisTable(in);
+    ASSERT_OK_AND_ASSIGN(const TableInput in,
+                         testing::RenderThesisScene(name, 256));
+    // The thesis' own fusion (fusion_scenes_test has the default one).
+    TableOptions options;
+    options.experiment.robust_fusion.enabled = false;
+    options.details = true;
+    absl::StatusOr<TableResult> r = RunThesisTable(in, options);
     ASSERT_TRUE(r.ok()) << r.status();
     EXPECT_LE(r->fused_stats.energy_after, r->fused_stats.energy_before);
+    ExpectConsistentDetails(*r);
     results.push_back(*r);
   }
   std::cout << FormatTable(results);

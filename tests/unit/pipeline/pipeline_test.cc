@@ -689,9 +689,17 @@ TEST(PipelineOptionsTest, ChangedFieldRecomputesItsStepAndDependants) {
       {"stereo",
        [](StepOptions& o) { o.experiment.hdr_stereo.tau_color = 4.0 / 255; }},
       {"fusion", [](StepOptions& o) { o.experiment.fusion.lambda = 3; }},
-      // Candidates' left-right checks weigh in (disparity/<method>_lr.png).
       {"fusion",
-       [](StepOptions& o) { o.experiment.inconsistent_confidence = 0.5; }},
+       [](StepOptions& o) {
+         o.experiment.robust_fusion.window_fraction = 0.2;
+       }},
+      // The thesis' fusion, with the candidates' left-right checks
+      // weighing in (disparity/<method>_lr.png).
+      {"fusion",
+       [](StepOptions& o) {
+         o.experiment.robust_fusion.enabled = false;
+         o.experiment.inconsistent_confidence = 0.5;
+       }},
       {"evaluate",
        [](StepOptions& o) { o.experiment.evaluation.disparity_scale = 1.01; }},
   };

@@ -1,0 +1,158 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "processing/fusion/reliability.h"
+
+#include <algorithm>
+#include <chrono>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "absl/strings/str_cat.h"
+#include "processing/base/options.h"
+#include "processing/base/status_macros.h"
+
+namespace hdrstereo::fusion {
+namespace {
+
+// The candidates are CV_32FC1 of one size; the masks, when given, one
+// CV_8UC1 of that size (or empty) per candidate.
+absl::Status CheckInputs(const std::vector<cv::Mat>& candidates,
+                         const std::vector<cv::Mat>& consistent) {
+  if (candidates.empty()) {
+    return absl::InvalidArgumentError("fusion: no candidate disparity maps");
+  }
+  const cv::Size size = candidates[0].size();
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    if (candidates[k].empty() || candidates[k].type() != CV_32FC1 ||
+        candidates[k].size() != size) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "fusion: candidate ", k, " must be CV_32FC1 of candidate 0's size"));
+    }
+  }
+  if (consistent.empty()) return absl::OkStatus();
+  if (consistent.size() != candidates.size()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("fusion: ", consistent.size(), " left-right masks for ",
+                     candidates.size(), " candidates"));
+  }
+  for (size_t k = 0; k < consistent.size(); ++k) {
+    const cv::Mat& lr = consistent[k];
+    if (!lr.empty() && (lr.type() != CV_8UC1 || lr.size() != size)) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "fusion: left-right mask ", k, " must be CV_8UC1 of that size"));
+    }
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::Status ReliabilityOptions::Validate() const {
+  RETURN_IF_ERROR(RequireField(sigma_fraction > 0 && sigma_fraction <= 0.1,
+                               "sigma_fraction", sigma_fraction,
+                               "in (0, 0.1]"));
+  RETURN_IF_ERROR(RequireField(window_fraction > 0 && window_fraction <= 2,
+                               "window_fraction", window_fraction,
+                               "in (0, 2]"));
+  RETURN_IF_ERROR(RequireField(exponent >= 0 && exponent <= 16, "exponent",
+                               exponent, "in [0, 16]"));
+  return RequireField(passes >= 1 && passes <= 10, "passes", passes,
+                      "in [1, 10]");
+}
+
+void to_json(nlohmann::json& j, const ReliabilityOptions& o) {
+  const auto& [enabled, sigma_fraction, window_fraction, exponent, passes] = o;
+  j = nlohmann::json{{"enabled", enabled},
+                     {"sigma_fraction", sigma_fraction},
+                     {"window_fraction", window_fraction},
+                     {"exponent", exponent},
+                     {"passes", passes}};
+}
+
+absl::StatusOr<std::vector<cv::Mat>> CandidateConfidences(
+    const std::vector<cv::Mat>& candidates,
+    const std::vector<cv::Mat>& consistent, const cv::Mat& estimate,
+    const ReliabilityOptions& options) {
+  RETURN_IF_ERROR(options.Validate());
+  RETURN_IF_ERROR(CheckInputs(candidates, consistent));
+  const cv::Size size = candidates[0].size();
+  if (estimate.type() != CV_32FC1 || estimate.size() != size) {
+    return absl::InvalidArgumentError(
+        "fusion: the estimate must be CV_32FC1 of the candidates' size");
+  }
+  const double tau = options.sigma_fraction * size.width;
+  const int window =
+      std::max(1, static_cast<int>(options.window_fraction * size.width)) | 1;
+  std::vector<cv::Mat> out;
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    // NaN differences compare false: no agreement where either is invalid.
+    cv::Mat agree = cv::abs(candidates[k] - estimate) <= tau;
+    if (!consistent.empty() && !consistent[k].empty()) {
+      agree &= consistent[k] != 0;
+    }
+    cv::Mat rate;
+    agree.convertTo(rate, CV_32F, 1.0 / 255.0);
+    cv::boxFilter(rate, rate, -1, cv::Size(window, window), cv::Point(-1, -1),
+                  true, cv::BORDER_REFLECT);
+    cv::pow(rate, options.exponent, rate);
+    out.push_back(rate);
+  }
+  cv::Mat best = out[0].clone();
+  for (const cv::Mat& r : out) best = cv::max(best, r);
+  const cv::Mat unsupported = best <= 0;
+  best.setTo(1.0f, unsupported);
+  for (cv::Mat& r : out) {
+    cv::divide(r, best, r);
+    r.setTo(1.0f, unsupported);
+  }
+  return out;
+}
+
+absl::StatusOr<cv::Mat> ConsistentMedian(const std::vector<cv::Mat>& candidates,
+                                         const std::vector<cv::Mat>& consistent,
+                                         int max_disp) {
+  RETURN_IF_ERROR(CheckInputs(candidates, consistent));
+  ASSIGN_OR_RETURN(cv::Mat all, FuseMedian(candidates, max_disp));
+  if (consistent.empty()) return all;
+  // The median with each candidate's failing pixels made invalid (NaN).
+  std::vector<cv::Mat> passed;
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    cv::Mat z = candidates[k].clone();
+    if (!consistent[k].empty()) {
+      z.setTo(std::numeric_limits<float>::quiet_NaN(), consistent[k] == 0);
+    }
+    passed.push_back(z);
+  }
+  ASSIGN_OR_RETURN(cv::Mat median, FuseMedian(passed, max_disp));
+  // NaN where no candidate passed. (Not `median != median`: OpenCV's
+  // vectorised != is false for NaN.)
+  const cv::Mat none = ~(median == median);
+  all.copyTo(median, none);
+  return median;
+}
+
+absl::StatusOr<FusionResult> FuseByReliability(
+    const std::vector<cv::Mat>& candidates,
+    const std::vector<cv::Mat>& consistent, const cv::Mat& guide,
+    FusionOptions params, const ReliabilityOptions& options) {
+  RETURN_IF_ERROR(options.Validate());
+  const auto start = std::chrono::steady_clock::now();
+  ASSIGN_OR_RETURN(cv::Mat estimate,
+                   ConsistentMedian(candidates, consistent, params.max_disp));
+  params.sigma = options.sigma_fraction * estimate.cols;
+  FusionResult result;
+  for (int pass = 0; pass < options.passes; ++pass) {
+    ASSIGN_OR_RETURN(
+        const std::vector<cv::Mat> confidences,
+        CandidateConfidences(candidates, consistent, estimate, options));
+    ASSIGN_OR_RETURN(
+        result, FuseAlphaExpansion(candidates, guide, params, confidences));
+    estimate = result.disparity;
+  }
+  result.stats.total_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+          .count();
+  return result;
+}
+
+}  // namespace hdrstereo::fusion

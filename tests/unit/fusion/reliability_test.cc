@@ -1,0 +1,226 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "processing/fusion/reliability.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <opencv2/core.hpp>
+#include <random>
+#include <vector>
+
+#include "tests/support/option_tests.h"
+#include "tests/support/status_matchers.h"
+
+namespace hdrstereo::fusion {
+namespace {
+
+using ::hdrstereo::testing::ExpectJsonHasEveryField;
+using ::hdrstereo::testing::ExpectRulesNameTheirField;
+using ::hdrstereo::testing::StatusIs;
+using ::testing::HasSubstr;
+
+constexpr int kWidth = 320;
+constexpr int kHeight = 120;
+
+// Truth: 20 px on the left half, 30 px on the right half.
+cv::Mat Truth() {
+  cv::Mat t(kHeight, kWidth, CV_32FC1, cv::Scalar(20));
+  t.colRange(kWidth / 2, kWidth).setTo(30);
+  return t;
+}
+
+double Rmse(const cv::Mat& d, const cv::Mat& truth) {
+  const cv::Mat e = d - truth;
+  return std::sqrt(cv::mean(e.mul(e))[0]);
+}
+
+struct Candidates {
+  std::vector<cv::Mat> disparity, consistent;
+};
+
+// Three right candidates (5 % of pixels off by 6..12 px, 90 % pass their
+// left-right check) and four that fail together on the right half (all
+// 8 px too far there, a quarter of those pixels passing their check) --
+// the way the failing tone-mapped pairs behave at large sizes: a majority
+// agreeing on a wrong value, mostly caught by their own left-right check.
+Candidates Mixed(std::mt19937& rng) {
+  const cv::Mat truth = Truth();
+  std::uniform_real_distribution<float> u(0, 1);
+  Candidates c;
+  for (int k = 0; k < 7; ++k) {
+    const bool good = k < 3;
+    cv::Mat d = truth.clone();
+    cv::Mat lr(truth.size(), CV_8UC1);
+    for (int y = 0; y < kHeight; ++y) {
+      for (int x = 0; x < kWidth; ++x) {
+        const bool wrong = good ? u(rng) < 0.05f : x >= kWidth / 2;
+        if (wrong) d.at<float>(y, x) += good ? 6.0f + 6.0f * u(rng) : 8.0f;
+        const float pass = good || !wrong ? 0.9f : 0.25f;
+        lr.at<uchar>(y, x) = u(rng) < pass ? 255 : 0;
+      }
+    }
+    c.disparity.push_back(d);
+    c.consistent.push_back(lr);
+  }
+  return c;
+}
+
+FusionOptions Params() {
+  FusionOptions p;
+  p.max_disp = 48;
+  return p;
+}
+
+cv::Mat FlatGuide() {
+  return cv::Mat(kHeight, kWidth, CV_8UC1, cv::Scalar(128));
+}
+
+TEST(ReliabilityTest, FollowsTheCandidatesTheEvidenceSupportsNotTheMajority) {
+  std::mt19937 rng(7);
+  const Candidates c = Mixed(rng);
+  const cv::Mat truth = Truth();
+  ASSERT_OK_AND_ASSIGN(const cv::Mat median, FuseMedian(c.disparity, 48));
+  ASSERT_OK_AND_ASSIGN(const FusionResult thesis,
+                       FuseAlphaExpansion(c.disparity, FlatGuide(), Params()));
+  ASSERT_OK_AND_ASSIGN(
+      const FusionResult robust,
+      FuseByReliability(c.disparity, c.consistent, FlatGuide(), Params(), {}));
+  // The majority is 8 px off on half the image: RMSE sqrt(32) = 5.7.
+  EXPECT_GT(Rmse(median, truth), 5.0);
+  EXPECT_GT(Rmse(thesis.disparity, truth), 5.0);
+  // Weighed by evidence, fusion recovers the truth (measured: 0).
+  EXPECT_LT(Rmse(robust.disparity, truth), 0.5);
+  const cv::Mat off = cv::abs(robust.disparity - truth) > 1;
+  EXPECT_LT(cv::countNonZero(off), kWidth * kHeight / 100);
+}
+
+TEST(ReliabilityTest,
+     ConfidencesFavourTheCandidatesThatAgreeAndPassTheirCheck) {
+  std::mt19937 rng(11);
+  const Candidates c = Mixed(rng);
+  ASSERT_OK_AND_ASSIGN(
+      const std::vector<cv::Mat> conf,
+      CandidateConfidences(c.disparity, c.consistent, Truth(), {}));
+  ASSERT_EQ(conf.size(), 7u);
+  const cv::Point right_half(kWidth * 3 / 4, kHeight / 2);
+  for (int k = 0; k < 7; ++k) {
+    const float v = conf[static_cast<size_t>(k)].at<float>(right_half);
+    EXPECT_GE(v, 0.0f);
+    EXPECT_LE(v, 1.0f);
+    if (k < 3) {
+      EXPECT_GT(v, 0.8f) << "candidate " << k;
+    } else {
+      EXPECT_LT(v, 0.4f) << "candidate " << k;
+    }
+  }
+}
+
+TEST(ReliabilityTest, SizesAreRelativeToTheImage) {
+  // A candidate 3 px off agrees at 1200 px width (tau 3.75 px) and not at
+  // 320 px (tau 1 px).
+  for (const auto& [width, agrees] : {std::pair{320, false}, {1200, true}}) {
+    const cv::Mat estimate(8, width, CV_32FC1, cv::Scalar(40));
+    const std::vector<cv::Mat> candidates = {
+        estimate.clone(), cv::Mat(8, width, CV_32FC1, cv::Scalar(43))};
+    ASSERT_OK_AND_ASSIGN(const std::vector<cv::Mat> conf,
+                         CandidateConfidences(candidates, {}, estimate, {}));
+    EXPECT_FLOAT_EQ(conf[0].at<float>(4, width / 2), 1.0f);
+    EXPECT_FLOAT_EQ(conf[1].at<float>(4, width / 2), agrees ? 1.0f : 0.0f)
+        << width;
+  }
+}
+
+TEST(ReliabilityTest, NoSupportAnywhereKeepsEveryCandidate) {
+  const cv::Mat estimate(8, 32, CV_32FC1, cv::Scalar(10));
+  const std::vector<cv::Mat> candidates = {
+      cv::Mat(8, 32, CV_32FC1, cv::Scalar(1)),
+      cv::Mat(8, 32, CV_32FC1, cv::Scalar(20))};
+  ASSERT_OK_AND_ASSIGN(const std::vector<cv::Mat> conf,
+                       CandidateConfidences(candidates, {}, estimate, {}));
+  for (const cv::Mat& c : conf) {
+    EXPECT_EQ(cv::countNonZero(c != 1.0f), 0);
+  }
+}
+
+TEST(ReliabilityTest, TheFirstEstimateIsTheMedianOfTheConsistentCandidates) {
+  // 80 px wide, so OpenCV's vectorised comparisons are used.
+  const cv::Size size(80, 4);
+  const std::vector<cv::Mat> candidates = {
+      cv::Mat(size, CV_32FC1, cv::Scalar(10)),
+      cv::Mat(size, CV_32FC1, cv::Scalar(20)),
+      cv::Mat(size, CV_32FC1, cv::Scalar(40))};
+  // Candidate 2 passes its check on the left half only; columns >= 60
+  // pass nowhere (the median of all three there).
+  std::vector<cv::Mat> lr(3);
+  for (int k = 0; k < 3; ++k) {
+    lr[static_cast<size_t>(k)] = cv::Mat(size, CV_8UC1, cv::Scalar(255));
+    lr[static_cast<size_t>(k)].colRange(60, 80).setTo(0);
+  }
+  lr[2].colRange(40, 60).setTo(0);
+  ASSERT_OK_AND_ASSIGN(const cv::Mat m, ConsistentMedian(candidates, lr, 64));
+  EXPECT_FLOAT_EQ(m.at<float>(1, 10), 20.0f);  // all three pass
+  EXPECT_FLOAT_EQ(m.at<float>(1, 50), 15.0f);  // 10 and 20 pass
+  EXPECT_FLOAT_EQ(m.at<float>(1, 70), 20.0f);  // none passes: all three
+  ASSERT_OK_AND_ASSIGN(const cv::Mat plain,
+                       ConsistentMedian(candidates, {}, 64));
+  EXPECT_EQ(cv::countNonZero(plain != 20.0f), 0);
+}
+
+TEST(ReliabilityTest, BadInputNamesWhatIsWrong) {
+  const cv::Mat estimate(8, 32, CV_32FC1, cv::Scalar(10));
+  const std::vector<cv::Mat> two = {estimate, estimate};
+  EXPECT_THAT(CandidateConfidences(two, {cv::Mat()}, estimate, {}).status(),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("1 left-right masks for 2 candidates")));
+  EXPECT_THAT(
+      CandidateConfidences({estimate, cv::Mat(8, 31, CV_32FC1)}, {}, estimate,
+                           {})
+          .status(),
+      StatusIs(
+          absl::StatusCode::kInvalidArgument,
+          HasSubstr("candidate 1 must be CV_32FC1 of candidate 0's size")));
+  EXPECT_THAT(
+      CandidateConfidences(two, {}, cv::Mat(8, 31, CV_32FC1), {}).status(),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("the estimate must be CV_32FC1")));
+  EXPECT_THAT(
+      CandidateConfidences(two, {estimate, estimate}, estimate, {}).status(),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("left-right mask 0 must be CV_8UC1")));
+  EXPECT_THAT(
+      ConsistentMedian({}, {}, 8).status(),
+      StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("no candidate")));
+  ReliabilityOptions o;
+  o.window_fraction = 0;
+  EXPECT_THAT(
+      FuseByReliability(two, {}, cv::Mat(8, 32, CV_8UC1), Params(), o).status(),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("window_fraction is 0")));
+}
+
+using O = ReliabilityOptions;
+
+TEST(ReliabilityTest, RulesNameTheirField) {
+  ExpectRulesNameTheirField<O>({
+      {[](O& o) { o.sigma_fraction = 0; }, "sigma_fraction is 0"},
+      {[](O& o) { o.sigma_fraction = 0.5; }, "sigma_fraction is 0.5"},
+      {[](O& o) { o.window_fraction = 3; }, "window_fraction is 3"},
+      {[](O& o) { o.exponent = -1; }, "exponent is -1"},
+      {[](O& o) { o.passes = 0; }, "passes is 0"},
+      {[](O& o) { o.passes = 11; }, "passes is 11"},
+  });
+}
+
+TEST(ReliabilityTest, CanonicalJsonHasEveryField) {
+  ExpectJsonHasEveryField<O>({
+      {"/enabled", [](O& o) { o.enabled = false; }},
+      {"/sigma_fraction", [](O& o) { o.sigma_fraction = 0.01; }},
+      {"/window_fraction", [](O& o) { o.window_fraction = 0.2; }},
+      {"/exponent", [](O& o) { o.exponent = 1; }},
+      {"/passes", [](O& o) { o.passes = 2; }},
+  });
+}
+
+}  // namespace
+}  // namespace hdrstereo::fusion
