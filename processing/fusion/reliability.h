@@ -52,7 +52,7 @@ struct ReliabilityOptions {
   double sigma_fraction = 1.0 / 320;  // sigma and tau, times the width
   double window_fraction = 0.4;       // window side, times the width
   double exponent = 2.0;
-  int passes = 3;  // graph cuts; the first starts from the median
+  int passes = 3;  // graph cuts; the first from ConsistentMedian
 
   // INVALID_ARGUMENT naming the first field that breaks a rule.
   absl::Status Validate() const;
