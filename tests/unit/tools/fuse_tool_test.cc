@@ -112,6 +112,28 @@ TEST(TableToolTest, SimulatedScene) {
   EXPECT_TRUE(std::filesystem::exists(md));
 }
 
+// --details adds a per-scene table with the regions and the oracle;
+// --thesis-fusion takes the thesis' own options, which need it.
+TEST(TableToolTest, DetailsAndTheThesisFusion) {
+  CommandResult r = Proc({"table", "--scene", "lab-lamp", "--width", "128",
+                          "--details", "--one-fused4"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* text :
+       {"lab-lamp (128 px; scaled = bad-0.40px", "| oracle |", "left band (",
+        "saturated (", "dark (", "low texture (", "textured (", "| fused |"}) {
+    EXPECT_NE(r.out.find(text), std::string::npos) << text << "\n" << r.out;
+  }
+  r = Proc({"table", "--scene", "lab-lamp", "--width", "128", "--sigma", "2"});
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("--sigma requires --thesis-fusion"), std::string::npos)
+      << r.err;
+  r = Proc({"table", "--scene", "lab-lamp", "--width", "128", "--one-fused4",
+            "--thesis-fusion", "--sigma", "2", "--inconsistent-confidence",
+            "0.5"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("| fused |"), std::string::npos) << r.out;
+}
+
 TEST(TableToolTest, BadInputIsAnError) {
   CommandResult r = Proc({"table"});
   EXPECT_NE(r.exit_code, 0);
