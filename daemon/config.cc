@@ -203,6 +203,36 @@ const char* ProcessingBackendName(ProcessingBackend backend) {
   return backend == ProcessingBackend::kSlurm ? "slurm" : "local";
 }
 
+absl::StatusOr<int64_t> ParseMemorySize(absl::string_view text) {
+  constexpr int64_t kMaxBytes = int64_t{1} << 50;
+  const auto invalid = [&] {
+    return absl::InvalidArgumentError(absl::StrCat(
+        QuoteInput(text),
+        " is not a memory size: a whole number with K, M, G or T (M when "
+        "none), e.g. 8G, up to 1 PiB; 0 for no limit"));
+  };
+  int shift = 20;  // Slurm's unit when there is none
+  absl::string_view digits = text;
+  constexpr absl::string_view kUnits = "KMGT";
+  if (const size_t unit = digits.empty()
+                              ? absl::string_view::npos
+                              : kUnits.find(absl::ascii_toupper(
+                                    static_cast<unsigned char>(digits.back())));
+      unit != absl::string_view::npos) {
+    shift = 10 * static_cast<int>(unit + 1);
+    digits.remove_suffix(1);
+  }
+  int64_t value = 0;
+  if (digits.empty() || digits.size() > 16 ||
+      !std::all_of(digits.begin(), digits.end(),
+                   [](char c) { return c >= '0' && c <= '9'; }) ||
+      !absl::SimpleAtoi(digits, &value) || value < 0 ||
+      value > (kMaxBytes >> shift)) {
+    return invalid();
+  }
+  return value << shift;
+}
+
 bool IsLocalAddress(const std::string& address) {
   if (absl::StartsWith(address, "unix:")) return true;
   const std::string host = address.substr(0, address.rfind(':'));
@@ -318,6 +348,18 @@ absl::StatusOr<ParsedArgs> Parse(const std::function<void(CLI::App&)>& parse) {
                  "Processing jobs run in parallel")
       ->check(CLI::Range(1, 64))
       ->capture_default_str();
+  const CLI::Validator memory_size(
+      [](std::string& input) -> std::string {
+        absl::StatusOr<int64_t> bytes = ParseMemorySize(input);
+        return bytes.ok() ? "" : std::string(bytes.status().message());
+      },
+      "SIZE");
+  app.add_option("--processing-memory", config.processing_memory,
+                 "Memory one processing job may use with backend local, "
+                 "e.g. 16G, 0 = no limit; a job that would need more is "
+                 "refused [default: this machine's memory shared by the "
+                 "processing threads]")
+      ->check(memory_size);
   app.add_option("--processing-backend", config.processing_backend,
                  "Where processing jobs run: in this process, or as Slurm "
                  "batch jobs ([slurm] options)")
@@ -339,7 +381,10 @@ absl::StatusOr<ParsedArgs> Parse(const std::function<void(CLI::App&)>& parse) {
       ->check(CLI::Range(1, 1024))
       ->capture_default_str();
   app.add_option("--slurm-memory", slurm.memory,
-                 "Memory per batch job, e.g. 8G [default: the cluster's]");
+                 "Memory per batch job, e.g. 8G (0 = the node's); a job "
+                 "that would need more is refused [default: the cluster's, "
+                 "unchecked]")
+      ->check(memory_size);
   app.add_option("--slurm-time-limit", slurm.time_limit,
                  "Time limit per batch job, e.g. 02:00:00");
   app.add_option("--slurm-extra-arg", slurm.extra_sbatch_args,

@@ -41,6 +41,12 @@ struct TlsConfig {
 enum class ProcessingBackend { kLocal, kSlurm };
 const char* ProcessingBackendName(ProcessingBackend backend);
 
+// A memory size as Slurm's --mem takes it: a whole number with an optional
+// K, M, G or T (powers of 1024; none = M), e.g. "8G", "512M", "4096"; 0 is
+// no limit (Slurm: all of the node's memory). INVALID_ARGUMENT for
+// anything else or more than 1 PiB.
+absl::StatusOr<int64_t> ParseMemorySize(absl::string_view text);
+
 struct Config {
   // Each address is HOST:PORT or unix:PATH. Loopback addresses and unix
   // sockets are served without TLS to the principal "local"; any other
@@ -54,6 +60,12 @@ struct Config {
   // lets scripts and tests use --listen 127.0.0.1:0.
   std::filesystem::path ready_file;
   int processing_threads = 2;
+  // What one processing job may take of memory (ParseMemorySize; "0" = no
+  // limit); empty = this machine's memory shared by processing_threads
+  // jobs. A job that would need more is refused before it starts. With the
+  // Slurm backend the budget is slurm.memory instead (unchecked when that
+  // is empty or 0).
+  std::string processing_memory;
   ProcessingBackend processing_backend = ProcessingBackend::kLocal;
   int max_cluster_jobs = 16;
   slurm::SlurmOptions slurm;

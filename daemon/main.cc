@@ -16,6 +16,7 @@
 #include "daemon/config.h"
 #include "daemon/server.h"
 #include "hdrstereo_version.h"
+#include "processing/pipeline/memory_estimate.h"
 
 namespace {
 
@@ -44,6 +45,8 @@ bool SetUpLogging(const hdrstereo::daemon::Config& config) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Processing jobs run the pipeline in this process.
+  hdrstereo::pipeline::ReturnFreedImagesToTheSystem();
   absl::StatusOr<hdrstereo::daemon::ParsedArgs> parsed =
       hdrstereo::daemon::ParseArgs(argc, argv);
   if (!parsed.ok()) {

@@ -6,14 +6,20 @@
 #include <grpcpp/health_check_service_interface.h>
 #include <spdlog/spdlog.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
 #include <optional>
 
+#include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
 #include "absl/time/clock.h"
 #include "daemon/jobs/capture_job.h"
 #include "daemon/jobs/processing_job.h"
@@ -23,6 +29,7 @@
 #include "hardware/sim/truth.h"
 #include "processing/base/status_macros.h"
 #include "processing/io/atomic_file.h"
+#include "processing/pipeline/memory_estimate.h"
 
 namespace hdrstereo::daemon {
 namespace {
@@ -84,9 +91,52 @@ const std::vector<std::string>& ServedServices() {
   return *kServices;
 }
 
+// Physical memory, or the memory.max of the daemon's cgroup (v2: a
+// systemd MemoryMax=, a container's limit) when lower.
+int64_t MachineMemoryBytes() {
+  int64_t bytes = static_cast<int64_t>(::sysconf(_SC_PHYS_PAGES)) *
+                  static_cast<int64_t>(::sysconf(_SC_PAGE_SIZE));
+  // "0::/system.slice/hdrstereod.service" names the v2 cgroup.
+  absl::StatusOr<std::string> membership =
+      io::ReadFileBytes("/proc/self/cgroup", 64 << 10, "cgroup membership");
+  if (!membership.ok()) return bytes;
+  for (absl::string_view line : absl::StrSplit(*membership, '\n')) {
+    if (!absl::ConsumePrefix(&line, "0::")) continue;
+    absl::StatusOr<std::string> limit =
+        io::ReadFileBytes(absl::StrCat("/sys/fs/cgroup", line, "/memory.max"),
+                          64, "a cgroup limit");
+    int64_t cgroup = 0;
+    if (limit.ok() &&
+        absl::SimpleAtoi(absl::StripAsciiWhitespace(*limit), &cgroup) &&
+        cgroup > 0) {
+      bytes = std::min(bytes, cgroup);
+    }
+  }
+  return bytes;
+}
+
+jobs::MemoryBudget MemoryBudgetFor(const Config& config) {
+  // Both sizes were checked when the configuration was read; 0 = no limit.
+  if (config.processing_backend == ProcessingBackend::kSlurm) {
+    if (config.slurm.memory.empty()) return {};
+    return {ParseMemorySize(config.slurm.memory).value_or(0),
+            absl::StrCat("--slurm-memory ", config.slurm.memory)};
+  }
+  if (!config.processing_memory.empty()) {
+    return {ParseMemorySize(config.processing_memory).value_or(0),
+            absl::StrCat("--processing-memory ", config.processing_memory)};
+  }
+  const int64_t machine = MachineMemoryBytes();
+  return {machine / std::max(1, config.processing_threads),
+          absl::StrCat("this machine's ", pipeline::FormatBytes(machine),
+                       " shared by --processing-threads ",
+                       config.processing_threads)};
+}
+
 jobs::ProcessingEnvironment ProcessingEnvironmentFor(const Config& config) {
   jobs::ProcessingEnvironment environment;
   environment.threads = config.processing_threads;
+  environment.memory = MemoryBudgetFor(config);
   if (config.processing_backend == ProcessingBackend::kSlurm) {
     environment.slurm = config.slurm;
   }
@@ -149,6 +199,7 @@ Server::Server(std::unique_ptr<store::Store> store,
           *api_keys_),
       audit_log_(*store_),
       edge_stamp_(std::move(edge_stamp)),
+      processing_(ProcessingEnvironmentFor(config)),
       engine_(
           *store_,
           [rig = hardware_->rig.get(),
@@ -162,9 +213,9 @@ Server::Server(std::unique_ptr<store::Store> store,
             return jobs::RunCaptureJob(*rig, context, truth, conditions,
                                        place_board);
           },
-          [rig = hardware_->rig.get(), environment = ProcessingEnvironmentFor(
-                                           config)](jobs::JobContext& context) {
-            return jobs::RunProcessingJob(*rig, environment, context);
+          [rig = hardware_->rig.get(),
+           environment = &processing_](jobs::JobContext& context) {
+            return jobs::RunProcessingJob(*rig, *environment, context);
           },
           // On Slurm a pool thread only follows its batch job.
           {.processing_threads =
@@ -181,7 +232,8 @@ Server::Server(std::unique_ptr<store::Store> store,
                       hardware::HardwareModeName(config.hardware), absl::Now()),
       sessions_service_(*store_, call_decisions_),
       hardware_service_(*hardware_->rig, *rig_lock_, call_decisions_, engine_),
-      jobs_service_(engine_, *hardware_->rig, disk_guard_, call_decisions_),
+      jobs_service_(engine_, *hardware_->rig, processing_, disk_guard_,
+                    call_decisions_),
       scheduler_(
           *store_,
           [this](absl::string_view session, const v1::CapturePlan& plan,
@@ -198,9 +250,9 @@ Server::Server(std::unique_ptr<store::Store> store,
             v1::SubmitProcessingRequest request;
             request.set_session(std::string(session));
             for (const std::string& step : steps) request.add_steps(step);
-            ASSIGN_OR_RETURN(
-                store::JobRecord job,
-                jobs::SubmitProcessing(engine_, *hardware_->rig, request, by));
+            ASSIGN_OR_RETURN(store::JobRecord job,
+                             jobs::SubmitProcessing(engine_, *hardware_->rig,
+                                                    processing_, request, by));
             return job.id;
           },
           SchedulerOptionsFor(config, *rig_lock_)),

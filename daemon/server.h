@@ -16,6 +16,7 @@
 #include "daemon/http/http_edge.h"
 #include "daemon/jobs/disk_guard.h"
 #include "daemon/jobs/job_engine.h"
+#include "daemon/jobs/processing_job.h"
 #include "daemon/jobs/rig_lock.h"
 #include "daemon/jobs/scheduler.h"
 #include "daemon/metrics/metrics_exporter.h"
@@ -83,6 +84,8 @@ class Server {
   rpc::Authenticator authenticator_;
   rpc::AuditLog audit_log_;
   const rpc::EdgeStamp edge_stamp_;
+  // Threads, memory budget and backend of processing jobs.
+  const jobs::ProcessingEnvironment processing_;
   // The guard's decision on each call in flight, which every handler's
   // prologue reads.
   rpc::CallDecisions call_decisions_;

@@ -6,10 +6,12 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 
-#include "hdrstereo_version.h"
 #include "clients/proc/command_registry.h"
+#include "hdrstereo_version.h"
+#include "processing/pipeline/memory_estimate.h"
 
 int main(int argc, char** argv) {
+  hdrstereo::pipeline::ReturnFreedImagesToTheSystem();
   CLI::App app{"hdrstereo-proc: offline HDR stereo processing"};
   app.set_version_flag("--version", HDRSTEREO_VERSION);
   app.require_subcommand(1);

@@ -1,17 +1,22 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
 // hdrstereo-proc pipeline --session-dir DIR [--steps a,b] [--force]
-//                         [--threads N] [--job-dir DIR/jobs/ID]
+//                         [--threads N] [--matching-width W]
+//                         [--job-dir DIR/jobs/ID]
 // Runs the session pipeline (processing/pipeline/pipeline.h) on a session
 // folder without the daemon: frames are found from the capture layout on
 // disk, what earlier runs produced is remembered in
 // DIR/pipeline_state.json. Prints progress on stderr and the metrics table
-// (the thesis' Table 5.2 for this session) on stdout.
+// (the thesis' Table 5.2 for this session) on stdout. Says on stderr how
+// much memory it expected to need (pipeline/memory_estimate.h) and how much
+// it took (the process's maximum resident set).
 //
 // With --job-dir it is the daemon's unit of remote work (a Slurm batch
 // job): the frames, steps and force flag come from the job's request.json
 // (frames checked against the sha256 recorded at capture), and the outcome
 // goes to the job's result.json, success or not. It never opens SQLite.
+#include <sys/resource.h>
+
 #include <CLI/CLI.hpp>
 #include <filesystem>
 #include <iostream>
@@ -27,6 +32,7 @@
 #include "absl/strings/str_join.h"
 #include "clients/proc/command_registry.h"
 #include "processing/base/status_macros.h"
+#include "processing/pipeline/memory_estimate.h"
 #include "processing/pipeline/pipeline.h"
 #include "processing/pipeline/session_files.h"
 
@@ -38,6 +44,7 @@ struct PipelineArgs {
   std::vector<std::string> steps;
   bool force = false;
   int threads = 2;
+  std::optional<int> matching_width;
   std::string job_dir;
 };
 
@@ -71,10 +78,25 @@ absl::StatusOr<pipeline::RunSummary> RunOn(const pipeline::SessionInput& input,
                                            pipeline::RunOptions options,
                                            pipeline::JsonRunStore& store,
                                            PrintingObserver& observer) {
+  // Only a session with stereo frames has a shape; Run says what is missing
+  // otherwise.
+  absl::StatusOr<pipeline::RunShape> shape = pipeline::ShapeOfSession(input);
+  if (shape.ok()) {
+    ASSIGN_OR_RETURN(const pipeline::MemoryEstimate estimate,
+                     pipeline::EstimateMemory(*shape, options));
+    std::cerr << "memory: estimated " << estimate.Describe(*shape) << "\n";
+  }
   ASSIGN_OR_RETURN(pipeline::RunSummary summary,
                    pipeline::Run(input, options, store, observer));
   std::cerr << "computed: " << absl::StrJoin(summary.computed, ", ")
             << "\nreused: " << absl::StrJoin(summary.reused, ", ") << "\n";
+  struct rusage usage {};
+  if (::getrusage(RUSAGE_SELF, &usage) == 0) {
+    std::cerr << "memory: peak resident "
+              << pipeline::FormatBytes(static_cast<int64_t>(usage.ru_maxrss) *
+                                       1024)
+              << " (" << usage.ru_maxrss << " kB)\n";
+  }
   if (!summary.report_path.empty()) {
     std::cerr << "report: "
               << (input.session_dir / summary.report_path).string() << "\n";
@@ -95,6 +117,9 @@ absl::Status RunPipeline(const PipelineArgs& args) {
   options.steps = args.steps;
   options.force = args.force;
   options.threads = args.threads;
+  if (args.matching_width) {
+    options.step_options.experiment.matching_width = *args.matching_width;
+  }
   PrintingObserver observer;
   return RunOn(input, options, store, observer).status();
 }
@@ -170,6 +195,12 @@ void AddPipelineCommands(CLI::App& app) {
   cmd->add_option("--threads", args->threads, "Worker threads")
       ->check(CLI::Range(1, 256))
       ->capture_default_str();
+  cmd->add_option(
+      "--matching-width", args->matching_width,
+      absl::StrCat("Match and fuse pairs wider than this at this "
+                   "width (pixels; 0 = always at full size) "
+                   "[default: ",
+                   experiment::ExperimentOptions().matching_width, "]"));
   cmd->add_option("--job-dir", args->job_dir,
                   "Run the daemon's job whose request.json is in this folder "
                   "(steps and force come from it); write its result.json")
@@ -178,6 +209,13 @@ void AddPipelineCommands(CLI::App& app) {
     if (!args->job_dir.empty() && (!args->steps.empty() || args->force)) {
       SetOutcome(absl::InvalidArgumentError(
           "--steps and --force come from the job's request with --job-dir"));
+      return;
+    }
+    if (!args->job_dir.empty() && args->matching_width) {
+      // The daemon processes in its own process at the default width too.
+      SetOutcome(absl::InvalidArgumentError(
+          "--matching-width cannot be used with --job-dir: the daemon's jobs "
+          "match at the default width"));
       return;
     }
     SetOutcome(args->job_dir.empty() ? RunPipeline(*args) : RunJob(*args));

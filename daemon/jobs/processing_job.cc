@@ -25,6 +25,7 @@
 #include "processing/base/status_macros.h"
 #include "processing/io/capture_layout.h"
 #include "processing/io/middlebury.h"
+#include "processing/pipeline/memory_estimate.h"
 #include "processing/pipeline/pipeline.h"
 #include "processing/pipeline/session_files.h"
 
@@ -177,6 +178,64 @@ std::optional<io::FrameRole> RoleOf(const std::string& path) {
   absl::StatusOr<io::FramePath> parsed = io::ParseFramePath(path);
   if (!parsed.ok()) return std::nullopt;
   return parsed->key.role;
+}
+
+// The run's sizes from what the frames' rows recorded (no file is read):
+// frames decode to 3 channels of 8 bits, or of 16 from RAW and TIFF.
+// nullopt when the stereo frames' size is unknown (RAW frames are not
+// decoded at capture, and their rows say 0 x 0); structured-light frames
+// of unknown size are taken to be as large as the stereo frames.
+std::optional<pipeline::RunShape> ShapeOf(const Inputs& inputs) {
+  const auto sample_bytes = [](hardware::ImageFormat format) {
+    return format == hardware::ImageFormat::kJpeg ||
+                   format == hardware::ImageFormat::kPng8
+               ? 1
+               : 2;
+  };
+  pipeline::RunShape shape;
+  for (const store::FrameRecord& f : inputs.stereo->frames) {
+    if (f.view_index != 0 || RoleOf(f.path) != io::FrameRole::kStereo) {
+      continue;
+    }
+    shape.image = cv::Size(f.width_px, f.height_px);
+    shape.bytes_per_pixel = 3 * sample_bytes(f.format);
+    ++shape.exposures;
+  }
+  if (shape.image.width <= 0 || shape.image.height <= 0) return std::nullopt;
+  if (inputs.structured_light != nullptr) {
+    for (const store::FrameRecord& f : inputs.structured_light->frames) {
+      if (f.view_index != 0) continue;
+      shape.sl_image = f.width_px > 0 && f.height_px > 0
+                           ? cv::Size(f.width_px, f.height_px)
+                           : shape.image;
+      shape.sl_bytes_per_sample = sample_bytes(f.format);
+      ++shape.sl_frames;
+    }
+  }
+  return shape;
+}
+
+// RESOURCE_EXHAUSTED when the run needs more than the budget. Frames of
+// unknown size (RAW) are not checked.
+absl::Status CheckMemory(const Inputs& inputs,
+                         const std::vector<std::string>& steps,
+                         const ProcessingEnvironment& environment,
+                         absl::string_view session) {
+  if (environment.memory.bytes <= 0) return absl::OkStatus();
+  const std::optional<pipeline::RunShape> shape = ShapeOf(inputs);
+  if (!shape) return absl::OkStatus();
+  pipeline::RunOptions options;
+  options.steps = steps;
+  options.threads = environment.slurm ? environment.slurm->cpus_per_task
+                                      : environment.threads;
+  ASSIGN_OR_RETURN(const pipeline::MemoryEstimate estimate,
+                   pipeline::EstimateMemory(*shape, options));
+  if (estimate.peak_bytes <= environment.memory.bytes) return absl::OkStatus();
+  return absl::ResourceExhaustedError(absl::StrCat(
+      "processing session ", session, " would need ", estimate.Describe(*shape),
+      ", more than the ", pipeline::FormatBytes(environment.memory.bytes),
+      " a processing job may use (", environment.memory.source,
+      "); process fewer steps, or give processing more memory"));
 }
 
 // DATA_LOSS for a recorded path outside the capture layout (capture jobs
@@ -340,6 +399,7 @@ std::string StepList(const std::vector<std::string>& steps) {
 
 absl::StatusOr<store::JobRecord> SubmitProcessing(
     JobEngine& engine, const hardware::Rig& rig,
+    const ProcessingEnvironment& environment,
     const v1::SubmitProcessingRequest& request,
     absl::string_view submitted_by) {
   std::vector<std::string> requested(request.steps().begin(),
@@ -353,7 +413,9 @@ absl::StatusOr<store::JobRecord> SubmitProcessing(
                    PendingCaptures(store, request.session(), 0));
   // With captures still to come, the job checks its inputs when it starts.
   if (pending.empty()) {
-    RETURN_IF_ERROR(ChooseInputs(captures, request.session(), steps).status());
+    ASSIGN_OR_RETURN(const Inputs inputs,
+                     ChooseInputs(captures, request.session(), steps));
+    RETURN_IF_ERROR(CheckMemory(inputs, steps, environment, request.session()));
   }
   return engine.Submit(
       store::JobKind::kProcessing, request.session(),
@@ -411,6 +473,7 @@ absl::StatusOr<std::vector<std::string>> SelectSessions(
 
 absl::StatusOr<BatchSubmission> SubmitProcessingBatch(
     JobEngine& engine, const hardware::Rig& rig,
+    const ProcessingEnvironment& environment,
     const v1::SubmitProcessingBatchRequest& request,
     absl::string_view submitted_by) {
   std::vector<std::string> steps(request.steps().begin(),
@@ -428,7 +491,7 @@ absl::StatusOr<BatchSubmission> SubmitProcessingBatch(
     *one.mutable_steps() = request.steps();
     one.set_force(request.force());
     absl::StatusOr<store::JobRecord> job =
-        SubmitProcessing(engine, rig, one, submitted_by);
+        SubmitProcessing(engine, rig, environment, one, submitted_by);
     if (job.ok()) {
       out.jobs.push_back(*std::move(job));
     } else {
@@ -472,6 +535,11 @@ absl::Status RunProcessingJob(const hardware::Rig& rig,
   ASSIGN_OR_RETURN(std::vector<CaptureState> captures,
                    ReadCaptures(store, rig, job.session));
   ASSIGN_OR_RETURN(Inputs inputs, ChooseInputs(captures, job.session, steps));
+  // A batch job already on the cluster is followed, whatever the budget
+  // says now.
+  if (!job.cluster_job_id.has_value()) {
+    RETURN_IF_ERROR(CheckMemory(inputs, steps, environment, job.session));
+  }
 
   pipeline::SessionInput input;
   input.session_dir = store.files().SessionDir(job.session);

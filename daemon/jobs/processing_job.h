@@ -21,8 +21,17 @@
 
 namespace hdrstereo::jobs {
 
+// What a processing job may take of memory: checked against the
+// pipeline's estimate (processing/pipeline/memory_estimate.h) when the job
+// is submitted and again before it starts.
+struct MemoryBudget {
+  int64_t bytes = 0;   // 0 = not checked
+  std::string source;  // where it comes from, for the refusal
+};
+
 struct ProcessingEnvironment {
   int threads = 2;  // for the pipeline's independent steps
+  MemoryBudget memory;
   // Set: every job runs as a Slurm batch job (--processing-backend slurm,
   // daemon/jobs/slurm_processing.h); unset: in this process.
   std::optional<slurm::SlurmOptions> slurm;
@@ -34,11 +43,16 @@ struct ProcessingEnvironment {
 // job. INVALID_ARGUMENT for an unknown step (listing the known ones),
 // NOT_FOUND for an unknown session, FAILED_PRECONDITION when the session
 // has nothing to process: no stereo capture, or only incomplete ones (the
-// error names the capture and its first missing frame). Captures of the
-// session still queued or running count as future input: the job waits for
-// them when it starts. The job records `submitted_by` as its principal.
+// error names the capture and its first missing frame), RESOURCE_EXHAUSTED
+// when the run would need more memory than `environment.memory` (naming
+// how much, for which steps and frames; frames of unknown size, RAW, are
+// not checked). Captures of the session still queued or running count as
+// future input: the job waits for them, and checks them and its memory,
+// when it starts (a job already on Slurm is followed unchecked). The job
+// records `submitted_by` as its principal.
 absl::StatusOr<store::JobRecord> SubmitProcessing(
     JobEngine& engine, const hardware::Rig& rig,
+    const ProcessingEnvironment& environment,
     const v1::SubmitProcessingRequest& request, absl::string_view submitted_by);
 
 // The sessions that `selectors` name (session names or shell-style globs,
@@ -58,6 +72,7 @@ struct BatchSubmission {
 // processed (no complete stereo capture, ...) is skipped with the reason.
 absl::StatusOr<BatchSubmission> SubmitProcessingBatch(
     JobEngine& engine, const hardware::Rig& rig,
+    const ProcessingEnvironment& environment,
     const v1::SubmitProcessingBatchRequest& request,
     absl::string_view submitted_by);
 

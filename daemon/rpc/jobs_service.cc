@@ -190,9 +190,9 @@ grpc::Status JobsService::SubmitProcessing(
                                         " entries; at most ", kMaxSteps,
                                         " are allowed"));
   }
-  return Reply(
-      jobs::SubmitProcessing(engine_, rig_, *request, caller.principal.name),
-      response);
+  return Reply(jobs::SubmitProcessing(engine_, rig_, processing_, *request,
+                                      caller.principal.name),
+               response);
 }
 
 grpc::Status JobsService::SubmitProcessingBatch(
@@ -212,7 +212,7 @@ grpc::Status JobsService::SubmitProcessingBatch(
         kMaxSelectors, " are allowed (use a glob)"));
   }
   absl::StatusOr<jobs::BatchSubmission> batch = jobs::SubmitProcessingBatch(
-      engine_, rig_, *request, caller.principal.name);
+      engine_, rig_, processing_, *request, caller.principal.name);
   if (!batch.ok()) return ToGrpcStatus(batch.status());
   for (const store::JobRecord& job : batch->jobs) {
     ToProto(job, response->add_jobs());

@@ -4,6 +4,7 @@
 
 #include "daemon/jobs/disk_guard.h"
 #include "daemon/jobs/job_engine.h"
+#include "daemon/jobs/processing_job.h"
 #include "daemon/rpc/call_guard_interceptor.h"
 #include "hardware/rig.h"
 #include "hdrstereo/v1/jobs.grpc.pb.h"
@@ -15,8 +16,13 @@ namespace hdrstereo::rpc {
 class JobsService final : public v1::Jobs::Service {
  public:
   JobsService(jobs::JobEngine& engine, hardware::Rig& rig,
+              const jobs::ProcessingEnvironment& processing,
               const jobs::DiskGuard& disk, const CallDecisions& calls)
-      : engine_(engine), rig_(rig), disk_(disk), calls_(calls) {}
+      : engine_(engine),
+        rig_(rig),
+        processing_(processing),
+        disk_(disk),
+        calls_(calls) {}
 
   grpc::Status SubmitCapture(grpc::ServerContext* context,
                              const v1::SubmitCaptureRequest* request,
@@ -56,6 +62,7 @@ class JobsService final : public v1::Jobs::Service {
  private:
   jobs::JobEngine& engine_;
   hardware::Rig& rig_;
+  const jobs::ProcessingEnvironment& processing_;
   const jobs::DiskGuard& disk_;
   const CallDecisions& calls_;
 };

@@ -18,6 +18,10 @@ namespace {
 constexpr int kDefaultMaxDisparity = 64;
 // Added to the largest true disparity.
 constexpr int kDisparityMargin = 2;
+// ExperimentOptions::matching_width: below 64 px nothing is left to match;
+// above 16384 px the budget means nothing on any machine here.
+constexpr int kMinMatchingWidth = 64;
+constexpr int kMaxMatchingWidth = 16384;
 
 std::vector<std::string> NamesOf(const std::vector<Method>& methods) {
   std::vector<std::string> out;
@@ -66,12 +70,18 @@ absl::Status ExperimentOptions::Validate() const {
         "evaluation.thresholds must be {0.5, 1, 2, 4}: the metrics' "
         "bad-pixel columns");
   }
-  return absl::OkStatus();
+  return RequireField(
+      matching_width == 0 || (matching_width >= kMinMatchingWidth &&
+                              matching_width <= kMaxMatchingWidth),
+      "matching_width", matching_width,
+      absl::StrCat("0 (full size) or in [", kMinMatchingWidth, ", ",
+                   kMaxMatchingWidth, "]"));
 }
 
 void to_json(nlohmann::json& j, const ExperimentOptions& o) {
   const auto& [response, merge, tonemap, ldr_stereo, hdr_stereo, fusion,
-               robust_fusion, inconsistent_confidence, evaluation] = o;
+               robust_fusion, inconsistent_confidence, evaluation,
+               matching_width] = o;
   j = nlohmann::json{{"response", response},
                      {"merge", merge},
                      {"tonemap", tonemap},
@@ -80,7 +90,8 @@ void to_json(nlohmann::json& j, const ExperimentOptions& o) {
                      {"fusion", fusion},
                      {"robust_fusion", robust_fusion},
                      {"inconsistent_confidence", inconsistent_confidence},
-                     {"evaluation", evaluation}};
+                     {"evaluation", evaluation},
+                     {"matching_width", matching_width}};
 }
 
 absl::Status SerialRunner(const std::vector<std::string>& names,
@@ -100,11 +111,38 @@ double LargestDisparity(const cv::Mat& truth) {
   return hi;
 }
 
-int DisparityRange(double largest, int width) {
+int DisparityRange(double largest, int width, double scale) {
   const int range =
-      largest > 0 ? static_cast<int>(std::ceil(largest)) + kDisparityMargin
-                  : kDefaultMaxDisparity;
+      largest > 0
+          ? static_cast<int>(std::ceil(largest * scale)) + kDisparityMargin
+          : static_cast<int>(std::ceil(kDefaultMaxDisparity * scale));
   return std::clamp(range, 1, std::max(1, width - 2));
+}
+
+cv::Size MatchingSize(cv::Size image, int matching_width) {
+  if (matching_width <= 0 || image.width <= matching_width) return image;
+  const int height = static_cast<int>(std::lround(
+      static_cast<double>(image.height) * matching_width / image.width));
+  return {matching_width, std::max(1, height)};
+}
+
+cv::Mat ToMatchingSize(const cv::Mat& image, cv::Size size) {
+  if (image.size() == size) return image;
+  cv::Mat out;
+  cv::resize(image, out, size, 0, 0, cv::INTER_AREA);
+  return out;
+}
+
+cv::Mat ToImageSize(const cv::Mat& map, cv::Size image) {
+  if (map.size() == image) return map;
+  cv::Mat out;
+  if (map.depth() == CV_8U) {
+    cv::resize(map, out, image, 0, 0, cv::INTER_NEAREST);
+    return out;
+  }
+  cv::resize(map, out, image, 0, 0, cv::INTER_LINEAR);
+  out *= static_cast<double>(image.width) / map.cols;
+  return out;
 }
 
 absl::StatusOr<hdr::CameraResponse> ResponseOf(

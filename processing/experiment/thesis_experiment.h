@@ -60,6 +60,16 @@ struct ExperimentOptions {
   double inconsistent_confidence = 1.0;
   // Scoring; the bad-pixel thresholds are 0.5, 1, 2 and 4 px.
   eval::EvalOptions evaluation{.gt_zero_valid = true};
+  // The session pipeline matches and fuses pairs wider than this resized
+  // to this width (area average), and brings the disparities back to the
+  // images' size (MatchingSize, ToImageSize); 0 = always at full size. In
+  // pixels: a time and memory budget, not a property of the scene
+  // (matching costs width x height x disparity range, cubic in the width).
+  // 1600 keeps a 24-megapixel session within the 10 minutes on 2 cores of
+  // docs/results.md ("Sessions from 24-megapixel cameras") and leaves the
+  // bundled scenes (1200 px) at full size. The table matches at its own
+  // sizes and ignores it.
+  int matching_width = 1600;
 
   // INVALID_ARGUMENT naming the first field that breaks a rule ("fusion.
   // sigma is 0; ..."); the fields set per run are not judged.
@@ -79,9 +89,24 @@ absl::Status SerialRunner(const std::vector<std::string>& names,
 
 // The disparity range of a data set whose largest true disparity is
 // `largest` (<= 0: no truth): ceil(largest) + 2, or 64 without truth; at
-// most width - 2 (every disparity must stay inside the image).
+// most width - 2 (every disparity must stay inside the image). Matched at
+// `scale` of the size the truth has (a working size, `width` wide):
+// ceil(largest x scale) + 2, or 64 x scale, the same range in the images'
+// pixels.
 double LargestDisparity(const cv::Mat& truth);  // finite values; 0 if none
-int DisparityRange(double largest, int width);
+int DisparityRange(double largest, int width, double scale = 1.0);
+
+// Matching at a working size (ExperimentOptions::matching_width): the size
+// an `image`-sized pair is matched at, `image` itself when it is not wider
+// than `matching_width` or that is 0; the height keeps the aspect ratio.
+cv::Size MatchingSize(cv::Size image, int matching_width);
+// `image` resized to `size` by area averaging (itself when the size is
+// already that).
+cv::Mat ToMatchingSize(const cv::Mat& image, cv::Size size);
+// A disparity (CV_32FC1) found at its own size, brought to `image`'s size:
+// bilinear, values times image.width / its width. A left-right check mask
+// (CV_8UC1) is resized by nearest neighbour, values unchanged.
+cv::Mat ToImageSize(const cv::Mat& map, cv::Size image);
 
 // 1. The camera response of the left stack: recovered for 8-bit data,
 // linear for 16-bit / float (RAW).

@@ -6,6 +6,11 @@
 // disparities fused by mean, median and graph cut (disparity/mean.pfm,
 // median.pfm, fused.pfm). The thesis experiment's matching and fusion
 // (processing/experiment), with files between them.
+//
+// Pairs wider than ExperimentOptions::matching_width are matched and fused
+// at that width; disparity/ then holds the maps brought back to the
+// images' size and disparity/matching/ the maps as matched, which fusion
+// reads.
 #include <map>
 #include <string>
 #include <vector>
@@ -24,42 +29,95 @@ using experiment::Candidate;
 using experiment::ExperimentOptions;
 using experiment::Method;
 
-std::string DisparityFile(Method m) {
-  return absl::StrCat("disparity/", experiment::MethodName(m), ".pfm");
+// `folder` is "disparity/" (at the images' size) or kMatchingFolder.
+constexpr char kImageFolder[] = "disparity/";
+constexpr char kMatchingFolder[] = "disparity/matching/";
+std::string DisparityFile(Method m, const char* folder = kImageFolder) {
+  return absl::StrCat(folder, experiment::MethodName(m), ".pfm");
 }
-std::string ConsistencyFile(Method m) {
-  return absl::StrCat("disparity/", experiment::MethodName(m), "_lr.png");
+std::string ConsistencyFile(Method m, const char* folder = kImageFolder) {
+  return absl::StrCat(folder, experiment::MethodName(m), "_lr.png");
+}
+
+// Where both steps match: the images' size and the working size.
+struct Sizes {
+  cv::Size image;
+  cv::Size matching;
+  int max_disparity = 0;  // at the matching size
+  bool scaled() const { return matching != image; }
+};
+
+absl::StatusOr<Sizes> SizesOf(const StepContext& c, cv::Size image) {
+  Sizes s;
+  s.image = image;
+  s.matching =
+      experiment::MatchingSize(image, c.options().experiment.matching_width);
+  ASSIGN_OR_RETURN(
+      s.max_disparity,
+      c.MaxDisparity(s.matching.width,
+                     static_cast<double>(s.matching.width) / image.width));
+  return s;
+}
+
+nlohmann::json ToJson(const Sizes& s) {
+  return {{"max_disparity", s.max_disparity},
+          {"matching_size", {s.matching.width, s.matching.height}}};
+}
+
+// A map at the matching size written where later steps read it: as it is
+// under disparity/matching/ when scaled, and at the images' size under
+// disparity/.
+absl::Status WriteMap(StepContext& c, const Sizes& sizes,
+                      const std::string& image_rel,
+                      const std::string& matching_rel, const cv::Mat& map) {
+  if (sizes.scaled()) {
+    RETURN_IF_ERROR(c.outputs().WriteImage("disparity", matching_rel, map));
+  }
+  return c.outputs().WriteImage("disparity", image_rel,
+                                experiment::ToImageSize(map, sizes.image));
 }
 
 struct Matching {
   ExperimentOptions options;  // ldr_stereo and hdr_stereo
-  int max_disparity = 0;
+  Sizes sizes;
 };
 
 absl::Status RunStereo(const Matching& o, StepContext& c) {
   ASSIGN_OR_RETURN(const hdr::ExposureStack left, c.Stack(0));
   ASSIGN_OR_RETURN(const hdr::ExposureStack right, c.Stack(1));
-  c.Info(absl::StrCat("stereo: disparities 0..", o.max_disparity));
+  const cv::Size at = o.sizes.matching;
+  c.Info(absl::StrCat("stereo: disparities 0..", o.sizes.max_disparity,
+                      o.sizes.scaled()
+                          ? absl::StrCat(" at ", at.width, " x ", at.height,
+                                         " (matching_width)")
+                          : ""));
   std::map<Method, experiment::StereoPair> pairs;
-  pairs[Method::kLdr] = {left.images[c.LdrIndex()], right.images[c.LdrIndex()]};
+  const auto add = [&](Method m, const cv::Mat& l, const cv::Mat& r) {
+    pairs[m] = {experiment::ToMatchingSize(l, at),
+                experiment::ToMatchingSize(r, at)};
+  };
+  add(Method::kLdr, left.images[c.LdrIndex()], right.images[c.LdrIndex()]);
   for (Method m : experiment::ToneMappedMethods()) {
     const std::string folder =
         absl::StrCat("tonemapped/", experiment::MethodName(m), "/");
-    ASSIGN_OR_RETURN(pairs[m].left, c.Read(folder + "im0.png"));
-    ASSIGN_OR_RETURN(pairs[m].right, c.Read(folder + "im1.png"));
+    ASSIGN_OR_RETURN(const cv::Mat l, c.Read(folder + "im0.png"));
+    ASSIGN_OR_RETURN(const cv::Mat r, c.Read(folder + "im1.png"));
+    add(m, l, r);
   }
-  ASSIGN_OR_RETURN(pairs[Method::kHdr].left, c.ReadPfm("hdr/im0.pfm"));
-  ASSIGN_OR_RETURN(pairs[Method::kHdr].right, c.ReadPfm("hdr/im1.pfm"));
+  ASSIGN_OR_RETURN(const cv::Mat hdr_left, c.ReadPfm("hdr/im0.pfm"));
+  ASSIGN_OR_RETURN(const cv::Mat hdr_right, c.ReadPfm("hdr/im1.pfm"));
+  add(Method::kHdr, hdr_left, hdr_right);
   ASSIGN_OR_RETURN(const auto candidates,
-                   experiment::MatchAllMethods(pairs, o.max_disparity,
+                   experiment::MatchAllMethods(pairs, o.sizes.max_disparity,
                                                o.options, c.Units()));
   for (Method m : experiment::MatchedMethods()) {
     const Candidate& d = candidates.at(m);
-    RETURN_IF_ERROR(
-        c.outputs().WriteImage("disparity", DisparityFile(m), d.disparity));
+    RETURN_IF_ERROR(WriteMap(c, o.sizes, DisparityFile(m),
+                             DisparityFile(m, kMatchingFolder), d.disparity));
     if (!d.consistent.empty()) {
-      RETURN_IF_ERROR(c.outputs().WriteImage("disparity", ConsistencyFile(m),
-                                             d.consistent));
+      RETURN_IF_ERROR(WriteMap(c, o.sizes, ConsistencyFile(m),
+                               ConsistencyFile(m, kMatchingFolder),
+                               d.consistent));
     }
   }
   return absl::OkStatus();
@@ -67,25 +125,31 @@ absl::Status RunStereo(const Matching& o, StepContext& c) {
 
 struct Fusion {
   ExperimentOptions options;  // fusion, robust_fusion, inconsistent_confidence
-  int max_disparity = 0;
+  Sizes sizes;
 };
 
 absl::Status RunFusion(const Fusion& o, StepContext& c) {
   ASSIGN_OR_RETURN(const hdr::ExposureStack left, c.Stack(0));
+  const char* folder = o.sizes.scaled() ? kMatchingFolder : kImageFolder;
   std::map<Method, Candidate> candidates;
   for (Method m : experiment::ToneMappedMethods()) {
-    ASSIGN_OR_RETURN(candidates[m].disparity, c.ReadPfm(DisparityFile(m)));
-    if (std::filesystem::exists(c.dir() / ConsistencyFile(m))) {
-      ASSIGN_OR_RETURN(candidates[m].consistent, c.Read(ConsistencyFile(m)));
+    ASSIGN_OR_RETURN(candidates[m].disparity,
+                     c.ReadPfm(DisparityFile(m, folder)));
+    if (std::filesystem::exists(c.dir() / ConsistencyFile(m, folder))) {
+      ASSIGN_OR_RETURN(candidates[m].consistent,
+                       c.Read(ConsistencyFile(m, folder)));
     }
   }
+  const cv::Mat guide = experiment::ToMatchingSize(
+      io::To8Bit(left.images[c.LdrIndex()]), o.sizes.matching);
   ASSIGN_OR_RETURN(
       const experiment::Fused fused,
-      experiment::FuseMethods(candidates, io::To8Bit(left.images[c.LdrIndex()]),
-                              o.max_disparity, o.options, c.Units()));
+      experiment::FuseMethods(candidates, guide, o.sizes.max_disparity,
+                              o.options, c.Units()));
   for (Method m : experiment::FusedMethods()) {
-    RETURN_IF_ERROR(c.outputs().WriteImage("disparity", DisparityFile(m),
-                                           fused.disparity.at(m)));
+    RETURN_IF_ERROR(WriteMap(c, o.sizes, DisparityFile(m),
+                             DisparityFile(m, kMatchingFolder),
+                             fused.disparity.at(m)));
   }
   return absl::OkStatus();
 }
@@ -97,10 +161,10 @@ absl::StatusOr<ConfiguredStep> ConfigureStereo(const StepContext& c) {
   Matching o;
   o.options.ldr_stereo = c.options().experiment.ldr_stereo;
   o.options.hdr_stereo = c.options().experiment.hdr_stereo;
-  ASSIGN_OR_RETURN(o.max_disparity, c.MaxDisparity(left.images[0].cols));
+  ASSIGN_OR_RETURN(o.sizes, SizesOf(c, left.images[0].size()));
   return ConfiguredStep{{{"ldr_stereo", o.options.ldr_stereo},
                          {"hdr_stereo", o.options.hdr_stereo},
-                         {"max_disparity", o.max_disparity},
+                         {"sizes", ToJson(o.sizes)},
                          {"ldr_exposure_s", left.exposure_s[c.LdrIndex()]}},
                         [o](StepContext& c) { return RunStereo(o, c); }};
 }
@@ -112,12 +176,12 @@ absl::StatusOr<ConfiguredStep> ConfigureFusion(const StepContext& c) {
   o.options.robust_fusion = c.options().experiment.robust_fusion;
   o.options.inconsistent_confidence =
       c.options().experiment.inconsistent_confidence;
-  ASSIGN_OR_RETURN(o.max_disparity, c.MaxDisparity(left.images[0].cols));
+  ASSIGN_OR_RETURN(o.sizes, SizesOf(c, left.images[0].size()));
   return ConfiguredStep{
       {{"fusion", o.options.fusion},
        {"robust_fusion", o.options.robust_fusion},
        {"inconsistent_confidence", o.options.inconsistent_confidence},
-       {"max_disparity", o.max_disparity}},
+       {"sizes", ToJson(o.sizes)}},
       [o](StepContext& c) { return RunFusion(o, c); }};
 }
 

@@ -177,7 +177,8 @@ report::Table MetricsTable(const std::vector<Metric>& metrics) {
   return t;
 }
 
-absl::Status RunReport(const eval::EvalOptions& error_options, StepContext& c) {
+absl::Status RunReport(const eval::EvalOptions& error_options,
+                       int matching_width, StepContext& c) {
   const SessionInput& in = c.input();
   report::SessionReportInput r;
   r.title = absl::StrCat("Session ", in.session_name);
@@ -202,9 +203,21 @@ absl::Status RunReport(const eval::EvalOptions& error_options, StepContext& c) {
                               " stereo, ", frames.structured_light.size(),
                               " structured light)")});
   r.summary.push_back(
-      {"image size", absl::StrCat(size.width, " x ", size.height)});
+      {"image size",
+       absl::StrCat(size.width, " x ", size.height,
+                    size.width > report::kMaxFigureWidth
+                        ? absl::StrCat(" (figures shown ",
+                                       report::kMaxFigureWidth, " px wide)")
+                        : "")});
   r.summary.push_back(
       {"disparity range", absl::StrCat("0 .. ", r.max_disparity)});
+  const cv::Size matching = experiment::MatchingSize(size, matching_width);
+  r.summary.push_back(
+      {"matched at",
+       matching == size
+           ? std::string("full size")
+           : absl::StrCat(matching.width, " x ", matching.height,
+                          " (matching_width; disparities resized back)")});
   absl::StatusOr<std::string> rect =
       io::ReadFileBytes(c.dir() / "exposures/rectification.txt");
   if (rect.ok()) r.summary.push_back({"rectification", *rect});
@@ -235,6 +248,13 @@ absl::Status RunReport(const eval::EvalOptions& error_options, StepContext& c) {
     if (f.copy_from.empty()) {
       RETURN_IF_ERROR(c.outputs().WriteImage("report", rel, f.image));
     } else {
+      ASSIGN_OR_RETURN(io::DecodedImage image,
+                       io::DecodeImageFile(f.copy_from));
+      if (image.pixels.cols > report::kMaxFigureWidth) {
+        RETURN_IF_ERROR(c.outputs().WriteImage("report", rel,
+                                               report::FigureOf(image.pixels)));
+        continue;
+      }
       ASSIGN_OR_RETURN(const std::string bytes, io::ReadFileBytes(f.copy_from));
       RETURN_IF_ERROR(c.outputs().WriteText("report", rel, bytes));
     }
@@ -272,9 +292,13 @@ absl::StatusOr<ConfiguredStep> ConfigureReport(const StepContext& c) {
     absl::StrAppend(&page, key, "\t", value, "\n");
   }
   const eval::EvalOptions error_options = c.options().experiment.evaluation;
-  return ConfiguredStep{
-      {{"page", io::Sha256Hex(page)}, {"error_maps", error_options}},
-      [error_options](StepContext& c) { return RunReport(error_options, c); }};
+  const int matching_width = c.options().experiment.matching_width;
+  return ConfiguredStep{{{"page", io::Sha256Hex(page)},
+                         {"error_maps", error_options},
+                         {"matching_width", matching_width}},
+                        [error_options, matching_width](StepContext& c) {
+                          return RunReport(error_options, matching_width, c);
+                        }};
 }
 
 }  // namespace hdrstereo::pipeline

@@ -156,8 +156,10 @@ class StepContext {
   // The ground truths there are, best first.
   absl::StatusOr<std::vector<Truth>> Truths() const;
   // The disparity range every matching and fusion uses
-  // (experiment::DisparityRange of the ground truths).
-  absl::StatusOr<int> MaxDisparity(int width) const;
+  // (experiment::DisparityRange of the ground truths), for images `width`
+  // wide; `scale` of the images' size when they are matched at a working
+  // size.
+  absl::StatusOr<int> MaxDisparity(int width, double scale = 1.0) const;
 
   void Progress(int64_t done, int64_t total, const std::string& what) {
     state_.Progress(done, total, what);
@@ -165,13 +167,15 @@ class StepContext {
   void Info(const std::string& message) { state_.Info(message); }
   void Warn(const std::string& message) { state_.Warn(message); }
 
-  // Runs fn(i, outputs of unit i) for each name on up to the run's threads,
-  // checking the observer before each unit and reporting progress ("<step>:
-  // <name>") after it; the first error stops the rest. The units' files are
-  // appended to the step's in unit order (not completion order).
+  // Runs fn(i, outputs of unit i) for each name on up to the run's threads
+  // (and at most `max_at_once` at once when it is > 0), checking the
+  // observer before each unit and reporting progress ("<step>: <name>")
+  // after it; the first error stops the rest. The units' files are appended
+  // to the step's in unit order (not completion order).
   absl::Status ParallelFor(
       const std::vector<std::string>& names,
-      const std::function<absl::Status(int, StepOutputs&)>& fn);
+      const std::function<absl::Status(int, StepOutputs&)>& fn,
+      int max_at_once = 0);
   // ParallelFor for the experiment's units (matchings, fusions), which
   // write nothing themselves.
   experiment::UnitRunner Units();

@@ -161,7 +161,7 @@ bool StepContext::HasStructuredLightTruth() const {
   return false;
 }
 
-absl::StatusOr<int> StepContext::MaxDisparity(int width) const {
+absl::StatusOr<int> StepContext::MaxDisparity(int width, double scale) const {
   double hi = 0;
   if (HasStructuredLightTruth()) {
     ASSIGN_OR_RETURN(
@@ -173,7 +173,7 @@ absl::StatusOr<int> StepContext::MaxDisparity(int width) const {
     ASSIGN_OR_RETURN(const cv::Mat d, ReadPfm(input().sim_truth_disparity));
     hi = std::max(hi, experiment::LargestDisparity(d));
   }
-  return experiment::DisparityRange(hi, width);
+  return experiment::DisparityRange(hi, width, scale);
 }
 
 absl::StatusOr<std::vector<Truth>> StepContext::Truths() const {
@@ -205,12 +205,15 @@ absl::StatusOr<std::vector<Truth>> StepContext::Truths() const {
 
 absl::Status StepContext::ParallelFor(
     const std::vector<std::string>& names,
-    const std::function<absl::Status(int, StepOutputs&)>& fn) {
+    const std::function<absl::Status(int, StepOutputs&)>& fn, int max_at_once) {
   const int n = static_cast<int>(names.size());
+  const int threads = max_at_once > 0
+                          ? std::min(max_at_once, session_.options.threads)
+                          : session_.options.threads;
   std::vector<StepOutputs> parts(names.size(), outputs_.Empty());
   std::atomic<int> done{0};
-  RETURN_IF_ERROR(hdrstereo::ParallelFor(
-      n, session_.options.threads, [&](int i) -> absl::Status {
+  RETURN_IF_ERROR(
+      hdrstereo::ParallelFor(n, threads, [&](int i) -> absl::Status {
         RETURN_IF_ERROR(state_.Checkpoint());
         try {
           RETURN_IF_ERROR(fn(i, parts[static_cast<size_t>(i)]));

@@ -1,6 +1,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "processing/report/session_report.h"
 
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+
 #include "absl/strings/str_cat.h"
 #include "processing/base/status_macros.h"
 #include "processing/io/capture_layout.h"
@@ -15,7 +19,7 @@ class Figures {
   explicit Figures(SessionReport& report) : report_(report) {}
   void Image(Section& section, const std::string& name, const cv::Mat& image,
              const std::string& caption) {
-    report_.files.push_back({name, io::To8Bit(image), ""});
+    report_.files.push_back({name, FigureOf(io::To8Bit(image)), ""});
     section.figures.push_back({name, caption});
   }
   void Copy(Section& section, const std::string& name, const std::string& from,
@@ -29,6 +33,17 @@ class Figures {
 };
 
 }  // namespace
+
+cv::Mat FigureOf(const cv::Mat& image) {
+  if (image.cols <= kMaxFigureWidth) return image;
+  const int height =
+      std::max(1, static_cast<int>(std::lround(static_cast<double>(image.rows) *
+                                               kMaxFigureWidth / image.cols)));
+  cv::Mat out;
+  cv::resize(image, out, cv::Size(kMaxFigureWidth, height), 0, 0,
+             cv::INTER_AREA);
+  return out;
+}
 
 absl::StatusOr<SessionReport> BuildSessionReport(const SessionReportInput& in) {
   SessionReport report;

@@ -42,8 +42,17 @@ struct SessionReportInput {
   Table metrics;                    // rows in order; none = no ground truth
 };
 
+// Figures wider than this are shown shrunk to it: the page of a
+// 24-megapixel session would otherwise weigh most of a gigabyte. The
+// full-size files stay where the pipeline wrote them.
+inline constexpr int kMaxFigureWidth = 1600;
+// `image` as the page shows it: itself, or shrunk to kMaxFigureWidth
+// (area average, aspect ratio kept).
+cv::Mat FigureOf(const cv::Mat& image);
+
 // One file beside the page: an 8-bit image written as PNG, or a copy of
-// `copy_from`.
+// `copy_from` (an image the caller passes through FigureOf when it is
+// wider than kMaxFigureWidth).
 struct ReportFile {
   std::string name;
   cv::Mat image;

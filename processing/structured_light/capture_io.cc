@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <map>
+#include <opencv2/imgproc.hpp>
 #include <system_error>
 #include <utility>
 #include <vector>
@@ -107,6 +108,11 @@ absl::StatusOr<ViewFrames> LoadCaptureView(
                             folder.string(), tag, id, tag));
       }
       ASSIGN_OR_RETURN(io::DecodedImage image, io::DecodeImageFile(it->second));
+      // Decode reads luminance only: a colour frame kept as it is would
+      // hold three times the memory (6 GB a view at 24 megapixels).
+      if (image.pixels.channels() == 3) {
+        cv::cvtColor(image.pixels, image.pixels, cv::COLOR_BGR2GRAY);
+      }
       e.frames.push_back(std::move(image.pixels));
     }
     out.exposures.push_back(std::move(e));

@@ -19,7 +19,8 @@
 namespace hdrstereo::structured_light {
 
 // Loads every exposure of `view` ("left", "right", "view0", ...), sorted by
-// exposure time. Without `projector_size` the projector is taken as
+// exposure time, colour frames made grey (cv::COLOR_BGR2GRAY, as Decode
+// would). Without `projector_size` the projector is taken as
 // 2^column_bits x 2^row_bits (codes beyond the real width never occur).
 // Errors name the folder and the missing or unreadable frame, e.g.
 // "captures/7/left/structured_light: exposure 1-30s: sl_col_b03_inv is

@@ -115,6 +115,16 @@ struct FattalOptions {
   double alpha = 0.1;  // times the pair's mean gradient magnitude per level
   double beta = 0.85;  // < 1 compresses large gradients; 1 = no attenuation
   int min_level_size = 32;  // coarsest pyramid level's smaller side
+  // Views wider than this are compressed resized to this width (area
+  // average); the change that makes to their log luminance is brought back
+  // to their size (bilinear) and added there, so the finest detail is not
+  // attenuated. 0 = at the views' own size, as Fattal et al. do. In
+  // pixels: integrating a field that the attenuation made non-integrable
+  // spreads the error over more pixels at larger sizes, and the views drift
+  // apart at the right edge (lab-lamp at 1200 px: RMSE 31.06 / bad-1px
+  // 86.4 % at full size, 10.76 / 59.8 % at this width; docs/results.md).
+  // 320 px is the thesis table's size.
+  int solve_width = 320;
 
   // INVALID_ARGUMENT naming the first field that breaks a rule.
   absl::Status Validate() const;

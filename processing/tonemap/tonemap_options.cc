@@ -49,14 +49,19 @@ absl::Status FattalOptions::Validate() const {
   RETURN_IF_ERROR(RequireField(alpha > 0, "alpha", alpha, "> 0"));
   RETURN_IF_ERROR(
       RequireField(beta > 0 && beta <= 1, "beta", beta, "in (0, 1]"));
-  return RequireField(min_level_size >= 2, "min_level_size", min_level_size,
-                      ">= 2");
+  RETURN_IF_ERROR(RequireField(min_level_size >= 2, "min_level_size",
+                               min_level_size, ">= 2"));
+  return RequireField(solve_width == 0 || solve_width >= 2 * min_level_size,
+                      "solve_width", solve_width,
+                      "0 (the views' size) or >= 2 x min_level_size");
 }
 
 void to_json(nlohmann::json& j, const FattalOptions& o) {
-  const auto& [alpha, beta, min_level_size] = o;
-  j = nlohmann::json{
-      {"alpha", alpha}, {"beta", beta}, {"min_level_size", min_level_size}};
+  const auto& [alpha, beta, min_level_size, solve_width] = o;
+  j = nlohmann::json{{"alpha", alpha},
+                     {"beta", beta},
+                     {"min_level_size", min_level_size},
+                     {"solve_width", solve_width}};
 }
 
 absl::Status Params::Validate() const {

@@ -253,6 +253,26 @@ TEST_F(ProcessingTest, DownloadIsResumableAndChecked) {
   EXPECT_EQ(::hdrstereo::testing::ReadFileOrDie(to / path), bytes);
 }
 
+// A job that would need more memory than a processing job may use is
+// refused before anything is queued, naming how much it needs, for which
+// steps and frames, and the budget with where it comes from. (Every other
+// test here processes within the default budget: this machine's memory
+// shared by the processing threads.)
+TEST_F(ProcessingTest, AJobThatCannotFitInMemoryIsRefusedNamingItsNeed) {
+  StartDaemon({"--sim-scene", WriteScene("lab-lamp", SmallLabLamp()).string(),
+               "--processing-memory", "100M"});
+  ASSERT_EQ(Cli({"session", "create", "m"}).exit_code, 0);
+  Capture("m", "stereo");
+  CommandResult refused = Cli({"process", "m"});
+  EXPECT_EQ(refused.exit_code, 1);
+  EXPECT_THAT(refused.err, HasSubstr("processing session m would need about"));
+  EXPECT_THAT(refused.err, HasSubstr("8 exposures a view"));
+  EXPECT_THAT(refused.err,
+              HasSubstr("more than the 100 MiB a processing job may use "
+                        "(--processing-memory 100M)"));
+  EXPECT_EQ(Sql("SELECT count(*) FROM jobs WHERE kind = 'processing'"), "0");
+}
+
 TEST_F(ProcessingTest, BadRequestsNameWhatIsMissingAndDeleteNothing) {
   const std::string kArtifactRows =
       "SELECT group_concat(r) FROM (SELECT path || ':' || sha256 r FROM "

@@ -147,6 +147,47 @@ poll-s = 2
                   HasSubstr("--hardware: 'usb' is not one of real, sim")));
 }
 
+// What a processing job may take of memory: Slurm's sizes, for both
+// backends, from flag or config, checked when the configuration is read.
+TEST(DeployTest, MemorySizesAreSlurmsAndCheckedAtStart) {
+  const std::vector<std::pair<std::string, int64_t>> good = {
+      {"8G", int64_t{8} << 30},
+      {"512m", int64_t{512} << 20},
+      {"4096", int64_t{4096} << 20},  // no unit is Slurm's megabytes
+      {"1T", int64_t{1} << 40},
+      {"64K", int64_t{64} << 10},
+      {"0", 0}};  // no limit (Slurm: the node's whole memory)
+  for (const auto& [text, bytes] : good) {
+    absl::StatusOr<int64_t> parsed = daemon::ParseMemorySize(text);
+    ASSERT_TRUE(parsed.ok()) << text << ": " << parsed.status();
+    EXPECT_EQ(*parsed, bytes) << text;
+  }
+  for (const char* bad :
+       {"", "G", "8X", "-1G", "1.5G", "8 G", "2000T", "99999999999999999999"}) {
+    EXPECT_THAT(daemon::ParseMemorySize(bad),
+                testing::StatusIs(absl::StatusCode::kInvalidArgument,
+                                  HasSubstr("is not a memory size")))
+        << bad;
+  }
+
+  testing::TempDir dir;
+  const std::string path = (dir / "memory.toml").string();
+  std::ofstream(path) << "[processing]\nmemory = \"12G\"\n";
+  ASSERT_OK_AND_ASSIGN(const daemon::ParsedArgs from_file,
+                       Parse({"--config", path}));
+  EXPECT_EQ(std::get<daemon::Config>(from_file).processing_memory, "12G");
+  ASSERT_OK_AND_ASSIGN(const daemon::ParsedArgs from_flag,
+                       Parse({"--processing-memory", "6G"}));
+  EXPECT_EQ(std::get<daemon::Config>(from_flag).processing_memory, "6G");
+  EXPECT_THAT(Parse({"--processing-memory", "lots"}),
+              testing::StatusIs(absl::StatusCode::kInvalidArgument,
+                                HasSubstr("--processing-memory: \"lots\" is "
+                                          "not a memory size")));
+  EXPECT_THAT(Parse({"--slurm-memory", "16 G"}),
+              testing::StatusIs(absl::StatusCode::kInvalidArgument,
+                                HasSubstr("not a memory size")));
+}
+
 TEST(DeployTest, BadTlsAndAuthConfigIsRefusedByName) {
   testing::TempDir dir;
   auto refused = [&](const std::string& toml) {
@@ -360,10 +401,10 @@ TEST(DeployTest, ConfigsBeyondTheLimitsAreRefusedByName) {
 
   const std::string value(daemon::kMaxConfigItemBytes + 1, 'v');
   absl::StatusOr<daemon::ParsedArgs> long_value =
-      daemon::ParseConfigText("[slurm]\nmemory = \"" + value + "\"\n");
+      daemon::ParseConfigText("[slurm]\npartition = \"" + value + "\"\n");
   EXPECT_THAT(long_value,
               testing::StatusIs(absl::StatusCode::kInvalidArgument,
-                                HasSubstr("config: slurm.memory = \"vvv")));
+                                HasSubstr("config: slurm.partition = \"vvv")));
   EXPECT_THAT(long_value,
               testing::StatusIs(absl::StatusCode::kInvalidArgument,
                                 HasSubstr("\"... (4097 bytes): the value is "
@@ -371,9 +412,9 @@ TEST(DeployTest, ConfigsBeyondTheLimitsAreRefusedByName) {
                                           "4096")));
   EXPECT_LT(long_value.status().message().size(), 200u);
   ASSERT_OK_AND_ASSIGN(daemon::ParsedArgs at_limit,
-                       daemon::ParseConfigText("[slurm]\nmemory = \"" +
+                       daemon::ParseConfigText("[slurm]\npartition = \"" +
                                                value.substr(1) + "\"\n"));
-  EXPECT_EQ(std::get<daemon::Config>(at_limit).slurm.memory.size(),
+  EXPECT_EQ(std::get<daemon::Config>(at_limit).slurm.partition.size(),
             daemon::kMaxConfigItemBytes);
   EXPECT_THAT(daemon::ParseConfigText(value + " = 1\n"),
               testing::StatusIs(absl::StatusCode::kInvalidArgument,

@@ -23,6 +23,7 @@
 #include <memory>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <regex>
 #include <set>
 #include <string>
 #include <utility>
@@ -30,6 +31,7 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "processing/io/atomic_file.h"
 #include "processing/io/hdr_formats.h"
 #include "processing/io/image.h"
 #include "processing/io/sha256.h"
@@ -81,7 +83,7 @@ class Recorder : public RunObserver {
   void Progress(int64_t, int64_t, const std::string& what) override {
     progress.push_back(what);
   }
-  void Info(const std::string&) override {}
+  void Info(const std::string& message) override { infos.push_back(message); }
   void Warn(const std::string& message) override {
     warnings.push_back(message);
   }
@@ -97,6 +99,7 @@ class Recorder : public RunObserver {
   int cancel_after = -1;
   int checkpoints = 0;
   std::vector<std::string> progress;
+  std::vector<std::string> infos;
   std::vector<std::string> warnings;
   std::map<std::string, std::vector<absl::Duration>> step_times;
 };
@@ -688,6 +691,7 @@ TEST(PipelineOptionsTest, ChangedFieldRecomputesItsStepAndDependants) {
       {"stereo", [](StepOptions& o) { o.experiment.ldr_stereo.alpha = 0.6; }},
       {"stereo",
        [](StepOptions& o) { o.experiment.hdr_stereo.tau_color = 4.0 / 255; }},
+      {"stereo", [](StepOptions& o) { o.experiment.matching_width = 80; }},
       {"fusion", [](StepOptions& o) { o.experiment.fusion.lambda = 3; }},
       {"fusion",
        [](StepOptions& o) {
@@ -754,6 +758,9 @@ TEST(PipelineOptionsTest, BadOptionsNameTheFieldAndChangeNothing) {
            "experiment.hdr_stereo.alpha is 2"},
           {[](StepOptions& o) { o.experiment.fusion.sigma = 0; },
            "experiment.fusion.sigma is 0"},
+          {[](StepOptions& o) { o.experiment.matching_width = 10; },
+           "experiment.matching_width is 10; it must be 0 (full size) or in "
+           "[64, 16384]"},
           {[](StepOptions& o) { o.sl_decode.min_lit = 2; },
            "sl_decode.min_lit is 2"},
           {[](StepOptions& o) { o.experiment.evaluation.thresholds = {1}; },
@@ -770,6 +777,84 @@ TEST(PipelineOptionsTest, BadOptionsNameTheFieldAndChangeNothing) {
   EXPECT_FALSE(fs::exists(tmp / "s" / "decoded"));
 }
 
+// A session wider than matching_width is matched and fused at that width
+// and every disparity comes back at the images' size, scored against the
+// full-size truths: the simulator's and the structured light decoded at
+// full size. 480 px matched at 240 px.
+TEST(PipelineSessionTest, MatchesAtAWorkingSize) {
+  TempDir tmp;
+  testing::SimSessionOptions session;
+  session.width = 480;
+  ASSERT_OK(testing::RenderSimSession(tmp / "s", session));
+  MemoryStore store;
+  Recorder rec;
+  RunOptions o;
+  o.step_options.experiment.matching_width = 240;
+  ASSERT_OK_AND_ASSIGN(const RunSummary s,
+                       pipeline::Run(Discover(tmp / "s"), o, store, rec));
+  EXPECT_THAT(rec.infos, ::testing::Contains(::testing::HasSubstr(
+                             "at 240 x 180 (matching_width)")));
+  for (const std::string& m : Methods()) {
+    SCOPED_TRACE(m);
+    ASSERT_OK_AND_ASSIGN(
+        const cv::Mat full,
+        io::ReadPfm(tmp / "s" / absl::StrCat("disparity/", m, ".pfm")));
+    EXPECT_EQ(full.size(), cv::Size(480, 360));
+    ASSERT_OK_AND_ASSIGN(
+        const cv::Mat matched,
+        io::ReadPfm(tmp / "s" /
+                    absl::StrCat("disparity/matching/", m, ".pfm")));
+    EXPECT_EQ(matched.size(), cv::Size(240, 180));
+  }
+  ASSERT_OK_AND_ASSIGN(
+      const cv::Mat gt,
+      io::ReadPfm(tmp / "s" / "ground_truth/structured_light/disp0GT.pfm"));
+  EXPECT_EQ(gt.size(), cv::Size(480, 360));
+
+  std::cout << FormatMetrics(s.metrics);
+  const Metric* fused = Find(s.metrics, "simulation", "fused");
+  const Metric* ldr = Find(s.metrics, "simulation", "ldr");
+  const Metric* sl = Find(s.metrics, "simulation", kGroundTruthMethod);
+  ASSERT_NE(fused, nullptr);
+  ASSERT_NE(ldr, nullptr);
+  ASSERT_NE(sl, nullptr);
+  // Disparities are 2x those matched: bad-2 px here is bad-1 px there.
+  EXPECT_LT(fused->rmse, 2.0);   // measured 1.447
+  EXPECT_LT(fused->bad_2, 8.0);  // measured 3.7 %
+  EXPECT_LT(fused->rmse, 0.9 * ldr->rmse);
+  // The ground truth is decoded at full size, not matched: sub-pixel.
+  EXPECT_LT(sl->rmse, 0.4);  // measured 0.261
+
+  ASSERT_OK_AND_ASSIGN(const std::string page,
+                       io::ReadFileBytes(tmp / "s" / "report/index.html"));
+  EXPECT_THAT(page, ::testing::HasSubstr("240 x 180 (matching_width"));
+}
+
+// hdrstereo-proc says how much memory it expected the run to need and how
+// much it took: the estimate must cover the run (pipeline/memory_estimate.h;
+// at this size mostly the process itself).
+void ProcMemoryStaysWithinItsEstimate() {
+  TempDir tmp;
+  ASSERT_OK(testing::CopyCachedSimSession(tmp / "s"));
+  const testing::CommandResult r =
+      testing::Proc({"pipeline", "--session-dir", (tmp / "s").string()});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::smatch estimated, peak;
+  ASSERT_TRUE(std::regex_search(
+      r.err, estimated,
+      std::regex("memory: estimated about ([0-9]+) MiB at the peak")))
+      << r.err;
+  ASSERT_TRUE(std::regex_search(
+      r.err, peak, std::regex("memory: peak resident .* \\(([0-9]+) kB\\)")))
+      << r.err;
+  const int64_t estimated_kb = std::stoll(estimated[1]) * 1024;
+  const int64_t peak_kb = std::stoll(peak[1]);
+  std::cout << "hdrstereo-proc pipeline: peak " << peak_kb << " kB, estimated "
+            << estimated_kb << " kB\n";
+  EXPECT_GT(peak_kb, 0);
+  EXPECT_LE(peak_kb, estimated_kb);
+}
+
 // One process per TEST under ctest, and each renders the session: the
 // checks are grouped so that the full run is done three times, not twelve.
 TEST(PipelineSessionTest, FullRun) {
@@ -778,6 +863,7 @@ TEST(PipelineSessionTest, FullRun) {
   MetricsAgainstSimulatorAndStructuredLight();
   MiddleburyExportIsReadable();
   LoadsInHeadlessChromium();
+  ProcMemoryStaysWithinItsEstimate();
 }
 
 TEST(PipelineSessionTest, ReuseAndRecompute) {

@@ -43,6 +43,9 @@ TEST(ToneMapParamsTest, BadParamsNameTheField) {
       {[](P& p) { p.fattal.alpha = 0; }, "fattal.alpha is 0"},
       {[](P& p) { p.fattal.beta = 1.5; }, "fattal.beta is 1.5"},
       {[](P& p) { p.fattal.min_level_size = 1; }, "fattal.min_level_size is 1"},
+      {[](P& p) { p.fattal.solve_width = 40; },
+       "fattal.solve_width is 40; it must be 0 (the views' size) or >= 2 x "
+       "min_level_size"},
       {[](P& p) { p.guided.radius = 0; }, "guided.radius is 0"},
       {[](P& p) { p.guided.eps = 0; }, "guided.eps is 0"},
       {[](P& p) { p.guided.subsample = 0; }, "guided.subsample is 0"},
@@ -85,6 +88,7 @@ TEST(ToneMapParamsTest, CanonicalJsonHasEveryField) {
       {"/fattal/alpha", [](P& p) { p.fattal.alpha = 0.2; }},
       {"/fattal/beta", [](P& p) { p.fattal.beta = 0.9; }},
       {"/fattal/min_level_size", [](P& p) { p.fattal.min_level_size = 16; }},
+      {"/fattal/solve_width", [](P& p) { p.fattal.solve_width = 640; }},
       {"/guided/radius", [](P& p) { p.guided.radius = 4; }},
       {"/guided/eps", [](P& p) { p.guided.eps = 1e-3; }},
       {"/guided/subsample", [](P& p) { p.guided.subsample = 2; }},
