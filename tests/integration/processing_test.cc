@@ -273,6 +273,24 @@ TEST_F(ProcessingTest, AJobThatCannotFitInMemoryIsRefusedNamingItsNeed) {
   EXPECT_EQ(Sql("SELECT count(*) FROM jobs WHERE kind = 'processing'"), "0");
 }
 
+// Queued behind a capture that is still running, a job is checked when it
+// starts: it fails before any step runs, with the same message, and the
+// capture is not disturbed.
+TEST_F(ProcessingTest, AJobQueuedBehindACaptureIsCheckedWhenItStarts) {
+  StartDaemon({"--sim-scene", WriteScene("lab-lamp", SmallLabLamp()).string(),
+               "--processing-memory", "100M", "--sim-time-scale", "0.2"});
+  ASSERT_EQ(Cli({"session", "create", "q"}).exit_code, 0);
+  const int64_t capture = Submit({"capture", "stereo", "q"});
+  ASSERT_GT(capture, 0);
+  const int64_t job = Submit({"process", "q"});
+  ASSERT_GT(job, 0) << "queued: its input is still being captured";
+  ASSERT_TRUE(WaitForJobState(job, "failed")) << Job(job).dump(2);
+  EXPECT_THAT(Sql(absl::StrCat("SELECT error FROM jobs WHERE id = ", job)),
+              HasSubstr("processing session q would need about"));
+  EXPECT_TRUE(WaitForJobState(capture, "succeeded")) << Job(capture).dump(2);
+  EXPECT_EQ(Sql("SELECT count(*) FROM artifacts"), "0");
+}
+
 TEST_F(ProcessingTest, BadRequestsNameWhatIsMissingAndDeleteNothing) {
   const std::string kArtifactRows =
       "SELECT group_concat(r) FROM (SELECT path || ':' || sha256 r FROM "
