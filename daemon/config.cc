@@ -18,6 +18,7 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "daemon/rpc/roles.h"
+#include "hardware/gphoto2/settings.h"
 #include "hdrstereo_version.h"
 #include "processing/base/input_limits.h"
 #include "processing/base/status_macros.h"
@@ -478,7 +479,8 @@ absl::StatusOr<ParsedArgs> Parse(const std::function<void(CLI::App&)>& parse) {
   app.add_option("--camera-model", config.camera_model,
                  "libgphoto2 camera model [default: first found]");
   app.add_option("--camera-port", config.camera_port,
-                 "libgphoto2 port, e.g. usb:001,004");
+                 "libgphoto2 port, e.g. usb:001,004, or a network camera "
+                 "ptpip:ADDRESS[:PORT] (IPv4; default port 15740)");
   app.add_option("--camera-dump", config.camera_dump,
                  "With --hardware real: replay this `gphoto2 --summary "
                  "--list-all-config` dump as the camera (frames, stage and "
@@ -528,6 +530,17 @@ absl::StatusOr<ParsedArgs> Parse(const std::function<void(CLI::App&)>& parse) {
   app.add_option("--sim-time-scale", config.sim_time_scale,
                  "Simulated hardware time: 0 = instant, 1 = real time")
       ->check(CLI::Range(0.0, 10.0))
+      ->capture_default_str();
+  app.add_option("--sim-camera", config.sim_camera,
+                 "How the simulated camera is driven: direct, or ptpip (a "
+                 "PTP/IP camera on loopback, through libgphoto2 and the real "
+                 "camera driver)")
+      ->check(CLI::IsMember({"direct", "ptpip"}))
+      ->capture_default_str();
+  app.add_option("--sim-camera-format", config.sim_camera_format,
+                 "The one format the simulated PTP/IP camera delivers: png8, "
+                 "tiff16, jpeg or raw")
+      ->check(CLI::IsMember({"png8", "tiff16", "jpeg", "raw"}))
       ->capture_default_str();
   app.add_option("--tls-cert", config.tls.cert,
                  "Server certificate chain (PEM) for non-local addresses");
@@ -583,6 +596,21 @@ absl::StatusOr<ParsedArgs> Parse(const std::function<void(CLI::App&)>& parse) {
         " is longer than --camera-reconnect-max-s ",
         config.camera_reconnect_max_s,
         ", the longest wait between two attempts at finding the camera"));
+  }
+  {
+    absl::StatusOr<std::string> port =
+        gphoto2::NormalizeCameraPort(config.camera_port);
+    if (!port.ok()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--camera-port: ", port.status().message()));
+    }
+    config.camera_port = *std::move(port);
+    // Autodetection does not look on the network: a PTP/IP camera is
+    // opened as libgphoto2's generic PTP/IP model unless one is named.
+    if (gphoto2::IsNetworkPort(config.camera_port) &&
+        config.camera_model.empty()) {
+      config.camera_model = "PTP/IP Camera";
+    }
   }
   if (!config.camera_dump.empty() &&
       config.hardware != hardware::HardwareMode::kReal) {

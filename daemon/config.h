@@ -110,7 +110,10 @@ struct Config {
   double home_position_mm = 0;  // stage position of the left view
   // Real devices (--hardware real).
   std::string camera_model;  // empty = first camera found
-  std::string camera_port;   // e.g. "usb:001,004"
+  // e.g. "usb:001,004", or a network camera "ptpip:192.168.1.20[:PORT]"
+  // (normalized by gphoto2::NormalizeCameraPort; the model then defaults
+  // to libgphoto2's "PTP/IP Camera").
+  std::string camera_port;
   // A `gphoto2 --summary --list-all-config` dump: the real camera driver
   // configures a replay of that camera, captures are rendered by the
   // simulator (scene sim_scene), and the stage and projector are the
@@ -136,6 +139,13 @@ struct Config {
   // Simulated devices (--hardware sim).
   std::string sim_scene = "lab-lamp";  // bundled scene name or JSON file
   double sim_time_scale = 0;           // 0 = instant, 1 = real time
+  // How the simulated camera is driven: "direct" (SimCamera, in process)
+  // or "ptpip" (a simulated PTP/IP camera on a free loopback port, driven
+  // by the real gphoto2 driver through libgphoto2). The PTP/IP camera
+  // delivers one format, sim_camera_format ("png8", "tiff16", "jpeg",
+  // "raw"); the direct one delivers what each capture asks for.
+  std::string sim_camera = "direct";
+  std::string sim_camera_format = "png8";
 
   // Security.
   TlsConfig tls;

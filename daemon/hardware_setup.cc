@@ -39,10 +39,11 @@ hardware::RigConfig RigConfigOf(const Config& config) {
           .max_baseline_mm = config.stage_travel_mm};
 }
 
-// The camera of a simulated rig, made once the world exists.
+// The camera of a simulated rig, made once the world exists (in `hw`,
+// which also keeps what the camera needs).
 using CameraFactory =
     std::function<absl::StatusOr<hardware::Slot<hardware::Camera>>(
-        sim::SimWorld&)>;
+        Hardware& hw)>;
 
 // The camera `first` is (as `open` first opened it, or why it could not
 // be), reopened by `open` with the configured backoff whenever it is away:
@@ -115,6 +116,43 @@ absl::StatusOr<hardware::Slot<hardware::Camera>> SimulatedCamera(
   return Reconnecting(config, std::move(first), std::move(open));
 }
 
+// The real gphoto2 driver, through libgphoto2, to the world's camera
+// served as a PTP/IP camera on a free loopback port (kept in hw).
+absl::StatusOr<hardware::Slot<hardware::Camera>> PtpIpSimulatedCamera(
+    const Config& config, Hardware& hw) {
+  const std::optional<hardware::ImageFormat> format =
+      hardware::ParseImageFormat(config.sim_camera_format);
+  if (!format.has_value()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--sim-camera-format ", config.sim_camera_format,
+                     " is not png8, tiff16, jpeg or raw"));
+  }
+  sim::PtpIpCameraOptions responder;
+  switch (*format) {
+    case hardware::ImageFormat::kTiff16:
+      responder.format = sim::ImageFormat::kTiff16;
+      break;
+    case hardware::ImageFormat::kJpeg:
+      responder.format = sim::ImageFormat::kJpeg;
+      break;
+    case hardware::ImageFormat::kRaw:
+      responder.format = sim::ImageFormat::kDng;
+      break;
+    default:
+      responder.format = sim::ImageFormat::kPng;
+  }
+  ASSIGN_OR_RETURN(hw.ptpip_camera,
+                   sim::PtpIpCamera::Start(*hw.world, responder));
+  spdlog::info("simulated camera: PTP/IP on {}",
+               hw.ptpip_camera->gphoto2_port());
+  gphoto2::Gphoto2Options options;
+  options.model = sim::PtpIpCamera::kGphoto2Model;
+  options.port = hw.ptpip_camera->gphoto2_port();
+  options.fixed_format = *format;
+  return Gphoto2Slot(config, options,
+                     [] { return gphoto2::NewLibgphoto2Api(); });
+}
+
 // The real driver over a replay of `dump`; each capture is a frame the
 // simulator renders at the shutter speed (and ISO) the driver chose among
 // the replayed camera's choices, as JPEG or, for a RAW format, DNG; each
@@ -181,8 +219,7 @@ absl::StatusOr<std::unique_ptr<Hardware>> SetUpSimulation(
   zaber.travel_mm = stage_options.travel_mm;
   hardware::Slot<hardware::Stage> stage =
       Slot<hardware::Stage>(zaber::ZaberStage::Open(zaber), "stage");
-  ASSIGN_OR_RETURN(hardware::Slot<hardware::Camera> camera,
-                   make_camera(*hw->world));
+  ASSIGN_OR_RETURN(hardware::Slot<hardware::Camera> camera, make_camera(*hw));
   hardware::Slot<hardware::Projector> projector = Slot<hardware::Projector>(
       sim::SimProjector::Create(*hw->world), "projector");
   hw->rig =
@@ -224,8 +261,9 @@ absl::StatusOr<std::unique_ptr<Hardware>> SetUpReal(const Config& config) {
 
 absl::StatusOr<std::unique_ptr<Hardware>> SetUpHardware(const Config& config) {
   if (config.hardware == hardware::HardwareMode::kSim) {
-    return SetUpSimulation(config, [&config](sim::SimWorld& world) {
-      return SimulatedCamera(config, world);
+    return SetUpSimulation(config, [&config](Hardware& hw) {
+      if (config.sim_camera == "ptpip") return PtpIpSimulatedCamera(config, hw);
+      return SimulatedCamera(config, *hw.world);
     });
   }
   if (!config.camera_dump.empty()) {
@@ -236,8 +274,8 @@ absl::StatusOr<std::unique_ptr<Hardware>> SetUpHardware(const Config& config) {
       return absl::InvalidArgumentError(
           absl::StrCat("--camera-dump: ", dump.status().message()));
     }
-    return SetUpSimulation(config, [&](sim::SimWorld& world) {
-      return ReplayedCamera(config, *dump, world);
+    return SetUpSimulation(config, [&](Hardware& hw) {
+      return ReplayedCamera(config, *dump, *hw.world);
     });
   }
   return SetUpReal(config);

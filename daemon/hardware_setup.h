@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
 // Builds the rig the configuration asks for: real drivers, or the simulated
-// world with the real Zaber driver talking to the emulated controller, or
+// world with the real Zaber driver talking to the emulated controller (and,
+// with --sim-camera ptpip, the real gphoto2 driver talking to the simulated
+// PTP/IP camera), or
 // (--camera-dump) that simulated world with the real camera driver
 // configuring a replayed camera.
 #ifndef HDRSTEREO_DAEMON_HARDWARE_SETUP_H_
@@ -12,6 +14,7 @@
 #include "absl/status/statusor.h"
 #include "daemon/config.h"
 #include "hardware/rig.h"
+#include "hardware/sim/ptpip_camera.h"
 #include "hardware/sim/sim_world.h"
 #include "hardware/sim/stage_emulator.h"
 
@@ -23,6 +26,7 @@ namespace hdrstereo::daemon {
 struct Hardware {
   std::unique_ptr<sim::SimWorld> world;
   std::unique_ptr<sim::StageEmulator> emulator;
+  std::unique_ptr<sim::PtpIpCamera> ptpip_camera;  // with --sim-camera ptpip
   std::unique_ptr<hardware::Rig> rig;
 };
 

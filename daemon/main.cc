@@ -4,6 +4,7 @@
 // SIGINT or SIGTERM, then shuts down cleanly. SIGHUP (systemd's ExecReload)
 // re-reads the configuration: the log level takes effect at once; any other
 // changed option is reported and needs a restart.
+#include <fcntl.h>
 #include <signal.h>
 #include <spdlog/sinks/rotating_file_sink.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
@@ -42,9 +43,19 @@ bool SetUpLogging(const hdrstereo::daemon::Config& config) {
   }
 }
 
+// Started with standard descriptors closed, the daemon would hand 0, 1 or
+// 2 to its database or sockets, which then get stdio written to them (or,
+// for 0, closed by libgphoto2's PTP/IP code: libgphoto2_api.cc).
+void OpenStandardDescriptors() {
+  for (int fd = 0; fd <= 2; ++fd) {
+    if (fcntl(fd, F_GETFD) == -1 && open("/dev/null", O_RDWR) == -1) return;
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  OpenStandardDescriptors();
   // Processing jobs run the pipeline in this process.
   hdrstereo::pipeline::ReturnFreedImagesToTheSystem();
   absl::StatusOr<hdrstereo::daemon::ParsedArgs> parsed =

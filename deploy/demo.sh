@@ -7,15 +7,24 @@
 # truth, metrics, Middlebury export, HTML report), prints the metrics table
 # and the report's path, and stops the daemon cleanly. With --console it
 # then keeps the daemon running and prints the operator's console URL and
-# an API key file to sign in with (Ctrl-C stops it).
-# Usage: deploy/demo.sh [--console] [DATA_ROOT]   (default: ./demo-data)
+# an API key file to sign in with (Ctrl-C stops it). With --ptpip the
+# simulated camera is served as a PTP/IP network camera on loopback and the
+# real gphoto2 driver drives it through libgphoto2 (--sim-camera ptpip).
+# Usage: deploy/demo.sh [--console] [--ptpip] [DATA_ROOT]
+#        (default DATA_ROOT: ./demo-data)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 console=0
-if [[ "${1:-}" == --console ]]; then
-  console=1
+sim_camera=direct
+while [[ "${1:-}" == --* ]]; do
+  case "$1" in
+    --console) console=1 ;;
+    --ptpip) sim_camera=ptpip ;;
+    *) echo "usage: deploy/demo.sh [--console] [--ptpip] [DATA_ROOT]" >&2
+       exit 2 ;;
+  esac
   shift
-fi
+done
 "$root/deploy/build.sh" "$root/build"
 bin="$root/build"
 data_root=$(realpath -m "${1:-demo-data}")
@@ -23,8 +32,9 @@ mkdir -p "$data_root"
 ready="$data_root/hdrstereod.ready"
 rm -f "$ready"
 
-echo "== starting hdrstereod (simulated hardware, data root $data_root)"
-"$bin/daemon/hdrstereod" --hardware sim --data-root "$data_root" \
+echo "== starting hdrstereod (simulated hardware, camera $sim_camera, data root $data_root)"
+"$bin/daemon/hdrstereod" --hardware sim --sim-camera "$sim_camera" \
+  --data-root "$data_root" \
   --listen 127.0.0.1:0 --http-listen 127.0.0.1:0 --auth-user demo=admin \
   --ready-file "$ready" &
 daemon=$!

@@ -17,6 +17,8 @@ packages=(
   openssl
   # hardware
   libgphoto2-dev libserialport-dev libx11-dev libxrandr-dev
+  # an independent PTP client: tests check the simulated PTP/IP camera with it
+  gphoto2
   # processing
   libopencv-dev libopencv-contrib-dev libraw-dev libtiff-dev libopenexr-dev
   libmaxflow-dev zlib1g-dev

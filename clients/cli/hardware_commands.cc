@@ -15,6 +15,7 @@
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
+#include "absl/strings/strip.h"
 #include "clients/cli/commands.h"
 #include "clients/cli/exposure.h"
 #include "clients/cli/output.h"
@@ -69,6 +70,13 @@ void PrintLock(const v1::RigLock& lock) {
   std::cout << "rig " << DescribeLock(lock) << "\n";
 }
 
+// "  PTP/IP 192.168.1.20" for a camera on the network (libgphoto2 port
+// "ptpip:ADDRESS[:PORTS]"), "" for any other.
+std::string NetworkCamera(absl::string_view port) {
+  if (!absl::ConsumePrefix(&port, "ptpip:")) return "";
+  return absl::StrCat("  PTP/IP ", port.substr(0, port.find(':')));
+}
+
 int RunStatus(const Client& client) {
   auto stub = v1::Hardware::NewStub(client.channel());
   v1::HardwareStatus status;
@@ -92,8 +100,8 @@ int RunStatus(const Client& client) {
             ? absl::StrCat("reconnecting (attempt ", c.reconnect_attempt(), ")",
                            c.message().empty() ? "" : "  ", c.message())
             : absl::StrCat(StateName(c.state()), "  ", c.model(), " ",
-                           c.serial(), c.message().empty() ? "" : "  ",
-                           c.message())},
+                           c.serial(), NetworkCamera(c.port()),
+                           c.message().empty() ? "" : "  ", c.message())},
        {"stage",
         absl::StrCat(
             StateName(s.state()), "  ",

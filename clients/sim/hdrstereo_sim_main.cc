@@ -9,6 +9,10 @@
 //       [--seed N] [--truth --baseline-mm 150] --out DIR
 //   hdrstereo-sim stage [--scene lab-lamp]   (prints the device path, runs
 //                                             until interrupted)
+//   hdrstereo-sim camera --ptpip 127.0.0.1:PORT [--scene lab-lamp]
+//       [--format png|jpeg|tiff|dng] [--stage-mm 0]
+//       (a PTP/IP camera; PORT 0 = a free one; prints libgphoto2's port
+//       string, e.g. ptpip:127.0.0.1:40123:40123, runs until interrupted)
 #include <signal.h>
 #include <unistd.h>
 
@@ -20,9 +24,11 @@
 #include <string>
 #include <system_error>
 
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "hardware/sim/camera_model.h"
+#include "hardware/sim/ptpip_camera.h"
 #include "hardware/sim/scene.h"
 #include "hardware/sim/sim_world.h"
 #include "hardware/sim/stage_emulator.h"
@@ -58,16 +64,23 @@ int Fail(const absl::Status& status) {
              : kExitError;
 }
 
+absl::Status CheckStagePosition(double stage_mm, const Scene& scene) {
+  if (stage_mm >= 0 && stage_mm <= scene.rig.travel_mm) {
+    return absl::OkStatus();
+  }
+  return absl::InvalidArgumentError(
+      absl::StrFormat("--stage-mm %.3f is outside the travel 0..%.3f mm",
+                      stage_mm, scene.rig.travel_mm));
+}
+
 int Render(const RenderOptions& o) {
   absl::StatusOr<Scene> scene = LoadScene(o.scene);
   if (!scene.ok()) return Fail(scene.status());
   if (o.seed >= 0) scene->seed = static_cast<uint64_t>(o.seed);
   absl::StatusOr<ImageFormat> format = ParseImageFormat(o.format);
   if (!format.ok()) return Fail(format.status());
-  if (o.stage_mm < 0 || o.stage_mm > scene->rig.travel_mm) {
-    return Fail(absl::InvalidArgumentError(
-        absl::StrFormat("--stage-mm %.3f is outside the travel 0..%.3f mm",
-                        o.stage_mm, scene->rig.travel_mm)));
+  if (absl::Status s = CheckStagePosition(o.stage_mm, *scene); !s.ok()) {
+    return Fail(s);
   }
   scene->timing.scale = 0;  // the tool never waits for modelled time
   SimWorld world(*std::move(scene));
@@ -131,6 +144,46 @@ int RunStage(const std::string& scene_name) {
   return kExitOk;
 }
 
+struct CameraOptions {
+  std::string ptpip;
+  std::string scene = "lab-lamp";
+  std::string format = "png";
+  double stage_mm = 0;
+};
+
+int RunCamera(const CameraOptions& o) {
+  const size_t colon = o.ptpip.rfind(':');
+  int port = -1;
+  if (colon == std::string::npos ||
+      !absl::SimpleAtoi(o.ptpip.substr(colon + 1), &port)) {
+    return Fail(absl::InvalidArgumentError(
+        absl::StrCat("--ptpip must be ADDRESS:PORT (e.g. 127.0.0.1:0), not \"",
+                     o.ptpip, "\"")));
+  }
+  absl::StatusOr<Scene> scene = LoadScene(o.scene);
+  if (!scene.ok()) return Fail(scene.status());
+  absl::StatusOr<ImageFormat> format = ParseImageFormat(o.format);
+  if (!format.ok()) return Fail(format.status());
+  if (absl::Status s = CheckStagePosition(o.stage_mm, *scene); !s.ok()) {
+    return Fail(s);
+  }
+  SimWorld world(*std::move(scene));
+  world.SetStagePosition(o.stage_mm);
+  PtpIpCameraOptions options;
+  options.address = o.ptpip.substr(0, colon);
+  options.port = port;
+  options.format = *format;
+  // Before the port is printed: whoever reads it may stop us at once.
+  signal(SIGINT, OnSignal);
+  signal(SIGTERM, OnSignal);
+  absl::StatusOr<std::unique_ptr<PtpIpCamera>> camera =
+      PtpIpCamera::Start(world, options);
+  if (!camera.ok()) return Fail(camera.status());
+  std::cout << (*camera)->gphoto2_port() << std::endl;
+  while (!g_stop) usleep(50000);
+  return kExitOk;
+}
+
 }  // namespace
 }  // namespace hdrstereo::sim
 
@@ -173,6 +226,22 @@ int main(int argc, char** argv) {
   stage->add_option("--scene", stage_scene, "Scene for travel/timing/faults")
       ->capture_default_str();
 
+  CameraOptions c;
+  CLI::App* camera = app.add_subcommand(
+      "camera",
+      "Run the simulated camera as a PTP/IP camera (model \"PTP/IP Camera\" "
+      "in libgphoto2); prints its gphoto2 port");
+  camera
+      ->add_option("--ptpip", c.ptpip,
+                   "IPv4 address and port to listen on (port 0: a free one)")
+      ->required();
+  camera->add_option("--scene", c.scene, "Bundled scene name or JSON file")
+      ->capture_default_str();
+  camera->add_option("--format", c.format, "png, jpeg, tiff (16-bit) or dng")
+      ->capture_default_str();
+  camera->add_option("--stage-mm", c.stage_mm, "Where the camera stands (mm)")
+      ->capture_default_str();
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -187,5 +256,6 @@ int main(int argc, char** argv) {
   }
   if (render->parsed()) return Render(r);
   if (stage->parsed()) return RunStage(stage_scene);
+  if (camera->parsed()) return RunCamera(c);
   return 2;
 }

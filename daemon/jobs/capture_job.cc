@@ -7,6 +7,7 @@
 #include <cmath>
 #include <future>
 #include <map>
+#include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
 #include <set>
@@ -163,6 +164,18 @@ absl::Status PersistFrame(JobContext& context, store::FrameRepository& frames,
               decoded.status().message(),
               "); resubmit the capture to take it again")),
           store::EventKind::kCorrupt);
+    }
+    // A 16-bit format must decode to 16 bits, the others to 8: a camera
+    // that sends other files than asked is not taken at its word.
+    const int want =
+        record.format == hardware::ImageFormat::kTiff16 ? CV_16U : CV_8U;
+    if (decoded->depth() != want) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "frame ", record.path, " decodes to ",
+          cv::typeToString(decoded->type()), " pixels, but its format ",
+          hardware::ImageFormatName(record.format), " is ",
+          want == CV_16U ? "16" : "8",
+          "-bit; set the camera to the format the capture asks for"));
     }
     record.width_px = decoded->cols;
     record.height_px = decoded->rows;

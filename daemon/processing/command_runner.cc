@@ -139,12 +139,30 @@ absl::StatusOr<CommandResult> RunCommand(const std::vector<std::string>& argv,
                                           O_RDONLY, 0);
   }
   pid_t pid = 0;
+  // The child starts with default signal handling and nothing blocked,
+  // whatever this process set: the daemon blocks the signals it takes with
+  // sigwait, and ignores SIGPIPE once a PTP/IP camera is open.
+  posix_spawnattr_t attributes;
+  if (rc == 0) rc = posix_spawnattr_init(&attributes);
   if (rc == 0) {
-    std::vector<char*> args = Pointers(argv);
-    const std::vector<std::string> environment = Environment(env);
-    std::vector<char*> envp = Pointers(environment);
-    rc = ::posix_spawnp(&pid, args[0], &actions, nullptr, args.data(),
-                        envp.data());
+    sigset_t defaults, none;
+    sigemptyset(&defaults);
+    sigaddset(&defaults, SIGPIPE);
+    sigemptyset(&none);
+    rc = posix_spawnattr_setsigdefault(&attributes, &defaults);
+    if (rc == 0) rc = posix_spawnattr_setsigmask(&attributes, &none);
+    if (rc == 0) {
+      rc = posix_spawnattr_setflags(
+          &attributes, POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETSIGMASK);
+    }
+    if (rc == 0) {
+      std::vector<char*> args = Pointers(argv);
+      const std::vector<std::string> environment = Environment(env);
+      std::vector<char*> envp = Pointers(environment);
+      rc = ::posix_spawnp(&pid, args[0], &actions, &attributes, args.data(),
+                          envp.data());
+    }
+    posix_spawnattr_destroy(&attributes);
   }
   posix_spawn_file_actions_destroy(&actions);
   // The child holds its own copies; ours would keep the pipes from ending.

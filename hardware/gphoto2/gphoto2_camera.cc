@@ -126,6 +126,12 @@ absl::Status Gphoto2Error(absl::string_view what, int code,
     case GP_ERROR_NO_SPACE:
       return absl::ResourceExhaustedError(absl::StrCat(
           what, ": no space left on the camera's card (", reason, ")"));
+    case GP_ERROR_NO_MEMORY:  // also a PTP StoreFull during a capture
+      return absl::ResourceExhaustedError(
+          absl::StrCat(what,
+                       ": out of memory: the camera's storage is full, or this "
+                       "computer's memory (",
+                       reason, ")"));
     case GP_ERROR_CANCEL:
       return absl::CancelledError(absl::StrCat(what, ": cancelled"));
     default:
@@ -303,7 +309,8 @@ class Gphoto2Camera::Worker {
 Gphoto2Camera::Gphoto2Camera(const Gphoto2Options& options,
                              std::unique_ptr<Gphoto2Api> api)
     : options_(options),
-      worker_(std::make_unique<Worker>(std::move(api), options.cancel_grace)) {}
+      worker_(std::make_unique<Worker>(std::move(api), options.cancel_grace)),
+      delivered_format_(options.fixed_format) {}
 
 Gphoto2Camera::~Gphoto2Camera() = default;
 
@@ -388,6 +395,20 @@ absl::StatusOr<std::unique_ptr<Gphoto2Camera>> Gphoto2Camera::OpenWithApi(
 absl::StatusOr<std::unique_ptr<Gphoto2Camera>> Gphoto2Camera::Reopen(
     const Gphoto2Options& options, const std::string& serial,
     const ApiFactory& new_api) {
+  // A network camera keeps its address (and autodetect does not look on
+  // the network): it is reopened where it was, and must be the same body.
+  if (IsNetworkPort(options.port)) {
+    ASSIGN_OR_RETURN(std::unique_ptr<Gphoto2Camera> camera,
+                     OpenWithApi(options, new_api()));
+    absl::StatusOr<hardware::CameraInfo> info = camera->Info();
+    if (serial.empty() || (info.ok() && info->serial == serial)) return camera;
+    return absl::UnavailableError(
+        absl::StrCat("the camera at ", options.port,
+                     " is not the one with serial number \"", serial, "\" (",
+                     info.ok() ? absl::StrCat("it has \"", info->serial, "\"")
+                               : std::string(info.status().message()),
+                     ")"));
+  }
   Gphoto2Options search = options;
   search.port.clear();
   if (serial.empty()) return OpenWithApi(search, new_api());
@@ -441,6 +462,18 @@ absl::Status Gphoto2Camera::Call(absl::string_view what, absl::Duration timeout,
     ASSIGN_OR_RETURN(Worker::Outcome outcome, worker_->Run(what, timeout, fn));
     if (outcome.code >= GP_OK) return absl::OkStatus();
     if (outcome.code != GP_ERROR_CAMERA_BUSY) {
+      if (outcome.code == GP_ERROR && IsNetworkPort(port_)) {
+        // libgphoto2's PTP/IP reports a connection the camera closed as a
+        // plain GP_ERROR ("Unspecified error"), not as an I/O error.
+        absl::Status answers = StillAnswers();
+        if (hardware::IsCameraStuck(answers)) return answers;
+        if (!answers.ok()) {
+          return absl::UnavailableError(
+              absl::StrCat(what, ": the network camera at ", port_,
+                           " closed the connection (disconnected) (",
+                           outcome.error_text, " [", outcome.code, "])"));
+        }
+      }
       return Gphoto2Error(what, outcome.code, outcome.error_text);
     }
     if (attempt >= options_.busy_retries) {
@@ -452,6 +485,18 @@ absl::Status Gphoto2Camera::Call(absl::string_view what, absl::Duration timeout,
     absl::SleepFor(backoff);
     backoff = std::min(backoff * 2, options_.busy_backoff_max);
   }
+}
+
+absl::Status Gphoto2Camera::StillAnswers() {
+  constexpr char kWhat[] = "check that the camera still answers";
+  ASSIGN_OR_RETURN(
+      Worker::Outcome outcome,
+      worker_->Run(kWhat, options_.call_timeout, [](Gphoto2Api& api) {
+        std::string summary;
+        return api.GetSummary(&summary);
+      }));
+  if (outcome.code >= GP_OK) return absl::OkStatus();
+  return Gphoto2Error(kWhat, outcome.code, outcome.error_text);
 }
 
 absl::StatusOr<std::vector<ConfigWidget>> Gphoto2Camera::ConfigLocked() {
@@ -475,6 +520,7 @@ absl::StatusOr<hardware::ExposureSettings> Gphoto2Camera::SettingsLocked() {
   const hardware::ExposureSettings settings = ReadExposureSettings(widgets);
   exposure_s_ = settings.exposure_s;
   format_ = settings.format;
+  has_capture_target_ = FindWidget(widgets, "capturetarget") != nullptr;
   return settings;
 }
 
@@ -598,13 +644,25 @@ absl::StatusOr<hardware::ExposureSettings> Gphoto2Camera::Configure(
                                        }));
     plan.push_back({aperture, choice});
   }
-  if (settings.format.has_value()) {
-    const ConfigWidget* format = FindWidget(widgets, kFormatWidgets);
-    if (format == nullptr) {
+  // A camera without a format setting (a generic PTP camera) delivers one
+  // format: any is taken until a file shows which, and Capture() refuses a
+  // file of another format.
+  std::optional<hardware::ImageFormat> fixed_format_asked;
+  const ConfigWidget* format = settings.format.has_value()
+                                   ? FindWidget(widgets, kFormatWidgets)
+                                   : nullptr;
+  if (settings.format.has_value() && format == nullptr) {
+    if (delivered_format_.has_value() &&
+        *delivered_format_ != *settings.format) {
       return absl::InvalidArgumentError(
           absl::StrCat("the camera has no image format setting ",
-                       WidgetNames(kFormatWidgets)));
+                       WidgetNames(kFormatWidgets), " and delivers ",
+                       hardware::ImageFormatName(*delivered_format_), ", not ",
+                       hardware::ImageFormatName(*settings.format)));
     }
+    fixed_format_asked = settings.format;
+  }
+  if (format != nullptr) {
     ASSIGN_OR_RETURN(std::string choice,
                      MatchChoice(*format, "image format",
                                  [&](const std::vector<std::string>& c) {
@@ -626,6 +684,8 @@ absl::StatusOr<hardware::ExposureSettings> Gphoto2Camera::Configure(
     if (change.widget->value == change.value) continue;
     RETURN_IF_ERROR(SetLocked(change.widget->name, change.value));
   }
+
+  if (settings.format.has_value()) fixed_format_asked_ = fixed_format_asked;
 
   // Read back: the camera may ignore a value (wrong mode) without an error.
   ASSIGN_OR_RETURN(std::vector<ConfigWidget> after, ConfigLocked());
@@ -687,9 +747,23 @@ absl::StatusOr<hardware::Frame> Gphoto2Camera::Capture() {
       break;
     }
   }
-  absl::StatusOr<hardware::Frame> frame =
-      DownloadLocked(chosen->first, chosen->second);
-  if (!frame.ok()) return frame.status();  // the files stay on the camera
+  // A camera without a format setting that sent another format than asked
+  // (its file name says which): the file is deleted, not downloaded.
+  const std::optional<hardware::ImageFormat> named =
+      FormatFromFileName(chosen->second);
+  if (named.has_value()) delivered_format_ = named;
+  absl::StatusOr<hardware::Frame> frame;
+  if (named.has_value() && fixed_format_asked_.has_value() &&
+      *named != *fixed_format_asked_) {
+    frame = absl::FailedPreconditionError(absl::StrCat(
+        "the camera delivered ", JoinPath(chosen->first, chosen->second),
+        " as ", hardware::ImageFormatName(*named), ", not ",
+        hardware::ImageFormatName(*fixed_format_asked_),
+        ", and has no image format setting to change that"));
+  } else {
+    frame = DownloadLocked(chosen->first, chosen->second);
+    if (!frame.ok()) return frame.status();  // the files stay on the camera
+  }
   if (options_.delete_after_download) {
     for (const auto& [folder, name] : files) {
       absl::Status deleted =
@@ -760,8 +834,8 @@ absl::StatusOr<hardware::Frame> Gphoto2Camera::DownloadLocked(
   if (!format.has_value()) {
     return absl::FailedPreconditionError(
         absl::StrCat(path,
-                     " is neither a JPEG nor a camera RAW file; set the image "
-                     "format to raw, jpeg or raw+jpeg"));
+                     " is not a JPEG, camera RAW, PNG or TIFF file; set "
+                     "the image format to raw, jpeg or raw+jpeg"));
   }
   auto file = std::make_shared<FileData>();
   RETURN_IF_ERROR(Call(absl::StrCat("download ", path),
@@ -779,10 +853,14 @@ absl::StatusOr<hardware::Frame> Gphoto2Camera::DownloadLocked(
   frame.exposure_s = exposure_s_;
   frame.camera_time = file->mtime;
   frame.camera_file_name = name;
-  // Card storage shows as /store_XXXXXXXX/...; RAM captures come from "/".
-  frame.stored_to = absl::StartsWith(folder, "/store_")
-                        ? hardware::StoredTo::kCard
-                        : hardware::StoredTo::kRam;
+  // With a capture target to set, card storage shows as
+  // /store_XXXXXXXX/... and RAM captures come from "/". A camera without
+  // one (a generic PTP camera) keeps every file in a store of its own.
+  if (has_capture_target_) {
+    frame.stored_to = absl::StartsWith(folder, "/store_")
+                          ? hardware::StoredTo::kCard
+                          : hardware::StoredTo::kRam;
+  }
   return frame;
 }
 
@@ -858,6 +936,7 @@ absl::Status Gphoto2Camera::SetCaptureTargetLocked(CaptureTarget target) {
   if (target == CaptureTarget::kLeaveAsIs) return absl::OkStatus();
   ASSIGN_OR_RETURN(std::vector<ConfigWidget> widgets, ConfigLocked());
   const ConfigWidget* widget = FindWidget(widgets, "capturetarget");
+  has_capture_target_ = widget != nullptr;
   if (widget == nullptr) {
     return absl::NotFoundError("the camera has no capturetarget setting");
   }

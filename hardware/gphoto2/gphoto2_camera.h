@@ -16,7 +16,11 @@
 // timed choice in stops; bulb is never used), ISO -> "iso" / "isospeed",
 // aperture -> "aperture" / "f-number" / "fnumber" (a choice, or a number for
 // a range widget), format -> "imageformat" /
-// "imagequality". Configure validates everything before it sets anything,
+// "imagequality" (a camera without one, such as a generic PTP camera,
+// delivers one format: Configure takes any format until a captured file
+// shows which, and Capture() fails with FAILED_PRECONDITION on a file of
+// another format than asked). Configure validates everything before it
+// sets anything,
 // then reads the settings back and fails if the camera did not take them
 // (FAILED_PRECONDITION: typically the mode dial is not on M).
 //
@@ -115,6 +119,10 @@ struct Gphoto2Options {
   absl::Duration busy_backoff_max = absl::Seconds(2);
   // Delete each captured file from the camera after downloading it.
   bool delete_after_download = true;
+  // For a camera without an image format setting: the format it delivers,
+  // when known (Configure then refuses any other with INVALID_ARGUMENT);
+  // unset, the first captured file tells.
+  std::optional<hardware::ImageFormat> fixed_format;
 };
 
 // What holds a camera's libgphoto2 handle (Gphoto2Camera::WatchHandle).
@@ -149,6 +157,8 @@ class Gphoto2Camera final : public hardware::Camera {
   // model when empty) on an api of its own and keeps the one whose
   // "serialnumber" widget is `serial` (the others are closed again);
   // UNAVAILABLE "no camera with serial number ..." naming those found.
+  // A camera on a network port (IsNetworkPort) is opened again at that
+  // port instead, and must have that serial number.
   // Without: the first camera of options.model, as Open. Every call has its
   // usual timeout. ReconnectingCamera (hardware/reconnecting_camera.h) calls
   // this with backoff.
@@ -217,7 +227,13 @@ class Gphoto2Camera final : public hardware::Camera {
   // maps a failure to a Status whose message starts with `what`.
   absl::Status Call(absl::string_view what, absl::Duration timeout,
                     std::function<int(Gphoto2Api&)> fn);
+  // OK when the camera still answers a call that needs the connection
+  // (the summary: over PTP it reads every property description), else that
+  // call's error. After a plain GP_ERROR from a network camera it tells a
+  // closed connection from a failed operation.
+  absl::Status StillAnswers();
   absl::StatusOr<std::vector<ConfigWidget>> ConfigLocked();
+
   absl::StatusOr<hardware::ExposureSettings> SettingsLocked();
   absl::Status SetLocked(const std::string& name, const std::string& value);
   absl::StatusOr<hardware::Frame> DownloadLocked(const std::string& folder,
@@ -233,6 +249,13 @@ class Gphoto2Camera final : public hardware::Camera {
   mutable std::mutex mutex_;  // one operation at a time
   double exposure_s_ = 0;     // the shutter speed last read or set
   std::optional<hardware::ImageFormat> format_;  // the format last read
+  // A camera without a format setting: the format Configure was last asked
+  // for, and the format of the last file it delivered.
+  std::optional<hardware::ImageFormat> fixed_format_asked_;
+  std::optional<hardware::ImageFormat> delivered_format_;
+  // Whether the camera has a capture target setting (only then does a
+  // file's folder tell RAM from card), as the configuration last read.
+  bool has_capture_target_ = false;
   std::vector<std::string> undeleted_files_;
   bool live_view_ = false;  // a preview may have started live view
 };

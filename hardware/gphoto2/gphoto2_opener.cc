@@ -21,7 +21,12 @@ absl::Status Gphoto2Opener::PreviousHandleLetGo() {
   if (use.has_value()) {
     // Negative infinity when no call is stuck: waited for without a bound.
     const absl::Duration stuck_for = absl::Now() - use->stuck_since;
-    if (stuck_for < options_.stuck_handle_wait) {
+    // A network camera's stuck call holds a TCP connection, not the
+    // device: a new connection replaces it (see the header).
+    const absl::Duration wait = IsNetworkPort(options_.port)
+                                    ? absl::ZeroDuration()
+                                    : options_.stuck_handle_wait;
+    if (stuck_for < wait) {
       if (use->stuck_call.empty()) {
         return absl::UnavailableError(
             "the camera's previous connection is still in use; it is "
@@ -32,8 +37,8 @@ absl::Status Gphoto2Opener::PreviousHandleLetGo() {
           use->stuck_call, "\", which timed out ",
           absl::FormatDuration(absl::Trunc(stuck_for, absl::Milliseconds(1))),
           " ago; it is reopened once libgphoto2 returns, or in ",
-          absl::FormatDuration(absl::Trunc(
-              options_.stuck_handle_wait - stuck_for, absl::Milliseconds(1))),
+          absl::FormatDuration(
+              absl::Trunc(wait - stuck_for, absl::Milliseconds(1))),
           " regardless"));
     }
   }

@@ -23,7 +23,12 @@
 // or until options.stuck_handle_wait has passed since the call timed out:
 // then the old handle is abandoned to its thread (closed if and when
 // libgphoto2 returns) and a new one is opened, so that a camera whose old
-// handle libgphoto2 never lets go of is reopened all the same.
+// handle libgphoto2 never lets go of is reopened all the same. A camera on
+// a network port (IsNetworkPort) is not waited for: its stuck call holds
+// only a TCP connection. A PTP/IP camera serves one client, so it should
+// drop the old connection when the new one arrives, which ends the stuck
+// call (the simulated camera does; not checked on real bodies: one that
+// kept both would leave the stuck call's thread and sockets behind).
 //
 // Not thread-safe: one Open() at a time (ReconnectingCamera calls it from
 // its reconnect thread only, after the first open).

@@ -1,11 +1,15 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "hardware/gphoto2/libgphoto2_api.h"
 
+#include <fcntl.h>
 #include <gphoto2/gphoto2.h>
+#include <unistd.h>
 
 #include <atomic>
+#include <csignal>
 #include <cstdlib>
 #include <mutex>
+#include <optional>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
@@ -23,6 +27,35 @@ std::mutex& LoadMutex() {
 
 std::string OrEmpty(const char* text) { return text != nullptr ? text : ""; }
 
+// libgphoto2 2.5.30 closes file descriptor 0 each time it closes a PTP/IP
+// connection (strace: close(command socket), close(event socket),
+// close(0): a third socket it keeps for Fuji cameras starts as 0, not -1).
+// Around those calls descriptor 0 is kept on /dev/null, so that the close
+// hits nothing of this process's. Opens elsewhere in the process can still
+// take 0 between libgphoto2's close and the reopen here (the rest of
+// gp_camera_exit and gp_camera_unref): camera opens cannot (the same lock),
+// the simulated PTP/IP camera moves its sockets above 2, and hdrstereod
+// keeps 0 open from its start; anything else that took 0 then would be
+// closed at the next PTP/IP disconnect.
+void KeepDescriptorZeroOnDevNull() {
+  if (fcntl(0, F_GETFD) != -1) return;
+  const int fd = open("/dev/null", O_RDWR);
+  if (fd > 0) close(fd);  // 0 was taken in the meantime
+}
+
+// Closes `camera` (as far as it was opened) with the above around it.
+void CloseCamera(Camera* camera, GPContext* context, bool initialized,
+                 bool network) {
+  // Under the lock camera opens hold too: no libgphoto2 open takes 0 while
+  // it is free, and two closes do not undo each other's /dev/null.
+  std::optional<std::lock_guard<std::mutex>> lock;
+  if (network) lock.emplace(LoadMutex());
+  if (network) KeepDescriptorZeroOnDevNull();
+  if (initialized) gp_camera_exit(camera, context);
+  gp_camera_unref(camera);
+  if (network) KeepDescriptorZeroOnDevNull();
+}
+
 class Libgphoto2Api final : public Gphoto2Api {
  public:
   Libgphoto2Api() : context_(gp_context_new()) {
@@ -32,8 +65,7 @@ class Libgphoto2Api final : public Gphoto2Api {
 
   ~Libgphoto2Api() override {
     if (camera_ != nullptr) {
-      gp_camera_exit(camera_, context_);
-      gp_camera_unref(camera_);
+      CloseCamera(camera_, context_, /*initialized=*/true, network_);
     }
     if (abilities_ != nullptr) gp_abilities_list_free(abilities_);
     if (ports_ != nullptr) gp_port_info_list_free(ports_);
@@ -86,6 +118,14 @@ class Libgphoto2Api final : public Gphoto2Api {
       gp_abilities_list_get_abilities(abilities_, index, &abilities);
       gp_camera_set_abilities(camera, abilities);
     }
+    network_ = port.rfind("ptpip:", 0) == 0;
+    if (network_) {
+      KeepDescriptorZeroOnDevNull();
+      // libgphoto2 (ptp2.so) writes to its PTP/IP sockets with write(2): a
+      // camera that closed the connection must not kill the process.
+      static std::once_flag ignore_sigpipe;
+      std::call_once(ignore_sigpipe, [] { signal(SIGPIPE, SIG_IGN); });
+    }
     if (!port.empty()) {
       // Exact paths, and patterns such as "^disk:" that accept any folder.
       int index = gp_port_info_list_lookup_path(ports_, port.c_str());
@@ -103,7 +143,7 @@ class Libgphoto2Api final : public Gphoto2Api {
       result = gp_camera_init(camera, context_);
     }
     if (result < GP_OK) {
-      gp_camera_unref(camera);
+      CloseCamera(camera, context_, /*initialized=*/false, network_);
       return result;
     }
     camera_ = camera;
@@ -394,6 +434,7 @@ class Libgphoto2Api final : public Gphoto2Api {
 
   GPContext* context_;
   Camera* camera_ = nullptr;
+  bool network_ = false;  // a PTP/IP port (KeepDescriptorZeroOnDevNull)
   CameraAbilitiesList* abilities_ = nullptr;
   GPPortInfoList* ports_ = nullptr;
   std::atomic<bool> cancel_{false};

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "hardware/gphoto2/settings.h"
 
+#include <arpa/inet.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -11,6 +13,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
 
 namespace hdrstereo::gphoto2 {
@@ -316,6 +319,12 @@ std::optional<hardware::ImageFormat> FormatFromFileName(
   if (extension == "jpg" || extension == "jpeg") {
     return hardware::ImageFormat::kJpeg;
   }
+  // What the simulated network camera sends (hardware/sim/ptpip_camera.h);
+  // the capture job checks each frame's depth when it decodes it.
+  if (extension == "png") return hardware::ImageFormat::kPng8;
+  if (extension == "tif" || extension == "tiff") {
+    return hardware::ImageFormat::kTiff16;
+  }
   for (absl::string_view raw :
        {"cr2", "cr3", "crw", "nef", "nrw", "arw", "srf", "sr2",
         "dng", "raf", "orf", "rw2", "pef", "srw", "3fr", "iiq",
@@ -323,6 +332,34 @@ std::optional<hardware::ImageFormat> FormatFromFileName(
     if (extension == raw) return hardware::ImageFormat::kRaw;
   }
   return std::nullopt;
+}
+
+bool IsNetworkPort(absl::string_view port) {
+  return absl::StartsWith(port, "ptpip:");
+}
+
+absl::StatusOr<std::string> NormalizeCameraPort(absl::string_view port) {
+  if (!absl::StartsWith(port, "ptpip:")) return std::string(port);
+  const std::vector<absl::string_view> parts =
+      absl::StrSplit(port.substr(6), ':');
+  in_addr address{};
+  if (parts.size() > 3 ||
+      inet_pton(AF_INET, std::string(parts[0]).c_str(), &address) != 1) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "camera port \"", port,
+        "\": a PTP/IP camera is ptpip:ADDRESS[:PORT], ADDRESS an IPv4 "
+        "address (libgphoto2 looks up no host names)"));
+  }
+  for (size_t i = 1; i < parts.size(); ++i) {
+    int number = 0;
+    if (!absl::SimpleAtoi(parts[i], &number) || number < 1 || number > 65535) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("camera port \"", port, "\": \"", parts[i],
+                       "\" is not a TCP port (1-65535)"));
+    }
+  }
+  if (parts.size() == 2) return absl::StrCat(port, ":", parts[1]);
+  return std::string(port);
 }
 
 absl::StatusOr<CaptureTarget> ParseCaptureTarget(absl::string_view text) {

@@ -72,10 +72,20 @@ absl::StatusOr<std::string> MatchFormatChoice(
 
 // What a downloaded file is, from its name's extension: .jpg/.jpeg -> kJpeg;
 // camera RAW extensions (.cr2 .cr3 .nef .arw .dng .raf .orf .rw2 ...) ->
-// kRaw; nullopt otherwise.
+// kRaw; .png -> kPng8; .tif/.tiff -> kTiff16; nullopt otherwise.
 std::optional<hardware::ImageFormat> FormatFromFileName(absl::string_view name);
 // Lowercase extension without the dot ("" when none).
 std::string FileExtension(absl::string_view name);
+
+// Whether a libgphoto2 port is on the network: "ptpip:..." (the only
+// network prefix libgphoto2 2.5.30's port library registers).
+bool IsNetworkPort(absl::string_view port);
+// A camera port as libgphoto2 takes it. For "ptpip:HOST[:PORT[:EVENTS]]"
+// HOST must be an IPv4 address (libgphoto2 resolves no names) and the
+// ports 1..65535; one PORT serves both connections ("ptpip:H:P" becomes
+// "ptpip:H:P:P": libgphoto2 would look for the events on 15740). Other
+// ports are returned as given. INVALID_ARGUMENT saying what is wrong.
+absl::StatusOr<std::string> NormalizeCameraPort(absl::string_view port);
 
 enum class CaptureTarget {
   kLeaveAsIs,

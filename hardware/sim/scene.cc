@@ -610,7 +610,7 @@ Scene ParseSceneJson(const Json& root) {
                 {"busy_first_calls", "timeout", "disconnect",
                  "disconnect_failed_reopens", "absent_until_file", "corrupt",
                  "previous_file", "wrong_exposure", "card_target", "hold",
-                 "hold_fifo", "low_battery"});
+                 "hold_fifo", "low_battery", "ptpip"});
       s.camera_faults.busy_first_calls =
           GetInt(c, p, "busy_first_calls", 0, 0, 1000000);
       s.camera_faults.timeout = ParseTrigger(c, p, "timeout");
@@ -635,6 +635,19 @@ Scene ParseSceneJson(const Json& root) {
         s.camera_faults.low_battery_percent =
             GetInt(c.at("low_battery"), p + ".low_battery", "percent",
                    s.camera_faults.low_battery_percent, 0, 100);
+      }
+      if (c.contains("ptpip")) {
+        const Json& n = c.at("ptpip");
+        const std::string q = p + ".ptpip";
+        CheckKeys(n, q,
+                  {"drop_in_transfer", "slow_transfer", "slow_transfer_s",
+                   "store_full"});
+        CameraFaults::PtpIp& f = s.camera_faults.ptpip;
+        f.drop_in_transfer = ParseTrigger(n, q, "drop_in_transfer");
+        f.slow_transfer = ParseTrigger(n, q, "slow_transfer");
+        f.slow_transfer_s =
+            GetNumber(n, q, "slow_transfer_s", f.slow_transfer_s, 0, 3600);
+        f.store_full = ParseTrigger(n, q, "store_full");
       }
     }
     if (j.contains("stage")) {

@@ -229,6 +229,18 @@ struct CameraFaults {
   // holds and 100 otherwise.
   FaultWindow low_battery;
   int low_battery_percent = 5;
+  // Faults only the network camera (ptpip_camera.h) shows, on its captures
+  // counted from 1 (scene file: faults.camera.ptpip):
+  struct PtpIp {
+    // Both connections close halfway through the file's transfer.
+    FaultTrigger drop_in_transfer;
+    // The file trickles out: its transfer takes slow_transfer_s (modelled
+    // time, times timing.scale), in pauses of at most 1 s.
+    FaultTrigger slow_transfer;
+    double slow_transfer_s = 3;
+    // The store is full: a StoreFull event instead of ObjectAdded.
+    FaultTrigger store_full;
+  } ptpip;
 };
 
 struct StageFaults {

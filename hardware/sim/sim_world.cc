@@ -365,8 +365,16 @@ absl::StatusOr<int> SimWorld::PrepareCaptureGroup() {
   return drained;
 }
 
-absl::StatusOr<SimCapture> SimWorld::Capture(const ExposureSettings& settings,
-                                             ImageFormat format) {
+std::optional<SimCapture> SimWorld::TakePendingFile() {
+  std::lock_guard<std::mutex> lock(mu_);
+  std::optional<SimCapture> pending = std::move(held_);
+  held_.reset();
+  return pending;
+}
+
+absl::StatusOr<SimCapture> SimWorld::Capture(
+    const ExposureSettings& settings, ImageFormat format,
+    const std::function<void()>& accepted) {
   if (!(settings.exposure_s > 0) || !(settings.iso > 0)) {
     return absl::InvalidArgumentError(
         absl::StrCat("exposure (", settings.exposure_s, " s) and ISO (",
@@ -389,12 +397,13 @@ absl::StatusOr<SimCapture> SimWorld::Capture(const ExposureSettings& settings,
   }
   const uint64_t seed = scene().seed;
   const double capture_s = timing().CaptureSeconds(settings.exposure_s);
-  if (FaultFires(faults.hold, call, seed, 7)) {
-    RETURN_IF_ERROR(WaitForRelease(faults.hold_fifo, call));
-  }
   if (call <= faults.busy_first_calls) {
     return absl::UnavailableError(
         absl::StrCat("camera busy (simulated fault, call ", call, ")"));
+  }
+  if (accepted) accepted();
+  if (FaultFires(faults.hold, call, seed, 7)) {
+    RETURN_IF_ERROR(WaitForRelease(faults.hold_fifo, call));
   }
   if (FaultFires(faults.timeout, call, seed, 1)) {
     SleepModelled(capture_s);

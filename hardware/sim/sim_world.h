@@ -19,6 +19,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <opencv2/core.hpp>
@@ -150,8 +151,12 @@ class SimWorld {
   //   call until the camera is reopened (ReopenCamera) or plugged in again
   //   (ReconnectCamera).
   // A corrupt fault returns OK with damaged bytes (corrupted = true).
-  absl::StatusOr<SimCapture> Capture(const ExposureSettings& settings,
-                                     ImageFormat format);
+  // `accepted`, when given, is called once the camera takes the trigger
+  // (not busy, not disconnected), before it exposes: a network camera
+  // answers the trigger then and announces the file later.
+  absl::StatusOr<SimCapture> Capture(
+      const ExposureSettings& settings, ImageFormat format,
+      const std::function<void()>& accepted = nullptr);
   // A live-view frame: the scene at the current stage position lit by the
   // pattern showing now, seen through PreviewView, exposed with `settings`
   // and noise PreviewNoiseSeed(scene, n) for the n-th preview (the world's
@@ -172,6 +177,10 @@ class SimWorld {
   // the files a previous-file fault left pending discarded. Returns how
   // many were discarded; FAILED_PRECONDITION while disconnected.
   absl::StatusOr<int> PrepareCaptureGroup();
+  // The file a previous-file fault keeps pending, taken out of the world:
+  // a network camera (ptpip_camera.h) announces it as a file of its own,
+  // which the driver's drain deletes. nullopt when none is pending.
+  std::optional<SimCapture> TakePendingFile();
   int64_t capture_calls() const;
 
   // Exact truth for views at left_mm and left_mm + baseline_mm, lit by the

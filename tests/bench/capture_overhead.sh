@@ -17,18 +17,23 @@
 # its own connection running the Server-Sent Events form of Jobs/Watch with
 # an API key (as a browser page follows a capture); the script checks that
 # all of them got the same complete stream, the end included.
+# With --sim-camera ptpip the simulated camera is served over PTP/IP on
+# loopback (16-bit TIFF) and driven through libgphoto2 (issue 38).
 # Usage: tests/bench/capture_overhead.sh [BUILD_DIR]
 #            [--watchers N | --http-watchers N] [--scales "0 1"]
+#            [--sim-camera direct|ptpip]
 set -euo pipefail
 build=build
 watchers=0
 http_watchers=0
 scales="0 1"
+sim_camera=direct
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --watchers) watchers=$2; shift 2 ;;
     --http-watchers) http_watchers=$2; shift 2 ;;
     --scales) scales=$2; shift 2 ;;
+    --sim-camera) sim_camera=$2; shift 2 ;;
     *) build=$1; shift ;;
   esac
 done
@@ -97,6 +102,7 @@ for scale in $scales; do
   mkdir -p "$root"
   "$build/daemon/hdrstereod" --listen "$listen" --data-root "$root" \
     --ready-file "$root/ready" --sim-time-scale "$scale" "${tls[@]}" \
+    --sim-camera "$sim_camera" --sim-camera-format tiff16 \
     "${http[@]}" >"$root/log" 2>&1 &
   pid=$!
   for _ in $(seq 100); do [[ -s "$root/ready" ]] && break; sleep 0.1; done

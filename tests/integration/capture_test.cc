@@ -330,12 +330,17 @@ TEST_F(CaptureTest,
   EXPECT_EQ(job["state"], "JOB_STATE_SUCCEEDED");
   EXPECT_EQ(JsonInt(job["progress"]["total"]), 120);
   EXPECT_EQ(JsonInt(job["progress"]["done"]), 120);
-  // One drop, one suspension, one resumption, in that order.
-  EXPECT_EQ(EventsLike("the camera dropped (camera disconnected during "
-                       "transfer (simulated fault, call 40))"),
+  // One drop, one suspension, one resumption, in that order. Through
+  // libgphoto2 the drop is the network camera closing its connection.
+  const std::string dropped =
+      testing::TestsThroughPtpIp()
+          ? "closed the connection (disconnected)"
+          : "camera disconnected during transfer (simulated fault, call 40)";
+  EXPECT_EQ(EventsLike(absl::StrCat("the camera dropped (%", dropped, "%)")),
             1);
-  EXPECT_EQ(EventsLike("suspended: camera disconnected, reconnecting "
-                       "(attempt 1): camera disconnected during transfer"),
+  EXPECT_EQ(EventsLike(absl::StrCat("suspended: camera disconnected, "
+                                    "reconnecting (attempt 1): %",
+                                    dropped, "%")),
             1);
   EXPECT_EQ(EventsLike("resumed: the condition cleared (was: camera "
                        "disconnected, reconnecting (attempt "),
@@ -423,6 +428,10 @@ TEST_F(CaptureTest, SilentCameraFaultsAreCaughtAndTheFrameRetaken) {
       {"wrong_exposure", "not the 1/"},
       {"card_target", "on its card, not in RAM"}};
   for (const auto& [fault, message] : faults) {
+    // A generic PTP camera has no capture target to switch.
+    if (testing::TestsThroughPtpIp() && std::string(fault) == "card_target") {
+      continue;
+    }
     SCOPED_TRACE(fault);
     nlohmann::json patch = SmallLabLamp();
     patch["faults"] = {{"camera", {{fault, {{"calls", {5}}}}}}};
@@ -432,7 +441,8 @@ TEST_F(CaptureTest, SilentCameraFaultsAreCaughtAndTheFrameRetaken) {
     CommandResult run = Cli({"capture", "stereo", session, "--watch"});
     EXPECT_EQ(run.exit_code, 0) << run.out << run.err;
     EXPECT_THAT(run.out, HasSubstr(message));
-    EXPECT_EQ(EventsLike(message), 1);
+    EXPECT_EQ(EventsLike(message), 1)
+        << Sql("SELECT group_concat(message, '\n') FROM job_events");
     ExpectConsistentStore(session, 17);
     EXPECT_EQ(ExpectFilesMatchTheirRows(session), 17);
     StopDaemon();

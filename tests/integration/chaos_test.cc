@@ -465,10 +465,20 @@ TEST_F(ChaosTest, StructuredLightSurvivesEveryFaultAtRandomFrames) {
         << Name(p.fault);
   }
   const int64_t previous = EventsLike("already taken in this capture");
-  const int64_t drops = EventsLike("the camera dropped (camera disconnected");
+  // Through libgphoto2 (HDRSTEREO_TEST_SIM_CAMERA=ptpip) the drop is the
+  // network camera closing its connection, and a capture whose file never
+  // comes leaves libgphoto2 waiting (docs/ptpip.md): the driver's deadline
+  // marks the camera stuck, which is a second drop, not a retake.
+  const bool ptpip = testing::TestsThroughPtpIp();
+  const int64_t drops =
+      EventsLike(ptpip ? "the camera dropped (%closed the connection "
+                         "(disconnected)"
+                       : "the camera dropped (camera disconnected");
   const int64_t timeouts = EventsLike(
-      "capturing: camera timed out (simulated fault, call %); the frame is "
-      "taken again from its start (attempt 2 of at most 3)");
+      ptpip ? "the camera dropped (%no answer from the camera within"
+            : "capturing: camera timed out (simulated fault, call %); the "
+              "frame is taken again from its start (attempt 2 of at most 3)");
+  const int camera_drops = ptpip ? 2 : 1;
   const int64_t camera_suspensions =
       EventsLike("suspended: camera disconnected");
   const int64_t stage_suspensions =
@@ -483,16 +493,16 @@ TEST_F(ChaosTest, StructuredLightSurvivesEveryFaultAtRandomFrames) {
   EXPECT_EQ(previous, 1);
   EXPECT_EQ(drops, 1);
   EXPECT_EQ(timeouts, 1);
-  EXPECT_EQ(camera_suspensions, 1);
+  EXPECT_EQ(camera_suspensions, camera_drops);
   EXPECT_EQ(stage_suspensions, stage_checks);
-  EXPECT_EQ(suspensions, 1 + stage_checks);
-  EXPECT_EQ(resumptions, 1 + stage_checks);
+  EXPECT_EQ(suspensions, camera_drops + stage_checks);
+  EXPECT_EQ(resumptions, camera_drops + stage_checks);
   EXPECT_EQ(interruptions, 1);
   // The previous file, the drop, the timeout and the stage faults on moves.
   EXPECT_EQ(retakes, 3 + stage_retakes);
   EXPECT_EQ(EventsOfKind("previous_file"), 1);
-  EXPECT_EQ(EventsOfKind("camera_disconnected"), 1);
-  EXPECT_EQ(EventsOfKind("camera_timeout"), 1);
+  EXPECT_EQ(EventsOfKind("camera_disconnected"), camera_drops);
+  EXPECT_EQ(EventsOfKind("camera_timeout"), ptpip ? 0 : 1);
   // The restarted daemon took up exactly the frames not yet recorded (its
   // progress event; a warning at its first frame carries the step too).
   EXPECT_EQ(Count(absl::StrCat("SELECT count(*) FROM job_events WHERE job_id "

@@ -66,12 +66,21 @@ TEST_F(CaptureTest, APermanentDeviceFaultFailsTheFrameAtOnce) {
             1);
   const nlohmann::json failed = Job(1);
   EXPECT_EQ(failed["state"], "JOB_STATE_FAILED");
+  // Through libgphoto2 the range is the PTP/IP camera's shutter speeds.
+  const std::string outside =
+      testing::TestsThroughPtpIp()
+          ? "shutterspeed (/main/capturesettings/shutterspeed): exposure "
+            "1/16000 s is outside the camera's range 1/3333 s .. 30 s (bulb "
+            "is not used)"
+          : "exposure 6.25e-05 s is outside the simulated camera's "
+            "[0.000125, 30] s";
   EXPECT_THAT(failed.value("error", ""),
-              HasSubstr("frame left view, stereo, 1-16000s: setting the "
-                        "exposure to 1-16000s: exposure 6.25e-05 s is outside "
-                        "the simulated camera's [0.000125, 30] s; not tried "
-                        "again: this fault does not pass by itself; nothing "
-                        "was recorded for it"));
+              HasSubstr(absl::StrCat(
+                  "frame left view, stereo, 1-16000s: setting the exposure to "
+                  "1-16000s: ",
+                  outside,
+                  "; not tried again: this fault does not pass by itself; "
+                  "nothing was recorded for it")));
   EXPECT_EQ(EventsLike("taken again"), 0);
   EXPECT_EQ(EventsOfKind("camera_error"), 1);
   EXPECT_EQ(Sql("SELECT count(*) FROM frames"), "0");

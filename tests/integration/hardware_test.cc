@@ -4,8 +4,12 @@
 // the real hdrstereo CLI: the stage is the real Zaber driver on the
 // emulator's pty, the camera renders the simulated world, and each injected
 // fault must come back as a clear error while the daemon keeps serving.
+#include <arpa/inet.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <fstream>
@@ -21,6 +25,8 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
+#include "absl/time/clock.h"
+#include "hardware/sim/ptpip_camera.h"
 #include "hardware/sim/scene.h"
 #include "hardware/sim/sim_world.h"
 #include "tests/support/daemon_fixture.h"
@@ -408,6 +414,56 @@ TEST_F(HardwareTest, ACameraAbsentAtTheStartIsFoundAndTheCaptureProceeds) {
             1);
   EXPECT_EQ(EventsLike("dropped"), 0);
   EXPECT_THAT(StatusLine("camera"), StartsWith("connected"));
+  EXPECT_EQ(StopDaemon(), 0);
+}
+
+// A real-mode daemon told of a network camera (--camera-port ptpip:...)
+// that does not answer yet looks for it with backoff; once the camera is
+// up (the simulated PTP/IP camera on that port) it is connected through
+// libgphoto2, `hw status` names it by its address, and settings go to it.
+TEST_F(HardwareTest, ANetworkCameraNotThereAtTheStartIsWaitedFor) {
+  int port = 0;
+  {
+    // A free loopback port for the camera that is not there yet.
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in sa{};
+    sa.sin_family = AF_INET;
+    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ASSERT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&sa), sizeof(sa)), 0);
+    socklen_t length = sizeof(sa);
+    getsockname(fd, reinterpret_cast<sockaddr*>(&sa), &length);
+    port = ntohs(sa.sin_port);
+    close(fd);
+  }
+  StartDaemon({"--hardware", "real", "--camera-port",
+               absl::StrCat("ptpip:127.0.0.1:", port), "--stage-port",
+               (dir_ / "no-stage").string(), "--projector-display", ":99",
+               "--camera-reconnect-first-s", "0.05", "--camera-reconnect-max-s",
+               "0.2"});
+  EXPECT_THAT(StatusLine("camera"), StartsWith("reconnecting (attempt "));
+
+  sim::Scene scene = *sim::LoadBundledScene("lab-lamp");
+  sim::ScaleCamera(scene, 320);
+  sim::SimWorld world(scene);
+  sim::PtpIpCameraOptions options;
+  options.port = port;
+  absl::StatusOr<std::unique_ptr<sim::PtpIpCamera>> camera =
+      sim::PtpIpCamera::Start(world, options);
+  ASSERT_TRUE(camera.ok()) << camera.status();
+  std::string line;
+  for (int i = 0; i < 100; ++i) {
+    line = StatusLine("camera");
+    if (absl::StartsWith(line, "connected")) break;
+    absl::SleepFor(absl::Milliseconds(100));
+  }
+  EXPECT_THAT(
+      line,
+      StartsWith("connected  hdrstereo simulated camera (lab-lamp) sim-"));
+  EXPECT_THAT(line, HasSubstr("  PTP/IP 127.0.0.1"));
+  CommandResult set =
+      Cli({"hw", "camera", "set", "--exposure", "1/40", "--iso", "400"});
+  EXPECT_EQ(set.exit_code, 0) << set.out << set.err;
+  EXPECT_THAT(Cli({"hw", "camera", "get"}).out, HasSubstr("1/40"));
   EXPECT_EQ(StopDaemon(), 0);
 }
 

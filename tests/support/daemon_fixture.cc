@@ -3,7 +3,9 @@
 
 #include <signal.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <functional>
 #include <map>
 #include <set>
@@ -40,6 +42,13 @@ nlohmann::json SmallLabLamp() {
           {"projector", {{"width", 128}, {"height", 96}}}};
 }
 
+std::string TestSimCamera() {
+  const char* mode = std::getenv("HDRSTEREO_TEST_SIM_CAMERA");
+  return mode != nullptr ? mode : "";
+}
+
+bool TestsThroughPtpIp() { return absl::StartsWith(TestSimCamera(), "ptpip"); }
+
 void DaemonFixture::StartDaemon(const std::vector<std::string>& extra) {
   const fs::path ready = dir_ / "ready";
   fs::remove(ready);
@@ -55,6 +64,20 @@ void DaemonFixture::StartDaemon(const std::vector<std::string>& extra) {
   if (!has_hardware) {
     argv.push_back("--hardware");
     argv.push_back("sim");
+    // The suite's camera mode (README "Tests"): HDRSTEREO_TEST_SIM_CAMERA
+    // "ptpip" or "ptpip:FORMAT" drives the simulated camera through
+    // libgphoto2 over PTP/IP (delivering FORMAT).
+    const std::string mode = TestSimCamera();
+    if (!mode.empty() &&
+        std::find(extra.begin(), extra.end(), "--sim-camera") == extra.end()) {
+      const std::vector<std::string> parts = absl::StrSplit(mode, ':');
+      argv.push_back("--sim-camera");
+      argv.push_back(parts[0]);
+      if (parts.size() > 1) {
+        argv.push_back("--sim-camera-format");
+        argv.push_back(parts[1]);
+      }
+    }
   }
   if (!has_listen) {
     argv.push_back("--listen");

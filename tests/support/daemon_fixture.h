@@ -27,6 +27,12 @@ namespace hdrstereo::testing {
 // quick.
 nlohmann::json SmallLabLamp();
 
+// The simulated camera mode the suite runs in: HDRSTEREO_TEST_SIM_CAMERA
+// ("" = the direct camera; "ptpip" or "ptpip:tiff16": through libgphoto2
+// to the simulated PTP/IP camera), which StartDaemon passes on.
+std::string TestSimCamera();
+bool TestsThroughPtpIp();
+
 // A 64-bit integer from the CLI's --json output (protobuf's JSON writes
 // int64 as a string); 0 when it is neither a string nor a number.
 int64_t JsonInt(const nlohmann::json& value);

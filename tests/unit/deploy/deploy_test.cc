@@ -302,6 +302,39 @@ TEST(DeployTest, CameraReconnectBackoffFromFlagOrConfig) {
               HasSubstr("camera-reconnect-max-s"));
 }
 
+// A network camera: "ptpip:ADDRESS[:PORT]" is checked, one port serves
+// both of libgphoto2's connections, and the model defaults to its generic
+// "PTP/IP Camera". The simulated camera can be served the same way.
+TEST(DeployTest, NetworkCameraPortsAndTheSimulatedPtpIpCamera) {
+  absl::StatusOr<daemon::ParsedArgs> ptpip =
+      Parse({"--hardware", "real", "--camera-port", "ptpip:192.168.1.20:4000"});
+  ASSERT_TRUE(ptpip.ok()) << ptpip.status();
+  EXPECT_EQ(std::get<daemon::Config>(*ptpip).camera_port,
+            "ptpip:192.168.1.20:4000:4000");
+  EXPECT_EQ(std::get<daemon::Config>(*ptpip).camera_model, "PTP/IP Camera");
+  absl::StatusOr<daemon::ParsedArgs> named =
+      Parse({"--camera-port", "ptpip:10.0.0.7", "--camera-model",
+             "Nikon DSLR (WLAN)"});
+  ASSERT_TRUE(named.ok()) << named.status();
+  EXPECT_EQ(std::get<daemon::Config>(*named).camera_port, "ptpip:10.0.0.7");
+  EXPECT_EQ(std::get<daemon::Config>(*named).camera_model, "Nikon DSLR (WLAN)");
+  EXPECT_THAT(Parse({"--camera-port", "ptpip:camera.lab"}).status(),
+              testing::StatusIs(absl::StatusCode::kInvalidArgument,
+                                HasSubstr("an IPv4 address (libgphoto2 looks "
+                                          "up no host names)")));
+  EXPECT_THAT(Parse({"--camera-port", "ptpip:10.0.0.7:99999"}).status(),
+              testing::StatusIs(absl::StatusCode::kInvalidArgument,
+                                HasSubstr("\"99999\" is not a TCP port")));
+
+  absl::StatusOr<daemon::ParsedArgs> sim =
+      Parse({"--sim-camera", "ptpip", "--sim-camera-format", "tiff16"});
+  ASSERT_TRUE(sim.ok()) << sim.status();
+  EXPECT_EQ(std::get<daemon::Config>(*sim).sim_camera, "ptpip");
+  EXPECT_EQ(std::get<daemon::Config>(*sim).sim_camera_format, "tiff16");
+  EXPECT_FALSE(Parse({"--sim-camera", "usb"}).ok());
+  EXPECT_FALSE(Parse({"--sim-camera-format", "gif"}).ok());
+}
+
 // The console's folder: unset by default (the daemon then looks beside its
 // executable), from the flag or the config's web-root, the flag winning.
 TEST(DeployTest, WebRootFromFlagOrConfig) {

@@ -285,6 +285,25 @@ TEST(CaptureTargetTest, ParsesConfigText) {
             absl::StatusCode::kInvalidArgument);
 }
 
+TEST(CameraPortTest, PtpIpPortsAreCheckedAndGetTheirEventPort) {
+  EXPECT_EQ(*NormalizeCameraPort("usb:001,004"), "usb:001,004");
+  EXPECT_EQ(*NormalizeCameraPort(""), "");
+  EXPECT_EQ(*NormalizeCameraPort("ptpip:192.168.1.20"), "ptpip:192.168.1.20");
+  EXPECT_EQ(*NormalizeCameraPort("ptpip:127.0.0.1:4000"),
+            "ptpip:127.0.0.1:4000:4000");
+  EXPECT_EQ(*NormalizeCameraPort("ptpip:127.0.0.1:4000:4001"),
+            "ptpip:127.0.0.1:4000:4001");
+  for (const char* bad :
+       {"ptpip:", "ptpip:host.lab", "ptpip:::1", "ptpip:10.0.0.1:0",
+        "ptpip:10.0.0.1:x", "ptpip:10.0.0.1:1:2:3"}) {
+    EXPECT_EQ(NormalizeCameraPort(bad).status().code(),
+              absl::StatusCode::kInvalidArgument)
+        << bad;
+  }
+  EXPECT_TRUE(IsNetworkPort("ptpip:10.0.0.1"));
+  EXPECT_FALSE(IsNetworkPort("usb:001,004"));
+}
+
 TEST(BatteryTest, ParsesPercentAndWords) {
   EXPECT_EQ(ParseBatteryPercent("100%"), 100);
   EXPECT_EQ(ParseBatteryPercent("75 %"), 75);

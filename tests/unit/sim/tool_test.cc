@@ -3,11 +3,13 @@
 // The hdrstereo-sim tool end to end: render a frame and the truth of a small
 // slanted-plane scene, read the files back and check them against geometry.
 #include <gtest/gtest.h>
+#include <signal.h>
 
 #include <cmath>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 
+#include "absl/time/clock.h"
 #include "tests/support/subprocess.h"
 #include "tests/support/temp_dir.h"
 #include "tests/unit/sim/test_scenes.h"
@@ -75,6 +77,51 @@ TEST(ToolTest, BadSceneIsAUsageErrorNamingTheField) {
   ASSERT_TRUE(r.ok()) << r.status();
   EXPECT_EQ(r->exit_code, 2);
   EXPECT_NE(r->err.find("objects[0].radius_mm"), std::string::npos) << r->err;
+}
+
+// `hdrstereo-sim camera --ptpip` serves the simulated camera on its own:
+// it prints libgphoto2's port string, Debian's gphoto2 client reads the
+// camera there, and SIGTERM ends it.
+TEST(ToolTest, ServesAPtpIpCameraThatGphoto2Reads) {
+  hdrstereo::testing::TempDir dir;
+  const std::filesystem::path log = dir / "camera.log";
+  absl::StatusOr<hdrstereo::testing::Process> camera =
+      hdrstereo::testing::Process::Start(
+          {HDRSTEREO_SIM_TOOL, "camera", "--ptpip", "127.0.0.1:0", "--scene",
+           "textured"},
+          log);
+  ASSERT_TRUE(camera.ok()) << camera.status();
+  ASSERT_TRUE(hdrstereo::testing::WaitForFile(log, absl::Seconds(30)));
+  std::string port;
+  for (int i = 0; i < 100 && port.find('\n') == std::string::npos; ++i) {
+    std::ifstream in(log);
+    std::getline(in, port, '\0');
+    absl::SleepFor(absl::Milliseconds(50));
+  }
+  port = port.substr(0, port.find('\n'));
+  ASSERT_EQ(port.rfind("ptpip:127.0.0.1:", 0), 0u) << port;
+  absl::StatusOr<hdrstereo::testing::CommandResult> summary =
+      hdrstereo::testing::RunCommand({"/usr/bin/gphoto2", "--port", port,
+                                      "--camera", "PTP/IP Camera",
+                                      "--summary"});
+  ASSERT_TRUE(summary.ok()) << summary.status();
+  EXPECT_EQ(summary->exit_code, 0) << summary->err;
+  EXPECT_NE(summary->out.find("Model: hdrstereo simulated camera (textured)"),
+            std::string::npos)
+      << summary->out;
+  camera->Signal(SIGTERM);
+  EXPECT_EQ(camera->Wait(absl::Seconds(10)), 0);
+}
+
+TEST(ToolTest, APtpIpAddressThatIsNotOneIsAUsageError) {
+  absl::StatusOr<hdrstereo::testing::CommandResult> r =
+      hdrstereo::testing::RunCommand(
+          {HDRSTEREO_SIM_TOOL, "camera", "--ptpip", "camera.lab:15740"});
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_EQ(r->exit_code, 2);
+  EXPECT_NE(r->err.find("\"camera.lab\" is not an IPv4 address"),
+            std::string::npos)
+      << r->err;
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <fcntl.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <sys/resource.h>
 
 #include <cstdio>
@@ -186,6 +187,37 @@ TEST(CommandRunnerTest, ClosesEveryDescriptor) {
               StatusIs(absl::StatusCode::kDeadlineExceeded,
                        HasSubstr("sleep did not finish within 100ms")));
   EXPECT_EQ(OpenFds(), fds_before);
+}
+
+// What this process ignores or blocks (the daemon: SIGPIPE once a PTP/IP
+// camera is open, the signals it takes with sigwait) is not the child's:
+// it starts with SIGPIPE at its default and nothing blocked.
+TEST(CommandRunnerTest, TheChildStartsWithDefaultSignals) {
+  struct sigaction ignore = {}, before = {};
+  ignore.sa_handler = SIG_IGN;
+  ASSERT_EQ(sigaction(SIGPIPE, &ignore, &before), 0);
+  sigset_t block, mask_before;
+  sigemptyset(&block);
+  sigaddset(&block, SIGTERM);
+  ASSERT_EQ(pthread_sigmask(SIG_BLOCK, &block, &mask_before), 0);
+  absl::StatusOr<CommandResult> r =
+      RunCommand({"sh", "-c", "grep -E '^Sig(Ign|Blk)' /proc/self/status"}, {},
+                 absl::Seconds(10));
+  pthread_sigmask(SIG_SETMASK, &mask_before, nullptr);
+  sigaction(SIGPIPE, &before, nullptr);
+  ASSERT_TRUE(r.ok()) << r.status();
+  // Bit 13 (SIGPIPE, signal 13) of SigIgn, bit 15 (SIGTERM) of SigBlk, in
+  // hexadecimal masks: the shell's own settings leave both clear.
+  uint64_t ignored = ~0ull, blocked = ~0ull;
+  for (absl::string_view line : absl::StrSplit(r->out, '\n')) {
+    const std::vector<std::string> field = absl::StrSplit(line, '\t');
+    if (field.size() != 2) continue;
+    const uint64_t mask = std::stoull(field[1], nullptr, 16);
+    if (field[0] == "SigIgn:") ignored = mask;
+    if (field[0] == "SigBlk:") blocked = mask;
+  }
+  EXPECT_EQ(ignored & (1ull << (SIGPIPE - 1)), 0u) << r->out;
+  EXPECT_EQ(blocked & (1ull << (SIGTERM - 1)), 0u) << r->out;
 }
 
 TEST(CommandRunnerTest, AMissingProgramIsNamed) {
