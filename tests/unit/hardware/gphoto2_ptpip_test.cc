@@ -32,6 +32,15 @@
 #include "hardware/sim/sim_world.h"
 #include "processing/io/exif.h"
 
+// Under LeakSanitizer (HDRSTEREO_SANITIZE=1): libgphoto2 2.5.30 leaks in
+// its camlibs, 8 bytes for each open and close of a PTP/IP camera and
+// 66 KB for an init that fails on garbage (measured with this test's cases
+// one by one). The camlibs are unloaded before the report, so no
+// suppression can name them; leaks of our own code here are caught by
+// ptpip_camera_test and gphoto2_camera_test, which run the same code
+// without libgphoto2.
+extern "C" const char* __lsan_default_options() { return "detect_leaks=0"; }
+
 namespace hdrstereo::gphoto2 {
 namespace {
 
