@@ -19,6 +19,7 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
 #include "processing/base/status_macros.h"
 
 namespace hdrstereo::testing {
@@ -31,22 +32,48 @@ constexpr const char* kSlurmctld = "/usr/sbin/slurmctld";
 constexpr const char* kSlurmd = "/usr/sbin/slurmd";
 constexpr const char* kSbatch = "/usr/bin/sbatch";
 
-// Two distinct ports free now on 127.0.0.1 (the kernel's choice; both are
-// held while choosing, so they differ). Another process may still take one
-// before slurmctld or slurmd binds it: Start retries with fresh ports then.
+// The kernel's range for ports it hands out by itself (connect() and
+// bind() to port 0): [low, high] from ip_local_port_range.
+std::pair<int, int> EphemeralPortRange() {
+  std::ifstream in("/proc/sys/net/ipv4/ip_local_port_range");
+  int low = 32768, high = 60999;
+  in >> low >> high;
+  return {low, high};
+}
+
+// Two distinct ports free now on 127.0.0.1, held while choosing (so they
+// differ), drawn below the kernel's ephemeral range: a port the kernel
+// chose for us (bind to port 0) is also the next it gives an outgoing
+// connection of another test, which then holds it when slurmd binds it.
+// Outside that range only a process that binds that very port can take
+// it; Start retries with fresh ports then. The kernel's choice when no
+// port below the range is free.
 absl::StatusOr<std::pair<int, int>> TwoFreePorts() {
+  const int below = EphemeralPortRange().first;
+  std::mt19937 random(static_cast<uint32_t>(
+      absl::ToUnixNanos(absl::Now()) ^ (static_cast<int64_t>(getpid()) << 16)));
   int fds[2] = {-1, -1};
   int ports[2] = {-1, -1};
   for (int i = 0; i < 2; ++i) {
-    fds[i] = ::socket(AF_INET, SOCK_STREAM, 0);
-    if (fds[i] < 0) break;
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t len = sizeof addr;
-    if (::bind(fds[i], reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0 &&
-        ::getsockname(fds[i], reinterpret_cast<sockaddr*>(&addr), &len) == 0) {
-      ports[i] = ntohs(addr.sin_port);
+    for (int attempt = 0; attempt < 101 && ports[i] < 0; ++attempt) {
+      if (fds[i] >= 0) ::close(fds[i]);
+      fds[i] = ::socket(AF_INET, SOCK_STREAM, 0);
+      if (fds[i] < 0) break;
+      sockaddr_in addr{};
+      addr.sin_family = AF_INET;
+      addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+      // 100 draws below the range, then the kernel's choice.
+      if (attempt < 100 && below > 11024) {
+        addr.sin_port = htons(static_cast<uint16_t>(
+            std::uniform_int_distribution<int>(10000, below - 1)(random)));
+      }
+      socklen_t len = sizeof addr;
+      if (::bind(fds[i], reinterpret_cast<sockaddr*>(&addr), sizeof addr) ==
+              0 &&
+          ::getsockname(fds[i], reinterpret_cast<sockaddr*>(&addr), &len) ==
+              0) {
+        ports[i] = ntohs(addr.sin_port);
+      }
     }
   }
   for (int fd : fds) {
