@@ -4,12 +4,8 @@
 // the real hdrstereo CLI: the stage is the real Zaber driver on the
 // emulator's pty, the camera renders the simulated world, and each injected
 // fault must come back as a clear error while the daemon keeps serving.
-#include <arpa/inet.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <fstream>
@@ -30,6 +26,7 @@
 #include "hardware/sim/scene.h"
 #include "hardware/sim/sim_world.h"
 #include "tests/support/daemon_fixture.h"
+#include "tests/support/free_ports.h"
 #include "tests/support/subprocess.h"
 
 namespace hdrstereo {
@@ -422,19 +419,10 @@ TEST_F(HardwareTest, ACameraAbsentAtTheStartIsFoundAndTheCaptureProceeds) {
 // up (the simulated PTP/IP camera on that port) it is connected through
 // libgphoto2, `hw status` names it by its address, and settings go to it.
 TEST_F(HardwareTest, ANetworkCameraNotThereAtTheStartIsWaitedFor) {
-  int port = 0;
-  {
-    // A free loopback port for the camera that is not there yet.
-    const int fd = socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in sa{};
-    sa.sin_family = AF_INET;
-    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    ASSERT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&sa), sizeof(sa)), 0);
-    socklen_t length = sizeof(sa);
-    getsockname(fd, reinterpret_cast<sockaddr*>(&sa), &length);
-    port = ntohs(sa.sin_port);
-    close(fd);
-  }
+  // A free loopback port for the camera that is not there yet.
+  absl::StatusOr<std::vector<int>> ports = testing::FreeLoopbackPorts(1);
+  ASSERT_TRUE(ports.ok()) << ports.status();
+  const int port = (*ports)[0];
   StartDaemon({"--hardware", "real", "--camera-port",
                absl::StrCat("ptpip:127.0.0.1:", port), "--stage-port",
                (dir_ / "no-stage").string(), "--projector-display", ":99",

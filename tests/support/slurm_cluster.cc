@@ -2,8 +2,6 @@
 #include "tests/support/slurm_cluster.h"
 
 #include <gtest/gtest.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -21,6 +19,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "processing/base/status_macros.h"
+#include "tests/support/free_ports.h"
 
 namespace hdrstereo::testing {
 namespace fs = std::filesystem;
@@ -31,59 +30,6 @@ constexpr const char* kMunged = "/usr/sbin/munged";
 constexpr const char* kSlurmctld = "/usr/sbin/slurmctld";
 constexpr const char* kSlurmd = "/usr/sbin/slurmd";
 constexpr const char* kSbatch = "/usr/bin/sbatch";
-
-// The kernel's range for ports it hands out by itself (connect() and
-// bind() to port 0): [low, high] from ip_local_port_range.
-std::pair<int, int> EphemeralPortRange() {
-  std::ifstream in("/proc/sys/net/ipv4/ip_local_port_range");
-  int low = 32768, high = 60999;
-  in >> low >> high;
-  return {low, high};
-}
-
-// Two distinct ports free now on 127.0.0.1, held while choosing (so they
-// differ), drawn below the kernel's ephemeral range: a port the kernel
-// chose for us (bind to port 0) is also the next it gives an outgoing
-// connection of another test, which then holds it when slurmd binds it.
-// Outside that range only a process that binds that very port can take
-// it; Start retries with fresh ports then. The kernel's choice when no
-// port below the range is free.
-absl::StatusOr<std::pair<int, int>> TwoFreePorts() {
-  const int below = EphemeralPortRange().first;
-  std::mt19937 random(static_cast<uint32_t>(
-      absl::ToUnixNanos(absl::Now()) ^ (static_cast<int64_t>(getpid()) << 16)));
-  int fds[2] = {-1, -1};
-  int ports[2] = {-1, -1};
-  for (int i = 0; i < 2; ++i) {
-    for (int attempt = 0; attempt < 101 && ports[i] < 0; ++attempt) {
-      if (fds[i] >= 0) ::close(fds[i]);
-      fds[i] = ::socket(AF_INET, SOCK_STREAM, 0);
-      if (fds[i] < 0) break;
-      sockaddr_in addr{};
-      addr.sin_family = AF_INET;
-      addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-      // 100 draws below the range, then the kernel's choice.
-      if (attempt < 100 && below > 11024) {
-        addr.sin_port = htons(static_cast<uint16_t>(
-            std::uniform_int_distribution<int>(10000, below - 1)(random)));
-      }
-      socklen_t len = sizeof addr;
-      if (::bind(fds[i], reinterpret_cast<sockaddr*>(&addr), sizeof addr) ==
-              0 &&
-          ::getsockname(fds[i], reinterpret_cast<sockaddr*>(&addr), &len) ==
-              0) {
-        ports[i] = ntohs(addr.sin_port);
-      }
-    }
-  }
-  for (int fd : fds) {
-    if (fd >= 0) ::close(fd);
-  }
-  if (ports[0] < 0 || ports[1] < 0) {
-    return absl::InternalError("no two free ports on 127.0.0.1");
-  }
-  return std::make_pair(ports[0], ports[1]);
-}
 
 int64_t MemoryMb() {
   return static_cast<int64_t>(::sysconf(_SC_PHYS_PAGES)) *
@@ -168,8 +114,9 @@ absl::StatusOr<std::unique_ptr<SlurmCluster>> SlurmCluster::StartOnce(
         "munged did not create its socket in 10 s: ", c->LogTails()));
   }
 
-  ASSIGN_OR_RETURN(auto ports, TwoFreePorts());
-  const auto [ctld_port, slurmd_port] = ports;
+  ASSIGN_OR_RETURN(std::vector<int> ports, FreeLoopbackPorts(2));
+  const int ctld_port = ports[0];
+  const int slurmd_port = ports[1];
   c->cpus_ = static_cast<int>(std::thread::hardware_concurrency());
   c->conf_ = t / "slurm.conf";
   std::ofstream(c->conf_)
