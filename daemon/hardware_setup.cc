@@ -128,19 +128,7 @@ absl::StatusOr<hardware::Slot<hardware::Camera>> PtpIpSimulatedCamera(
                      " is not png8, tiff16, jpeg or raw"));
   }
   sim::PtpIpCameraOptions responder;
-  switch (*format) {
-    case hardware::ImageFormat::kTiff16:
-      responder.format = sim::ImageFormat::kTiff16;
-      break;
-    case hardware::ImageFormat::kJpeg:
-      responder.format = sim::ImageFormat::kJpeg;
-      break;
-    case hardware::ImageFormat::kRaw:
-      responder.format = sim::ImageFormat::kDng;
-      break;
-    default:
-      responder.format = sim::ImageFormat::kPng;
-  }
+  responder.format = sim::SimFormatOf(*format);
   ASSIGN_OR_RETURN(hw.ptpip_camera,
                    sim::PtpIpCamera::Start(*hw.world, responder));
   spdlog::info("simulated camera: PTP/IP on {}",

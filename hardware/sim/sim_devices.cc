@@ -12,21 +12,6 @@ namespace {
 constexpr double kMinExposureS = 1.0 / 8000;
 constexpr double kMaxExposureS = 30;
 
-ImageFormat ToSim(hardware::ImageFormat format) {
-  switch (format) {
-    case hardware::ImageFormat::kJpeg:
-      return ImageFormat::kJpeg;
-    case hardware::ImageFormat::kRaw:
-    case hardware::ImageFormat::kRawAndJpeg:
-      return ImageFormat::kDng;
-    case hardware::ImageFormat::kTiff16:
-      return ImageFormat::kTiff16;
-    case hardware::ImageFormat::kPng8:
-      return ImageFormat::kPng;
-  }
-  return ImageFormat::kPng;
-}
-
 struct Delivered {
   hardware::ImageFormat format;
   const char* extension;
@@ -47,6 +32,21 @@ Delivered Describe(ImageFormat format) {
 }
 
 }  // namespace
+
+ImageFormat SimFormatOf(hardware::ImageFormat format) {
+  switch (format) {
+    case hardware::ImageFormat::kJpeg:
+      return ImageFormat::kJpeg;
+    case hardware::ImageFormat::kRaw:
+    case hardware::ImageFormat::kRawAndJpeg:
+      return ImageFormat::kDng;
+    case hardware::ImageFormat::kTiff16:
+      return ImageFormat::kTiff16;
+    case hardware::ImageFormat::kPng8:
+      return ImageFormat::kPng;
+  }
+  return ImageFormat::kPng;
+}
 
 SimCamera::SimCamera(SimWorld& world, SimCameraOptions options)
     : world_(world), options_(options) {
@@ -96,7 +96,7 @@ absl::StatusOr<hardware::Frame> SimCamera::Capture() {
     std::lock_guard<std::mutex> lock(mutex_);
     settings = settings_;
   }
-  const ImageFormat format = ToSim(*settings.format);
+  const ImageFormat format = SimFormatOf(*settings.format);
   absl::Duration backoff = options_.busy_backoff;
   for (int attempt = 0;; ++attempt) {
     absl::StatusOr<SimCapture> capture =

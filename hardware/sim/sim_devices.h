@@ -23,6 +23,9 @@ struct SimCameraOptions {
   absl::Duration busy_backoff = absl::Milliseconds(5);
 };
 
+// The simulator's format for a camera format: RAW (and RAW+JPEG) is DNG.
+ImageFormat SimFormatOf(hardware::ImageFormat format);
+
 class SimCamera final : public hardware::Camera {
  public:
   SimCamera(SimWorld& world, SimCameraOptions options);
