@@ -71,26 +71,30 @@ uint16_t FormatCode(ImageFormat format) {
 
 // Exposure times in 1/10000 s: the nominal 1/3 stops from 1/4000 s to
 // 30 s, rounded to the unit (so 1/800 s is 0.0013 s), duplicates dropped.
-std::vector<uint32_t> ExposureChoices() {
-  const double nominal[] = {1.0 / 4000, 1.0 / 3200, 1.0 / 2500, 1.0 / 2000,
-                            1.0 / 1600, 1.0 / 1250, 1.0 / 1000, 1.0 / 800,
-                            1.0 / 640,  1.0 / 500,  1.0 / 400,  1.0 / 320,
-                            1.0 / 250,  1.0 / 200,  1.0 / 160,  1.0 / 125,
-                            1.0 / 100,  1.0 / 80,   1.0 / 60,   1.0 / 50,
-                            1.0 / 40,   1.0 / 30,   1.0 / 25,   1.0 / 20,
-                            1.0 / 15,   1.0 / 13,   1.0 / 10,   1.0 / 8,
-                            1.0 / 6,    1.0 / 5,    1.0 / 4,    0.3,
-                            0.4,        0.5,        0.6,        0.8,
-                            1,          1.3,        1.6,        2,
-                            2.5,        3.2,        4,          5,
-                            6,          8,          10,         13,
-                            15,         20,         25,         kMaxExposureS};
-  std::vector<uint32_t> units;
-  for (double s : nominal) {
-    const auto u = static_cast<uint32_t>(std::lround(s * 10000));
-    if (units.empty() || units.back() != u) units.push_back(u);
-  }
-  return units;
+const std::vector<uint32_t>& ExposureChoices() {
+  static const std::vector<uint32_t>* const choices = [] {
+    const double nominal[] = {
+        1.0 / 4000, 1.0 / 3200, 1.0 / 2500, 1.0 / 2000,
+        1.0 / 1600, 1.0 / 1250, 1.0 / 1000, 1.0 / 800,
+        1.0 / 640,  1.0 / 500,  1.0 / 400,  1.0 / 320,
+        1.0 / 250,  1.0 / 200,  1.0 / 160,  1.0 / 125,
+        1.0 / 100,  1.0 / 80,   1.0 / 60,   1.0 / 50,
+        1.0 / 40,   1.0 / 30,   1.0 / 25,   1.0 / 20,
+        1.0 / 15,   1.0 / 13,   1.0 / 10,   1.0 / 8,
+        1.0 / 6,    1.0 / 5,    1.0 / 4,    0.3,
+        0.4,        0.5,        0.6,        0.8,
+        1,          1.3,        1.6,        2,
+        2.5,        3.2,        4,          5,
+        6,          8,          10,         13,
+        15,         20,         25,         kMaxExposureS};
+    auto* units = new std::vector<uint32_t>;
+    for (double s : nominal) {
+      const auto u = static_cast<uint32_t>(std::lround(s * 10000));
+      if (units->empty() || units->back() != u) units->push_back(u);
+    }
+    return units;
+  }();
+  return *choices;
 }
 
 const std::vector<uint32_t>& IsoChoices() {
@@ -248,10 +252,19 @@ class PtpIpCamera::Session {
                const std::optional<std::string>& data);
   Reply DeviceInfo();
   Reply StorageInfo(uint32_t storage);
-  Reply ObjectHandles(const ptpip::OperationRequest& request);
+  // The handles GetObjectHandles and GetNumObjects answer with (params:
+  // storage, format, parent); a response code other than OK when the
+  // request names no storage or parent of this camera.
+  uint16_t ListHandles(const ptpip::OperationRequest& request,
+                       std::vector<uint32_t>* handles);
   Reply ObjectInfo(uint32_t handle);
   Reply GetObject(uint32_t handle);
   Reply DeleteObject(uint32_t handle);
+  struct Property;
+  // The numeric property `code` as the camera holds it, nullopt for one it
+  // does not have; with `read_current` false the current value is left 0
+  // (a battery reading is a call the world counts).
+  std::optional<Property> PropertyOf(uint16_t code, bool read_current);
   Reply PropDesc(uint16_t code);
   Reply PropValue(uint16_t code);
   Reply SetProp(uint16_t code, const std::string& data);
@@ -475,18 +488,18 @@ PtpIpCamera::Session::Reply PtpIpCamera::Session::Handle(
       return WithData(DatasetWriter().U32Array({kStorageId}).bytes());
     case ptpip::op::kGetStorageInfo:
       return StorageInfo(param(0));
-    case ptpip::op::kGetNumObjects: {
-      Reply handles = ObjectHandles(request);
-      if (handles.code != ptpip::rc::kOk) return handles;
-      // The handle array's count, its first four bytes.
+    case ptpip::op::kGetNumObjects:
+    case ptpip::op::kGetObjectHandles: {
+      std::vector<uint32_t> handles;
+      const uint16_t listed = ListHandles(request, &handles);
+      if (listed != ptpip::rc::kOk) return Answer(listed);
+      if (request.code == ptpip::op::kGetObjectHandles) {
+        return WithData(DatasetWriter().U32Array(handles).bytes());
+      }
       Reply reply;
-      uint32_t count = 0;
-      std::memcpy(&count, handles.data->data(), sizeof(count));
-      reply.params = {count};
+      reply.params = {static_cast<uint32_t>(handles.size())};
       return reply;
     }
-    case ptpip::op::kGetObjectHandles:
-      return ObjectHandles(request);
     case ptpip::op::kGetObjectInfo:
       return ObjectInfo(param(0));
     case ptpip::op::kGetObject:
@@ -558,25 +571,24 @@ PtpIpCamera::Session::Reply PtpIpCamera::Session::StorageInfo(
   return WithData(w.bytes());
 }
 
-PtpIpCamera::Session::Reply PtpIpCamera::Session::ObjectHandles(
-    const ptpip::OperationRequest& request) {
+uint16_t PtpIpCamera::Session::ListHandles(
+    const ptpip::OperationRequest& request, std::vector<uint32_t>* handles) {
   const auto param = [&](size_t i) -> uint32_t {
     return i < request.params.size() ? request.params[i] : 0;
   };
   if (param(0) != kStorageId && param(0) != 0xFFFFFFFF) {
-    return Answer(ptpip::rc::kInvalidStorageId);
+    return ptpip::rc::kInvalidStorageId;
   }
   // Every file is in the root: "all" (0) and "the root" (0xFFFFFFFF) list
   // them, a file is no folder.
   if (param(2) != 0 && param(2) != 0xFFFFFFFF) {
-    return Answer(ptpip::rc::kInvalidParentObject);
+    return ptpip::rc::kInvalidParentObject;
   }
-  std::vector<uint32_t> handles;
   std::lock_guard<std::mutex> lock(camera_.state_->mu);
   for (const auto& [handle, file] : camera_.state_->files) {
-    if (param(1) == 0 || param(1) == file.format) handles.push_back(handle);
+    if (param(1) == 0 || param(1) == file.format) handles->push_back(handle);
   }
-  return WithData(DatasetWriter().U32Array(handles).bytes());
+  return ptpip::rc::kOk;
 }
 
 PtpIpCamera::Session::Reply PtpIpCamera::Session::ObjectInfo(uint32_t handle) {
@@ -649,24 +661,50 @@ PtpIpCamera::Session::Reply PtpIpCamera::Session::DeleteObject(
   return Reply();
 }
 
-namespace {
-
-// A property's description: its type, whether it can be set, and its
-// current value and choices.
-struct Property {
+// A numeric property: its type, whether it can be set, its current value
+// and its choices.
+struct PtpIpCamera::Session::Property {
   uint16_t data_type = ptpip::type::kUint16;
   bool settable = true;
   uint32_t current = 0;
-  std::vector<uint32_t> choices;  // an enumeration; empty: a 0..100 range
+  const std::vector<uint32_t>* choices = nullptr;  // null: a 0..100 range
+
+  void Put(DatasetWriter& w, uint32_t v) const {
+    if (data_type == ptpip::type::kUint8) w.U8(static_cast<uint8_t>(v));
+    if (data_type == ptpip::type::kUint16) w.U16(static_cast<uint16_t>(v));
+    if (data_type == ptpip::type::kUint32) w.U32(v);
+  }
 };
 
-void PutValue(DatasetWriter& w, uint16_t data_type, uint32_t v) {
-  if (data_type == ptpip::type::kUint8) w.U8(static_cast<uint8_t>(v));
-  if (data_type == ptpip::type::kUint16) w.U16(static_cast<uint16_t>(v));
-  if (data_type == ptpip::type::kUint32) w.U32(v);
+std::optional<PtpIpCamera::Session::Property> PtpIpCamera::Session::PropertyOf(
+    uint16_t code, bool read_current) {
+  ExposureSettings s;
+  {
+    std::lock_guard<std::mutex> lock(camera_.state_->mu);
+    s = camera_.state_->settings;
+  }
+  switch (code) {
+    case ptpip::prop::kExposureTime:
+      return Property{ptpip::type::kUint32, true,
+                      static_cast<uint32_t>(std::lround(s.exposure_s * 10000)),
+                      &ExposureChoices()};
+    case ptpip::prop::kExposureIndex:
+      return Property{ptpip::type::kUint16, true,
+                      static_cast<uint32_t>(std::lround(s.iso)), &IsoChoices()};
+    case ptpip::prop::kFNumber:
+      return Property{ptpip::type::kUint16, true,
+                      static_cast<uint32_t>(std::lround(s.aperture_f * 100)),
+                      &FNumberChoices()};
+    case ptpip::prop::kBatteryLevel:
+      return Property{ptpip::type::kUint8, false,
+                      read_current ? static_cast<uint32_t>(std::clamp(
+                                         camera_.world_.ReadBattery(), 0, 100))
+                                   : 0,
+                      nullptr};
+    default:
+      return std::nullopt;
+  }
 }
-
-}  // namespace
 
 PtpIpCamera::Session::Reply PtpIpCamera::Session::PropDesc(uint16_t code) {
   if (code == ptpip::prop::kDateTime) {
@@ -675,98 +713,48 @@ PtpIpCamera::Session::Reply PtpIpCamera::Session::PropDesc(uint16_t code) {
     w.U16(code).U16(ptpip::type::kString).U8(0).String(now).String(now).U8(0);
     return WithData(w.bytes());
   }
-  std::optional<Property> p;
-  ExposureSettings s;
-  {
-    std::lock_guard<std::mutex> lock(camera_.state_->mu);
-    s = camera_.state_->settings;
-  }
-  switch (code) {
-    case ptpip::prop::kExposureTime:
-      p = Property{ptpip::type::kUint32, true,
-                   static_cast<uint32_t>(std::lround(s.exposure_s * 10000)),
-                   ExposureChoices()};
-      break;
-    case ptpip::prop::kExposureIndex:
-      p = Property{ptpip::type::kUint16, true,
-                   static_cast<uint32_t>(std::lround(s.iso)), IsoChoices()};
-      break;
-    case ptpip::prop::kFNumber:
-      p = Property{ptpip::type::kUint16, true,
-                   static_cast<uint32_t>(std::lround(s.aperture_f * 100)),
-                   FNumberChoices()};
-      break;
-    case ptpip::prop::kBatteryLevel:
-      p = Property{ptpip::type::kUint8,
-                   false,
-                   static_cast<uint32_t>(
-                       std::clamp(camera_.world_.ReadBattery(), 0, 100)),
-                   {}};
-      break;
-    default:
-      return Answer(ptpip::rc::kDevicePropNotSupported);
-  }
+  const std::optional<Property> p = PropertyOf(code, /*read_current=*/true);
+  if (!p.has_value()) return Answer(ptpip::rc::kDevicePropNotSupported);
   DatasetWriter w;
   w.U16(code).U16(p->data_type).U8(p->settable ? 1 : 0);
-  PutValue(w, p->data_type, p->choices.empty() ? 100 : p->choices.front());
-  PutValue(w, p->data_type, p->current);
-  if (p->choices.empty()) {
+  p->Put(w, p->choices == nullptr ? 100 : p->choices->front());
+  p->Put(w, p->current);
+  if (p->choices == nullptr) {
     w.U8(1);  // range 0..100, step 1
-    PutValue(w, p->data_type, 0);
-    PutValue(w, p->data_type, 100);
-    PutValue(w, p->data_type, 1);
+    p->Put(w, 0);
+    p->Put(w, 100);
+    p->Put(w, 1);
   } else {
     w.U8(2);
-    w.U16(static_cast<uint16_t>(p->choices.size()));
-    for (uint32_t v : p->choices) PutValue(w, p->data_type, v);
+    w.U16(static_cast<uint16_t>(p->choices->size()));
+    for (uint32_t v : *p->choices) p->Put(w, v);
   }
   return WithData(w.bytes());
 }
 
 PtpIpCamera::Session::Reply PtpIpCamera::Session::PropValue(uint16_t code) {
-  Reply desc = PropDesc(code);
-  if (desc.code != ptpip::rc::kOk) return desc;
-  // The description's current value, after code, type, get/set and the
-  // factory default (as long as the current value).
-  const std::string& d = *desc.data;
   if (code == ptpip::prop::kDateTime) {
-    const size_t first = 5 + 1 + 2 * static_cast<uint8_t>(d[5]);
-    const size_t length = 1 + 2 * static_cast<uint8_t>(d[first]);
-    return WithData(d.substr(first, length));
+    return WithData(DatasetWriter().String(PtpTime(absl::Now())).bytes());
   }
-  const uint16_t data_type = static_cast<uint16_t>(
-      static_cast<uint8_t>(d[2]) | static_cast<uint8_t>(d[3]) << 8);
-  const size_t size = data_type == ptpip::type::kUint8    ? 1
-                      : data_type == ptpip::type::kUint16 ? 2
-                                                          : 4;
-  return WithData(d.substr(5 + size, size));
+  const std::optional<Property> p = PropertyOf(code, /*read_current=*/true);
+  if (!p.has_value()) return Answer(ptpip::rc::kDevicePropNotSupported);
+  DatasetWriter w;
+  p->Put(w, p->current);
+  return WithData(w.bytes());
 }
 
 PtpIpCamera::Session::Reply PtpIpCamera::Session::SetProp(
     uint16_t code, const std::string& data) {
-  uint16_t data_type = ptpip::type::kUint16;
-  const std::vector<uint32_t>* choices = nullptr;
-  const std::vector<uint32_t> exposures = ExposureChoices();
-  switch (code) {
-    case ptpip::prop::kExposureTime:
-      data_type = ptpip::type::kUint32;
-      choices = &exposures;
-      break;
-    case ptpip::prop::kExposureIndex:
-      choices = &IsoChoices();
-      break;
-    case ptpip::prop::kFNumber:
-      choices = &FNumberChoices();
-      break;
-    case ptpip::prop::kBatteryLevel:
-    case ptpip::prop::kDateTime:
-      return Answer(ptpip::rc::kAccessDenied);  // read-only
-    default:
-      return Answer(ptpip::rc::kDevicePropNotSupported);
+  if (code == ptpip::prop::kDateTime) {
+    return Answer(ptpip::rc::kAccessDenied);  // read-only
   }
-  absl::StatusOr<uint32_t> value = ptpip::ParseUnsignedValue(data_type, data);
-  if (!value.ok() ||
-      std::find(choices->begin(), choices->end(), *value) == choices->end()) {
+  const std::optional<Property> p = PropertyOf(code, /*read_current=*/false);
+  if (!p.has_value()) return Answer(ptpip::rc::kDevicePropNotSupported);
+  if (!p->settable) return Answer(ptpip::rc::kAccessDenied);
+  absl::StatusOr<uint32_t> value =
+      ptpip::ParseUnsignedValue(p->data_type, data);
+  if (!value.ok() || std::find(p->choices->begin(), p->choices->end(),
+                               *value) == p->choices->end()) {
     return Answer(ptpip::rc::kInvalidDevicePropValue);
   }
   {
