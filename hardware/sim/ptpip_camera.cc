@@ -20,7 +20,6 @@
 #include <utility>
 #include <vector>
 
-#include "absl/cleanup/cleanup.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/time/clock.h"
@@ -800,37 +799,37 @@ void PtpIpCamera::Session::Capture(
   };
   absl::StatusOr<SimCapture> capture =
       camera_.world_.Capture(settings, camera_.options_.format, accept);
-  // The camera takes the next trigger once this one's files and events
-  // are out (a pending file taken after it would be another capture's).
-  absl::Cleanup done = [&state] {
+  // The camera takes the next trigger before this one's last events go
+  // out: a client may trigger as soon as it reads CaptureComplete, and a
+  // DeviceBusy then would leave libgphoto2 waiting for ever. This session's
+  // next InitiateCapture joins this thread first, so its events still
+  // follow these.
+  const auto ready = [&state](bool unplugged) {
     std::lock_guard<std::mutex> lock(state.mu);
     state.capturing = false;
+    if (unplugged) state.unplugged = true;
   };
   if (!answered) {
     // Refused before exposing: busy, or the camera is gone.
+    ready(absl::IsFailedPrecondition(capture.status()));
     answer->set_value(absl::IsUnavailable(capture.status())
                           ? ptpip::rc::kDeviceBusy
                           : ptpip::rc::kGeneralError);
-    if (absl::IsFailedPrecondition(capture.status())) {
-      std::lock_guard<std::mutex> lock(state.mu);
-      state.unplugged = true;
-    }
     return;
   }
   if (absl::IsDeadlineExceeded(capture.status())) {
+    ready(false);
     Log("the capture never announces its file (timeout fault)");
     return;
   }
   if (absl::IsAborted(capture.status())) {
+    ready(true);
     Log("the camera drops off the network mid-capture (disconnect fault)");
-    {
-      std::lock_guard<std::mutex> lock(state.mu);
-      state.unplugged = true;
-    }
     Close();
     return;
   }
   if (!capture.ok()) {
+    ready(false);
     Log(capture.status().message());
     SendEvent(ptpip::event::kCaptureComplete, transaction);
     return;
@@ -839,25 +838,24 @@ void PtpIpCamera::Session::Capture(
       camera_.world_.scene().camera_faults.ptpip;
   const bool store_full =
       FaultFires(faults.store_full, call, camera_.world_.scene().seed, 23);
-  if (store_full) {
-    SendEvent(ptpip::event::kStoreFull, transaction, {kStorageId});
-    return;
-  }
-  const uint32_t handle = Store(*std::move(capture), call);
+  const uint32_t handle = store_full ? 0 : Store(*std::move(capture), call);
+  // A previous-file fault delivered an older file for this capture and
+  // kept the new one: it is taken while this capture still holds the
+  // camera (after, it would be the next capture's), and announced after
+  // CaptureComplete, so that it waits in the client's event queue
+  // (libgphoto2 takes it for the next capture's file unless the driver
+  // drains the queue first).
+  std::optional<SimCapture> pending;
+  if (handle != 0) pending = camera_.world_.TakePendingFile();
+  const uint32_t late = pending ? Store(*std::move(pending), call) : 0;
+  ready(false);
   if (handle == 0) {
     SendEvent(ptpip::event::kStoreFull, transaction, {kStorageId});
     return;
   }
   SendEvent(ptpip::event::kObjectAdded, transaction, {handle});
   SendEvent(ptpip::event::kCaptureComplete, transaction);
-  // A previous-file fault delivered an older file for this capture and
-  // kept the new one: the camera announces it after the capture, so that
-  // it waits in the client's event queue (libgphoto2 takes it for the next
-  // capture's file unless the driver drains the queue first).
-  if (std::optional<SimCapture> pending = camera_.world_.TakePendingFile()) {
-    const uint32_t late = Store(*std::move(pending), call);
-    if (late != 0) SendEvent(ptpip::event::kObjectAdded, 0, {late});
-  }
+  if (late != 0) SendEvent(ptpip::event::kObjectAdded, 0, {late});
 }
 
 uint32_t PtpIpCamera::Session::Store(SimCapture capture, int64_t call) {
