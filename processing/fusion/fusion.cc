@@ -56,25 +56,10 @@ inline int32_t RhoMax(const MrfProblem& pr) {
 
 absl::Status CheckCandidates(const std::vector<cv::Mat>& candidates,
                              int max_disp) {
-  if (candidates.empty()) {
-    return absl::InvalidArgumentError("fusion: no candidate disparity maps");
-  }
+  RETURN_IF_ERROR(CheckCandidateMaps(candidates));
   if (max_disp < 1 || max_disp > 4096) {
     return absl::InvalidArgumentError(
         absl::StrCat("fusion: max_disp must be in [1, 4096], got ", max_disp));
-  }
-  const cv::Size size = candidates[0].size();
-  for (size_t k = 0; k < candidates.size(); ++k) {
-    const cv::Mat& c = candidates[k];
-    if (c.empty() || c.type() != CV_32FC1) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "fusion: candidate ", k, " must be a non-empty CV_32FC1 map"));
-    }
-    if (c.size() != size) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("fusion: candidate ", k, " is ", c.cols, "x", c.rows,
-                       ", candidate 0 is ", size.width, "x", size.height));
-    }
   }
   return absl::OkStatus();
 }
@@ -1019,6 +1004,26 @@ absl::StatusOr<SolverStats> AlphaExpansion(const MrfProblem& pr,
   } catch (const std::bad_alloc&) {
     return absl::ResourceExhaustedError("fusion: out of memory in max-flow");
   }
+}
+
+absl::Status CheckCandidateMaps(const std::vector<cv::Mat>& candidates) {
+  if (candidates.empty()) {
+    return absl::InvalidArgumentError("fusion: no candidate disparity maps");
+  }
+  const cv::Size size = candidates[0].size();
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    const cv::Mat& c = candidates[k];
+    if (c.empty() || c.type() != CV_32FC1) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "fusion: candidate ", k, " must be a non-empty CV_32FC1 map"));
+    }
+    if (c.size() != size) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("fusion: candidate ", k, " is ", c.cols, "x", c.rows,
+                       ", candidate 0 is ", size.width, "x", size.height));
+    }
+  }
+  return absl::OkStatus();
 }
 
 absl::StatusOr<FusionResult> FuseAlphaExpansion(

@@ -188,6 +188,11 @@ absl::StatusOr<FusionResult> FuseAlphaExpansion(
     const std::vector<cv::Mat>& candidates, const cv::Mat& guide,
     const FusionOptions& params, const std::vector<cv::Mat>& confidences = {});
 
+// INVALID_ARGUMENT unless there is a candidate and every one is a
+// non-empty CV_32FC1 map of candidate 0's size (the message names the
+// first that is not): the check every fusion here makes first.
+absl::Status CheckCandidateMaps(const std::vector<cv::Mat>& candidates);
+
 // Baselines: per-pixel mean / median of the valid candidates (same validity
 // rule); NaN where no candidate is valid. CV_32FC1.
 absl::StatusOr<cv::Mat> FuseMean(const std::vector<cv::Mat>& candidates,

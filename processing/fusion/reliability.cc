@@ -14,21 +14,12 @@
 namespace hdrstereo::fusion {
 namespace {
 
-// The candidates are CV_32FC1 of one size; the masks, when given, one
-// CV_8UC1 of that size (or empty) per candidate.
+// The candidates as every fusion checks them; the masks, when given, one
+// CV_8UC1 of their size (or empty) per candidate.
 absl::Status CheckInputs(const std::vector<cv::Mat>& candidates,
                          const std::vector<cv::Mat>& consistent) {
-  if (candidates.empty()) {
-    return absl::InvalidArgumentError("fusion: no candidate disparity maps");
-  }
+  RETURN_IF_ERROR(CheckCandidateMaps(candidates));
   const cv::Size size = candidates[0].size();
-  for (size_t k = 0; k < candidates.size(); ++k) {
-    if (candidates[k].empty() || candidates[k].type() != CV_32FC1 ||
-        candidates[k].size() != size) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "fusion: candidate ", k, " must be CV_32FC1 of candidate 0's size"));
-    }
-  }
   if (consistent.empty()) return absl::OkStatus();
   if (consistent.size() != candidates.size()) {
     return absl::InvalidArgumentError(

@@ -177,9 +177,8 @@ TEST(ReliabilityTest, BadInputNamesWhatIsWrong) {
       CandidateConfidences({estimate, cv::Mat(8, 31, CV_32FC1)}, {}, estimate,
                            {})
           .status(),
-      StatusIs(
-          absl::StatusCode::kInvalidArgument,
-          HasSubstr("candidate 1 must be CV_32FC1 of candidate 0's size")));
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("fusion: candidate 1 is 31x8, candidate 0 is 32x8")));
   EXPECT_THAT(
       CandidateConfidences(two, {}, cv::Mat(8, 31, CV_32FC1), {}).status(),
       StatusIs(absl::StatusCode::kInvalidArgument,
