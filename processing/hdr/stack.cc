@@ -101,13 +101,20 @@ absl::Status ValidateStack(const ExposureStack& stack) {
   return absl::OkStatus();
 }
 
-absl::StatusOr<ExposureStack> LoadStack(const std::filesystem::path& dir) {
+namespace {
+
+// A stack folder's files in exposures.txt's order, each with its time from
+// there; without exposures.txt, its image files sorted by name, times
+// unknown until decoded.
+using StackEntries =
+    std::vector<std::pair<std::filesystem::path, std::optional<double>>>;
+absl::StatusOr<StackEntries> ListStack(const std::filesystem::path& dir) {
   std::error_code ec;
   if (!std::filesystem::is_directory(dir, ec)) {
     return absl::NotFoundError(
         absl::StrCat("stack folder not found: ", dir.string()));
   }
-  std::vector<std::pair<std::filesystem::path, std::optional<double>>> entries;
+  StackEntries entries;
   const std::filesystem::path list = dir / "exposures.txt";
   if (std::filesystem::exists(list, ec)) {
     ASSIGN_OR_RETURN(std::string text, io::ReadFileBytes(list));
@@ -143,6 +150,13 @@ absl::StatusOr<ExposureStack> LoadStack(const std::filesystem::path& dir) {
     }
     std::sort(entries.begin(), entries.end());
   }
+  return entries;
+}
+
+}  // namespace
+
+absl::StatusOr<ExposureStack> LoadStack(const std::filesystem::path& dir) {
+  ASSIGN_OR_RETURN(const StackEntries entries, ListStack(dir));
   ExposureStack stack;
   for (const auto& [path, time] : entries) {
     ASSIGN_OR_RETURN(io::DecodedImage img, io::DecodeImageFile(path));
@@ -177,6 +191,40 @@ absl::StatusOr<ExposureStack> LoadStack(const std::filesystem::path& dir) {
   }
   RETURN_IF_ERROR(ValidateStack(sorted));
   return sorted;
+}
+
+absl::StatusOr<StackImage> LoadStackImage(const std::filesystem::path& dir,
+                                          size_t index) {
+  ASSIGN_OR_RETURN(StackEntries entries, ListStack(dir));
+  const bool timed = std::all_of(entries.begin(), entries.end(),
+                                 [](const auto& e) { return e.second; });
+  if (!timed) {
+    // The times are in the files' metadata: the whole stack it is.
+    ASSIGN_OR_RETURN(ExposureStack stack, LoadStack(dir));
+    if (index >= stack.images.size()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("no exposure #", index, " in ", dir.string(),
+                       ": it has ", stack.images.size()));
+    }
+    return StackImage{std::move(stack.images[index]), stack.exposure_s[index]};
+  }
+  // LoadStack's order: longest exposure first, ties as listed.
+  std::stable_sort(
+      entries.begin(), entries.end(),
+      [](const auto& a, const auto& b) { return *a.second > *b.second; });
+  if (index >= entries.size()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("no exposure #", index, " in ", dir.string(), ": it has ",
+                     entries.size()));
+  }
+  const auto& [path, time] = entries[index];
+  if (*time <= 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("missing or non-positive exposure time for ",
+                     path.string(), ": ", *time));
+  }
+  ASSIGN_OR_RETURN(io::DecodedImage img, io::DecodeImageFile(path));
+  return StackImage{std::move(img.pixels), *time};
 }
 
 }  // namespace hdrstereo::hdr

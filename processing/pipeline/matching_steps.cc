@@ -83,8 +83,8 @@ struct Matching {
 };
 
 absl::Status RunStereo(const Matching& o, StepContext& c) {
-  ASSIGN_OR_RETURN(const hdr::ExposureStack left, c.Stack(0));
-  ASSIGN_OR_RETURN(const hdr::ExposureStack right, c.Stack(1));
+  ASSIGN_OR_RETURN(const hdr::StackImage left, c.Ldr(0));
+  ASSIGN_OR_RETURN(const hdr::StackImage right, c.Ldr(1));
   const cv::Size at = o.sizes.matching;
   c.Info(absl::StrCat("stereo: disparities 0..", o.sizes.max_disparity,
                       o.sizes.scaled()
@@ -96,7 +96,7 @@ absl::Status RunStereo(const Matching& o, StepContext& c) {
     pairs[m] = {experiment::ToMatchingSize(l, at),
                 experiment::ToMatchingSize(r, at)};
   };
-  add(Method::kLdr, left.images[c.LdrIndex()], right.images[c.LdrIndex()]);
+  add(Method::kLdr, left.image, right.image);
   for (Method m : experiment::ToneMappedMethods()) {
     const std::string folder =
         absl::StrCat("tonemapped/", experiment::MethodName(m), "/");
@@ -129,7 +129,7 @@ struct Fusion {
 };
 
 absl::Status RunFusion(const Fusion& o, StepContext& c) {
-  ASSIGN_OR_RETURN(const hdr::ExposureStack left, c.Stack(0));
+  ASSIGN_OR_RETURN(const hdr::StackImage left, c.Ldr(0));
   const char* folder = o.sizes.scaled() ? kMatchingFolder : kImageFolder;
   std::map<Method, Candidate> candidates;
   for (Method m : experiment::ToneMappedMethods()) {
@@ -140,8 +140,8 @@ absl::Status RunFusion(const Fusion& o, StepContext& c) {
                        c.Read(ConsistencyFile(m, folder)));
     }
   }
-  const cv::Mat guide = experiment::ToMatchingSize(
-      io::To8Bit(left.images[c.LdrIndex()]), o.sizes.matching);
+  const cv::Mat guide =
+      experiment::ToMatchingSize(io::To8Bit(left.image), o.sizes.matching);
   ASSIGN_OR_RETURN(
       const experiment::Fused fused,
       experiment::FuseMethods(candidates, guide, o.sizes.max_disparity,
@@ -157,26 +157,26 @@ absl::Status RunFusion(const Fusion& o, StepContext& c) {
 }  // namespace
 
 absl::StatusOr<ConfiguredStep> ConfigureStereo(const StepContext& c) {
-  ASSIGN_OR_RETURN(const hdr::ExposureStack left, c.Stack(0));
+  ASSIGN_OR_RETURN(const hdr::StackImage left, c.Ldr(0));
   Matching o;
   o.options.ldr_stereo = c.options().experiment.ldr_stereo;
   o.options.hdr_stereo = c.options().experiment.hdr_stereo;
-  ASSIGN_OR_RETURN(o.sizes, SizesOf(c, left.images[0].size()));
+  ASSIGN_OR_RETURN(o.sizes, SizesOf(c, left.image.size()));
   return ConfiguredStep{{{"ldr_stereo", o.options.ldr_stereo},
                          {"hdr_stereo", o.options.hdr_stereo},
                          {"sizes", ToJson(o.sizes)},
-                         {"ldr_exposure_s", left.exposure_s[c.LdrIndex()]}},
+                         {"ldr_exposure_s", left.exposure_s}},
                         [o](StepContext& c) { return RunStereo(o, c); }};
 }
 
 absl::StatusOr<ConfiguredStep> ConfigureFusion(const StepContext& c) {
-  ASSIGN_OR_RETURN(const hdr::ExposureStack left, c.Stack(0));
+  ASSIGN_OR_RETURN(const hdr::StackImage left, c.Ldr(0));
   Fusion o;
   o.options.fusion = c.options().experiment.fusion;
   o.options.robust_fusion = c.options().experiment.robust_fusion;
   o.options.inconsistent_confidence =
       c.options().experiment.inconsistent_confidence;
-  ASSIGN_OR_RETURN(o.sizes, SizesOf(c, left.images[0].size()));
+  ASSIGN_OR_RETURN(o.sizes, SizesOf(c, left.image.size()));
   return ConfiguredStep{
       {{"fusion", o.options.fusion},
        {"robust_fusion", o.options.robust_fusion},

@@ -113,13 +113,11 @@ absl::Status RunEvaluate(const experiment::ExperimentOptions& options,
 }
 
 absl::Status RunExport(StepContext& c) {
-  ASSIGN_OR_RETURN(const hdr::ExposureStack left, c.Stack(0));
-  ASSIGN_OR_RETURN(const hdr::ExposureStack right, c.Stack(1));
-  RETURN_IF_ERROR(
-      c.outputs().WriteImage("export", "im0.png", left.images[c.LdrIndex()]));
-  RETURN_IF_ERROR(
-      c.outputs().WriteImage("export", "im1.png", right.images[c.LdrIndex()]));
-  const cv::Size size = left.images[0].size();
+  ASSIGN_OR_RETURN(const hdr::StackImage left, c.Ldr(0));
+  ASSIGN_OR_RETURN(const hdr::StackImage right, c.Ldr(1));
+  RETURN_IF_ERROR(c.outputs().WriteImage("export", "im0.png", left.image));
+  RETURN_IF_ERROR(c.outputs().WriteImage("export", "im1.png", right.image));
+  const cv::Size size = left.image.size();
   ASSIGN_OR_RETURN(const std::vector<Truth> truths, c.Truths());
   if (truths.empty()) {
     c.Warn(absl::StrCat("export: no ground truth: no ", io::kDisparity0File,

@@ -152,6 +152,9 @@ class StepContext {
   absl::StatusOr<hdr::ExposureStack> Stack(int view) const;
   // The LDR exposure: the middle of the stack (longest first).
   size_t LdrIndex() const { return frames().stereo[0].size() / 2; }
+  // A view's LDR exposure and its time, without decoding the rest of the
+  // stack (the steps that need only it, or only the images' size).
+  absl::StatusOr<hdr::StackImage> Ldr(int view) const;
 
   // The ground truths there are, best first.
   absl::StatusOr<std::vector<Truth>> Truths() const;

@@ -152,6 +152,11 @@ absl::StatusOr<hdr::ExposureStack> StepContext::Stack(int view) const {
   return hdr::LoadStack(dir() / "exposures" / io::ViewName(view));
 }
 
+absl::StatusOr<hdr::StackImage> StepContext::Ldr(int view) const {
+  return hdr::LoadStackImage(dir() / "exposures" / io::ViewName(view),
+                             LdrIndex());
+}
+
 bool StepContext::HasStructuredLightTruth() const {
   const std::string rel =
       absl::StrCat(kStructuredLightDir, "/", io::kDisparity0File);

@@ -463,6 +463,52 @@ TEST(StackTest, LoadsExifTaggedImagesWithoutExposuresTxt) {
   EXPECT_EQ(s->camera, "Nikon");
 }
 
+TEST(StackTest, OneImageIsLoadStacksImageAndOnlyItsFileIsRead) {
+  TempDir dir;
+  Scene s = MakeScene();
+  std::ofstream list(dir / "exposures.txt");
+  // Listed shortest first, so that the order has to be LoadStack's.
+  for (size_t j = s.stack.images.size(); j-- > 0;) {
+    const std::string name = "e" + std::to_string(j) + ".png";
+    ASSERT_TRUE(cv::imwrite((dir / name).string(), s.stack.images[j]));
+    list << name << " 1/" << std::lround(1.0 / s.stack.exposure_s[j]) << "\n";
+  }
+  list.close();
+  ASSERT_OK_AND_ASSIGN(const ExposureStack whole, LoadStack(dir.path()));
+  for (size_t i = 0; i < whole.images.size(); ++i) {
+    ASSERT_OK_AND_ASSIGN(const StackImage one, LoadStackImage(dir.path(), i));
+    EXPECT_EQ(one.exposure_s, whole.exposure_s[i]) << i;
+    EXPECT_EQ(cv::norm(one.image, whole.images[i], cv::NORM_INF), 0) << i;
+  }
+  EXPECT_THAT(LoadStackImage(dir.path(), 8),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("no exposure #8 in ")));
+  // A broken file elsewhere in the stack is not read.
+  std::ofstream(dir / "e7.png") << "this is not a png";
+  EXPECT_FALSE(LoadStack(dir.path()).ok());
+  ASSERT_OK_AND_ASSIGN(const StackImage middle, LoadStackImage(dir.path(), 4));
+  EXPECT_EQ(cv::norm(middle.image, whole.images[4], cv::NORM_INF), 0);
+  EXPECT_THAT(LoadStackImage(dir.path(), 7),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("e7.png: not a JPEG, PNG or TIFF file")));
+}
+
+TEST(StackTest, OneImageOfAStackTimedByItsMetadata) {
+  TempDir dir;
+  for (uint32_t den : {500, 30, 125}) {
+    const cv::Mat img(8, 8, CV_8UC3, cv::Scalar::all(den % 251));
+    std::ofstream(dir / ("img" + std::to_string(den) + ".jpg"),
+                  std::ios::binary)
+        << ::hdrstereo::testing::JpegWithExif(img, den);
+  }
+  ASSERT_OK_AND_ASSIGN(const StackImage middle, LoadStackImage(dir.path(), 1));
+  EXPECT_DOUBLE_EQ(middle.exposure_s, 1.0 / 125);
+  EXPECT_NEAR(cv::mean(middle.image)[0], 125, 2);
+  EXPECT_THAT(LoadStackImage(dir.path(), 3),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("no exposure #3 in ")));
+}
+
 TEST(StackTest, FolderErrorsNameTheFile) {
   TempDir dir;
   cv::Mat img(8, 8, CV_8UC3, cv::Scalar::all(100));
