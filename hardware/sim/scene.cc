@@ -609,8 +609,8 @@ Scene ParseSceneJson(const Json& root) {
       CheckKeys(c, p,
                 {"busy_first_calls", "timeout", "disconnect",
                  "disconnect_failed_reopens", "absent_until_file", "corrupt",
-                 "previous_file", "wrong_exposure", "card_target", "hold",
-                 "hold_fifo", "low_battery", "ptpip"});
+                 "previous_file", "wrong_exposure", "wrong_depth",
+                 "card_target", "hold", "hold_fifo", "low_battery", "ptpip"});
       s.camera_faults.busy_first_calls =
           GetInt(c, p, "busy_first_calls", 0, 0, 1000000);
       s.camera_faults.timeout = ParseTrigger(c, p, "timeout");
@@ -622,6 +622,7 @@ Scene ParseSceneJson(const Json& root) {
       s.camera_faults.corrupt = ParseTrigger(c, p, "corrupt");
       s.camera_faults.previous_file = ParseTrigger(c, p, "previous_file");
       s.camera_faults.wrong_exposure = ParseTrigger(c, p, "wrong_exposure");
+      s.camera_faults.wrong_depth = ParseTrigger(c, p, "wrong_depth");
       s.camera_faults.card_target = ParseTrigger(c, p, "card_target");
       s.camera_faults.hold = ParseTrigger(c, p, "hold");
       s.camera_faults.hold_fifo =

@@ -215,6 +215,9 @@ struct CameraFaults {
                                 // one behind until the pending files are
                                 // drained (SimWorld::PrepareCaptureGroup)
   FaultTrigger wrong_exposure;  // exposes twice as long as set (EXIF says so)
+  FaultTrigger wrong_depth;     // a PNG or TIFF file of the other bit depth
+                                // (16 bits for 8, 8 for 16), as from a
+                                // camera whose TIFF is 8-bit
   FaultTrigger card_target;     // the capture target switches to the card
                                 // until PrepareCaptureGroup sets RAM again
   // Not a camera fault but a test's handle on a moment: the capture call

@@ -293,7 +293,8 @@ absl::StatusOr<SimCapture> SimWorld::Preview(const ExposureSettings& settings) {
 
 absl::StatusOr<SimCapture> SimWorld::Render(const ExposureSettings& settings,
                                             ImageFormat format, double stage,
-                                            const cv::Mat& pattern) {
+                                            const cv::Mat& pattern,
+                                            bool other_depth) {
   int64_t index = 0;
   absl::Time camera_time;
   {
@@ -318,11 +319,13 @@ absl::StatusOr<SimCapture> SimWorld::Render(const ExposureSettings& settings,
   switch (format) {
     case ImageFormat::kPng:
     case ImageFormat::kJpeg:
-      capture.image = Digitize(electrons, scene().sensor, 8);
+      capture.image =
+          Digitize(electrons, scene().sensor,
+                   other_depth && format == ImageFormat::kPng ? 16 : 8);
       bytes = EncodeImage(capture.image, format);
       break;
     case ImageFormat::kTiff16:
-      capture.image = Digitize(electrons, scene().sensor, 16);
+      capture.image = Digitize(electrons, scene().sensor, other_depth ? 8 : 16);
       bytes = EncodeImage(capture.image, format);
       break;
     case ImageFormat::kDng:
@@ -422,7 +425,9 @@ absl::StatusOr<SimCapture> SimWorld::Capture(
   }
   ExposureSettings used = settings;
   if (FaultFires(faults.wrong_exposure, call, seed, 4)) used.exposure_s *= 2;
-  ASSIGN_OR_RETURN(SimCapture fresh, Render(used, format, stage, pattern));
+  const bool other_depth = FaultFires(faults.wrong_depth, call, seed, 8);
+  ASSIGN_OR_RETURN(SimCapture fresh,
+                   Render(used, format, stage, pattern, other_depth));
   SimCapture capture = std::move(fresh);
   {
     std::lock_guard<std::mutex> lock(mu_);

@@ -191,10 +191,12 @@ class SimWorld {
   void SleepModelled(double seconds) const;
 
  private:
-  // Renders, encodes and names one exposure (no faults).
+  // Renders, encodes and names one exposure; `other_depth`: a PNG or TIFF
+  // file of the other bit depth than its format's (the wrong_depth fault).
   absl::StatusOr<SimCapture> Render(const ExposureSettings& settings,
                                     ImageFormat format, double stage,
-                                    const cv::Mat& pattern);
+                                    const cv::Mat& pattern,
+                                    bool other_depth = false);
   // Gives the projector `pattern` (see SetProjectorPattern); mu_ held.
   void GiveLocked(cv::Mat pattern);
   // The pattern showing now: scheduled patterns that are due replace

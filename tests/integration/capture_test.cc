@@ -408,6 +408,27 @@ TEST_F(CaptureTest, CorruptTransferIsCaughtNotStored) {
   ExpectConsistentStore("c", 17);
 }
 
+// A camera that sends another bit depth than the format asked (16-bit
+// PNG for the simulated camera's 8-bit PNG) is not taken at its word: the
+// job fails naming both, and nothing of that frame is kept.
+TEST_F(CaptureTest, AFrameOfAnotherBitDepthFailsTheJobNamingBoth) {
+  nlohmann::json patch = SmallLabLamp();
+  patch["faults"] = {{"camera", {{"wrong_depth", {{"calls", {3}}}}}}};
+  StartSim(patch);
+  ASSERT_EQ(Cli({"session", "create", "d"}).exit_code, 0);
+  EXPECT_EQ(Cli({"capture", "stereo", "d", "--watch"}).exit_code, 1);
+  nlohmann::json failed = Job(1);
+  EXPECT_EQ(failed["state"], "JOB_STATE_FAILED");
+  EXPECT_THAT(failed.value("error", ""),
+              HasSubstr("decodes to CV_16UC3 pixels, but its format png8 is "
+                        "8-bit; set the camera to the format the capture "
+                        "asks for"));
+  EXPECT_EQ(Sql("SELECT count(*) FROM frames"), "2");
+  ExpectConsistentStore("d", 2);
+  EXPECT_EQ(ExpectFilesMatchTheirRows("d"), 2);
+  ExpectNoTempFiles();
+}
+
 TEST_F(CaptureTest, EveryFrameRecordsWhatTheCameraReported) {
   StartSim();
   ASSERT_EQ(Cli({"session", "create", "v"}).exit_code, 0);
