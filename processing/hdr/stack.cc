@@ -217,12 +217,8 @@ absl::StatusOr<StackImage> LoadStackImage(const std::filesystem::path& dir,
         absl::StrCat("no exposure #", index, " in ", dir.string(), ": it has ",
                      entries.size()));
   }
+  // ParseSeconds took only positive times.
   const auto& [path, time] = entries[index];
-  if (*time <= 0) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("missing or non-positive exposure time for ",
-                     path.string(), ": ", *time));
-  }
   ASSIGN_OR_RETURN(io::DecodedImage img, io::DecodeImageFile(path));
   return StackImage{std::move(img.pixels), *time};
 }

@@ -36,15 +36,15 @@ absl::Status ValidateStack(const ExposureStack& stack);
 // ordered by exposure time, longest first. The result is validated.
 absl::StatusOr<ExposureStack> LoadStack(const std::filesystem::path& dir);
 
+struct StackImage {
+  cv::Mat image;
+  double exposure_s = 0;
+};
 // The image LoadStack(dir) puts at `index` (longest exposure first) and
 // its exposure time. Where exposures.txt gives every time, only that file
 // is decoded (the rest of the stack is neither read nor validated);
 // otherwise the whole stack is loaded. INVALID_ARGUMENT when the stack has
 // no such image.
-struct StackImage {
-  cv::Mat image;
-  double exposure_s = 0;
-};
 absl::StatusOr<StackImage> LoadStackImage(const std::filesystem::path& dir,
                                           size_t index);
 

@@ -467,9 +467,10 @@ TEST(StackTest, OneImageIsLoadStacksImageAndOnlyItsFileIsRead) {
   TempDir dir;
   Scene s = MakeScene();
   std::ofstream list(dir / "exposures.txt");
-  // Listed shortest first, so that the order has to be LoadStack's.
+  // Listed, and named, shortest first: only LoadStack's order by time puts
+  // the longest first.
   for (size_t j = s.stack.images.size(); j-- > 0;) {
-    const std::string name = "e" + std::to_string(j) + ".png";
+    const std::string name = "e" + std::to_string(7 - j) + ".png";
     ASSERT_TRUE(cv::imwrite((dir / name).string(), s.stack.images[j]));
     list << name << " 1/" << std::lround(1.0 / s.stack.exposure_s[j]) << "\n";
   }
@@ -483,14 +484,15 @@ TEST(StackTest, OneImageIsLoadStacksImageAndOnlyItsFileIsRead) {
   EXPECT_THAT(LoadStackImage(dir.path(), 8),
               StatusIs(absl::StatusCode::kInvalidArgument,
                        HasSubstr("no exposure #8 in ")));
-  // A broken file elsewhere in the stack is not read.
-  std::ofstream(dir / "e7.png") << "this is not a png";
+  // A broken file elsewhere in the stack is not read (e0.png is the
+  // shortest exposure, the last in LoadStack's order).
+  std::ofstream(dir / "e0.png") << "this is not a png";
   EXPECT_FALSE(LoadStack(dir.path()).ok());
   ASSERT_OK_AND_ASSIGN(const StackImage middle, LoadStackImage(dir.path(), 4));
   EXPECT_EQ(cv::norm(middle.image, whole.images[4], cv::NORM_INF), 0);
   EXPECT_THAT(LoadStackImage(dir.path(), 7),
               StatusIs(absl::StatusCode::kInvalidArgument,
-                       HasSubstr("e7.png: not a JPEG, PNG or TIFF file")));
+                       HasSubstr("e0.png: not a JPEG, PNG or TIFF file")));
 }
 
 TEST(StackTest, OneImageOfAStackTimedByItsMetadata) {
