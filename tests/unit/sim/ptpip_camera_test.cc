@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/string_view.h"
 #include "absl/time/clock.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
@@ -241,6 +242,15 @@ std::string Le32(uint32_t v) {
   return out;
 }
 
+// The little-endian number of `width` bytes at `at` of `bytes`.
+uint32_t LoadLe(absl::string_view bytes, size_t at, int width) {
+  uint32_t v = 0;
+  for (int i = width - 1; i >= 0; --i) {
+    v = v << 8 | static_cast<uint8_t>(bytes[at + static_cast<size_t>(i)]);
+  }
+  return v;
+}
+
 std::string Framed(uint32_t type, const std::string& body) {
   return Le32(static_cast<uint32_t>(8 + body.size())) + Le32(type) + body;
 }
@@ -267,12 +277,7 @@ void OpenSession(RawClient& client, uint32_t* connection = nullptr) {
   ASSERT_TRUE(ack.has_value());
   ASSERT_EQ(ack->type, ptpip::kInitCommandAck);
   ASSERT_GE(ack->body.size(), 4u);
-  if (connection != nullptr) {
-    *connection = 0;
-    for (int i = 3; i >= 0; --i) {
-      *connection = *connection << 8 | static_cast<uint8_t>(ack->body[i]);
-    }
-  }
+  if (connection != nullptr) *connection = LoadLe(ack->body, 0, 4);
   client.Send(Request(ptpip::op::kOpenSession, 0, {1}));
   std::optional<ptpip::Packet> response = client.Read();
   ASSERT_TRUE(response.has_value());
@@ -285,8 +290,7 @@ uint16_t ResponseCode(const std::optional<ptpip::Packet>& packet) {
       packet->body.size() < 2) {
     return 0;
   }
-  return static_cast<uint16_t>(static_cast<uint8_t>(packet->body[0]) |
-                               static_cast<uint8_t>(packet->body[1]) << 8);
+  return static_cast<uint16_t>(LoadLe(packet->body, 0, 2));
 }
 
 TEST_F(PtpIpCameraTest, AnAbsurdPacketLengthDropsThatClientOnly) {
@@ -358,11 +362,8 @@ TEST_F(PtpIpCameraTest, TheNextTriggerIsTakenAsSoonAsCaptureCompleteIsRead) {
         event->body.size() < 6) {
       return {0, 0};
     }
-    const auto byte = [&](int i) {
-      return static_cast<uint32_t>(static_cast<uint8_t>(event->body[i]));
-    };
-    return {static_cast<uint16_t>(byte(0) | byte(1) << 8),
-            byte(2) | byte(3) << 8 | byte(4) << 16 | byte(5) << 24};
+    return {static_cast<uint16_t>(LoadLe(event->body, 0, 2)),
+            LoadLe(event->body, 2, 4)};
   };
   for (uint32_t transaction = 1; transaction <= 200; ++transaction) {
     commands.Send(Request(ptpip::op::kInitiateCapture, transaction, {0, 0}));
