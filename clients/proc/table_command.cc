@@ -2,7 +2,8 @@
 //
 // hdrstereo-proc table --scene NAME [--scene NAME ...] [--width W]
 //                      [--baseline-mm B] [--markdown OUT.md]
-//                      [--thesis-fusion] [--one-fused4] [--details]
+//                      [--thesis-fusion | --no-plane-prior] [--one-fused4]
+//                      [--details]
 // hdrstereo-proc table --left-stack L/ --right-stack R/ --truth disp.pfm
 //                      [--nonoccluded mask.png] [--max-disp D]
 // The thesis' Tables 5.2 / 5.3 (RMSE and bad-1px of ldr, the seven TMOs,
@@ -47,6 +48,7 @@ struct TableArgs {
   double inconsistent_confidence = 1.0;
   double edge_weight = 1.0;
   bool thesis_fusion = false;
+  bool no_plane_prior = false;
   bool one_fused4 = false;
   bool details = false;
 };
@@ -133,6 +135,7 @@ absl::Status RunTable(const TableArgs& args) {
     topt.experiment.fusion.edge_weight = args.edge_weight;
     topt.experiment.inconsistent_confidence = args.inconsistent_confidence;
     topt.experiment.robust_fusion.enabled = !args.thesis_fusion;
+    topt.experiment.robust_fusion.planes.enabled = !args.no_plane_prior;
     topt.fused4_all_subsets = !args.one_fused4;
     topt.details = args.details;
     ASSIGN_OR_RETURN(experiment::TableResult r,
@@ -183,6 +186,10 @@ void AddTableCommands(CLI::App& app) {
       "--thesis-fusion", args->thesis_fusion,
       "The thesis' fusion (one graph cut, every candidate weighed "
       "alike) instead of weighing each by its evidence");
+  cmd->add_flag("--no-plane-prior", args->no_plane_prior,
+                "Fusion without its last step, planes on surfaces without "
+                "texture")
+      ->excludes(thesis);
   cmd->add_flag("--details", args->details,
                 "Also per data set: bad-2px, bad-1px scaled with the width, "
                 "the per-region split and the oracle of the seven");

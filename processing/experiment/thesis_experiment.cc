@@ -216,7 +216,7 @@ absl::StatusOr<std::map<Method, Candidate>> MatchAllMethods(
 }
 
 absl::StatusOr<fusion::FusionResult> FuseSome(
-    const std::vector<const Candidate*>& candidates, const cv::Mat& guide,
+    const std::vector<const Candidate*>& candidates, const FusionViews& views,
     int max_disparity, const ExperimentOptions& options) {
   std::vector<cv::Mat> disparities, confidences;
   if (options.robust_fusion.enabled) {
@@ -225,9 +225,9 @@ absl::StatusOr<fusion::FusionResult> FuseSome(
       disparities.push_back(c->disparity);
       consistent.push_back(c->consistent);
     }
-    return fusion::FuseByReliability(disparities, consistent, guide,
-                                     FusionOf(options, max_disparity),
-                                     options.robust_fusion);
+    return fusion::FuseByReliability(
+        disparities, consistent, views.guide, views.segmented,
+        FusionOf(options, max_disparity), options.robust_fusion);
   }
   for (const Candidate* c : candidates) {
     disparities.push_back(c->disparity);
@@ -237,11 +237,11 @@ absl::StatusOr<fusion::FusionResult> FuseSome(
     }
   }
   return fusion::FuseAlphaExpansion(
-      disparities, guide, FusionOf(options, max_disparity), confidences);
+      disparities, views.guide, FusionOf(options, max_disparity), confidences);
 }
 
 absl::StatusOr<Fused> FuseMethods(const std::map<Method, Candidate>& candidates,
-                                  const cv::Mat& guide, int max_disparity,
+                                  const FusionViews& views, int max_disparity,
                                   const ExperimentOptions& options,
                                   const UnitRunner& runner) {
   std::vector<const Candidate*> seven;
@@ -267,7 +267,7 @@ absl::StatusOr<Fused> FuseMethods(const std::map<Method, Candidate>& candidates,
       ASSIGN_OR_RETURN(d, fusion::FuseMedian(disparities, max_disparity));
     } else {
       ASSIGN_OR_RETURN(const fusion::FusionResult r,
-                       FuseSome(seven, guide, max_disparity, options));
+                       FuseSome(seven, views, max_disparity, options));
       d = r.disparity;
       stats = r.stats;
     }

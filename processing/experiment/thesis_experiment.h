@@ -139,20 +139,28 @@ absl::StatusOr<std::map<Method, Candidate>> MatchAllMethods(
     const ExperimentOptions& options, const UnitRunner& runner = SerialRunner);
 
 // 5. Fusion of the seven tone-mapped candidates (all of ToneMappedMethods()
-// in `candidates`) into mean, median and fused, guided by the LDR middle
-// exposure's left view (Appendix A: left.jpg; made 8-bit).
+// in `candidates`) into mean, median and fused. It looks at two left
+// views, 8-bit and of the candidates' size: the smoothness term's guide,
+// the LDR middle exposure (Appendix A: left.jpg), and the view the
+// reliability fusion's plane prior segments, kSegmentedView's tone-mapped
+// one, where dark surfaces are visible (unused by the thesis' fusion).
+struct FusionViews {
+  cv::Mat guide;
+  cv::Mat segmented;
+};
+inline constexpr Method kSegmentedView = Method::kReinhard;
 struct Fused {
   std::map<Method, cv::Mat> disparity;  // FusedMethods()
   fusion::SolverStats stats;            // of fused
 };
 absl::StatusOr<Fused> FuseMethods(const std::map<Method, Candidate>& candidates,
-                                  const cv::Mat& guide, int max_disparity,
+                                  const FusionViews& views, int max_disparity,
                                   const ExperimentOptions& options,
                                   const UnitRunner& runner = SerialRunner);
 // Graph-cut fusion of some of the tone-mapped candidates (the table's
 // fused-4 subsets): by reliability, or the thesis' one cut.
 absl::StatusOr<fusion::FusionResult> FuseSome(
-    const std::vector<const Candidate*>& candidates, const cv::Mat& guide,
+    const std::vector<const Candidate*>& candidates, const FusionViews& views,
     int max_disparity, const ExperimentOptions& options);
 
 // 6. A disparity scored against a truth on its non-occluded pixels

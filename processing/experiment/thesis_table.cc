@@ -32,7 +32,7 @@ absl::StatusOr<TableRow> ScoreRow(Method method, const cv::Mat& disp,
 
 // fused-4: every 4-subset of the 7 (35), RMSE and bad-1px averaged.
 absl::StatusOr<TableRow> Fused4(const std::map<Method, Candidate>& candidates,
-                                const cv::Mat& guide, int max_disp,
+                                const FusionViews& views, int max_disp,
                                 const TableInput& in,
                                 const TableOptions& options) {
   const std::vector<Method>& seven = ToneMappedMethods();
@@ -54,7 +54,7 @@ absl::StatusOr<TableRow> Fused4(const std::map<Method, Candidate>& candidates,
           }
         }
         ASSIGN_OR_RETURN(const fusion::FusionResult r,
-                         FuseSome(four, guide, max_disp, options.experiment));
+                         FuseSome(four, views, max_disp, options.experiment));
         ASSIGN_OR_RETURN(
             rows[static_cast<size_t>(s)],
             ScoreRow(Method::kFused4, r.disparity, in, options.experiment));
@@ -225,9 +225,10 @@ absl::StatusOr<TableResult> RunImpl(const TableInput& in,
   pairs[Method::kHdr] = {left, right};
   ASSIGN_OR_RETURN(const auto candidates,
                    MatchAllMethods(pairs, max_disp, o, runner));
-  const cv::Mat guide = io::To8Bit(in.left.images[ldr]);
+  const FusionViews views{io::To8Bit(in.left.images[ldr]),
+                          pairs.at(kSegmentedView).left};
   ASSIGN_OR_RETURN(const Fused fused,
-                   FuseMethods(candidates, guide, max_disp, o, runner));
+                   FuseMethods(candidates, views, max_disp, o, runner));
 
   TableResult result;
   result.name = in.name;
@@ -244,7 +245,7 @@ absl::StatusOr<TableResult> RunImpl(const TableInput& in,
     result.rows.push_back(row);
   }
   ASSIGN_OR_RETURN(TableRow f4,
-                   Fused4(candidates, guide, max_disp, in, options));
+                   Fused4(candidates, views, max_disp, in, options));
   result.rows.push_back(f4);
   ASSIGN_OR_RETURN(
       TableRow f7,

@@ -160,7 +160,7 @@ struct SolverStats {
 };
 
 struct FusionResult {
-  cv::Mat disparity;  // CV_32FC1, integer labels
+  cv::Mat disparity;  // CV_32FC1, integer labels (but see FuseByReliability)
   SolverStats stats;
 };
 

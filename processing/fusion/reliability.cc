@@ -36,6 +36,24 @@ absl::Status CheckInputs(const std::vector<cv::Mat>& candidates,
   return absl::OkStatus();
 }
 
+// Where candidate k passed its left-right check (when masks are given) and
+// lies within tau of the estimate. NaN differences compare false: no
+// agreement where either is invalid.
+cv::Mat Agrees(const std::vector<cv::Mat>& candidates,
+               const std::vector<cv::Mat>& consistent, size_t k,
+               const cv::Mat& estimate, double tau) {
+  cv::Mat agree = cv::abs(candidates[k] - estimate) <= tau;
+  if (!consistent.empty() && !consistent[k].empty()) {
+    agree &= consistent[k] != 0;
+  }
+  return agree;
+}
+
+// The agreement tolerance (and the data term's sigma) at this width.
+double Tau(const ReliabilityOptions& options, int width) {
+  return options.sigma_fraction * width;
+}
+
 }  // namespace
 
 absl::Status ReliabilityOptions::Validate() const {
@@ -47,17 +65,20 @@ absl::Status ReliabilityOptions::Validate() const {
                                "in (0, 2]"));
   RETURN_IF_ERROR(RequireField(exponent >= 0 && exponent <= 16, "exponent",
                                exponent, "in [0, 16]"));
-  return RequireField(passes >= 1 && passes <= 10, "passes", passes,
-                      "in [1, 10]");
+  RETURN_IF_ERROR(RequireField(passes >= 1 && passes <= 10, "passes", passes,
+                               "in [1, 10]"));
+  return WithFieldPrefix("planes", planes.Validate());
 }
 
 void to_json(nlohmann::json& j, const ReliabilityOptions& o) {
-  const auto& [enabled, sigma_fraction, window_fraction, exponent, passes] = o;
+  const auto& [enabled, sigma_fraction, window_fraction, exponent, passes,
+               planes] = o;
   j = nlohmann::json{{"enabled", enabled},
                      {"sigma_fraction", sigma_fraction},
                      {"window_fraction", window_fraction},
                      {"exponent", exponent},
-                     {"passes", passes}};
+                     {"passes", passes},
+                     {"planes", planes}};
 }
 
 absl::StatusOr<std::vector<cv::Mat>> CandidateConfidences(
@@ -71,18 +92,14 @@ absl::StatusOr<std::vector<cv::Mat>> CandidateConfidences(
     return absl::InvalidArgumentError(
         "fusion: the estimate must be CV_32FC1 of the candidates' size");
   }
-  const double tau = options.sigma_fraction * size.width;
+  const double tau = Tau(options, size.width);
   const int window =
       std::max(1, static_cast<int>(options.window_fraction * size.width)) | 1;
   std::vector<cv::Mat> out;
   for (size_t k = 0; k < candidates.size(); ++k) {
-    // NaN differences compare false: no agreement where either is invalid.
-    cv::Mat agree = cv::abs(candidates[k] - estimate) <= tau;
-    if (!consistent.empty() && !consistent[k].empty()) {
-      agree &= consistent[k] != 0;
-    }
     cv::Mat rate;
-    agree.convertTo(rate, CV_32F, 1.0 / 255.0);
+    Agrees(candidates, consistent, k, estimate, tau)
+        .convertTo(rate, CV_32F, 1.0 / 255.0);
     cv::boxFilter(rate, rate, -1, cv::Size(window, window), cv::Point(-1, -1),
                   true, cv::BORDER_REFLECT);
     cv::pow(rate, options.exponent, rate);
@@ -122,15 +139,31 @@ absl::StatusOr<cv::Mat> ConsistentMedian(const std::vector<cv::Mat>& candidates,
   return median;
 }
 
+absl::StatusOr<cv::Mat> ReliablePixels(const std::vector<cv::Mat>& candidates,
+                                       const std::vector<cv::Mat>& consistent,
+                                       const cv::Mat& fused, double tau) {
+  RETURN_IF_ERROR(CheckInputs(candidates, consistent));
+  if (fused.type() != CV_32FC1 || fused.size() != candidates[0].size()) {
+    return absl::InvalidArgumentError(
+        "fusion: the fused map must be CV_32FC1 of the candidates' size");
+  }
+  cv::Mat count = cv::Mat::zeros(fused.size(), CV_8UC1);
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    cv::add(count, 1, count, Agrees(candidates, consistent, k, fused, tau));
+  }
+  return cv::Mat(count >= 2);
+}
+
 absl::StatusOr<FusionResult> FuseByReliability(
     const std::vector<cv::Mat>& candidates,
     const std::vector<cv::Mat>& consistent, const cv::Mat& guide,
-    FusionOptions params, const ReliabilityOptions& options) {
+    const cv::Mat& segmented, FusionOptions params,
+    const ReliabilityOptions& options) {
   RETURN_IF_ERROR(options.Validate());
   const auto start = std::chrono::steady_clock::now();
   ASSIGN_OR_RETURN(cv::Mat estimate,
                    ConsistentMedian(candidates, consistent, params.max_disp));
-  params.sigma = options.sigma_fraction * estimate.cols;
+  params.sigma = Tau(options, estimate.cols);
   FusionResult result;
   for (int pass = 0; pass < options.passes; ++pass) {
     ASSIGN_OR_RETURN(
@@ -139,6 +172,15 @@ absl::StatusOr<FusionResult> FuseByReliability(
     ASSIGN_OR_RETURN(
         result, FuseAlphaExpansion(candidates, guide, params, confidences));
     estimate = result.disparity;
+  }
+  if (options.planes.enabled) {
+    const double tau = Tau(options, estimate.cols);
+    ASSIGN_OR_RETURN(const cv::Mat reliable,
+                     ReliablePixels(candidates, consistent, estimate, tau));
+    ASSIGN_OR_RETURN(PlanePriorResult planes,
+                     ApplyPlanePrior(estimate, reliable, segmented, tau,
+                                     params.max_disp, options.planes));
+    result.disparity = std::move(planes.disparity);
   }
   result.stats.total_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)

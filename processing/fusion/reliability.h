@@ -28,6 +28,10 @@
 // model; the left-right check is the confidence measure Hu & Mordohai
 // (2012) found among the most reliable.
 //
+// Last, surfaces without texture take a plane (plane_prior.h), fitted to
+// the fused pixels that at least two candidates passing their left-right
+// check agree with (within tau).
+//
 // Sizes are relative to the image: the data term's sigma and the agreement
 // tolerance tau are both sigma_fraction x width (1 px at 320 px, where the
 // thesis' sigma = 1 was measured), so candidates that agree at 320 px still
@@ -42,6 +46,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "processing/fusion/fusion.h"
+#include "processing/fusion/plane_prior.h"
 
 namespace hdrstereo::fusion {
 
@@ -53,6 +58,7 @@ struct ReliabilityOptions {
   double window_fraction = 0.4;       // window side, times the width
   double exponent = 2.0;
   int passes = 3;  // graph cuts; the first from ConsistentMedian
+  PlanePriorOptions planes;
 
   // INVALID_ARGUMENT naming the first field that breaks a rule.
   absl::Status Validate() const;
@@ -75,13 +81,23 @@ absl::StatusOr<cv::Mat> ConsistentMedian(const std::vector<cv::Mat>& candidates,
                                          const std::vector<cv::Mat>& consistent,
                                          int max_disp);
 
-// The passes above. params.sigma is replaced by sigma_fraction x width;
-// the result's stats are the last pass' with total_seconds summed over
-// all passes (the first estimate included).
+// The fused pixels that at least two candidates which passed their
+// left-right check agree with within tau (CV_8UC1, 255 = reliable).
+absl::StatusOr<cv::Mat> ReliablePixels(const std::vector<cv::Mat>& candidates,
+                                       const std::vector<cv::Mat>& consistent,
+                                       const cv::Mat& fused, double tau);
+
+// The passes above, then the plane prior on `segmented` (8-bit, 1 or 3
+// channels, the candidates' size: a tone-mapped left view; unused when
+// options.planes.enabled is false). params.sigma is replaced by
+// sigma_fraction x width. The disparity is integer labels except where a
+// plane replaced them; the stats are the last pass' with total_seconds
+// summed over all passes (the first estimate and the planes included).
 absl::StatusOr<FusionResult> FuseByReliability(
     const std::vector<cv::Mat>& candidates,
     const std::vector<cv::Mat>& consistent, const cv::Mat& guide,
-    FusionOptions params, const ReliabilityOptions& options);
+    const cv::Mat& segmented, FusionOptions params,
+    const ReliabilityOptions& options);
 
 }  // namespace hdrstereo::fusion
 

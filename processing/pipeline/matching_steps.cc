@@ -39,6 +39,12 @@ std::string ConsistencyFile(Method m, const char* folder = kImageFolder) {
   return absl::StrCat(folder, experiment::MethodName(m), "_lr.png");
 }
 
+// The tonemap step's view (0 left, 1 right) of method m.
+std::string ToneMappedFile(Method m, int view) {
+  return absl::StrCat("tonemapped/", experiment::MethodName(m), "/im", view,
+                      ".png");
+}
+
 // Where both steps match: the images' size and the working size.
 struct Sizes {
   cv::Size image;
@@ -98,10 +104,8 @@ absl::Status RunStereo(const Matching& o, StepContext& c) {
   };
   add(Method::kLdr, left.image, right.image);
   for (Method m : experiment::ToneMappedMethods()) {
-    const std::string folder =
-        absl::StrCat("tonemapped/", experiment::MethodName(m), "/");
-    ASSIGN_OR_RETURN(const cv::Mat l, c.Read(folder + "im0.png"));
-    ASSIGN_OR_RETURN(const cv::Mat r, c.Read(folder + "im1.png"));
+    ASSIGN_OR_RETURN(const cv::Mat l, c.Read(ToneMappedFile(m, 0)));
+    ASSIGN_OR_RETURN(const cv::Mat r, c.Read(ToneMappedFile(m, 1)));
     add(m, l, r);
   }
   ASSIGN_OR_RETURN(const cv::Mat hdr_left, c.ReadPfm("hdr/im0.pfm"));
@@ -140,11 +144,18 @@ absl::Status RunFusion(const Fusion& o, StepContext& c) {
                        c.Read(ConsistencyFile(m, folder)));
     }
   }
-  const cv::Mat guide =
+  experiment::FusionViews views;
+  views.guide =
       experiment::ToMatchingSize(io::To8Bit(left.image), o.sizes.matching);
+  const fusion::ReliabilityOptions& robust = o.options.robust_fusion;
+  if (robust.enabled && robust.planes.enabled) {
+    ASSIGN_OR_RETURN(const cv::Mat segmented,
+                     c.Read(ToneMappedFile(experiment::kSegmentedView, 0)));
+    views.segmented = experiment::ToMatchingSize(segmented, o.sizes.matching);
+  }
   ASSIGN_OR_RETURN(
       const experiment::Fused fused,
-      experiment::FuseMethods(candidates, guide, o.sizes.max_disparity,
+      experiment::FuseMethods(candidates, views, o.sizes.max_disparity,
                               o.options, c.Units()));
   for (Method m : experiment::FusedMethods()) {
     RETURN_IF_ERROR(WriteMap(c, o.sizes, DisparityFile(m),

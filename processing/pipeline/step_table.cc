@@ -32,7 +32,7 @@ const std::vector<StepSpec>& StepTable() {
        In::kSimulatorTruth,
        &ConfigureStereo},
       {"fusion",
-       {"rectify", "stereo", "sl_groundtruth"},
+       {"rectify", "tonemap", "stereo", "sl_groundtruth"},
        In::kSimulatorTruth,
        &ConfigureFusion},
       {"evaluate",

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
-// The session's fusion (weighing each candidate by its evidence,
-// fusion/reliability.h) against its own inputs, the thesis' fusion and LDR,
+// The session's fusion (weighing each candidate by its evidence, then
+// planes on surfaces without texture: fusion/reliability.h,
+// fusion/plane_prior.h) against its own inputs, the thesis' fusion and LDR,
 // at 640 px on the bundled scenes that have something to match: lab-lamp,
 // two-lamps, desk-lamp (HDR lamp scenes) and textured. checkerboard and
 // shadowed are left out: they are made for calibration and structured
@@ -33,7 +34,7 @@ const TableRow& Row(const TableResult& r, Method m) {
   return r.rows.front();
 }
 
-TEST(FusionScenesTest, WeighingCandidatesByEvidenceBeatsItsInputsAndTheThesis) {
+TEST(FusionScenesTest, FusionBeatsItsInputsTheThesisAndHalfOfLdr) {
   std::vector<TableResult> results;
   for (const std::string name :
        {"lab-lamp", "two-lamps", "desk-lamp", "textured"}) {
@@ -55,10 +56,11 @@ TEST(FusionScenesTest, WeighingCandidatesByEvidenceBeatsItsInputsAndTheThesis) {
     ExperimentOptions thesis = options.experiment;
     thesis.robust_fusion.enabled = false;
     const int max_disp = DisparityRange(LargestDisparity(in.truth), kWidth);
-    const cv::Mat guide =
-        io::To8Bit(in.left.images.at(static_cast<size_t>(in.ldr_index)));
+    const FusionViews views{
+        io::To8Bit(in.left.images.at(static_cast<size_t>(in.ldr_index))),
+        cv::Mat()};
     ASSERT_OK_AND_ASSIGN(const fusion::FusionResult thesis_fused,
-                         FuseSome(inputs, guide, max_disp, thesis));
+                         FuseSome(inputs, views, max_disp, thesis));
     ASSERT_OK_AND_ASSIGN(
         const eval::RegionMetrics thesis_score,
         Score(thesis_fused.disparity, in.truth, in.nonoccluded, thesis));
@@ -66,37 +68,46 @@ TEST(FusionScenesTest, WeighingCandidatesByEvidenceBeatsItsInputsAndTheThesis) {
     const TableRow fused = Row(r, Method::kFused);
     const TableRow median = Row(r, Method::kMedian);
     const TableRow ldr = Row(r, Method::kLdr);
-    double best_bad1 = 100;
+    // The best of the seven inputs, each measure on its own.
+    double best_rmse = 1e9, best_bad1 = 100;
     for (Method m : ToneMappedMethods()) {
+      best_rmse = std::min(best_rmse, Row(r, m).rmse);
       best_bad1 = std::min(best_bad1, Row(r, m).bad1);
     }
     std::cout << name << ": fused " << fused.rmse << " / " << fused.bad1
               << " %, thesis fusion " << thesis_score.rmse << " / "
               << thesis_score.bad_percent.at(1) << " %, median " << median.rmse
               << " / " << median.bad1 << " %, LDR " << ldr.rmse << " / "
-              << ldr.bad1 << " %, best candidate bad-1px " << best_bad1
-              << " %\n";
+              << ldr.bad1 << " %, best candidate " << best_rmse << " / "
+              << best_bad1 << " %\n";
 
-    // Measured 2026-12-06, after Fattal's solve moved to 320 px (RMSE /
-    // bad-1px): lab-lamp 1.48 / 8.4 %, two-lamps 3.76 / 25.4 %, desk-lamp
-    // 2.55 / 12.1 %, textured 1.03 / 1.2 %. Fewer bad pixels than the
-    // median on every scene, and than every single candidate on the lamp
-    // scenes (textured: 1.21 % against Drago's 1.18 %, hence the
-    // 0.05-point margin).
-    EXPECT_LE(fused.bad1, median.bad1);
-    EXPECT_LE(fused.bad1, best_bad1 + 0.05);
-    // RMSE: at most the thesis fusion's and within 6 % of the median's
-    // (desk-lamp 2.42 and textured 1.01 are below fused: the target "fused
-    // <= median" is not met there yet; the median gained when Fattal's
-    // candidate did, desk-lamp 2.49 -> 2.42, fused 2.56 -> 2.55).
+    // Never worse than the thesis' fusion of the same candidates.
     EXPECT_LE(fused.rmse, thesis_score.rmse);
-    EXPECT_LE(fused.rmse, 1.06 * median.rmse);
     EXPECT_LE(fused.bad1, thesis_score.bad_percent.at(1));
-    if (name == "lab-lamp" || name == "two-lamps") {
-      // Where the thesis' fusion followed the failing candidates, this one
-      // halves its error and is at most half of LDR's (0.47 and 0.26).
-      EXPECT_LT(fused.rmse, 0.6 * thesis_score.rmse);
+    if (name != "textured") {
+      // The issue's targets on the lamp scenes. Measured 2026-12-06 with
+      // the plane prior (RMSE / bad-1px; median, best candidate, LDR):
+      // lab-lamp 1.23 / 3.9 % (2.39 / 24.6, 1.44 / 10.1, 3.21), two-lamps
+      // 3.36 / 19.4 % (6.55 / 41.9, 3.97 / 27.5, 14.68), desk-lamp 0.84 /
+      // 2.4 % (2.42 / 22.8, 1.92 / 13.8, 4.05).
+      EXPECT_LE(fused.rmse, median.rmse);
+      EXPECT_LE(fused.rmse, best_rmse);
+      EXPECT_LE(fused.bad1, median.bad1);
+      EXPECT_LE(fused.bad1, best_bad1);
       EXPECT_LE(fused.rmse, 0.5 * ldr.rmse);
+      if (name != "desk-lamp") {
+        // Where the thesis' fusion followed the failing candidates, this
+        // one at least nearly halves its error (0.45 and 0.50).
+        EXPECT_LT(fused.rmse, 0.6 * thesis_score.rmse);
+      }
+    } else {
+      // textured, where every candidate is good and the losses are at
+      // depth edges, does not meet them: fused 1.03 / 1.21 %, median 1.01 /
+      // 1.25 %, Drago 0.85 / 1.18 %, LDR 1.65 (docs/results.md, "Against
+      // the issue's targets"). These bounds keep it from getting worse.
+      EXPECT_LE(fused.bad1, median.bad1);
+      EXPECT_LE(fused.bad1, best_bad1 + 0.05);
+      EXPECT_LE(fused.rmse, 1.05 * median.rmse);
     }
     results.push_back(std::move(r));
   }

@@ -83,9 +83,9 @@ TEST(ReliabilityTest, FollowsTheCandidatesTheEvidenceSupportsNotTheMajority) {
   ASSERT_OK_AND_ASSIGN(const cv::Mat median, FuseMedian(c.disparity, 48));
   ASSERT_OK_AND_ASSIGN(const FusionResult thesis,
                        FuseAlphaExpansion(c.disparity, FlatGuide(), Params()));
-  ASSERT_OK_AND_ASSIGN(
-      const FusionResult robust,
-      FuseByReliability(c.disparity, c.consistent, FlatGuide(), Params(), {}));
+  ASSERT_OK_AND_ASSIGN(const FusionResult robust,
+                       FuseByReliability(c.disparity, c.consistent, FlatGuide(),
+                                         FlatGuide(), Params(), {}));
   // The majority is 8 px off on half the image: RMSE sqrt(32) = 5.7.
   EXPECT_GT(Rmse(median, truth), 5.0);
   EXPECT_GT(Rmse(thesis.disparity, truth), 5.0);
@@ -93,6 +93,34 @@ TEST(ReliabilityTest, FollowsTheCandidatesTheEvidenceSupportsNotTheMajority) {
   EXPECT_LT(Rmse(robust.disparity, truth), 0.5);
   const cv::Mat off = cv::abs(robust.disparity - truth) > 1;
   EXPECT_LT(cv::countNonZero(off), kWidth * kHeight / 100);
+}
+
+TEST(ReliabilityTest, EndsWithPlanesOnSurfacesWithoutTexture) {
+  // A slanted surface seen by seven candidates (integer labels, as
+  // matched), all of them with the wall's 10 px on its top quarter: the
+  // way every candidate fails alike where there is no texture. The view
+  // is one grey, so the surface is one untextured segment.
+  cv::Mat truth(kHeight, kWidth, CV_32FC1);
+  for (int y = 0; y < kHeight; ++y) {
+    for (int x = 0; x < kWidth; ++x) {
+      truth.at<float>(y, x) = 20.0f + 0.05f * x + 0.02f * y;
+    }
+  }
+  cv::Mat candidate;
+  truth.convertTo(candidate, CV_32S);  // rounded
+  candidate.convertTo(candidate, CV_32F);
+  candidate.rowRange(0, kHeight / 4).setTo(10);
+  const std::vector<cv::Mat> seven(7, candidate);
+  ASSERT_OK_AND_ASSIGN(
+      const FusionResult planes,
+      FuseByReliability(seven, {}, FlatGuide(), FlatGuide(), Params(), {}));
+  EXPECT_LT(Rmse(planes.disparity, truth), 0.1);
+  ReliabilityOptions off;
+  off.planes.enabled = false;
+  ASSERT_OK_AND_ASSIGN(
+      const FusionResult labels,
+      FuseByReliability(seven, {}, FlatGuide(), cv::Mat(), Params(), off));
+  EXPECT_EQ(cv::countNonZero(labels.disparity != candidate), 0);
 }
 
 TEST(ReliabilityTest,
@@ -167,6 +195,33 @@ TEST(ReliabilityTest, TheFirstEstimateIsTheMedianOfTheConsistentCandidates) {
   EXPECT_EQ(cv::countNonZero(plain != 20.0f), 0);
 }
 
+TEST(ReliabilityTest, ReliablePixelsHaveTwoConsistentCandidatesThatAgree) {
+  // 80 px wide, so OpenCV's vectorised comparisons are used.
+  const cv::Size size(80, 4);
+  const cv::Mat fused(size, CV_32FC1, cv::Scalar(20));
+  // Columns 0..19: two candidates at 20.5 pass; 20..39: one of them fails
+  // its check; 40..59: one is 2 px off; 60..79: the third candidate, at
+  // 20, makes two again.
+  std::vector<cv::Mat> candidates = {cv::Mat(size, CV_32FC1, cv::Scalar(20.5)),
+                                     cv::Mat(size, CV_32FC1, cv::Scalar(20.5)),
+                                     cv::Mat(size, CV_32FC1, cv::Scalar(35))};
+  std::vector<cv::Mat> lr(3, cv::Mat());
+  lr[1] = cv::Mat(size, CV_8UC1, cv::Scalar(255));
+  lr[1].colRange(20, 40).setTo(0);
+  candidates[1].colRange(40, 80).setTo(22);
+  candidates[2].colRange(60, 80).setTo(20);
+  ASSERT_OK_AND_ASSIGN(const cv::Mat r,
+                       ReliablePixels(candidates, lr, fused, 1.0));
+  EXPECT_EQ(r.at<uchar>(1, 10), 255);
+  EXPECT_EQ(r.at<uchar>(1, 30), 0);
+  EXPECT_EQ(r.at<uchar>(1, 50), 0);
+  EXPECT_EQ(r.at<uchar>(1, 70), 255);
+  EXPECT_THAT(
+      ReliablePixels(candidates, lr, cv::Mat(4, 79, CV_32FC1), 1.0).status(),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("the fused map must be CV_32FC1")));
+}
+
 TEST(ReliabilityTest, BadInputNamesWhatIsWrong) {
   const cv::Mat estimate(8, 32, CV_32FC1, cv::Scalar(10));
   const std::vector<cv::Mat> two = {estimate, estimate};
@@ -190,12 +245,18 @@ TEST(ReliabilityTest, BadInputNamesWhatIsWrong) {
   EXPECT_THAT(
       ConsistentMedian({}, {}, 8).status(),
       StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("no candidate")));
+  EXPECT_THAT(FuseByReliability(two, {}, cv::Mat(8, 32, CV_8UC1), cv::Mat(),
+                                Params(), {})
+                  .status(),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("plane prior: the view must be 8-bit")));
   ReliabilityOptions o;
   o.window_fraction = 0;
-  EXPECT_THAT(
-      FuseByReliability(two, {}, cv::Mat(8, 32, CV_8UC1), Params(), o).status(),
-      StatusIs(absl::StatusCode::kInvalidArgument,
-               HasSubstr("window_fraction is 0")));
+  EXPECT_THAT(FuseByReliability(two, {}, cv::Mat(8, 32, CV_8UC1),
+                                cv::Mat(8, 32, CV_8UC1), Params(), o)
+                  .status(),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("window_fraction is 0")));
 }
 
 using O = ReliabilityOptions;
@@ -208,6 +269,7 @@ TEST(ReliabilityTest, RulesNameTheirField) {
       {[](O& o) { o.exponent = -1; }, "exponent is -1"},
       {[](O& o) { o.passes = 0; }, "passes is 0"},
       {[](O& o) { o.passes = 11; }, "passes is 11"},
+      {[](O& o) { o.planes.min_inliers = 0; }, "planes.min_inliers is 0"},
   });
 }
 
@@ -218,6 +280,7 @@ TEST(ReliabilityTest, CanonicalJsonHasEveryField) {
       {"/window_fraction", [](O& o) { o.window_fraction = 0.2; }},
       {"/exponent", [](O& o) { o.exponent = 1; }},
       {"/passes", [](O& o) { o.passes = 2; }},
+      {"/planes", [](O& o) { o.planes.enabled = false; }},
   });
 }
 
