@@ -59,6 +59,11 @@ absl::StatusOr<ConfiguredStep> ConfigureHdr(const StepContext& c) {
       }};
 }
 
+std::string ToneMappedFile(Method m, int view) {
+  return absl::StrCat("tonemapped/", experiment::MethodName(m), "/im", view,
+                      ".png");
+}
+
 absl::StatusOr<ConfiguredStep> ConfigureTonemap(const StepContext& c) {
   ExperimentOptions o;
   o.tonemap = c.options().experiment.tonemap;
@@ -73,16 +78,13 @@ absl::StatusOr<ConfiguredStep> ConfigureTonemap(const StepContext& c) {
         ASSIGN_OR_RETURN(const cv::Mat right, c.ReadPfm("hdr/im1.pfm"));
         return c.ParallelFor(
             names, [&](int i, StepOutputs& out) -> absl::Status {
-              const size_t k = static_cast<size_t>(i);
-              ASSIGN_OR_RETURN(
-                  const experiment::StereoPair pair,
-                  experiment::ToneMapped(experiment::ToneMappedMethods()[k],
-                                         left, right, o));
-              const std::string folder =
-                  absl::StrCat("tonemapped/", names[k], "/");
-              RETURN_IF_ERROR(
-                  out.WriteImage("tonemapped", folder + "im0.png", pair.left));
-              return out.WriteImage("tonemapped", folder + "im1.png",
+              const Method m =
+                  experiment::ToneMappedMethods()[static_cast<size_t>(i)];
+              ASSIGN_OR_RETURN(const experiment::StereoPair pair,
+                               experiment::ToneMapped(m, left, right, o));
+              RETURN_IF_ERROR(out.WriteImage("tonemapped", ToneMappedFile(m, 0),
+                                             pair.left));
+              return out.WriteImage("tonemapped", ToneMappedFile(m, 1),
                                     pair.right);
             });
       }};

@@ -39,12 +39,6 @@ std::string ConsistencyFile(Method m, const char* folder = kImageFolder) {
   return absl::StrCat(folder, experiment::MethodName(m), "_lr.png");
 }
 
-// The tonemap step's view (0 left, 1 right) of method m.
-std::string ToneMappedFile(Method m, int view) {
-  return absl::StrCat("tonemapped/", experiment::MethodName(m), "/im", view,
-                      ".png");
-}
-
 // Where both steps match: the images' size and the working size.
 struct Sizes {
   cv::Size image;

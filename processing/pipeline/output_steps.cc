@@ -220,11 +220,11 @@ absl::Status RunReport(const eval::EvalOptions& error_options,
       io::ReadFileBytes(c.dir() / "exposures/rectification.txt");
   if (rect.ok()) r.summary.push_back({"rectification", *rect});
 
-  r.hdr_preview = (c.dir() / "tonemapped/reinhard/im0.png").string();
+  r.hdr_preview = (c.dir() / ToneMappedFile(Method::kReinhard, 0)).string();
   for (Method m : experiment::ToneMappedMethods()) {
-    const std::string name = experiment::MethodName(m);
-    const std::string folder = (c.dir() / "tonemapped" / name).string() + "/";
-    r.tonemapped.push_back({name, {folder + "im0.png", folder + "im1.png"}});
+    r.tonemapped.push_back({experiment::MethodName(m),
+                            {(c.dir() / ToneMappedFile(m, 0)).string(),
+                             (c.dir() / ToneMappedFile(m, 1)).string()}});
   }
   ASSIGN_OR_RETURN(const std::vector<Truth> truths, c.Truths());
   for (const Truth& t : truths) {

@@ -5,7 +5,10 @@
 #ifndef HDRSTEREO_PROCESSING_PIPELINE_STEPS_H_
 #define HDRSTEREO_PROCESSING_PIPELINE_STEPS_H_
 
+#include <string>
+
 #include "absl/status/statusor.h"
+#include "processing/experiment/method.h"
 #include "processing/pipeline/step.h"
 
 namespace hdrstereo::pipeline {
@@ -18,6 +21,10 @@ absl::StatusOr<ConfiguredStep> ConfigureRectify(const StepContext& context);
 absl::StatusOr<ConfiguredStep> ConfigureResponse(const StepContext& context);
 absl::StatusOr<ConfiguredStep> ConfigureHdr(const StepContext& context);
 absl::StatusOr<ConfiguredStep> ConfigureTonemap(const StepContext& context);
+// Where the tonemap step writes method m's view (0 left, 1 right), relative
+// to the session folder ("tonemapped/<method>/im<view>.png"), which the
+// stereo, fusion and report steps read.
+std::string ToneMappedFile(experiment::Method m, int view);
 
 // ground_truth_step.cc: the structured-light ground truth.
 absl::StatusOr<ConfiguredStep> ConfigureStructuredLight(
