@@ -63,6 +63,15 @@ inline absl::StatusOr<Middlebury2003> LoadMiddlebury2003(
   return m;
 }
 
+// An 8-bit view as linear radiance with an sRGB-like gamma 2.2 (Cones is
+// one exposure; its camera response is not known): CV_32FC3 in [0, 1].
+inline cv::Mat LinearisedWithGamma22(const cv::Mat& bgr8) {
+  cv::Mat f;
+  bgr8.convertTo(f, CV_32FC3, 1.0 / 255);
+  cv::pow(f, 2.2, f);
+  return f;
+}
+
 }  // namespace hdrstereo::testing
 
 #endif  // HDRSTEREO_TESTS_SUPPORT_MIDDLEBURY2003_H_

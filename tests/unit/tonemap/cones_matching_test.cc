@@ -27,14 +27,8 @@
 namespace hdrstereo::tonemap {
 namespace {
 
+using ::hdrstereo::testing::LinearisedWithGamma22;
 using ::hdrstereo::testing::Middlebury2003;
-
-cv::Mat Linearise(const cv::Mat& bgr8) {
-  cv::Mat f;
-  bgr8.convertTo(f, CV_32FC3, 1.0 / 255);
-  cv::pow(f, 2.2, f);
-  return f;
-}
 
 double BadNonoccluded(const cv::Mat& disp, const Middlebury2003& m) {
   absl::StatusOr<eval::DisparityEvaluation> e =
@@ -86,7 +80,8 @@ TEST(ConesToneMappedMatchingTest, EveryOperatorKeepsTheRealPairMatchable) {
   RecordProperty("ldr_difference_at_truth",
                  std::to_string(MeanDifferenceAtTruth(m.left, m.right, m)));
 
-  const cv::Mat left = Linearise(m.left), right = Linearise(m.right);
+  const cv::Mat left = LinearisedWithGamma22(m.left),
+                right = LinearisedWithGamma22(m.right);
   for (const Operator op : AllOperators()) {
     const std::string name = OperatorName(op);
     ASSERT_OK_AND_ASSIGN(const auto pair, ToneMapPair(left, right, op));
