@@ -6,7 +6,6 @@ from __future__ import annotations
 import os
 import re
 import tempfile
-import threading
 from typing import (Any, Callable, Iterable, Iterator, Optional, Sequence,
                     Union)
 
@@ -24,6 +23,8 @@ from .v1 import (admin_pb2, admin_pb2_grpc, common_pb2, hardware_pb2,
 # The daemon's rule for names that become folders (daemon/store/names.h).
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,63}")
 _PAGE = 500
+# How long the check behind "cannot reach hdrstereod" waits for an answer.
+_PROBE_S = 2.0
 
 _SERVICES = {
     "Sessions": (sessions_pb2, sessions_pb2_grpc.SessionsStub),
@@ -531,8 +532,6 @@ class Client:
             tls_key=tls_key, api_key=api_key, api_key_file=api_key_file)
         self.timeout = timeout
         self._channel = self._open(self.connection)
-        self._connected = threading.Event()
-        self._channel.subscribe(self._on_state)
         self._stubs = _Stubs(self._channel)
         self.raw = _Raw(self)
         self.sessions = Sessions(self)
@@ -554,10 +553,6 @@ class Client:
                 credentials, grpc.access_token_call_credentials(c.api_key))
         return grpc.secure_channel(target, credentials)
 
-    def _on_state(self, state: grpc.ChannelConnectivity) -> None:
-        if state == grpc.ChannelConnectivity.READY:
-            self._connected.set()
-
     def __enter__(self) -> "Client":
         return self
 
@@ -566,18 +561,30 @@ class Client:
 
     def close(self) -> None:
         """Closes the channel; streams still open end."""
-        self._channel.unsubscribe(self._on_state)
         self._channel.close()
 
     def __repr__(self) -> str:
         return f"Client({self.connection!r})"
+
+    def _answers(self) -> bool:
+        """Whether the daemon answers now: a fail-fast WhoAmI, where any
+        reply but UNAVAILABLE or a deadline counts. (Not a connectivity
+        subscription: in grpcio 1.51 its polling thread can hang the
+        interpreter's exit after close.)"""
+        try:
+            self._stubs.Server.WhoAmI(server_pb2.WhoAmIRequest(),
+                                      timeout=_PROBE_S, wait_for_ready=False)
+        except grpc.RpcError as e:
+            return e.code() not in (grpc.StatusCode.UNAVAILABLE,
+                                    grpc.StatusCode.DEADLINE_EXCEEDED)
+        return True
 
     # The two ways a call goes out; every verb uses them.
     def _error(self, error: grpc.RpcError, timeout: Optional[float]
                ) -> errors.Error:
         mapped = errors.from_rpc_error(error, self.connection.server)
         if (isinstance(mapped, errors.DeadlineExceeded) and
-                not self._connected.is_set()):
+                not self._answers()):
             return errors.Unavailable(
                 f"cannot reach hdrstereod at {self.connection.server} within "
                 f"{timeout} s: {mapped.message}", grpc.StatusCode.UNAVAILABLE)
