@@ -2,8 +2,8 @@
 //
 // hdrstereo-proc table --scene NAME [--scene NAME ...] [--width W]
 //                      [--baseline-mm B] [--markdown OUT.md]
-//                      [--thesis-fusion | --no-plane-prior] [--one-fused4]
-//                      [--details]
+//                      [--thesis-fusion | --no-plane-prior --no-photo-check]
+//                      [--one-fused4] [--details]
 // hdrstereo-proc table --left-stack L/ --right-stack R/ --truth disp.pfm
 //                      [--nonoccluded mask.png] [--max-disp D]
 // The thesis' Tables 5.2 / 5.3 (RMSE and bad-1px of ldr, the seven TMOs,
@@ -49,6 +49,7 @@ struct TableArgs {
   double edge_weight = 1.0;
   bool thesis_fusion = false;
   bool no_plane_prior = false;
+  bool no_photo_check = false;
   bool one_fused4 = false;
   bool details = false;
 };
@@ -136,6 +137,7 @@ absl::Status RunTable(const TableArgs& args) {
     topt.experiment.inconsistent_confidence = args.inconsistent_confidence;
     topt.experiment.robust_fusion.enabled = !args.thesis_fusion;
     topt.experiment.robust_fusion.planes.enabled = !args.no_plane_prior;
+    topt.experiment.robust_fusion.photo.enabled = !args.no_photo_check;
     topt.fused4_all_subsets = !args.one_fused4;
     topt.details = args.details;
     ASSIGN_OR_RETURN(experiment::TableResult r,
@@ -187,8 +189,11 @@ void AddTableCommands(CLI::App& app) {
       "The thesis' fusion (one graph cut, every candidate weighed "
       "alike) instead of weighing each by its evidence");
   cmd->add_flag("--no-plane-prior", args->no_plane_prior,
-                "Fusion without its last step, planes on surfaces without "
-                "texture")
+                "Fusion without planes on surfaces without texture")
+      ->excludes(thesis);
+  cmd->add_flag("--no-photo-check", args->no_photo_check,
+                "Fusion without its last step, the candidate the views agree "
+                "with best on textured surfaces")
       ->excludes(thesis);
   cmd->add_flag("--details", args->details,
                 "Also per data set: bad-2px, bad-1px scaled with the width, "

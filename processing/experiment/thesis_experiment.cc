@@ -226,7 +226,7 @@ absl::StatusOr<fusion::FusionResult> FuseSome(
       consistent.push_back(c->consistent);
     }
     return fusion::FuseByReliability(
-        disparities, consistent, views.guide, views.segmented,
+        disparities, consistent, views.guide, views.left, views.right,
         FusionOf(options, max_disparity), options.robust_fusion);
   }
   for (const Candidate* c : candidates) {

@@ -139,16 +139,18 @@ absl::StatusOr<std::map<Method, Candidate>> MatchAllMethods(
     const ExperimentOptions& options, const UnitRunner& runner = SerialRunner);
 
 // 5. Fusion of the seven tone-mapped candidates (all of ToneMappedMethods()
-// in `candidates`) into mean, median and fused. It looks at two left
-// views, 8-bit and of the candidates' size: the smoothness term's guide,
-// the LDR middle exposure (Appendix A: left.jpg), and the view the
-// reliability fusion's plane prior segments, kSegmentedView's tone-mapped
-// one, where dark surfaces are visible (unused by the thesis' fusion).
+// in `candidates`) into mean, median and fused. It looks at views, 8-bit
+// and of the candidates' size: the smoothness term's guide, the LDR middle
+// exposure's left view (Appendix A: left.jpg), and kFusionView's
+// tone-mapped pair, where dark surfaces are visible, whose left view the
+// reliability fusion's plane prior segments and whose two views its
+// photo-consistency choice matches (the pair is unused by the thesis'
+// fusion).
 struct FusionViews {
   cv::Mat guide;
-  cv::Mat segmented;
+  cv::Mat left, right;
 };
-inline constexpr Method kSegmentedView = Method::kReinhard;
+inline constexpr Method kFusionView = Method::kReinhard;
 struct Fused {
   std::map<Method, cv::Mat> disparity;  // FusedMethods()
   fusion::SolverStats stats;            // of fused

@@ -226,7 +226,8 @@ absl::StatusOr<TableResult> RunImpl(const TableInput& in,
   ASSIGN_OR_RETURN(const auto candidates,
                    MatchAllMethods(pairs, max_disp, o, runner));
   const FusionViews views{io::To8Bit(in.left.images[ldr]),
-                          pairs.at(kSegmentedView).left};
+                          pairs.at(kFusionView).left,
+                          pairs.at(kFusionView).right};
   ASSIGN_OR_RETURN(const Fused fused,
                    FuseMethods(candidates, views, max_disp, o, runner));
 

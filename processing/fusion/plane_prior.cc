@@ -12,6 +12,7 @@
 #include "absl/strings/str_cat.h"
 #include "processing/base/options.h"
 #include "processing/base/status_macros.h"
+#include "processing/fusion/texture.h"
 
 namespace hdrstereo::fusion {
 namespace {
@@ -172,15 +173,7 @@ absl::StatusOr<PlanePriorResult> ApplyPlanePrior(
   // Mean gradient over each segment's inside: pixels whose 3 x 3
   // neighbourhood is all that segment (labels are below 2^24, exact as
   // float).
-  cv::Mat gray, dx, dy, magnitude;
-  if (view.channels() == 3) {
-    cv::cvtColor(view, gray, cv::COLOR_BGR2GRAY);
-  } else {
-    gray = view;
-  }
-  cv::Sobel(gray, dx, CV_32F, 1, 0);
-  cv::Sobel(gray, dy, CV_32F, 0, 1);
-  cv::magnitude(dx, dy, magnitude);
+  const cv::Mat magnitude = GradientMagnitude(view);
   cv::Mat label_f, low, high;
   labels.convertTo(label_f, CV_32F);
   cv::erode(label_f, low, cv::Mat());
@@ -199,7 +192,7 @@ absl::StatusOr<PlanePriorResult> ApplyPlanePrior(
       ++pixels[l[x]];
       if (r[x] && std::isfinite(d[x])) ++supported[l[x]];
       if (lo[x] == hi[x]) {
-        gradient_sum[l[x]] += g[x] / 8.0;  // Sobel's gain on a unit ramp
+        gradient_sum[l[x]] += g[x];
         ++inside[l[x]];
       }
     }

@@ -67,18 +67,20 @@ absl::Status ReliabilityOptions::Validate() const {
                                exponent, "in [0, 16]"));
   RETURN_IF_ERROR(RequireField(passes >= 1 && passes <= 10, "passes", passes,
                                "in [1, 10]"));
-  return WithFieldPrefix("planes", planes.Validate());
+  RETURN_IF_ERROR(WithFieldPrefix("planes", planes.Validate()));
+  return WithFieldPrefix("photo", photo.Validate());
 }
 
 void to_json(nlohmann::json& j, const ReliabilityOptions& o) {
   const auto& [enabled, sigma_fraction, window_fraction, exponent, passes,
-               planes] = o;
+               planes, photo] = o;
   j = nlohmann::json{{"enabled", enabled},
                      {"sigma_fraction", sigma_fraction},
                      {"window_fraction", window_fraction},
                      {"exponent", exponent},
                      {"passes", passes},
-                     {"planes", planes}};
+                     {"planes", planes},
+                     {"photo", photo}};
 }
 
 absl::StatusOr<std::vector<cv::Mat>> CandidateConfidences(
@@ -157,7 +159,7 @@ absl::StatusOr<cv::Mat> ReliablePixels(const std::vector<cv::Mat>& candidates,
 absl::StatusOr<FusionResult> FuseByReliability(
     const std::vector<cv::Mat>& candidates,
     const std::vector<cv::Mat>& consistent, const cv::Mat& guide,
-    const cv::Mat& segmented, FusionOptions params,
+    const cv::Mat& left, const cv::Mat& right, FusionOptions params,
     const ReliabilityOptions& options) {
   RETURN_IF_ERROR(options.Validate());
   const auto start = std::chrono::steady_clock::now();
@@ -173,15 +175,23 @@ absl::StatusOr<FusionResult> FuseByReliability(
         result, FuseAlphaExpansion(candidates, guide, params, confidences));
     estimate = result.disparity;
   }
+  const double tau = Tau(options, estimate.cols);
   if (options.planes.enabled) {
-    const double tau = Tau(options, estimate.cols);
     ASSIGN_OR_RETURN(const cv::Mat reliable,
                      ReliablePixels(candidates, consistent, estimate, tau));
     ASSIGN_OR_RETURN(PlanePriorResult planes,
-                     ApplyPlanePrior(estimate, reliable, segmented, tau,
+                     ApplyPlanePrior(estimate, reliable, left, tau,
                                      params.max_disp, options.planes));
-    result.disparity = std::move(planes.disparity);
+    estimate = std::move(planes.disparity);
   }
+  if (options.photo.enabled) {
+    ASSIGN_OR_RETURN(
+        PhotoConsistencyResult photo,
+        ChooseByPhotoConsistency(estimate, candidates, left, right, tau,
+                                 params.max_disp, options.photo));
+    estimate = std::move(photo.disparity);
+  }
+  result.disparity = estimate;
   result.stats.total_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();

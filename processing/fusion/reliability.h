@@ -28,9 +28,12 @@
 // model; the left-right check is the confidence measure Hu & Mordohai
 // (2012) found among the most reliable.
 //
-// Last, surfaces without texture take a plane (plane_prior.h), fitted to
+// Then surfaces without texture take a plane (plane_prior.h), fitted to
 // the fused pixels that at least two candidates passing their left-right
-// check agree with (within tau).
+// check agree with (within tau); last, on textured surfaces, a candidate
+// the views agree with clearly better than the fused value replaces it
+// (photo_consistency.h: at depth edges the candidates' majority is often
+// wrong).
 //
 // Sizes are relative to the image: the data term's sigma and the agreement
 // tolerance tau are both sigma_fraction x width (1 px at 320 px, where the
@@ -46,6 +49,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "processing/fusion/fusion.h"
+#include "processing/fusion/photo_consistency.h"
 #include "processing/fusion/plane_prior.h"
 
 namespace hdrstereo::fusion {
@@ -59,6 +63,7 @@ struct ReliabilityOptions {
   double exponent = 2.0;
   int passes = 3;  // graph cuts; the first from ConsistentMedian
   PlanePriorOptions planes;
+  PhotoConsistencyOptions photo;
 
   // INVALID_ARGUMENT naming the first field that breaks a rule.
   absl::Status Validate() const;
@@ -87,16 +92,18 @@ absl::StatusOr<cv::Mat> ReliablePixels(const std::vector<cv::Mat>& candidates,
                                        const std::vector<cv::Mat>& consistent,
                                        const cv::Mat& fused, double tau);
 
-// The passes above, then the plane prior on `segmented` (8-bit, 1 or 3
-// channels, the candidates' size: a tone-mapped left view; unused when
-// options.planes.enabled is false). params.sigma is replaced by
-// sigma_fraction x width. The disparity is integer labels except where a
-// plane replaced them; the stats are the last pass' with total_seconds
-// summed over all passes (the first estimate and the planes included).
+// The passes above, then the plane prior, which segments `left`, and the
+// photo-consistency choice, which matches `left` against `right` (a
+// tone-mapped pair, 8-bit, 1 or 3 channels, the candidates' size; unused
+// when both steps are off). params.sigma is replaced by sigma_fraction x
+// width. The disparity is integer labels except where a plane or a
+// candidate's own value replaced them; the stats are the last pass' with
+// total_seconds summed over all passes (the first estimate and the last two
+// steps included).
 absl::StatusOr<FusionResult> FuseByReliability(
     const std::vector<cv::Mat>& candidates,
     const std::vector<cv::Mat>& consistent, const cv::Mat& guide,
-    const cv::Mat& segmented, FusionOptions params,
+    const cv::Mat& left, const cv::Mat& right, FusionOptions params,
     const ReliabilityOptions& options);
 
 }  // namespace hdrstereo::fusion

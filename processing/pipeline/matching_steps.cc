@@ -142,10 +142,17 @@ absl::Status RunFusion(const Fusion& o, StepContext& c) {
   views.guide =
       experiment::ToMatchingSize(io::To8Bit(left.image), o.sizes.matching);
   const fusion::ReliabilityOptions& robust = o.options.robust_fusion;
-  if (robust.enabled && robust.planes.enabled) {
-    ASSIGN_OR_RETURN(const cv::Mat segmented,
-                     c.Read(ToneMappedFile(experiment::kSegmentedView, 0)));
-    views.segmented = experiment::ToMatchingSize(segmented, o.sizes.matching);
+  // The plane prior segments the left view; the photo-consistency choice
+  // matches both.
+  if (robust.enabled && (robust.planes.enabled || robust.photo.enabled)) {
+    ASSIGN_OR_RETURN(const cv::Mat left_view,
+                     c.Read(ToneMappedFile(experiment::kFusionView, 0)));
+    views.left = experiment::ToMatchingSize(left_view, o.sizes.matching);
+  }
+  if (robust.enabled && robust.photo.enabled) {
+    ASSIGN_OR_RETURN(const cv::Mat right_view,
+                     c.Read(ToneMappedFile(experiment::kFusionView, 1)));
+    views.right = experiment::ToMatchingSize(right_view, o.sizes.matching);
   }
   ASSIGN_OR_RETURN(
       const experiment::Fused fused,

@@ -83,9 +83,10 @@ TEST(ReliabilityTest, FollowsTheCandidatesTheEvidenceSupportsNotTheMajority) {
   ASSERT_OK_AND_ASSIGN(const cv::Mat median, FuseMedian(c.disparity, 48));
   ASSERT_OK_AND_ASSIGN(const FusionResult thesis,
                        FuseAlphaExpansion(c.disparity, FlatGuide(), Params()));
-  ASSERT_OK_AND_ASSIGN(const FusionResult robust,
-                       FuseByReliability(c.disparity, c.consistent, FlatGuide(),
-                                         FlatGuide(), Params(), {}));
+  ASSERT_OK_AND_ASSIGN(
+      const FusionResult robust,
+      FuseByReliability(c.disparity, c.consistent, FlatGuide(), FlatGuide(),
+                        FlatGuide(), Params(), {}));
   // The majority is 8 px off on half the image: RMSE sqrt(32) = 5.7.
   EXPECT_GT(Rmse(median, truth), 5.0);
   EXPECT_GT(Rmse(thesis.disparity, truth), 5.0);
@@ -111,15 +112,16 @@ TEST(ReliabilityTest, EndsWithPlanesOnSurfacesWithoutTexture) {
   candidate.convertTo(candidate, CV_32F);
   candidate.rowRange(0, kHeight / 4).setTo(10);
   const std::vector<cv::Mat> seven(7, candidate);
-  ASSERT_OK_AND_ASSIGN(
-      const FusionResult planes,
-      FuseByReliability(seven, {}, FlatGuide(), FlatGuide(), Params(), {}));
+  ASSERT_OK_AND_ASSIGN(const FusionResult planes,
+                       FuseByReliability(seven, {}, FlatGuide(), FlatGuide(),
+                                         FlatGuide(), Params(), {}));
   EXPECT_LT(Rmse(planes.disparity, truth), 0.1);
   ReliabilityOptions off;
   off.planes.enabled = false;
-  ASSERT_OK_AND_ASSIGN(
-      const FusionResult labels,
-      FuseByReliability(seven, {}, FlatGuide(), cv::Mat(), Params(), off));
+  off.photo.enabled = false;  // then no view is needed
+  ASSERT_OK_AND_ASSIGN(const FusionResult labels,
+                       FuseByReliability(seven, {}, FlatGuide(), cv::Mat(),
+                                         cv::Mat(), Params(), off));
   EXPECT_EQ(cv::countNonZero(labels.disparity != candidate), 0);
 }
 
@@ -245,18 +247,21 @@ TEST(ReliabilityTest, BadInputNamesWhatIsWrong) {
   EXPECT_THAT(
       ConsistentMedian({}, {}, 8).status(),
       StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("no candidate")));
-  EXPECT_THAT(FuseByReliability(two, {}, cv::Mat(8, 32, CV_8UC1), cv::Mat(),
-                                Params(), {})
-                  .status(),
-              StatusIs(absl::StatusCode::kInvalidArgument,
-                       HasSubstr("plane prior: the view must be 8-bit")));
+  const cv::Mat view(8, 32, CV_8UC1, cv::Scalar(0));
+  EXPECT_THAT(
+      FuseByReliability(two, {}, view, cv::Mat(), view, Params(), {}).status(),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("plane prior: the view must be 8-bit")));
+  EXPECT_THAT(
+      FuseByReliability(two, {}, view, view, cv::Mat(), Params(), {}).status(),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("photo-consistency: the views must be")));
   ReliabilityOptions o;
   o.window_fraction = 0;
-  EXPECT_THAT(FuseByReliability(two, {}, cv::Mat(8, 32, CV_8UC1),
-                                cv::Mat(8, 32, CV_8UC1), Params(), o)
-                  .status(),
-              StatusIs(absl::StatusCode::kInvalidArgument,
-                       HasSubstr("window_fraction is 0")));
+  EXPECT_THAT(
+      FuseByReliability(two, {}, view, view, view, Params(), o).status(),
+      StatusIs(absl::StatusCode::kInvalidArgument,
+               HasSubstr("window_fraction is 0")));
 }
 
 using O = ReliabilityOptions;
@@ -270,6 +275,7 @@ TEST(ReliabilityTest, RulesNameTheirField) {
       {[](O& o) { o.passes = 0; }, "passes is 0"},
       {[](O& o) { o.passes = 11; }, "passes is 11"},
       {[](O& o) { o.planes.min_inliers = 0; }, "planes.min_inliers is 0"},
+      {[](O& o) { o.photo.truncation = 0; }, "photo.truncation is 0"},
   });
 }
 
@@ -281,6 +287,7 @@ TEST(ReliabilityTest, CanonicalJsonHasEveryField) {
       {"/exponent", [](O& o) { o.exponent = 1; }},
       {"/passes", [](O& o) { o.passes = 2; }},
       {"/planes", [](O& o) { o.planes.enabled = false; }},
+      {"/photo", [](O& o) { o.photo.enabled = false; }},
   });
 }
 
