@@ -2,7 +2,8 @@
 //
 // hdrstereo-proc table --scene NAME [--scene NAME ...] [--width W]
 //                      [--baseline-mm B] [--markdown OUT.md]
-//                      [--thesis-fusion | --no-plane-prior --no-photo-check]
+//                      [--thesis-fusion | --no-plane-prior --no-photo-check
+//                       --no-speckle-filter]
 //                      [--one-fused4] [--details]
 // hdrstereo-proc table --left-stack L/ --right-stack R/ --truth disp.pfm
 //                      [--nonoccluded mask.png] [--max-disp D]
@@ -50,6 +51,7 @@ struct TableArgs {
   bool thesis_fusion = false;
   bool no_plane_prior = false;
   bool no_photo_check = false;
+  bool no_speckle_filter = false;
   bool one_fused4 = false;
   bool details = false;
 };
@@ -138,6 +140,7 @@ absl::Status RunTable(const TableArgs& args) {
     topt.experiment.robust_fusion.enabled = !args.thesis_fusion;
     topt.experiment.robust_fusion.planes.enabled = !args.no_plane_prior;
     topt.experiment.robust_fusion.photo.enabled = !args.no_photo_check;
+    topt.experiment.robust_fusion.speckles.enabled = !args.no_speckle_filter;
     topt.fused4_all_subsets = !args.one_fused4;
     topt.details = args.details;
     ASSIGN_OR_RETURN(experiment::TableResult r,
@@ -192,8 +195,12 @@ void AddTableCommands(CLI::App& app) {
                 "Fusion without planes on surfaces without texture")
       ->excludes(thesis);
   cmd->add_flag("--no-photo-check", args->no_photo_check,
-                "Fusion without its last step, the candidate the views agree "
-                "with best on textured surfaces")
+                "Fusion without the step that takes the candidate the views "
+                "agree with best on textured surfaces")
+      ->excludes(thesis);
+  cmd->add_flag("--no-speckle-filter", args->no_speckle_filter,
+                "Fusion without removing small islands of another surface's "
+                "disparity")
       ->excludes(thesis);
   cmd->add_flag("--details", args->details,
                 "Also per data set: bad-2px, bad-1px scaled with the width, "

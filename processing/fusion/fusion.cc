@@ -39,11 +39,6 @@ double Seconds(Clock::time_point a, Clock::time_point b) {
 // Rounds a non-negative cost (std::lround is slow in the inner loops).
 inline int32_t Round(double v) { return static_cast<int32_t>(v + 0.5); }
 
-bool Valid(float z, int max_disp) {
-  return std::isfinite(z) && z >= 0.0f &&
-         z <= static_cast<float>(max_disp) + 0.5f;
-}
-
 inline int32_t Rho(const MrfProblem& pr, int32_t a, int32_t b) {
   if (pr.potts) return a != b ? 1 : 0;
   const int64_t d = static_cast<int64_t>(a) - b;
@@ -237,7 +232,7 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
           spans.clear();
           for (int k = 0; k < num_k; ++k) {
             const float z = cand[static_cast<size_t>(k)][p];
-            if (!Valid(z, params.max_disp)) continue;
+            if (!IsValidDisparity(z, params.max_disp)) continue;
             b += Round(params.data_scale * confidence(k, p) * cost_max);
             const int centre = static_cast<int>(z + 0.5f);
             spans.emplace_back(std::max(0, centre - window - 1),
@@ -248,7 +243,7 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
           }
           for (int k = 0; k < num_k; ++k) {
             const float z = cand[static_cast<size_t>(k)][p];
-            if (!Valid(z, params.max_disp)) continue;
+            if (!IsValidDisparity(z, params.max_disp)) continue;
             const int centre = static_cast<int>(z + 0.5f);
             const int lo = std::max(0, centre - window - 1);
             const int hi = std::min(num_labels - 1, centre + window + 1);
@@ -366,7 +361,7 @@ absl::StatusOr<MrfProblem> BuildProblemImpl(
       bool any = false;
       for (int k = 0; k < num_k; ++k) {
         const float z = cand[static_cast<size_t>(k)][p];
-        if (!Valid(z, params.max_disp)) continue;
+        if (!IsValidDisparity(z, params.max_disp)) continue;
         any = true;
         const int c = static_cast<int>(std::lround(z));
         for (int l = std::max(0, c - r); l <= std::min(num_labels - 1, c + r);
@@ -1064,7 +1059,7 @@ absl::StatusOr<cv::Mat> FuseReduce(const std::vector<cv::Mat>& candidates,
       values.clear();
       for (const cv::Mat& c : candidates) {
         const float z = c.ptr<float>(y)[x];
-        if (Valid(z, max_disp)) values.push_back(z);
+        if (IsValidDisparity(z, max_disp)) values.push_back(z);
       }
       o[x] = values.empty() ? std::numeric_limits<float>::quiet_NaN()
                             : reduce(values);

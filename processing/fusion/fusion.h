@@ -59,6 +59,7 @@
 #ifndef HDRSTEREO_PROCESSING_FUSION_FUSION_H_
 #define HDRSTEREO_PROCESSING_FUSION_FUSION_H_
 
+#include <cmath>
 #include <cstdint>
 #include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
@@ -187,6 +188,13 @@ absl::StatusOr<SolverStats> AlphaExpansion(const MrfProblem& problem,
 absl::StatusOr<FusionResult> FuseAlphaExpansion(
     const std::vector<cv::Mat>& candidates, const cv::Mat& guide,
     const FusionOptions& params, const std::vector<cv::Mat>& confidences = {});
+
+// The validity rule above, shared by every step of the fusion: finite and
+// in [0, max_disp + 0.5] (what the graph cut can label).
+inline bool IsValidDisparity(float z, int max_disp) {
+  return std::isfinite(z) && z >= 0.0f &&
+         z <= static_cast<float>(max_disp) + 0.5f;
+}
 
 // INVALID_ARGUMENT unless there is a candidate and every one is a
 // non-empty CV_32FC1 map of candidate 0's size (the message names the

@@ -12,6 +12,7 @@
 #include "absl/strings/str_cat.h"
 #include "processing/base/options.h"
 #include "processing/base/status_macros.h"
+#include "processing/fusion/fusion.h"
 #include "processing/fusion/texture.h"
 
 namespace hdrstereo::fusion {
@@ -21,12 +22,6 @@ namespace {
 constexpr size_t kMaxCandidates = 64;
 // Disparities are costed as ints (x - d): far below INT_MAX.
 constexpr int kMaxDisparity = 1 << 20;
-
-// A disparity the graph cut could have chosen (fusion.cc: Valid).
-bool InRange(float z, int max_disp) {
-  return std::isfinite(z) && z >= 0.0f &&
-         z <= static_cast<float>(max_disp) + 0.5f;
-}
 
 // The left view's texture: per pixel, the mean gradient magnitude (grey
 // levels per pixel) over the (2r + 1)^2 window.
@@ -220,7 +215,8 @@ absl::StatusOr<PhotoConsistencyResult> ChooseByPhotoConsistency(
       const float* t = texture.ptr<float>(y);
       float* out = result.disparity.ptr<float>(y);
       for (int x = 0; x < size.width; ++x) {
-        if (t[x] < options.min_texture || !InRange(fused[x], max_disp)) {
+        if (t[x] < options.min_texture ||
+            !IsValidDisparity(fused[x], max_disp)) {
           continue;
         }
         // Each rounded label is costed once: the fused value's only when
@@ -230,7 +226,7 @@ absl::StatusOr<PhotoConsistencyResult> ChooseByPhotoConsistency(
         int best = -1;
         for (size_t k = 0; k < candidates.size(); ++k) {
           const float z = candidates[k].ptr<float>(y)[x];
-          if (!InRange(z, max_disp)) continue;
+          if (!IsValidDisparity(z, max_disp)) continue;
           const int label = static_cast<int>(std::lround(z));
           if (std::find(labels.begin(), labels.end(), label) != labels.end() ||
               Agreeing(candidates, y, x, z, tau) < options.min_agreeing) {

@@ -68,19 +68,21 @@ absl::Status ReliabilityOptions::Validate() const {
   RETURN_IF_ERROR(RequireField(passes >= 1 && passes <= 10, "passes", passes,
                                "in [1, 10]"));
   RETURN_IF_ERROR(WithFieldPrefix("planes", planes.Validate()));
-  return WithFieldPrefix("photo", photo.Validate());
+  RETURN_IF_ERROR(WithFieldPrefix("photo", photo.Validate()));
+  return WithFieldPrefix("speckles", speckles.Validate());
 }
 
 void to_json(nlohmann::json& j, const ReliabilityOptions& o) {
   const auto& [enabled, sigma_fraction, window_fraction, exponent, passes,
-               planes, photo] = o;
+               planes, photo, speckles] = o;
   j = nlohmann::json{{"enabled", enabled},
                      {"sigma_fraction", sigma_fraction},
                      {"window_fraction", window_fraction},
                      {"exponent", exponent},
                      {"passes", passes},
                      {"planes", planes},
-                     {"photo", photo}};
+                     {"photo", photo},
+                     {"speckles", speckles}};
 }
 
 absl::StatusOr<std::vector<cv::Mat>> CandidateConfidences(
@@ -190,6 +192,12 @@ absl::StatusOr<FusionResult> FuseByReliability(
         ChooseByPhotoConsistency(estimate, candidates, left, right, tau,
                                  params.max_disp, options.photo));
     estimate = std::move(photo.disparity);
+  }
+  if (options.speckles.enabled) {
+    ASSIGN_OR_RETURN(
+        SpeckleResult speckles,
+        RemoveSpeckles(estimate, tau, params.max_disp, options.speckles));
+    estimate = std::move(speckles.disparity);
   }
   result.disparity = estimate;
   result.stats.total_seconds =

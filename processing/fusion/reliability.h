@@ -30,10 +30,11 @@
 //
 // Then surfaces without texture take a plane (plane_prior.h), fitted to
 // the fused pixels that at least two candidates passing their left-right
-// check agree with (within tau); last, on textured surfaces, a candidate
-// the views agree with clearly better than the fused value replaces it
+// check agree with (within tau); on textured surfaces, a candidate the
+// views agree with clearly better than the fused value replaces it
 // (photo_consistency.h: at depth edges the candidates' majority is often
-// wrong).
+// wrong); last, small islands of another surface's disparity are removed
+// (speckles.h).
 //
 // Sizes are relative to the image: the data term's sigma and the agreement
 // tolerance tau are both sigma_fraction x width (1 px at 320 px, where the
@@ -51,6 +52,7 @@
 #include "processing/fusion/fusion.h"
 #include "processing/fusion/photo_consistency.h"
 #include "processing/fusion/plane_prior.h"
+#include "processing/fusion/speckles.h"
 
 namespace hdrstereo::fusion {
 
@@ -64,6 +66,7 @@ struct ReliabilityOptions {
   int passes = 3;  // graph cuts; the first from ConsistentMedian
   PlanePriorOptions planes;
   PhotoConsistencyOptions photo;
+  SpeckleOptions speckles;
 
   // INVALID_ARGUMENT naming the first field that breaks a rule.
   absl::Status Validate() const;
@@ -92,14 +95,14 @@ absl::StatusOr<cv::Mat> ReliablePixels(const std::vector<cv::Mat>& candidates,
                                        const std::vector<cv::Mat>& consistent,
                                        const cv::Mat& fused, double tau);
 
-// The passes above, then the plane prior, which segments `left`, and the
+// The passes above, then the plane prior, which segments `left`, the
 // photo-consistency choice, which matches `left` against `right` (a
 // tone-mapped pair, 8-bit, 1 or 3 channels, the candidates' size; unused
-// when both steps are off). params.sigma is replaced by sigma_fraction x
-// width. The disparity is integer labels except where a plane or a
-// candidate's own value replaced them; the stats are the last pass' with
-// total_seconds summed over all passes (the first estimate and the last two
-// steps included).
+// when both steps are off), and the speckle filter. params.sigma is
+// replaced by sigma_fraction x width. The disparity is integer labels
+// except where a plane or a candidate's own value replaced them; the stats
+// are the last pass' with total_seconds summed over all passes (the first
+// estimate and the last three steps included).
 absl::StatusOr<FusionResult> FuseByReliability(
     const std::vector<cv::Mat>& candidates,
     const std::vector<cv::Mat>& consistent, const cv::Mat& guide,

@@ -2,13 +2,13 @@
 //
 // The session's fusion (weighing each candidate by its evidence, then
 // planes on surfaces without texture, then the candidate the views agree
-// with on textured ones: fusion/reliability.h, fusion/plane_prior.h,
-// fusion/photo_consistency.h) against its own inputs, the thesis' fusion
-// and LDR, at 640 px on the bundled scenes that have something to match:
-// lab-lamp, two-lamps, desk-lamp (HDR lamp scenes) and textured.
-// checkerboard and shadowed are left out: they are made for calibration and
-// structured light, their textureless wall and floor defeat every
-// candidate (LDR bad-1px 69 % and 82 % at 640 px; docs/results.md has
+// with on textured ones, then small islands removed: fusion/reliability.h,
+// fusion/plane_prior.h, fusion/photo_consistency.h, fusion/speckles.h) against
+// its own inputs, the thesis' fusion and LDR, at 640 px on the bundled scenes
+// that have something to match: lab-lamp, two-lamps, desk-lamp (HDR lamp
+// scenes) and textured. checkerboard and shadowed are left out: they are made
+// for calibration and structured light, their textureless wall and floor defeat
+// every candidate (LDR bad-1px 69 % and 82 % at 640 px; docs/results.md has
 // their numbers). Exact truth from the simulator, non-occluded pixels.
 #include <gtest/gtest.h>
 
@@ -85,17 +85,17 @@ TEST(FusionScenesTest, FusionBeatsItsInputsTheThesisAndHalfOfLdr) {
     // Never worse than the thesis' fusion of the same candidates.
     EXPECT_LE(fused.rmse, thesis_score.rmse);
     EXPECT_LE(fused.bad1, thesis_score.bad_percent.at(1));
-    // The issue's targets, measured 2026-12-06 with the plane prior and
-    // the photo-consistency choice (RMSE / bad-1px; median, best
-    // candidate, LDR): lab-lamp 1.08 / 3.1 % (2.39 / 24.6, 1.44 / 10.1,
-    // 3.21), two-lamps 3.23 / 19.2 % (6.55 / 41.9, 3.97 / 27.5, 14.68),
-    // desk-lamp 0.70 / 2.5 % (2.42 / 22.8, 1.92 / 13.8, 4.05), textured
-    // 0.90 / 0.81 % (1.01 / 1.25, Drago 0.85 / 1.18, 1.65).
+    // The issue's targets, measured 2026-12-06 with the plane prior, the
+    // photo-consistency choice and the speckle filter (RMSE / bad-1px;
+    // median, best candidate, LDR): lab-lamp 1.06 / 3.1 % (2.39 / 24.6,
+    // 1.44 / 10.1, 3.21), two-lamps 3.25 / 19.2 % (6.55 / 41.9, 3.97 /
+    // 27.5, 14.68), desk-lamp 0.71 / 2.5 % (2.42 / 22.8, 1.92 / 13.8,
+    // 4.05), textured 0.84 / 0.80 % (1.01 / 1.25, Drago 0.85 / 1.18, 1.65).
     EXPECT_LE(fused.rmse, median.rmse);
     EXPECT_LE(fused.bad1, median.bad1);
+    EXPECT_LE(fused.rmse, best_rmse);
     EXPECT_LE(fused.bad1, best_bad1);
     if (name != "textured") {
-      EXPECT_LE(fused.rmse, best_rmse);
       EXPECT_LE(fused.rmse, 0.5 * ldr.rmse);
       if (name != "desk-lamp") {
         // Where the thesis' fusion followed the failing candidates, this
@@ -103,12 +103,10 @@ TEST(FusionScenesTest, FusionBeatsItsInputsTheThesisAndHalfOfLdr) {
         EXPECT_LT(fused.rmse, 0.6 * thesis_score.rmse);
       }
     } else {
-      // textured misses two of them: Drago alone is right at many depth
-      // edges, where the other candidates agree on a wrong value, and LDR
-      // is the best matcher away from them (docs/results.md, "Against the
-      // issue's targets"). These bounds keep it from getting worse.
-      EXPECT_LE(fused.rmse, 1.1 * best_rmse);
-      EXPECT_LE(fused.rmse, 0.6 * ldr.rmse);
+      // textured, a low dynamic range scene, misses one: LDR is the best
+      // matcher there away from depth edges (docs/results.md, "Against the
+      // issue's targets"). This bound keeps it from getting worse.
+      EXPECT_LE(fused.rmse, 0.55 * ldr.rmse);
     }
     results.push_back(std::move(r));
   }

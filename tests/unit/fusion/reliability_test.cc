@@ -276,6 +276,7 @@ TEST(ReliabilityTest, RulesNameTheirField) {
       {[](O& o) { o.passes = 11; }, "passes is 11"},
       {[](O& o) { o.planes.min_inliers = 0; }, "planes.min_inliers is 0"},
       {[](O& o) { o.photo.truncation = 0; }, "photo.truncation is 0"},
+      {[](O& o) { o.speckles.max_step = 0; }, "speckles.max_step is 0"},
   });
 }
 
@@ -288,6 +289,7 @@ TEST(ReliabilityTest, CanonicalJsonHasEveryField) {
       {"/passes", [](O& o) { o.passes = 2; }},
       {"/planes", [](O& o) { o.planes.enabled = false; }},
       {"/photo", [](O& o) { o.photo.enabled = false; }},
+      {"/speckles", [](O& o) { o.speckles.enabled = false; }},
   });
 }
 

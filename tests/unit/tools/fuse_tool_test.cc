@@ -167,26 +167,33 @@ TEST(TableToolTest, NoPlanePriorIsTheFusionWithoutItsPlanes) {
   EXPECT_NE(both.err.find("excludes"), std::string::npos) << both.err;
 }
 
-// --no-photo-check is the fusion without its last step: on textured,
-// where the candidates disagree at depth edges, fused is worse without it
-// (measured at 320 px: 0.93 px RMSE against 0.83).
-TEST(TableToolTest, NoPhotoCheckIsTheFusionWithoutItsLastStep) {
+// --no-photo-check and --no-speckle-filter are the fusion without one of
+// its last two steps: on textured, where the candidates disagree at depth
+// edges and fail on the box's top face, fused is worse without either
+// (measured at 320 px: 0.72 px RMSE with both, 0.78 without the photo
+// check, 0.83 without the speckle filter, 0.93 without both).
+TEST(TableToolTest, TheLastTwoStepsCanEachBeTurnedOff) {
   const std::vector<std::string> args = {"table",   "--scene", "textured",
                                          "--width", "320",     "--one-fused4"};
   CommandResult with = Proc(args);
   ASSERT_EQ(with.exit_code, 0) << with.err;
-  std::vector<std::string> without_args = args;
-  without_args.push_back("--no-photo-check");
-  CommandResult without = Proc(without_args);
-  ASSERT_EQ(without.exit_code, 0) << without.err;
-  EXPECT_LT(FirstNumberOfRow(with.out, "fused"), 0.87) << with.out;
-  EXPECT_GT(FirstNumberOfRow(without.out, "fused"), 0.9) << without.out;
-  EXPECT_EQ(FirstNumberOfRow(with.out, "drago"),
-            FirstNumberOfRow(without.out, "drago"));
-  without_args.push_back("--thesis-fusion");
-  CommandResult both = Proc(without_args);
-  EXPECT_NE(both.exit_code, 0);
-  EXPECT_NE(both.err.find("excludes"), std::string::npos) << both.err;
+  EXPECT_LT(FirstNumberOfRow(with.out, "fused"), 0.75) << with.out;
+  for (const auto& [flag, above] :
+       {std::pair<std::string, double>{"--no-photo-check", 0.76},
+        {"--no-speckle-filter", 0.8}}) {
+    std::vector<std::string> without_args = args;
+    without_args.push_back(flag);
+    CommandResult without = Proc(without_args);
+    ASSERT_EQ(without.exit_code, 0) << without.err;
+    EXPECT_GT(FirstNumberOfRow(without.out, "fused"), above) << flag << "\n"
+                                                             << without.out;
+    EXPECT_EQ(FirstNumberOfRow(with.out, "drago"),
+              FirstNumberOfRow(without.out, "drago"));
+    without_args.push_back("--thesis-fusion");
+    CommandResult both = Proc(without_args);
+    EXPECT_NE(both.exit_code, 0);
+    EXPECT_NE(both.err.find("excludes"), std::string::npos) << both.err;
+  }
 }
 
 TEST(TableToolTest, BadInputIsAnError) {
