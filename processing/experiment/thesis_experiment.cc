@@ -258,6 +258,7 @@ absl::StatusOr<Fused> FuseMethods(const std::map<Method, Candidate>& candidates,
   const std::vector<Method>& methods = FusedMethods();
   std::vector<cv::Mat> out(methods.size());
   fusion::SolverStats stats;
+  fusion::RefinementCounts refinement;
   RETURN_IF_ERROR(runner(NamesOf(methods), [&](int i) -> absl::Status {
     cv::Mat& d = out[static_cast<size_t>(i)];
     const Method m = methods[static_cast<size_t>(i)];
@@ -270,6 +271,7 @@ absl::StatusOr<Fused> FuseMethods(const std::map<Method, Candidate>& candidates,
                        FuseSome(seven, views, max_disparity, options));
       d = r.disparity;
       stats = r.stats;
+      refinement = r.refinement;
     }
     return absl::OkStatus();
   }));
@@ -278,6 +280,7 @@ absl::StatusOr<Fused> FuseMethods(const std::map<Method, Candidate>& candidates,
     fused.disparity[methods[i]] = std::move(out[i]);
   }
   fused.stats = stats;
+  fused.refinement = refinement;
   return fused;
 }
 

@@ -154,6 +154,7 @@ inline constexpr Method kFusionView = Method::kReinhard;
 struct Fused {
   std::map<Method, cv::Mat> disparity;  // FusedMethods()
   fusion::SolverStats stats;            // of fused
+  fusion::RefinementCounts refinement;  // of fused
 };
 absl::StatusOr<Fused> FuseMethods(const std::map<Method, Candidate>& candidates,
                                   const FusionViews& views, int max_disparity,

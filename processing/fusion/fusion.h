@@ -160,9 +160,20 @@ struct SolverStats {
   double total_seconds = 0;
 };
 
+// What the steps after the graph cuts changed (reliability.h); zero for
+// the other fusions.
+struct RefinementCounts {
+  int segments = 0;             // the plane prior's, in the view
+  int planes = 0;               // of them, those that took a plane
+  double plane_fraction = 0;    // of the pixels: replaced by a plane,
+  double photo_fraction = 0;    // by a candidate the views agree with,
+  double speckle_fraction = 0;  // removed as an island and filled
+};
+
 struct FusionResult {
   cv::Mat disparity;  // CV_32FC1, integer labels (but see FuseByReliability)
   SolverStats stats;
+  RefinementCounts refinement;
 };
 
 // Builds the MRF from candidates (CV_32FC1, same size) and the guide (8-bit

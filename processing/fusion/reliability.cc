@@ -178,6 +178,7 @@ absl::StatusOr<FusionResult> FuseByReliability(
     estimate = result.disparity;
   }
   const double tau = Tau(options, estimate.cols);
+  RefinementCounts refinement;
   if (options.planes.enabled) {
     ASSIGN_OR_RETURN(const cv::Mat reliable,
                      ReliablePixels(candidates, consistent, estimate, tau));
@@ -185,6 +186,9 @@ absl::StatusOr<FusionResult> FuseByReliability(
                      ApplyPlanePrior(estimate, reliable, left, tau,
                                      params.max_disp, options.planes));
     estimate = std::move(planes.disparity);
+    refinement.segments = planes.segments;
+    refinement.planes = planes.planes;
+    refinement.plane_fraction = planes.replaced_fraction;
   }
   if (options.photo.enabled) {
     ASSIGN_OR_RETURN(
@@ -192,14 +196,17 @@ absl::StatusOr<FusionResult> FuseByReliability(
         ChooseByPhotoConsistency(estimate, candidates, left, right, tau,
                                  params.max_disp, options.photo));
     estimate = std::move(photo.disparity);
+    refinement.photo_fraction = photo.replaced_fraction;
   }
   if (options.speckles.enabled) {
     ASSIGN_OR_RETURN(
         SpeckleResult speckles,
         RemoveSpeckles(estimate, tau, params.max_disp, options.speckles));
     estimate = std::move(speckles.disparity);
+    refinement.speckle_fraction = speckles.replaced_fraction;
   }
   result.disparity = estimate;
+  result.refinement = refinement;
   result.stats.total_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();

@@ -102,7 +102,8 @@ absl::StatusOr<cv::Mat> ReliablePixels(const std::vector<cv::Mat>& candidates,
 // replaced by sigma_fraction x width. The disparity is integer labels
 // except where a plane or a candidate's own value replaced them; the stats
 // are the last pass' with total_seconds summed over all passes (the first
-// estimate and the last three steps included).
+// estimate and the last three steps included); `refinement` counts what
+// the last three steps changed.
 absl::StatusOr<FusionResult> FuseByReliability(
     const std::vector<cv::Mat>& candidates,
     const std::vector<cv::Mat>& consistent, const cv::Mat& guide,

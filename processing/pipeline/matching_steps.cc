@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "processing/base/options.h"
 #include "processing/base/status_macros.h"
 #include "processing/experiment/thesis_experiment.h"
@@ -158,6 +159,14 @@ absl::Status RunFusion(const Fusion& o, StepContext& c) {
       const experiment::Fused fused,
       experiment::FuseMethods(candidates, views, o.sizes.max_disparity,
                               o.options, c.Units()));
+  if (robust.enabled) {
+    const fusion::RefinementCounts& r = fused.refinement;
+    c.Info(absl::StrFormat(
+        "fusion: planes on %d of %d segments (%.2f %% of the pixels), "
+        "photo-consistency choice %.2f %%, speckle filter %.2f %%",
+        r.planes, r.segments, 100 * r.plane_fraction, 100 * r.photo_fraction,
+        100 * r.speckle_fraction));
+  }
   for (Method m : experiment::FusedMethods()) {
     RETURN_IF_ERROR(WriteMap(c, o.sizes, DisparityFile(m),
                              DisparityFile(m, kMatchingFolder),

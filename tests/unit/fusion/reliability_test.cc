@@ -116,6 +116,12 @@ TEST(ReliabilityTest, EndsWithPlanesOnSurfacesWithoutTexture) {
                        FuseByReliability(seven, {}, FlatGuide(), FlatGuide(),
                                          FlatGuide(), Params(), {}));
   EXPECT_LT(Rmse(planes.disparity, truth), 0.1);
+  // One segment took its plane: at least the wall's quarter changed; the
+  // view has no texture, so the photo-consistency choice changed nothing.
+  EXPECT_EQ(planes.refinement.segments, 1);
+  EXPECT_EQ(planes.refinement.planes, 1);
+  EXPECT_GT(planes.refinement.plane_fraction, 0.25);
+  EXPECT_EQ(planes.refinement.photo_fraction, 0);
   ReliabilityOptions off;
   off.planes.enabled = false;
   off.photo.enabled = false;  // then no view is needed
@@ -123,6 +129,33 @@ TEST(ReliabilityTest, EndsWithPlanesOnSurfacesWithoutTexture) {
                        FuseByReliability(seven, {}, FlatGuide(), cv::Mat(),
                                          cv::Mat(), Params(), off));
   EXPECT_EQ(cv::countNonZero(labels.disparity != candidate), 0);
+}
+
+TEST(ReliabilityTest, EndsByRemovingIslandsAndCountsThem) {
+  // Seven candidates that agree on an island of 9 px at 40 on a 20 px wall,
+  // where the guide has an edge too: the graph cuts keep it, the speckle
+  // filter does not.
+  const cv::Rect island(100, 50, 3, 3);
+  cv::Mat candidate(kHeight, kWidth, CV_32FC1, cv::Scalar(20));
+  candidate(island).setTo(40);
+  const std::vector<cv::Mat> seven(7, candidate);
+  cv::Mat guide = FlatGuide();
+  guide(island).setTo(255);
+  ReliabilityOptions o;
+  o.planes.enabled = false;
+  o.photo.enabled = false;
+  ASSERT_OK_AND_ASSIGN(
+      const FusionResult r,
+      FuseByReliability(seven, {}, guide, cv::Mat(), cv::Mat(), Params(), o));
+  EXPECT_EQ(cv::countNonZero(r.disparity != 20), 0);
+  EXPECT_DOUBLE_EQ(r.refinement.speckle_fraction, 9.0 / (kWidth * kHeight));
+  EXPECT_EQ(r.refinement.segments, 0);
+  o.speckles.enabled = false;
+  ASSERT_OK_AND_ASSIGN(
+      const FusionResult kept,
+      FuseByReliability(seven, {}, guide, cv::Mat(), cv::Mat(), Params(), o));
+  EXPECT_EQ(cv::countNonZero(kept.disparity != candidate), 0);
+  EXPECT_EQ(kept.refinement.speckle_fraction, 0);
 }
 
 TEST(ReliabilityTest,

@@ -796,6 +796,10 @@ TEST(PipelineSessionTest, MatchesAtAWorkingSize) {
                        pipeline::Run(Discover(tmp / "s"), o, store, rec));
   EXPECT_THAT(rec.infos, ::testing::Contains(::testing::HasSubstr(
                              "at 240 x 180 (matching_width)")));
+  // What the fusion's last steps changed is logged.
+  EXPECT_THAT(rec.infos, ::testing::Contains(::testing::AllOf(
+                             ::testing::HasSubstr("fusion: planes on "),
+                             ::testing::HasSubstr("speckle filter"))));
   for (const std::string& m : Methods()) {
     SCOPED_TRACE(m);
     ASSERT_OK_AND_ASSIGN(
