@@ -52,15 +52,15 @@ class WindowCost {
       : left_(left),
         right_(right),
         radius_(radius),
+        side_(2 * radius + 1),
         channels_(left.channels()),
         truncation_(static_cast<float>(o.truncation)),
         inverse_sigma_(static_cast<float>(1.0 / o.colour_sigma)) {
-    const int side = 2 * radius + 1;
-    spatial_.resize(static_cast<size_t>(side * side));
+    spatial_.resize(static_cast<size_t>(side_ * side_));
     weights_.resize(spatial_.size());
     for (int dy = -radius; dy <= radius; ++dy) {
       for (int dx = -radius; dx <= radius; ++dx) {
-        spatial_[static_cast<size_t>((dy + radius) * side + dx + radius)] =
+        spatial_[Index(dx, dy)] =
             static_cast<float>(std::exp(-std::hypot(dx, dy) / radius));
       }
     }
@@ -71,11 +71,9 @@ class WindowCost {
     x_ = x;
     y_ = y;
     const float* p = Left(y, x);
-    const int side = 2 * radius_ + 1;
     for (int dy = -radius_; dy <= radius_; ++dy) {
       for (int dx = -radius_; dx <= radius_; ++dx) {
-        const size_t i =
-            static_cast<size_t>((dy + radius_) * side + dx + radius_);
+        const size_t i = Index(dx, dy);
         const int qy = y + dy, qx = x + dx;
         if (qy < 0 || qy >= left_.rows || qx < 0 || qx >= left_.cols) {
           weights_[i] = 0;
@@ -91,15 +89,13 @@ class WindowCost {
 
   // Infinity when no window pixel has a partner in the right view.
   float At(int d) const {
-    const int side = 2 * radius_ + 1;
     float sum = 0, weight = 0;
     for (int dy = -radius_; dy <= radius_; ++dy) {
       const int qy = y_ + dy;
       if (qy < 0 || qy >= left_.rows) continue;
       for (int dx = -radius_; dx <= radius_; ++dx) {
         const int qx = x_ + dx, rx = qx - d;
-        const float w =
-            weights_[static_cast<size_t>((dy + radius_) * side + dx + radius_)];
+        const float w = weights_[Index(dx, dy)];
         if (w == 0 || rx < 0 || rx >= right_.cols) continue;
         const float* l = Left(qy, qx);
         const float* r = right_.ptr<float>(qy) + rx * channels_;
@@ -113,6 +109,11 @@ class WindowCost {
   }
 
  private:
+  // The window offset (dx, dy)'s place in spatial_ and weights_.
+  size_t Index(int dx, int dy) const {
+    return static_cast<size_t>((dy + radius_) * side_ + dx + radius_);
+  }
+
   const float* Left(int y, int x) const {
     return left_.ptr<float>(y) + x * channels_;
   }
@@ -120,6 +121,7 @@ class WindowCost {
   const cv::Mat& left_;
   const cv::Mat& right_;
   const int radius_;
+  const int side_;
   const int channels_;
   const float truncation_;
   const float inverse_sigma_;

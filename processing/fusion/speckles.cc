@@ -72,7 +72,6 @@ absl::StatusOr<SpeckleResult> RemoveSpeckles(const cv::Mat& disparity,
                           : kInvalid;
     }
   }
-  const cv::Mat_<int16_t> before = regions.clone();
   const double area =
       static_cast<double>(disparity.cols) * disparity.cols / (320.0 * 320.0);
   cv::filterSpeckles(regions, kInvalid,
@@ -98,7 +97,10 @@ absl::StatusOr<SpeckleResult> RemoveSpeckles(const cv::Mat& disparity,
     }
     float* out = result.disparity.ptr<float>(y);
     for (int x = 0; x < disparity.cols; ++x) {
-      if (before(y, x) == kInvalid || regions(y, x) != kInvalid) continue;
+      // Removed: valid before the filter, marked invalid by it.
+      if (!IsValidDisparity(z[x], max_disp) || regions(y, x) != kInvalid) {
+        continue;
+      }
       // std::fmin: the one side with a kept value where the other has none.
       const float fill = std::fmin(from_left[x], from_right[x]);
       if (std::isnan(fill)) continue;
