@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <iostream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "processing/experiment/thesis_table.h"
@@ -41,10 +42,16 @@ const TableRow& Row(const TableResult& r, Method m) {
 struct SceneScores {
   TableResult table;
   eval::RegionMetrics thesis;
-  TableRow fused, median, ldr;
-  double best_rmse = 1e9, best_bad1 = 100;  // each measure on its own
+  TableRow fused;
+  TableRow median;
+  TableRow ldr;
+  // The best of the seven candidates, each measure on its own.
+  double best_rmse = 1.0e9;
+  double best_bad1 = 100.0;
 };
 
+// Reports a failure to score through ASSERTs: call it inside
+// ASSERT_NO_FATAL_FAILURE.
 void ScoreScene(const std::string& name, SceneScores* out) {
   ASSERT_OK_AND_ASSIGN(const TableInput in,
                        testing::RenderThesisScene(name, kWidth));
@@ -91,8 +98,7 @@ TEST(FusionScenesTest, FusionBeatsItsInputsTheThesisAndHalfOfLdr) {
        {"lab-lamp", "two-lamps", "desk-lamp", "textured"}) {
     SCOPED_TRACE(name);
     SceneScores s;
-    ScoreScene(name, &s);
-    if (HasFatalFailure()) return;
+    ASSERT_NO_FATAL_FAILURE(ScoreScene(name, &s));
 
     // Never worse than the thesis' fusion of the same candidates.
     EXPECT_LE(s.fused.rmse, s.thesis.rmse);
@@ -127,17 +133,17 @@ TEST(FusionScenesTest, FusionBeatsItsInputsTheThesisAndHalfOfLdr) {
 
 // checkerboard and shadowed, made for calibration and structured light:
 // on their textureless wall and floor every candidate guesses. What holds
-// there is asserted; what does not is said: fused's RMSE is above the
-// median's on checkerboard (the median's hedge between guesses has the
-// smaller squared error; docs/results.md, "Against the targets"),
-// and no fusion here comes near half of LDR's.
+// there is asserted (fused's RMSE below the best candidate's is also below
+// LDR's); what does not is said: fused's RMSE is above the median's on
+// checkerboard (the median's hedge between guesses has the smaller squared
+// error; docs/results.md, "Against the targets"), and no fusion
+// here comes near half of LDR's.
 TEST(FusionScenesTest, OnTheCalibrationScenesFusionHasTheFewestWrongPixels) {
   std::vector<TableResult> results;
   for (const std::string name : {"checkerboard", "shadowed"}) {
     SCOPED_TRACE(name);
     SceneScores s;
-    ScoreScene(name, &s);
-    if (HasFatalFailure()) return;
+    ASSERT_NO_FATAL_FAILURE(ScoreScene(name, &s));
 
     EXPECT_LE(s.fused.bad1, s.thesis.bad_percent.at(1));
     EXPECT_LE(s.fused.bad1, s.median.bad1);
@@ -147,7 +153,7 @@ TEST(FusionScenesTest, OnTheCalibrationScenesFusionHasTheFewestWrongPixels) {
     if (name == "shadowed") {
       EXPECT_LE(s.fused.rmse, s.median.rmse);
     }
-    EXPECT_LT(s.fused.rmse, s.ldr.rmse);
+    EXPECT_LE(s.fused.bad1, s.ldr.bad1);
     results.push_back(std::move(s.table));
   }
   std::cout << FormatTable(results);
