@@ -178,7 +178,7 @@ absl::StatusOr<FusionResult> FuseByReliability(
     estimate = result.disparity;
   }
   const double tau = Tau(options, estimate.cols);
-  RefinementCounts refinement;
+  RefinementCounts& refinement = result.refinement;  // zero from the cuts
   if (options.planes.enabled) {
     ASSIGN_OR_RETURN(const cv::Mat reliable,
                      ReliablePixels(candidates, consistent, estimate, tau));
@@ -206,7 +206,6 @@ absl::StatusOr<FusionResult> FuseByReliability(
     refinement.speckle_fraction = speckles.replaced_fraction;
   }
   result.disparity = estimate;
-  result.refinement = refinement;
   result.stats.total_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();
